@@ -1,0 +1,62 @@
+"""Entry point of the ``feeder`` command: builds the parser and maps errors to exit codes."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from typing import NoReturn, Sequence
+
+from feeder_planner.errors import InputError, SolverError
+
+# Each module defines register(subparsers); a subparser sets ``handler`` via set_defaults.
+SUBCOMMAND_MODULES = (
+    "feeder_planner.cli.doctor",
+    "feeder_planner.cli.run",
+    "feeder_planner.cli.equilibria",
+    "feeder_planner.cli.throwing",
+    "feeder_planner.cli.assembly",
+)
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_NOT_CERTIFIED = 0, 1, 2, 3
+
+
+class FeederArgumentParser(argparse.ArgumentParser):
+    """argparse with the contract's error shape: exit 2, one line for a bad value, usage for an unknown word."""
+
+    def error(self, message: str) -> NoReturn:
+        if "invalid choice" in message or "unrecognized arguments" in message or "required" in message:
+            self.print_usage(sys.stderr)
+        sys.stderr.write(f"{self.prog}: error: {message}\n")
+        raise SystemExit(EXIT_BAD_INPUT)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = FeederArgumentParser(
+        prog="feeder",
+        description="Plan for and run emulated sensorless parts feeders (ROS 2 Jazzy). "
+                    "Units are SI in JSON output; lengths on the command line are in the part file's unit; "
+                    "angles are radians unless suffixed 'deg'.",
+    )
+    subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                       parser_class=FeederArgumentParser)
+    for module_name in SUBCOMMAND_MODULES:
+        importlib.import_module(module_name).register(subparsers)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.handler(args) or EXIT_OK)
+    except InputError as error:
+        sys.stderr.write(f"feeder {args.command}: {error}\n")
+        return EXIT_BAD_INPUT
+    except SolverError as error:
+        sys.stderr.write(f"feeder {args.command}: not certified: {error}\n")
+        return EXIT_NOT_CERTIFIED
+
+
+if __name__ == "__main__":
+    sys.exit(main())

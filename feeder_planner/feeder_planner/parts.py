@@ -1,0 +1,113 @@
+"""Planar parts (polygons with holes) as the contract's part files describe them."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from feeder_planner import polygon
+from feeder_planner.errors import InputError
+from feeder_planner.fields_io import load_yaml_mapping, optional, point_array, positive_number, required
+from feeder_planner.units import length_scale
+
+
+@dataclass(frozen=True)
+class Part:
+    """A rigid planar part in its own frame: centroid at the origin, lengths in metres.
+
+    ``outer`` is counter-clockwise, every hole clockwise, so that boundary integrals
+    over ``loops()`` are integrals over the part's area. ``file_vertices`` keeps the
+    outer boundary in the file's order (and frame, in metres), which the throwing
+    arm's hull numbering follows.
+    """
+
+    name: str
+    outer: np.ndarray
+    holes: tuple[np.ndarray, ...]
+    density: float
+    area: float
+    offset: np.ndarray          # centroid of the file's frame, in metres: part frame = file frame - offset
+    file_vertices: np.ndarray   # outer boundary as given (metres, file frame, file order)
+    unit_scale: float = 1.0     # metres per length unit of the file
+    second_moment: tuple[float, float, float] = field(default=(0.0, 0.0, 0.0))  # Ixx, Iyy, Ixy about centroid
+
+    @property
+    def mass(self) -> float:
+        return self.density * self.area
+
+    @property
+    def polar_moment(self) -> float:
+        """Integral of |r|^2 over the part about its centroid (m^4)."""
+        return self.second_moment[0] + self.second_moment[1]
+
+    @property
+    def radius(self) -> float:
+        """Largest distance from the centroid to a vertex (m)."""
+        return float(np.hypot(self.outer[:, 0], self.outer[:, 1]).max())
+
+    def loops(self) -> tuple[np.ndarray, ...]:
+        """Outer loop and holes, oriented so the area is to the left of every edge."""
+        return (self.outer, *self.holes)
+
+    def placed(self, x: float, y: float, theta: float) -> tuple[np.ndarray, ...]:
+        """The part's loops in the plane frame at configuration (x, y, theta)."""
+        c, s = np.cos(theta), np.sin(theta)
+        rotation = np.array([[c, -s], [s, c]])
+        return tuple(loop @ rotation.T + np.array([x, y]) for loop in self.loops())
+
+
+def make_part(vertices: Any, holes: Any = (), density: float = 1.0, name: str = "part",
+              unit_scale: float = 1.0, field_prefix: str = "") -> Part:
+    """Validate and build a Part; vertices are in units of ``unit_scale`` metres."""
+    outer_field = f"{field_prefix}vertices"
+    outer = point_array(vertices, outer_field, 2, min_points=3) * unit_scale
+    polygon.check_simple(outer, outer_field)
+    if not isinstance(holes, (list, tuple)):
+        raise InputError(f"{field_prefix}holes", f"expected a list of polygons, got {type(holes).__name__}")
+    hole_loops = []
+    for index, hole in enumerate(holes):
+        hole_field = f"{field_prefix}holes[{index}]"
+        loop = point_array(hole, hole_field, 2, min_points=3) * unit_scale
+        polygon.check_simple(loop, hole_field)
+        if not all(polygon.point_in_polygon(p, outer) for p in loop) or polygon.polygons_intersect(loop, outer):
+            raise InputError(hole_field, "hole is not strictly inside the outer boundary")
+        for other_index, other in enumerate(hole_loops):
+            if polygon.polygons_intersect(loop, other) or polygon.point_in_polygon(loop[0], other) or (
+                    polygon.point_in_polygon(other[0], loop)):
+                raise InputError(hole_field, f"hole overlaps holes[{other_index}]")
+        hole_loops.append(loop)
+    density_value = positive_number(density, f"{field_prefix}density")
+
+    ccw_outer = outer if polygon.signed_area(outer) > 0 else outer[::-1]
+    cw_holes = [h if polygon.signed_area(h) < 0 else h[::-1] for h in hole_loops]
+    area, sx, sy = 0.0, 0.0, 0.0
+    for loop in (ccw_outer, *cw_holes):
+        a, mx, my = polygon.first_moments(loop)
+        area, sx, sy = area + a, sx + mx, sy + my
+    offset = np.array([sx / area, sy / area])
+    centred = [loop - offset for loop in (ccw_outer, *cw_holes)]
+    moments = np.zeros(3)
+    for loop in centred:
+        moments += np.array(polygon.second_moments(loop))
+    return Part(name=str(name), outer=centred[0], holes=tuple(centred[1:]), density=density_value,
+                area=area, offset=offset, file_vertices=outer, unit_scale=unit_scale,
+                second_moment=(float(moments[0]), float(moments[1]), float(moments[2])))
+
+
+def part_from_mapping(document: dict[str, Any]) -> Part:
+    """Build a Part from a parsed part file (contract section 2)."""
+    scale = length_scale(optional(document, "length_unit", "m"))
+    return make_part(required(document, "vertices"), optional(document, "holes", []),
+                     optional(document, "density", 1.0), optional(document, "name", "part"), scale)
+
+
+def load_part(path: str | Path) -> Part:
+    """Read and validate a part file; every error names the file and the field."""
+    document = load_yaml_mapping(path)
+    try:
+        return part_from_mapping(document)
+    except InputError as error:
+        raise error.with_source(str(path)) from None

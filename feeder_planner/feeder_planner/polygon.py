@@ -1,0 +1,132 @@
+"""Exact planar polygon geometry: area, centroid, second moments, simplicity, convex hull."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from feeder_planner.errors import InputError
+
+
+def signed_area(vertices: np.ndarray) -> float:
+    """Shoelace area; positive for counter-clockwise vertex order."""
+    x, y = vertices[:, 0], vertices[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def first_moments(vertices: np.ndarray) -> tuple[float, float, float]:
+    """(A, Sx, Sy): signed area and integrals of x and y over the polygon (Green's theorem)."""
+    x0, y0 = vertices[:, 0], vertices[:, 1]
+    x1, y1 = np.roll(x0, -1), np.roll(y0, -1)
+    cross = x0 * y1 - x1 * y0
+    area = 0.5 * float(cross.sum())
+    sx = float(((x0 + x1) * cross).sum()) / 6.0
+    sy = float(((y0 + y1) * cross).sum()) / 6.0
+    return area, sx, sy
+
+
+def second_moments(vertices: np.ndarray) -> tuple[float, float, float]:
+    """(Ixx, Iyy, Ixy) = integrals of x^2, y^2 and x*y over the polygon (signed like the area)."""
+    x0, y0 = vertices[:, 0], vertices[:, 1]
+    x1, y1 = np.roll(x0, -1), np.roll(y0, -1)
+    cross = x0 * y1 - x1 * y0
+    ixx = float(((x0 * x0 + x0 * x1 + x1 * x1) * cross).sum()) / 12.0
+    iyy = float(((y0 * y0 + y0 * y1 + y1 * y1) * cross).sum()) / 12.0
+    ixy = float(((x0 * y1 + 2 * x0 * y0 + 2 * x1 * y1 + x1 * y0) * cross).sum()) / 24.0
+    return ixx, iyy, ixy
+
+
+def _segments_cross(p: np.ndarray, q: np.ndarray, r: np.ndarray, s: np.ndarray, scale: float) -> np.ndarray:
+    """Whether closed segments p-q and r-s intersect (vectorised over rows), with a relative tolerance."""
+    eps = 1e-12 * scale * scale
+
+    def orient(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+        value = (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) - (b[..., 1] - a[..., 1]) * (c[..., 0] - a[..., 0])
+        return np.where(np.abs(value) <= eps, 0.0, np.sign(value))
+
+    def on_segment(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+        return (np.minimum(a[..., 0], b[..., 0]) <= c[..., 0] + 1e-12 * scale) & (
+            c[..., 0] <= np.maximum(a[..., 0], b[..., 0]) + 1e-12 * scale) & (
+            np.minimum(a[..., 1], b[..., 1]) <= c[..., 1] + 1e-12 * scale) & (
+            c[..., 1] <= np.maximum(a[..., 1], b[..., 1]) + 1e-12 * scale)
+
+    o1, o2, o3, o4 = orient(p, q, r), orient(p, q, s), orient(r, s, p), orient(r, s, q)
+    proper = (o1 * o2 < 0) & (o3 * o4 < 0)
+    touching = ((o1 == 0) & on_segment(p, q, r)) | ((o2 == 0) & on_segment(p, q, s)) | (
+        (o3 == 0) & on_segment(r, s, p)) | ((o4 == 0) & on_segment(r, s, q))
+    return proper | touching
+
+
+def check_simple(vertices: np.ndarray, field: str) -> None:
+    """Raise InputError naming ``field`` unless the closed polygon is simple with non-zero area."""
+    n = len(vertices)
+    if n < 3:
+        raise InputError(field, f"a polygon needs at least 3 vertices, got {n}")
+    scale = float(np.ptp(vertices, axis=0).max())
+    if scale <= 0.0:
+        raise InputError(field, "degenerate polygon: all vertices coincide")
+    edges = np.roll(vertices, -1, axis=0) - vertices
+    lengths = np.hypot(edges[:, 0], edges[:, 1])
+    short = np.flatnonzero(lengths <= 1e-12 * scale)
+    if short.size:
+        raise InputError(field, f"degenerate polygon: vertices {short[0]} and {(short[0] + 1) % n} coincide")
+    # Every pair of non-adjacent edges must be disjoint; adjacent edges may only share their vertex.
+    i, j = np.triu_indices(n, k=1)
+    adjacent = (j == i + 1) | ((i == 0) & (j == n - 1))
+    start, end = vertices, np.roll(vertices, -1, axis=0)
+    far_i, far_j = i[~adjacent], j[~adjacent]
+    if far_i.size:
+        hits = _segments_cross(start[far_i], end[far_i], start[far_j], end[far_j], scale)
+        if hits.any():
+            k = int(np.flatnonzero(hits)[0])
+            raise InputError(field, f"self-intersecting polygon: edge {far_i[k]} meets edge {far_j[k]}")
+    # Adjacent edges folding back on themselves overlap along a segment.
+    prev_edge, next_edge = edges, np.roll(edges, -1, axis=0)
+    cross = prev_edge[:, 0] * next_edge[:, 1] - prev_edge[:, 1] * next_edge[:, 0]
+    dot = (prev_edge * next_edge).sum(axis=1)
+    folded = np.flatnonzero((np.abs(cross) <= 1e-12 * scale * scale) & (dot < 0))
+    if folded.size:
+        raise InputError(field, f"self-intersecting polygon: edges fold back at vertex {(folded[0] + 1) % n}")
+    if abs(signed_area(vertices)) <= 1e-12 * scale * scale:
+        raise InputError(field, "degenerate polygon: zero area")
+
+
+def point_in_polygon(point: np.ndarray, vertices: np.ndarray) -> bool:
+    """Even-odd rule; points exactly on the boundary may go either way."""
+    x, y = float(point[0]), float(point[1])
+    xs, ys = vertices[:, 0], vertices[:, 1]
+    xn, yn = np.roll(xs, -1), np.roll(ys, -1)
+    straddle = (ys > y) != (yn > y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x_cross = xs + (y - ys) * (xn - xs) / (yn - ys)
+    return bool(np.count_nonzero(straddle & (x < x_cross)) % 2)
+
+
+def polygons_intersect(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether the boundaries of two polygons touch or cross."""
+    scale = float(max(np.ptp(a, axis=0).max(), np.ptp(b, axis=0).max()))
+    i, j = np.meshgrid(np.arange(len(a)), np.arange(len(b)), indexing="ij")
+    i, j = i.ravel(), j.ravel()
+    return bool(_segments_cross(a[i], np.roll(a, -1, axis=0)[i], b[j], np.roll(b, -1, axis=0)[j], scale).any())
+
+
+def convex_hull_indices(points: np.ndarray) -> list[int]:
+    """Indices of the convex hull vertices, counter-clockwise, collinear points dropped (monotone chain)."""
+    order = sorted(range(len(points)), key=lambda k: (points[k, 0], points[k, 1]))
+    scale = float(np.ptp(points, axis=0).max()) or 1.0
+    eps = 1e-12 * scale * scale
+
+    def cross(o: int, a: int, b: int) -> float:
+        return float((points[a, 0] - points[o, 0]) * (points[b, 1] - points[o, 1])
+                     - (points[a, 1] - points[o, 1]) * (points[b, 0] - points[o, 0]))
+
+    lower: list[int] = []
+    for k in order:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], k) <= eps:
+            lower.pop()
+        lower.append(k)
+    upper: list[int] = []
+    for k in reversed(order):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], k) <= eps:
+            upper.pop()
+        upper.append(k)
+    return lower[:-1] + upper[:-1]

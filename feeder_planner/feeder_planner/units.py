@@ -1,0 +1,32 @@
+"""Length units of input files and angle parsing of command-line values."""
+
+from __future__ import annotations
+
+import math
+
+from feeder_planner.errors import InputError
+
+LENGTH_UNITS: dict[str, float] = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6}
+
+
+def length_scale(unit: str, field: str = "length_unit") -> float:
+    """Metres per one ``unit``; raises InputError naming ``field`` for an unknown unit."""
+    try:
+        return LENGTH_UNITS[unit]
+    except (KeyError, TypeError):
+        known = ", ".join(LENGTH_UNITS)
+        raise InputError(field, f"unknown length unit {unit!r} (expected one of {known})") from None
+
+
+def parse_angle(text: str, field: str) -> float:
+    """Parse radians, or degrees with a ``deg`` suffix (``320deg`` -> 5.585...)."""
+    raw = str(text).strip()
+    degrees = raw.endswith("deg")
+    number = raw[:-3] if degrees else raw
+    try:
+        value = float(number)
+    except ValueError:
+        raise InputError(field, f"expected an angle in radians or with a 'deg' suffix, got {text!r}") from None
+    if not math.isfinite(value):
+        raise InputError(field, f"must be finite, got {text!r}")
+    return math.radians(value) if degrees else value

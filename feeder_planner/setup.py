@@ -1,0 +1,27 @@
+"""Build script of the feeder_planner ament_python package."""
+
+from setuptools import find_packages, setup
+
+PACKAGE = "feeder_planner"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    description="Planners of the emulated feeders and the exact mechanics they share (numpy/scipy, no rclpy at import).",
+    license="Apache-2.0",
+    entry_points={
+        "console_scripts": [
+            "field_equilibria_planner = feeder_planner.nodes.field_equilibria_planner:main",
+            "throw_planner = feeder_planner.nodes.throw_planner:main",
+            "stable_region_planner = feeder_planner.nodes.stable_region_planner:main",
+            "feeder = feeder_planner.cli.main:main",
+        ],
+    },
+)
