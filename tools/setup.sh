@@ -48,8 +48,12 @@ fi
 "$VENV/bin/python" "$ROOT/tools/venv_env.py" "$VENV"
 
 # --- 4. Build the colcon workspace when any package source changed. -----------------------------
+# --symlink-install makes Python edits live, so a .py file counts by its path only (a new module needs
+# no rebuild either, but costs nothing to count); setup.py, package.xml and interfaces count whole.
 src_hash=$(cd "$ROOT" && find feeder_msgs feeder_sim feeder_planner -type f \
-             -not -path '*/__pycache__/*' -not -name '*.pyc' -printf '%p %s %T@\n' | sort | sha256sum | cut -d' ' -f1)
+             -not -path '*/__pycache__/*' -not -name '*.pyc' \
+             \( \( -name '*.py' -not -name setup.py -printf '%p\n' \) -o -printf '%p %s %T@\n' \) \
+           | sort | sha256sum | cut -d' ' -f1)
 if [ "$(cat "$WS/install/.feeder-build-stamp" 2>/dev/null)" != "$src_hash" ]; then
   say "building ros_ws with colcon"
   (

@@ -27,39 +27,39 @@ class Check:
         return f"{status} {self.name}: {self.detail}{hint}"
 
 
-def check_rclpy() -> Check:
+def _probe(code: str, timeout_s: float = 60.0) -> tuple[bool, str]:
+    """Run ``code`` in a child Python: rcl exits the whole process on some failures (a wrong RMW)."""
     try:
-        import rclpy  # noqa: F401
-        from importlib.metadata import version
-        return Check("rclpy import", True, f"rclpy {version('ros-rclpy')} from {os.path.dirname(rclpy.__file__)}")
-    except Exception as exc:  # any import failure is the finding itself
-        return Check("rclpy import", False, f"{type(exc).__name__}: {exc}", FIX_SETUP)
+        child = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        return False, f"no answer within {timeout_s:.0f} s"
+    if child.returncode != 0:
+        last = (child.stderr.strip().splitlines() or [f"exit status {child.returncode}"])[-1]
+        return False, last[:300]
+    return True, child.stdout.strip()
+
+
+def check_rclpy() -> Check:
+    ok, detail = _probe("import os, rclpy\nfrom importlib.metadata import version\n"
+                        "print(f\"rclpy {version('ros-rclpy')} from {os.path.dirname(rclpy.__file__)}\")")
+    return Check("rclpy import", ok, detail, FIX_SETUP)
 
 
 def check_rmw() -> Check:
-    try:
-        from rclpy.utilities import get_rmw_implementation_identifier
-        identifier = get_rmw_implementation_identifier()
-    except Exception as exc:
-        return Check("RMW implementation", False, f"{type(exc).__name__}: {exc}", FIX_SETUP)
     wanted = os.environ.get("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
-    if identifier != wanted:
-        return Check("RMW implementation", False, f"{identifier} in use, {wanted} requested",
-                     "unset RMW_IMPLEMENTATION or install that RMW")
-    return Check("RMW implementation", True, identifier)
+    ok, detail = _probe("import rclpy\nfrom rclpy.utilities import get_rmw_implementation_identifier\n"
+                        "print(get_rmw_implementation_identifier())")
+    if ok and detail != wanted:
+        ok, detail = False, f"{detail} in use, {wanted} requested"
+    return Check("RMW implementation", ok, detail,
+                 "unset RMW_IMPLEMENTATION (rmw_fastrtps_cpp is the one installed) or install the RMW you named")
 
 
 def check_interfaces() -> Check:
-    try:
-        import feeder_msgs.msg as messages
-        names = sorted(n for n in dir(messages) if n[:1].isupper())
-        if not names:
-            return Check("feeder_msgs types", False, "package imports but defines no message", FIX_SETUP)
-        message = getattr(messages, names[0])()
-        return Check("feeder_msgs types", True, f"{len(names)} messages import ({', '.join(names[:4])}...), "
-                                                f"{type(message).__name__} instantiates")
-    except Exception as exc:
-        return Check("feeder_msgs types", False, f"{type(exc).__name__}: {exc}", FIX_SETUP)
+    ok, detail = _probe("import feeder_msgs.msg as m\nnames = sorted(n for n in dir(m) if n[:1].isupper())\n"
+                        "assert names, 'feeder_msgs defines no message'\ngetattr(m, names[0])()\n"
+                        "print(f\"{len(names)} messages import ({', '.join(names[:4])}...), {names[0]} instantiates\")")
+    return Check("feeder_msgs types", ok, detail, FIX_SETUP)
 
 
 def check_dds_round_trip(timeout_s: float = 20.0) -> Check:
@@ -111,12 +111,16 @@ CHECKS: tuple[Callable[[], Check], ...] = (check_rclpy, check_rmw, check_interfa
 
 
 def _doctor(args: argparse.Namespace) -> int:
-    failed = False
+    results: list[Check] = []
     for check in CHECKS:
-        result = check()
+        if check is check_dds_round_trip and not all(r.ok for r in results):
+            # rclpy in this process would abort it on the same fault the earlier checks found.
+            result = Check("DDS round trip", False, "not attempted: an earlier check failed", "fix that first")
+        else:
+            result = check()
+        results.append(result)
         print(result.line(), flush=True)
-        failed |= not result.ok
-    return 1 if failed else 0
+    return 0 if all(r.ok for r in results) else 1
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -1,0 +1,32 @@
+# The two commands a user needs are `make demo` and `make test`; both set up whatever is missing first.
+SHELL := /bin/bash
+.DEFAULT_GOAL := help
+ENV := source ./env.sh &&
+
+.PHONY: help setup demo test bench shell clean
+
+help:
+	@echo "make demo   set up (if needed), then run the demo: doctor, the three devices, a recorded bag"
+	@echo "make test   set up (if needed), then run the whole test suite"
+	@echo "make bench  set up (if needed), then run the benchmarks (table on stdout, plots in bench/results)"
+	@echo "make setup  only the idempotent setup (.venv, pinned ROS 2 Jazzy wheels, colcon build)"
+	@echo "make shell  a bash shell inside the environment (same as 'source env.sh')"
+
+setup:
+	@bash tools/setup.sh
+
+demo: setup
+	@$(ENV) python tools/demo.py
+
+test: setup
+	@$(ENV) python -m pytest
+
+bench: setup
+	@if [ -f requirements-bench.txt ]; then .venv/bin/python -m pip install --quiet -r requirements-bench.txt; fi
+	@$(ENV) python bench/run.py $(BENCH_ARGS)
+
+shell: setup
+	@bash --rcfile <(echo 'source ~/.bashrc 2>/dev/null; source ./env.sh; PS1="(feeder) $$PS1"')
+
+clean:
+	rm -rf ros_ws/build ros_ws/install ros_ws/log ros_ws/build.log bench/results

@@ -1,0 +1,81 @@
+"""Test fixtures: a private ROS domain per session, node processes ended by pid, a client node."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any, Callable, Iterator
+
+import pytest
+
+import ros_harness
+
+
+@pytest.fixture(scope="session")
+def ros_domain() -> Iterator[int]:
+    """A ROS_DOMAIN_ID no other test run on this machine holds, exported for this process and its children."""
+    lease = ros_harness.DomainLease()
+    previous = {key: os.environ.get(key) for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")}
+    os.environ["ROS_DOMAIN_ID"] = str(lease.domain)
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    yield lease.domain
+    for key, value in previous.items():
+        if value is None:
+            os.environ.pop(key, None)
+        else:
+            os.environ[key] = value
+    lease.release()
+
+
+@pytest.fixture(scope="session")
+def started_processes() -> Iterator[list[ros_harness.NodeProcess]]:
+    """Every node process the session started; at the end, none may still be running."""
+    processes: list[ros_harness.NodeProcess] = []
+    yield processes
+    for process in processes:
+        process.stop()
+    survivors = [p for p in processes if p.alive()]
+    assert not survivors, f"node processes left running: {[(p.executable, p.pid) for p in survivors]}"
+
+
+@pytest.fixture(scope="session")
+def ros_client(ros_domain: int) -> Iterator[Any]:
+    """An rclpy node in the test process on the session's domain, spun on a background thread."""
+    client = ros_harness.ClientNode()
+    yield client.node
+    client.close()
+
+
+def _launcher(ros_client: Any, started: list[ros_harness.NodeProcess], log_dir: Path
+              ) -> tuple[Callable[..., ros_harness.NodeProcess], list[ros_harness.NodeProcess]]:
+    mine: list[ros_harness.NodeProcess] = []
+
+    def launch(package: str, executable: str, parameters: dict[str, Any] | None = None,
+               wait_topics: tuple[str, ...] = (), wait_services: tuple[str, ...] = (),
+               timeout: float = 30.0, extra_args: tuple[str, ...] = ()) -> ros_harness.NodeProcess:
+        node = ros_harness.start_node(package, executable, parameters, log_dir, extra_args)
+        started.append(node)
+        mine.append(node)
+        ros_harness.wait_for_graph(ros_client, node, wait_topics, wait_services, timeout)
+        return node
+
+    return launch, mine
+
+
+@pytest.fixture
+def launch_node(ros_client: Any, started_processes: list, tmp_path: Path) -> Iterator[Callable[..., ros_harness.NodeProcess]]:
+    """Start a node process for one test; it is ended by pid (SIGINT, then SIGKILL) when the test ends."""
+    launch, mine = _launcher(ros_client, started_processes, tmp_path)
+    yield launch
+    for node in mine:
+        node.stop()
+
+
+@pytest.fixture(scope="module")
+def launch_module_node(ros_client: Any, started_processes: list, tmp_path_factory: pytest.TempPathFactory
+                       ) -> Iterator[Callable[..., ros_harness.NodeProcess]]:
+    """Like launch_node, but the node lives for the whole test module (for tests that share one node)."""
+    launch, mine = _launcher(ros_client, started_processes, tmp_path_factory.mktemp("nodes"))
+    yield launch
+    for node in mine:
+        node.stop()

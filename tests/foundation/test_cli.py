@@ -1,0 +1,65 @@
+"""The feeder command's shell contract: help, usage errors, doctor's real checks, run's resolution."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+FEEDER = [sys.executable, "-m", "feeder_planner.cli.main"]
+
+
+def feeder(*args: str, env: dict[str, str] | None = None, timeout: float = 60.0) -> subprocess.CompletedProcess:
+    return subprocess.run([*FEEDER, *args], capture_output=True, text=True, timeout=timeout,
+                          env=env if env is not None else dict(os.environ))
+
+
+def test_help_lists_subcommands_and_units() -> None:
+    result = feeder("--help")
+    assert result.returncode == 0
+    for word in ("doctor", "run", "radians", "SI"):
+        assert word in result.stdout
+
+
+@pytest.mark.parametrize("args", [("frobnicate",), ("doctor", "--no-such-flag"), ()])
+def test_unknown_subcommand_or_flag_exits_2_with_usage(args: tuple[str, ...]) -> None:
+    result = feeder(*args)
+    assert result.returncode == 2
+    assert "usage: feeder" in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+@pytest.mark.ros
+def test_doctor_passes_every_check_with_a_real_dds_round_trip(ros_domain: int) -> None:
+    result = feeder("doctor")
+    lines = result.stdout.strip().splitlines()
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert len(lines) == 4
+    assert all(line.startswith("OK") for line in lines)
+    assert "rmw_fastrtps_cpp" in lines[1]
+    assert "echo after" in lines[3]
+
+
+@pytest.mark.ros
+def test_doctor_reports_a_missing_rmw_with_a_fix_and_exit_1(ros_domain: int) -> None:
+    env = dict(os.environ, RMW_IMPLEMENTATION="rmw_no_such_dds_cpp")
+    result = feeder("doctor", env=env)
+    assert result.returncode == 1
+    failing = [line for line in result.stdout.splitlines() if line.startswith("FAIL")]
+    assert failing and all("fix:" in line for line in failing)
+    assert any("RMW" in line for line in failing)
+
+
+def test_run_names_a_missing_executable_and_lists_the_available_ones() -> None:
+    result = feeder("run", "feeder_sim", "no_such_node")
+    assert result.returncode == 2
+    assert "no_such_node" in result.stderr and "mems_field_array" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
+
+
+def test_run_names_a_missing_package() -> None:
+    result = feeder("run", "no_such_package", "node")
+    assert result.returncode == 2
+    assert "no_such_package" in result.stderr

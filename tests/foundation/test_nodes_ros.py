@@ -1,0 +1,55 @@
+"""Every node the README lists resolves like `ros2 run`, starts, joins the graph and ends by pid."""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+import pytest
+
+import ros_harness
+from feeder_planner.cli.run import resolve_executable
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def readme_nodes() -> list[tuple[str, str]]:
+    """(package, executable) of each row of the README's node table: `| `node` | `package` | ...`."""
+    text = (ROOT / "README.md").read_text()
+    section = text.split("## Nodes", 1)[1].split("\n## ", 1)[0]
+    return re.findall(r"^\|\s*`([a-z_]+)`\s*\|\s*`(feeder_[a-z]+)`\s*\|", section, flags=re.M)
+
+
+NODES = readme_nodes()
+
+
+def test_readme_lists_all_six_nodes() -> None:
+    assert sorted(NODES) == sorted([
+        ("mems_field_array", "feeder_sim"), ("throwing_arm", "feeder_sim"), ("assembly_fixture", "feeder_sim"),
+        ("field_equilibria_planner", "feeder_planner"), ("throw_planner", "feeder_planner"),
+        ("stable_region_planner", "feeder_planner")])
+
+
+@pytest.mark.parametrize("executable, package", NODES)
+def test_readme_node_resolves_through_the_ament_index(executable: str, package: str) -> None:
+    path = resolve_executable(package, executable)
+    assert path.parent == Path(path.parents[2]) / "lib" / package
+    assert os.access(path, os.X_OK)
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize("executable, package", NODES)
+def test_node_starts_joins_the_graph_and_ends_by_pid(executable: str, package: str, ros_client,
+                                                      started_processes, tmp_path: Path) -> None:
+    node = ros_harness.start_node(package, executable, None, tmp_path)
+    started_processes.append(node)
+    try:
+        ros_harness.wait_for_graph_node(ros_client, node, executable, timeout=30.0)
+    finally:
+        code = node.stop()
+    assert not node.alive()
+    with pytest.raises(ProcessLookupError):
+        os.kill(node.pid, 0)
+    # SIGINT is a clean shutdown for a ROS node: exit 0, or killed by the signal it did not catch.
+    assert code in (0, -2, 130), f"{executable} exited with {code}:\n{node.output()[-2000:]}"

@@ -1,0 +1,215 @@
+"""Real-process ROS 2 test harness: domain allocation, node processes, and a client node in the test process."""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import random
+import signal
+import subprocess
+import tempfile
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterable
+
+import yaml
+
+DOMAIN_RANGE = range(1, 102)  # Fast DDS ports for domains above ~101 can collide with ephemeral ports
+STOP_GRACE_S = 5.0
+
+
+class DomainLease:
+    """An exclusive ROS_DOMAIN_ID on this machine, held by a file lock for the lease's lifetime."""
+
+    def __init__(self) -> None:
+        candidates = list(DOMAIN_RANGE)
+        random.shuffle(candidates)
+        for domain in candidates:
+            handle = open(Path(tempfile.gettempdir()) / f"feeder-ros-domain-{domain}.lock", "w")
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                handle.close()
+                continue
+            self.domain, self._handle = domain, handle
+            return
+        raise RuntimeError(f"every ROS_DOMAIN_ID in {DOMAIN_RANGE} is leased by another test run")
+
+    def release(self) -> None:
+        fcntl.flock(self._handle, fcntl.LOCK_UN)
+        self._handle.close()
+
+
+def resolve_executable(package: str, executable: str) -> Path:
+    """Find a node executable the way ``ros2 run`` does (ament index prefix / lib / package)."""
+    from ament_index_python.packages import get_package_prefix
+
+    path = Path(get_package_prefix(package)) / "lib" / package / executable
+    if not path.is_file():
+        raise AssertionError(f"{package}/{executable} is not installed at {path}; run 'make setup'")
+    return path
+
+
+@dataclass
+class NodeProcess:
+    """A node started as its own process; its log goes to a file so a full pipe never blocks it."""
+
+    package: str
+    executable: str
+    process: subprocess.Popen
+    log_path: Path
+    params_path: Path | None = None
+    stopped: bool = field(default=False)
+
+    @property
+    def pid(self) -> int:
+        return self.process.pid
+
+    def alive(self) -> bool:
+        return self.process.poll() is None
+
+    def output(self) -> str:
+        return self.log_path.read_text(errors="replace") if self.log_path.exists() else ""
+
+    def stop(self) -> int | None:
+        """End the process by pid: SIGINT, then SIGKILL after a grace period. Returns the exit code."""
+        if not self.stopped:
+            self.stopped = True
+            if self.alive():
+                os.kill(self.pid, signal.SIGINT)
+                try:
+                    self.process.wait(timeout=STOP_GRACE_S)
+                except subprocess.TimeoutExpired:
+                    os.kill(self.pid, signal.SIGKILL)
+                    self.process.wait(timeout=STOP_GRACE_S)
+        return self.process.returncode
+
+
+def write_params_file(node_name: str, parameters: dict[str, Any], directory: Path) -> Path:
+    path = directory / f"{node_name}-params.yaml"
+    path.write_text(yaml.safe_dump({"/**": {"ros__parameters": parameters}}))
+    return path
+
+
+def start_node(package: str, executable: str, parameters: dict[str, Any] | None, log_dir: Path,
+               extra_args: Iterable[str] = ()) -> NodeProcess:
+    path = resolve_executable(package, executable)
+    log_path = log_dir / f"{executable}-{time.monotonic_ns()}.log"
+    command = [str(path), "--ros-args"]
+    params_path = None
+    if parameters:
+        params_path = write_params_file(f"{executable}-{time.monotonic_ns()}", parameters, log_dir)
+        command += ["--params-file", str(params_path)]
+    command += list(extra_args)
+    with open(log_path, "w") as log:
+        process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                   env=dict(os.environ, PYTHONUNBUFFERED="1"))
+    return NodeProcess(package, executable, process, log_path, params_path)
+
+
+def wait_for_graph(client: Any, node: NodeProcess | None, topics: Iterable[str] = (),
+                   services: Iterable[str] = (), timeout: float = 30.0) -> None:
+    """Wait until the topics and services are discovered; fail with what was seen and the node's log."""
+    wanted_topics, wanted_services = set(topics), set(services)
+    deadline = time.monotonic() + timeout
+    while True:
+        seen_topics = {name for name, _ in client.get_topic_names_and_types()}
+        seen_services = {name for name, _ in client.get_service_names_and_types()}
+        missing = sorted((wanted_topics - seen_topics) | (wanted_services - seen_services))
+        if not missing:
+            return
+        if node is not None and not node.alive():
+            raise AssertionError(f"{node.package}/{node.executable} exited with code {node.process.returncode} "
+                                 f"before {missing} appeared. Its log:\n{node.output()[-4000:]}")
+        if time.monotonic() > deadline:
+            log = node.output()[-4000:] if node is not None else ""
+            raise AssertionError(f"not discovered within {timeout:.0f} s: {missing}. Seen topics: {sorted(seen_topics)}; "
+                                 f"services: {sorted(seen_services)}. Node log:\n{log}")
+        time.sleep(0.1)
+
+
+def wait_for_graph_node(client: Any, node: NodeProcess, node_name: str, timeout: float = 30.0) -> None:
+    """Wait until a node of that name is in the graph; fail with the node's log if it dies or never shows."""
+    deadline = time.monotonic() + timeout
+    while node_name not in client.get_node_names():
+        if not node.alive():
+            raise AssertionError(f"{node.executable} exited with code {node.process.returncode}:\n{node.output()[-4000:]}")
+        if time.monotonic() > deadline:
+            raise AssertionError(f"node {node_name} not in the graph within {timeout:.0f} s; "
+                                 f"seen {client.get_node_names()}. Log:\n{node.output()[-4000:]}")
+        time.sleep(0.1)
+
+
+class ClientNode:
+    """An rclpy node in the test process, spun by an executor on a background thread."""
+
+    def __init__(self, name: str = "feeder_test_client") -> None:
+        import rclpy
+        from rclpy.executors import MultiThreadedExecutor
+
+        self._rclpy = rclpy
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node(name, context=self.context)
+        self.executor = MultiThreadedExecutor(num_threads=2, context=self.context)
+        self.executor.add_node(self.node)
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except Exception:  # the executor raises on shutdown of its context; nothing to do then
+            pass
+
+    def close(self) -> None:
+        self.executor.shutdown(timeout_sec=2.0)
+        self.node.destroy_node()
+        self._rclpy.try_shutdown(context=self.context)
+        self._thread.join(timeout=5.0)
+
+
+def call_service(client: Any, srv_type: Any, name: str, request: Any, timeout: float = 30.0) -> Any:
+    """Call a service from the client node (whose executor runs elsewhere) and return the response."""
+    service_client = client.create_client(srv_type, name)
+    try:
+        if not service_client.wait_for_service(timeout_sec=timeout):
+            raise AssertionError(f"service {name} not available within {timeout:.0f} s")
+        future = service_client.call_async(request)
+        done = threading.Event()
+        future.add_done_callback(lambda _: done.set())
+        if not done.wait(timeout):
+            raise AssertionError(f"service {name} did not answer within {timeout:.0f} s")
+        return future.result()
+    finally:
+        client.destroy_client(service_client)
+
+
+def collect(client: Any, msg_type: Any, topic: str, count: int | None = None, duration: float | None = None,
+            qos: Any = 10, timeout: float = 30.0) -> list[Any]:
+    """Collect messages from a topic until ``count`` arrived or ``duration`` elapsed (timeout bounds both)."""
+    if count is None and duration is None:
+        raise ValueError("give count or duration")
+    messages: list[Any] = []
+    enough = threading.Event()
+    lock = threading.Lock()
+
+    def on_message(message: Any) -> None:
+        with lock:
+            messages.append(message)
+            if count is not None and len(messages) >= count:
+                enough.set()
+
+    subscription = client.create_subscription(msg_type, topic, on_message, qos)
+    try:
+        limit = min(duration, timeout) if duration is not None else timeout
+        enough.wait(limit)
+        with lock:
+            result = list(messages)
+    finally:
+        client.destroy_subscription(subscription)
+    if count is not None and duration is None and len(result) < count:
+        raise AssertionError(f"got {len(result)} of {count} messages on {topic} within {timeout:.0f} s")
+    return result
