@@ -13,6 +13,7 @@ from feeder_planner.errors import InputError, SolverError
 SUBCOMMAND_MODULES = (
     "feeder_planner.cli.doctor",
     "feeder_planner.cli.run",
+    "feeder_planner.cli.bag",
     "feeder_planner.cli.equilibria",
     "feeder_planner.cli.throwing",
     "feeder_planner.cli.assembly",
