@@ -3,21 +3,17 @@
 from __future__ import annotations
 
 import fcntl
-import os
 import random
-import signal
-import subprocess
 import tempfile
 import threading
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable
 
-import yaml
+from feeder_planner import launcher
+from feeder_planner.launcher import NodeProcess
 
 DOMAIN_RANGE = range(1, 102)  # Fast DDS ports for domains above ~101 can collide with ephemeral ports
-STOP_GRACE_S = 5.0
 
 
 class DomainLease:
@@ -42,71 +38,9 @@ class DomainLease:
         self._handle.close()
 
 
-def resolve_executable(package: str, executable: str) -> Path:
-    """Find a node executable the way ``ros2 run`` does (ament index prefix / lib / package)."""
-    from ament_index_python.packages import get_package_prefix
-
-    path = Path(get_package_prefix(package)) / "lib" / package / executable
-    if not path.is_file():
-        raise AssertionError(f"{package}/{executable} is not installed at {path}; run 'make setup'")
-    return path
-
-
-@dataclass
-class NodeProcess:
-    """A node started as its own process; its log goes to a file so a full pipe never blocks it."""
-
-    package: str
-    executable: str
-    process: subprocess.Popen
-    log_path: Path
-    params_path: Path | None = None
-    stopped: bool = field(default=False)
-
-    @property
-    def pid(self) -> int:
-        return self.process.pid
-
-    def alive(self) -> bool:
-        return self.process.poll() is None
-
-    def output(self) -> str:
-        return self.log_path.read_text(errors="replace") if self.log_path.exists() else ""
-
-    def stop(self) -> int | None:
-        """End the process by pid: SIGINT, then SIGKILL after a grace period. Returns the exit code."""
-        if not self.stopped:
-            self.stopped = True
-            if self.alive():
-                os.kill(self.pid, signal.SIGINT)
-                try:
-                    self.process.wait(timeout=STOP_GRACE_S)
-                except subprocess.TimeoutExpired:
-                    os.kill(self.pid, signal.SIGKILL)
-                    self.process.wait(timeout=STOP_GRACE_S)
-        return self.process.returncode
-
-
-def write_params_file(node_name: str, parameters: dict[str, Any], directory: Path) -> Path:
-    path = directory / f"{node_name}-params.yaml"
-    path.write_text(yaml.safe_dump({"/**": {"ros__parameters": parameters}}))
-    return path
-
-
 def start_node(package: str, executable: str, parameters: dict[str, Any] | None, log_dir: Path,
                extra_args: Iterable[str] = ()) -> NodeProcess:
-    path = resolve_executable(package, executable)
-    log_path = log_dir / f"{executable}-{time.monotonic_ns()}.log"
-    command = [str(path), "--ros-args"]
-    params_path = None
-    if parameters:
-        params_path = write_params_file(f"{executable}-{time.monotonic_ns()}", parameters, log_dir)
-        command += ["--params-file", str(params_path)]
-    command += list(extra_args)
-    with open(log_path, "w") as log:
-        process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                   env=dict(os.environ, PYTHONUNBUFFERED="1"))
-    return NodeProcess(package, executable, process, log_path, params_path)
+    return launcher.start_node(launcher.NodeSpec(package, executable, parameters or {}), log_dir, tuple(extra_args))
 
 
 def wait_for_graph(client: Any, node: NodeProcess | None, topics: Iterable[str] = (),

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 import ros_harness
-from feeder_planner.cli.run import resolve_executable
+from feeder_planner.launcher import resolve_executable
 
 ROOT = Path(__file__).resolve().parents[2]
 

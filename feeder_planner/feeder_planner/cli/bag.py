@@ -13,7 +13,7 @@ from feeder_planner.errors import InputError
 
 
 def _with_node(name: str, work: Any) -> Any:
-    """Run ``work(node, stop_requested)`` with a node on its own context, spun on this thread."""
+    """Run ``work(node, executor, keep_going)`` with a node on its own context; Ctrl-C ends ``keep_going``."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
 

@@ -14,6 +14,7 @@ SUBCOMMAND_MODULES = (
     "feeder_planner.cli.doctor",
     "feeder_planner.cli.run",
     "feeder_planner.cli.bag",
+    "feeder_planner.cli.launch",
     "feeder_planner.cli.equilibria",
     "feeder_planner.cli.throwing",
     "feeder_planner.cli.assembly",

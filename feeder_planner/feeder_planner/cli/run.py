@@ -4,28 +4,8 @@ from __future__ import annotations
 
 import argparse
 import os
-from pathlib import Path
 
-from feeder_planner.errors import InputError
-
-
-def resolve_executable(package: str, executable: str) -> Path:
-    """``<prefix of package>/lib/<package>/<executable>``, the layout ``ros2 run`` looks up."""
-    from ament_index_python.packages import PackageNotFoundError, get_package_prefix
-
-    try:
-        prefix = Path(get_package_prefix(package))
-    except (PackageNotFoundError, ValueError):
-        raise InputError("package", f"package {package!r} not found in the ament index "
-                                    "(did you run 'make setup' and 'source env.sh'?)") from None
-    lib_dir = prefix / "lib" / package
-    candidate = lib_dir / executable
-    if not (candidate.is_file() and os.access(candidate, os.X_OK)):
-        available = sorted(p.name for p in lib_dir.iterdir() if p.is_file() and os.access(p, os.X_OK)) \
-            if lib_dir.is_dir() else []
-        raise InputError("executable", f"no executable {executable!r} in package {package!r} "
-                                       f"(available: {', '.join(available) or 'none'})")
-    return candidate
+from feeder_planner.launcher import resolve_executable
 
 
 def _run(args: argparse.Namespace) -> int:

@@ -1,0 +1,153 @@
+"""Start node executables as processes from a scene file, and end them by pid (launch_ros is not available)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from feeder_planner.errors import InputError
+from feeder_planner.fields_io import load_yaml_mapping, optional, required
+
+STOP_GRACE_S = 5.0
+
+
+@dataclass(frozen=True)
+class NodeSpec:
+    """One node of a scene: which executable, and the parameters it starts with."""
+
+    package: str
+    executable: str
+    parameters: dict[str, Any] = field(default_factory=dict)
+    name: str = ""  # node name remap; empty keeps the executable's own name
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A set of nodes run together: a scene runs only the models it names."""
+
+    name: str
+    nodes: tuple[NodeSpec, ...]
+
+
+def scene_from_mapping(document: dict[str, Any], base_dir: Path) -> Scene:
+    """Parse a scene; relative ``*_file`` parameter paths are resolved against the scene file's folder."""
+    nodes_value = required(document, "nodes")
+    if not isinstance(nodes_value, list) or not nodes_value:
+        raise InputError("nodes", "expected a non-empty list of nodes")
+    nodes = []
+    for index, entry in enumerate(nodes_value):
+        where = f"nodes[{index}]"
+        if not isinstance(entry, dict):
+            raise InputError(where, "expected a mapping with package, executable and parameters")
+        package, executable = required(entry, "package", f"{where}.package"), required(entry, "executable", f"{where}.executable")
+        parameters = optional(entry, "parameters", {})
+        if not isinstance(parameters, dict):
+            raise InputError(f"{where}.parameters", "expected a mapping of parameter names to values")
+        resolved = {key: _resolve_path(key, value, base_dir) for key, value in parameters.items()}
+        nodes.append(NodeSpec(str(package), str(executable), resolved, str(optional(entry, "name", ""))))
+    return Scene(str(optional(document, "name", "scene")), tuple(nodes))
+
+
+def _resolve_path(key: str, value: Any, base_dir: Path) -> Any:
+    def resolve(item: Any) -> Any:
+        return str((base_dir / item).resolve()) if isinstance(item, str) and item and not os.path.isabs(item) else item
+
+    if key.endswith("_file"):
+        return resolve(value)
+    if key.endswith("_files") and isinstance(value, list):
+        return [resolve(item) for item in value]
+    return value
+
+
+def load_scene(path: str | Path) -> Scene:
+    try:
+        return scene_from_mapping(load_yaml_mapping(path), Path(path).resolve().parent)
+    except InputError as error:
+        raise error.with_source(str(path)) from None
+
+
+def resolve_executable(package: str, executable: str) -> Path:
+    """``<prefix of package>/lib/<package>/<executable>``, the layout ``ros2 run`` looks up."""
+    from ament_index_python.packages import PackageNotFoundError, get_package_prefix
+
+    try:
+        prefix = Path(get_package_prefix(package))
+    except (PackageNotFoundError, ValueError):
+        raise InputError("package", f"package {package!r} not found in the ament index "
+                                    "(did you run 'make setup' and 'source env.sh'?)") from None
+    lib_dir = prefix / "lib" / package
+    candidate = lib_dir / executable
+    if not (candidate.is_file() and os.access(candidate, os.X_OK)):
+        available = sorted(p.name for p in lib_dir.iterdir() if p.is_file() and os.access(p, os.X_OK)) \
+            if lib_dir.is_dir() else []
+        raise InputError("executable", f"no executable {executable!r} in package {package!r} "
+                                       f"(available: {', '.join(available) or 'none'})")
+    return candidate
+
+
+@dataclass
+class NodeProcess:
+    """A node running as its own process; its output goes to a log file so a full pipe never blocks it."""
+
+    spec: NodeSpec
+    process: subprocess.Popen
+    log_path: Path
+    stopped: bool = False
+
+    @property
+    def pid(self) -> int:
+        return self.process.pid
+
+    @property
+    def package(self) -> str:
+        return self.spec.package
+
+    @property
+    def executable(self) -> str:
+        return self.spec.executable
+
+    def alive(self) -> bool:
+        return self.process.poll() is None
+
+    def output(self) -> str:
+        return self.log_path.read_text(errors="replace") if self.log_path.exists() else ""
+
+    def stop(self) -> int | None:
+        """End the process by pid: SIGINT (a clean ROS shutdown), then SIGKILL after a grace period."""
+        if not self.stopped:
+            self.stopped = True
+            if self.alive():
+                os.kill(self.pid, signal.SIGINT)
+                try:
+                    self.process.wait(timeout=STOP_GRACE_S)
+                except subprocess.TimeoutExpired:
+                    os.kill(self.pid, signal.SIGKILL)
+                    self.process.wait(timeout=STOP_GRACE_S)
+        return self.process.returncode
+
+
+def start_node(spec: NodeSpec, log_dir: Path, extra_args: tuple[str, ...] = ()) -> NodeProcess:
+    """Start one node with its parameters passed through a params file (types survive, unlike -p)."""
+    path = resolve_executable(spec.package, spec.executable)
+    log_dir.mkdir(parents=True, exist_ok=True)
+    stem = f"{spec.name or spec.executable}-{time.monotonic_ns()}"
+    command = [str(path), "--ros-args"]
+    if spec.name:
+        command += ["-r", f"__node:={spec.name}"]
+    if spec.parameters:
+        params_path = log_dir / f"{stem}-params.yaml"
+        params_path.write_text(yaml.safe_dump({"/**": {"ros__parameters": spec.parameters}}))
+        command += ["--params-file", str(params_path)]
+    command += list(extra_args)
+    log_path = log_dir / f"{stem}.log"
+    with open(log_path, "w") as log:
+        process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                   env=dict(os.environ, PYTHONUNBUFFERED="1"))
+    return NodeProcess(spec, process, log_path)
