@@ -1,0 +1,151 @@
+"""Contact points of an assembly: vertices of the polygons where opposite faces touch (paper sec. II-B, Fig. 7)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from feeder_planner.assembly.geometry import ConvexPiece, Face, tangent_basis
+from feeder_planner.assembly.model import Assembly
+
+# Faces touch when their planes are within DISTANCE_TOLERANCE x assembly size, their normals are opposite within
+# ANGLE_TOLERANCE rad, and their common polygon has an area above AREA_TOLERANCE x (smaller face's diameter)^2.
+DISTANCE_TOLERANCE = 1e-7
+ANGLE_TOLERANCE = 1e-6
+AREA_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class Contact:
+    """One contact point: force on body ``a`` is along +normal (unit, from b into a); b = -1 never happens."""
+
+    a: int
+    b: int
+    point: np.ndarray
+    normal: np.ndarray
+    mu: float
+
+
+def assembly_contacts(assembly: Assembly, mu: float | None = None) -> list[Contact]:
+    """Explicit contacts of the file, or the automatic ones; ``mu`` overrides every coefficient when given."""
+    if assembly.explicit_contacts is not None:
+        contacts = [Contact(assembly.index[c.a], assembly.index[c.b], c.point, c.normal, c.mu)
+                    for c in assembly.explicit_contacts]
+    else:
+        contacts = auto_contacts(assembly)
+    if mu is not None:
+        contacts = [Contact(c.a, c.b, c.point, c.normal, mu) for c in contacts]
+    # Contacts between two grounded bodies carry no unknowns that matter.
+    return [c for c in contacts if not (assembly.bodies[c.a].grounded and assembly.bodies[c.b].grounded)]
+
+
+def auto_contacts(assembly: Assembly) -> list[Contact]:
+    """Every pair of touching opposite faces of different bodies gives its contact polygon's vertices."""
+    distance_tol = DISTANCE_TOLERANCE * assembly.size
+    entries = [(bi, piece) for bi, body in enumerate(assembly.bodies) for piece in body.pieces]
+    lower = np.array([e[1].lower for e in entries])
+    upper = np.array([e[1].upper for e in entries])
+    owner = np.array([e[0] for e in entries])
+    grounded = np.array([assembly.bodies[e[0]].grounded for e in entries])
+    contacts: list[Contact] = []
+    seen: set[tuple] = set()
+    for k, (bi, piece) in enumerate(entries):
+        gap = np.min(np.minimum(upper[k + 1:], upper[k]) - np.maximum(lower[k + 1:], lower[k]), axis=1)
+        near = (gap >= -distance_tol) & (owner[k + 1:] != bi) & ~(grounded[k + 1:] & grounded[k])
+        for offset in np.nonzero(near)[0]:
+            bj, other = entries[k + 1 + offset]
+            for contact in _piece_contacts(bi, piece, bj, other, distance_tol, assembly):
+                key = (contact.a, contact.b, *np.round(contact.point / distance_tol).astype(np.int64),
+                       *np.round(contact.normal * 1e6).astype(np.int64))
+                if key not in seen:
+                    seen.add(key)
+                    contacts.append(contact)
+    return contacts
+
+
+def _piece_contacts(bi: int, p: ConvexPiece, bj: int, q: ConvexPiece, tol: float, assembly: Assembly
+                    ) -> list[Contact]:
+    found = []
+    cos_tol = np.cos(ANGLE_TOLERANCE)
+    for fp in p.faces:
+        for fq in q.faces:
+            if np.dot(fp.normal, fq.normal) > -cos_tol:
+                continue
+            if np.max(np.abs(fp.polygon @ fq.normal - fq.offset)) > tol or \
+                    np.max(np.abs(fq.polygon @ fp.normal - fp.offset)) > tol:
+                continue
+            polygon = _face_intersection(fp, fq)
+            if polygon is None:
+                continue
+            # Orient so the grounded body (if any) is b: the force on a is along +normal.
+            if assembly.bodies[bi].grounded:
+                a, b, normal = bj, bi, fp.normal
+            else:
+                a, b, normal = bi, bj, fq.normal
+            mu = assembly.mu
+            found.extend(Contact(a, b, point, normal.copy(), mu) for point in polygon)
+    return found
+
+
+def _face_intersection(fp: Face, fq: Face) -> np.ndarray | None:
+    """The common polygon of two touching faces (3-D vertices on the mid-plane), or None if it has no area."""
+    u, v = tangent_basis(fq.normal)
+    origin = fq.polygon[0]
+    q2 = np.column_stack([(fq.polygon - origin) @ u, (fq.polygon - origin) @ v])
+    # fp is counter-clockwise about -normal, so reversed in this basis.
+    p2 = np.column_stack([(fp.polygon - origin) @ u, (fp.polygon - origin) @ v])[::-1]
+    clipped = clip_convex(p2, q2)
+    if len(clipped) < 3:
+        return None
+    diameter = min(np.ptp(p2, axis=0).max(), np.ptp(q2, axis=0).max())
+    if polygon_area(clipped) <= AREA_TOLERANCE * diameter * diameter:
+        return None
+    plane_shift = (fq.normal * (np.mean(fp.polygon @ fq.normal) - fq.offset) / 2.0)
+    return origin + plane_shift + clipped[:, :1] * u + clipped[:, 1:] * v
+
+
+def clip_convex(subject: np.ndarray, clip: np.ndarray) -> np.ndarray:
+    """Sutherland-Hodgman: the intersection of two counter-clockwise convex polygons."""
+    output = subject
+    for i in range(len(clip)):
+        if len(output) == 0:
+            break
+        a, b = clip[i], clip[(i + 1) % len(clip)]
+        edge = b - a
+        side = edge[0] * (output[:, 1] - a[1]) - edge[1] * (output[:, 0] - a[0])
+        points = []
+        for j in range(len(output)):
+            current, following = output[j], output[(j + 1) % len(output)]
+            s0, s1 = side[j], side[(j + 1) % len(output)]
+            if s0 >= 0:
+                points.append(current)
+            if (s0 >= 0) != (s1 >= 0):
+                t = s0 / (s0 - s1)
+                points.append(current + t * (following - current))
+        output = np.asarray(points).reshape(-1, 2)
+    return _dedupe(output)
+
+
+def _dedupe(polygon: np.ndarray) -> np.ndarray:
+    if len(polygon) == 0:
+        return polygon
+    scale = max(float(np.ptp(polygon, axis=0).max()), 1e-300)
+    keep = []
+    for i in range(len(polygon)):
+        if np.linalg.norm(polygon[i] - polygon[(i + 1) % len(polygon)]) > 1e-12 * scale:
+            keep.append(i)
+    polygon = polygon[keep]
+    # Drop collinear vertices: they add contact points without adding any force the others cannot make.
+    keep = []
+    for i in range(len(polygon)):
+        a, b, c = polygon[i - 1], polygon[i], polygon[(i + 1) % len(polygon)]
+        cross = (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0])
+        if abs(cross) > 1e-12 * scale * scale:
+            keep.append(i)
+    return polygon[keep]
+
+
+def polygon_area(polygon: np.ndarray) -> float:
+    x, y = polygon[:, 0], polygon[:, 1]
+    return float(0.5 * (np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))

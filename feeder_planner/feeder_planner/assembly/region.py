@@ -1,0 +1,278 @@
+"""The exact set of stable gravity directions (secs. II-D and III): a spherical polygon or a degenerate kind.
+
+Method. V = {g : eq. (9) is feasible} is a polyhedral cone (sec. II-C). As in sec. III we cut it with the unit
+cube, P = V n {|g|_inf <= 1}, but instead of traversing six 2-D face projections by parametric programming we
+build P itself by support-function (outer/inner) iteration: start from LP-found points of P, take their convex
+hull, and for every hull facet (normal n, offset h) solve max n.g over P. If the optimum is <= h + tol the
+facet is a facet of P (certified by the LP's optimum); otherwise the optimiser is a new vertex of P and the hull
+grows. This stops after (#vertices + #facets of P) LPs with P exact up to the LP tolerance; it is the same
+computation as the paper's traversal (each step is one LP with a swept objective), done in 3-D so that every
+degenerate kind falls out of the same code: first the linear span of V is found (Property 1's cases), then
+facets of P through the origin are exactly the facets of V, i.e. the great arcs bounding the "spherygon".
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
+from feeder_planner.assembly.geometry import tangent_basis
+from feeder_planner.assembly.stability import SupportOracle
+from feeder_planner.assembly.wrench import EquilibriumSystem
+from feeder_planner.errors import SolverError
+
+SUPPORT_TOLERANCE = 1e-7   # a support value above a facet offset by more than this is a new vertex (cube metric)
+ORIGIN_TOLERANCE = 1e-6    # facets of P with offset below this pass through the origin: they are facets of V
+KINDS = ("empty", "point", "antipodal_pair", "arc", "great_circle", "region", "hemisphere", "sphere")
+
+
+@dataclass(frozen=True)
+class StableRegion:
+    """{unit g : n.g <= 0 for n in normals, e.g = 0 for e in equalities}, with its description per the contract."""
+
+    kind: str
+    normals: np.ndarray
+    equalities: np.ndarray
+    vertices: np.ndarray
+    area_sr: float
+    center: np.ndarray | None
+    facets: int
+    lp_count: int = 0
+    extra: dict = field(default_factory=dict)
+
+    def contains(self, g: np.ndarray, tolerance: float = 1e-9) -> bool:
+        g = np.asarray(g, float) / np.linalg.norm(g)
+        return bool(np.all(self.normals @ g <= tolerance) and np.all(np.abs(self.equalities @ g) <= tolerance))
+
+    def margin(self, g: np.ndarray) -> float:
+        """Signed angle (rad) from g to the nearest boundary great circle: > 0 inside a 2-D region.
+
+        Inside a region (or hemisphere) it is exactly the angular distance to the boundary (a cap fits in the
+        region iff it fits in every bounding hemisphere). Outside, or for kinds without interior, it is <= 0 and
+        its magnitude is a lower bound on the distance to the set. The whole sphere has margin pi.
+        """
+        g = np.asarray(g, float) / np.linalg.norm(g)
+        if self.kind == "sphere":
+            return math.pi
+        if self.kind == "empty":
+            return -math.pi
+        values = [math.asin(float(np.clip(-n @ g, -1.0, 1.0))) for n in self.normals]
+        values += [-math.asin(float(np.clip(abs(e @ g), 0.0, 1.0))) for e in self.equalities]
+        return min(values)
+
+    def to_json(self) -> dict:
+        return {"kind": self.kind, "normals": self.normals.tolist(), "equalities": self.equalities.tolist(),
+                "vertices": self.vertices.tolist(), "area_sr": self.area_sr,
+                "center": None if self.center is None else self.center.tolist(), "facets": self.facets,
+                "lp_count": self.lp_count, **self.extra}
+
+
+def stable_region(system: EquilibriumSystem) -> StableRegion:
+    """The exact region of potentially stable unit gravity directions for the system of eq. (9)."""
+    oracle = SupportOracle(system)
+    points, span = _span(oracle)
+    dim = len(span)
+    if dim == 0:
+        return _region("empty", [], list(np.eye(3)), [], 0.0, None, system, oracle)
+    if dim == 1:
+        d = span[0]
+        other = [e for e in _complement(span)]
+        value, _ = oracle(-d)
+        if value > SUPPORT_TOLERANCE:
+            return _region("antipodal_pair", [], other, [d, -d], 0.0, d if d[2] <= 0 else -d, system, oracle)
+        return _region("point", [-d], other, [d], 0.0, d, system, oracle)
+    basis = np.array(span)
+    facets = _facets(oracle, basis, points)
+    origin_normals = _unique([basis.T @ n for n, offset in facets if offset < ORIGIN_TOLERANCE])
+    if dim == 2:
+        e = np.cross(span[0], span[1])
+        e /= np.linalg.norm(e)
+        return _planar(origin_normals, e, system, oracle)
+    return _solid(origin_normals, system, oracle)
+
+
+def _region(kind: str, normals: list, equalities: list, vertices: list, area: float, center: np.ndarray | None,
+            system: EquilibriumSystem, oracle: SupportOracle) -> StableRegion:
+    as_array = lambda rows: np.asarray(rows, dtype=float).reshape(-1, 3)  # noqa: E731
+    return StableRegion(kind, as_array(normals), as_array(equalities), as_array(vertices), float(area),
+                        None if center is None else np.asarray(center, float) / np.linalg.norm(center),
+                        system.facets, oracle.calls)
+
+
+def _span(oracle: SupportOracle) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Points of P spanning the linear hull of V, and an orthonormal basis of that hull (Property 1's cases)."""
+    points = [np.zeros(3)]
+    span: list[np.ndarray] = []
+    while len(span) < 3:
+        found = None
+        for d in _complement(span):
+            for sign in (1.0, -1.0):
+                value, g = oracle(sign * d)
+                if value > SUPPORT_TOLERANCE:
+                    found = g
+                    break
+            if found is not None:
+                break
+        if found is None:
+            break
+        points.append(found)
+        residual = found - sum((found @ b) * b for b in span)
+        span.append(residual / np.linalg.norm(residual))
+    return points, span
+
+
+def _complement(span: list[np.ndarray]) -> list[np.ndarray]:
+    if not span:
+        return list(np.eye(3))
+    if len(span) == 1:
+        u, v = tangent_basis(span[0])
+        return [u, v]
+    if len(span) == 2:
+        e = np.cross(span[0], span[1])
+        return [e / np.linalg.norm(e)]
+    return []
+
+
+def _facets(oracle: SupportOracle, basis: np.ndarray, points: list[np.ndarray]) -> list[tuple[np.ndarray, float]]:
+    """Certified facets (normal, offset) of P in the coordinates of ``basis`` (outer/inner iteration)."""
+    coords = [basis @ p for p in points]
+    confirmed: list[tuple[np.ndarray, float]] = []
+    for _ in range(10000):
+        try:
+            hull = ConvexHull(np.asarray(coords))
+        except QhullError as exc:
+            raise SolverError(f"hull of the stable cone section failed: {str(exc).splitlines()[0]}") from None
+        planes = []
+        for equation in hull.equations:
+            normal, offset = equation[:-1], -equation[-1]
+            if not any(normal @ n > 1 - 1e-9 and abs(offset - h) < 1e-9 for n, h in planes):
+                planes.append((normal, offset))
+        pending = [(n, h) for n, h in planes
+                   if not any(n @ m > 1 - 1e-9 and abs(h - k) < 1e-9 for m, k in confirmed)]
+        if not pending:
+            return planes
+        grew = False
+        for normal, offset in pending:
+            value, g = oracle(basis.T @ normal)
+            if value <= offset + SUPPORT_TOLERANCE:
+                confirmed.append((normal, offset))
+            else:
+                coords.append(basis @ g)
+                grew = True
+                break
+        if not grew:
+            return planes
+    raise SolverError("stable region iteration did not converge")
+
+
+def _unique(vectors: list[np.ndarray]) -> list[np.ndarray]:
+    unique: list[np.ndarray] = []
+    for v in vectors:
+        v = v / np.linalg.norm(v)
+        if not any(v @ u > 1 - 1e-9 for u in unique):
+            unique.append(v)
+    return unique
+
+
+def _planar(normals: list[np.ndarray], e: np.ndarray, system: EquilibriumSystem, oracle: SupportOracle
+            ) -> StableRegion:
+    """V spans a plane: a great circle (no bounding line), a half circle (one) or a shorter arc (two)."""
+    if not normals:
+        down = np.array([0.0, 0.0, -1.0]) - (e[2] * -1.0) * e
+        center = down if np.linalg.norm(down) > 1e-9 else tangent_basis(e)[0]
+        return _region("great_circle", [], [e], [], 0.0, center, system, oracle)
+    if len(normals) == 1:
+        n = normals[0]
+        end = np.cross(e, n)
+        return _region("arc", [n], [e], [end, -end], 0.0, -n, system, oracle)
+    if len(normals) > 2:
+        raise SolverError(f"planar stable cone with {len(normals)} bounding lines (expected at most 2)")
+    ends = []
+    for n, other in ((normals[0], normals[1]), (normals[1], normals[0])):
+        end = np.cross(e, n)
+        ends.append(end if other @ end <= 0 else -end)
+    return _region("arc", normals, [e], ends, 0.0, ends[0] + ends[1], system, oracle)
+
+
+def _solid(normals: list[np.ndarray], system: EquilibriumSystem, oracle: SupportOracle) -> StableRegion:
+    """V is 3-D: the sphere, a hemisphere, a lune, or a convex spherical polygon."""
+    if not normals:
+        return _region("sphere", [], [], [], 4 * math.pi, np.array([0.0, 0.0, -1.0]), system, oracle)
+    if len(normals) == 1:
+        return _region("hemisphere", normals, [], [], 2 * math.pi, -normals[0], system, oracle)
+    if len(normals) == 2:
+        n1, n2 = normals
+        axis = np.cross(n1, n2)
+        axis /= np.linalg.norm(axis)
+        angle = math.pi - math.acos(float(np.clip(n1 @ n2, -1.0, 1.0)))
+        return _region("region", normals, [], _ccw([axis, -axis], -(n1 + n2)), 2 * angle, -(n1 + n2), system,
+                       oracle)
+    vertices = _vertices(normals)
+    center = _center(normals)
+    area = _polygon_area(vertices, center)
+    return _region("region", normals, [], vertices, area, center, system, oracle)
+
+
+def _vertices(normals: list[np.ndarray]) -> list[np.ndarray]:
+    n = np.asarray(normals)
+    found: list[np.ndarray] = []
+    for i, j in itertools.combinations(range(len(n)), 2):
+        axis = np.cross(n[i], n[j])
+        norm = np.linalg.norm(axis)
+        if norm < 1e-12:
+            continue
+        for v in (axis / norm, -axis / norm):
+            if np.all(n @ v <= 1e-8) and not any(v @ u > 1 - 1e-12 for u in found):
+                found.append(v)
+    if len(found) < 3:
+        raise SolverError(f"stable region with {len(normals)} facets has only {len(found)} vertices")
+    return _ccw(found, np.sum(found, axis=0))
+
+
+def _ccw(vertices: list[np.ndarray], around: np.ndarray) -> list[np.ndarray]:
+    """Vertices ordered counter-clockwise as seen from outside the sphere, looking at ``around``."""
+    c = around / np.linalg.norm(around)
+    u, v = tangent_basis(c)
+    return sorted(vertices, key=lambda p: math.atan2(float(p @ v), float(p @ u)))
+
+
+def _center(normals: list[np.ndarray]) -> np.ndarray:
+    """argmax over unit g of min_i (-n_i . g): the point farthest in angle from every boundary great circle.
+
+    The optimum is equidistant from an active set of at most three great circles, so enumerating the
+    candidate points of every set of one, two or three normals and keeping the best feasible one is exact.
+    """
+    n = np.asarray(normals)
+    candidates = [-n]
+    pairs = np.array(list(itertools.combinations(range(len(n)), 2)))
+    candidates.append(-(n[pairs[:, 0]] + n[pairs[:, 1]]))
+    if len(n) >= 3:
+        for chunk in _chunks(list(itertools.combinations(range(len(n)), 3)), 20000):
+            t = np.asarray(chunk)
+            g = np.cross(n[t[:, 0]] - n[t[:, 1]], n[t[:, 0]] - n[t[:, 2]])
+            sign = np.where(np.einsum("ij,ij->i", -n[t[:, 0]], g) >= 0, 1.0, -1.0)
+            candidates.append(g * sign[:, None])
+    cand = np.vstack(candidates)
+    norms = np.linalg.norm(cand, axis=1)
+    cand = cand[norms > 1e-12] / norms[norms > 1e-12, None]
+    scores = np.min(-(cand @ n.T), axis=1)
+    return cand[int(np.argmax(scores))]
+
+
+def _chunks(items: list, size: int):
+    for start in range(0, len(items), size):
+        yield items[start:start + size]
+
+
+def _polygon_area(vertices: list[np.ndarray], center: np.ndarray) -> float:
+    """Solid angle of a convex spherical polygon: fan of triangles from an interior point (Van Oosterom-Strackee)."""
+    total = 0.0
+    for a, b in zip(vertices, vertices[1:] + vertices[:1]):
+        numerator = abs(float(center @ np.cross(a, b)))
+        denominator = 1.0 + float(center @ a + a @ b + b @ center)
+        total += 2.0 * math.atan2(numerator, denominator)
+    return total

@@ -1,0 +1,108 @@
+"""The stability linear program (eq. 9) for one gravity direction, and its support form over the cube (sec. III)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import sparse
+from scipy.optimize import linprog
+
+from feeder_planner.assembly.wrench import EquilibriumSystem, contact_forces
+from feeder_planner.errors import InputError, SolverError
+
+# HiGHS tolerances; a stable verdict is certified by re-checking the residual of the returned forces.
+LP_OPTIONS = {"primal_feasibility_tolerance": 1e-9, "dual_feasibility_tolerance": 1e-9, "presolve": True}
+RESIDUAL_TOLERANCE = 1e-7  # on the scaled equations: a fraction of each body's weight (and weight x size)
+
+
+@dataclass(frozen=True)
+class StabilityVerdict:
+    """Whether g is potentially stable; forces (N, on body a, per contact) when it is, else the unbalanced bodies."""
+
+    stable: bool
+    forces: np.ndarray | None
+    unbalanced: tuple[int, ...]
+    residual: float
+
+
+def unit_gravity(g: np.ndarray, field: str = "g") -> np.ndarray:
+    """A finite, non-zero gravity direction, normalised."""
+    g = np.asarray(g, dtype=float).reshape(-1)
+    if g.shape != (3,):
+        raise InputError(field, f"expected 3 components, got {g.size}")
+    if not np.all(np.isfinite(g)):
+        raise InputError(field, f"must be finite, got {g.tolist()}")
+    norm = float(np.linalg.norm(g))
+    if norm < 1e-12:
+        raise InputError(field, "must be a non-zero direction")
+    return g / norm
+
+
+def check_stability(system: EquilibriumSystem, g: np.ndarray) -> StabilityVerdict:
+    """Solve eq. (9) for unit g: feasible contact forces exist iff the assembly is potentially stable."""
+    g = unit_gravity(g)
+    rhs = -system.B @ g
+    if system.A.shape[0] == 0:
+        return StabilityVerdict(True, np.zeros((len(system.contacts), 3)), (), 0.0)
+    if system.columns == 0:
+        return StabilityVerdict(False, None, _bodies(system, np.abs(rhs) > RESIDUAL_TOLERANCE), float(np.abs(rhs).max()))
+    # Minimise the total multiplier: a bounded objective that picks a small, well-scaled force distribution.
+    result = linprog(np.ones(system.columns), A_eq=system.A, b_eq=rhs, bounds=(0, None), method="highs",
+                     options=LP_OPTIONS)
+    if result.status == 0:
+        lam = np.maximum(result.x, 0.0)
+        residual = float(np.abs(system.A @ lam - rhs).max())
+        if residual > RESIDUAL_TOLERANCE:
+            raise SolverError(f"stability LP returned forces with residual {residual:.3g} > {RESIDUAL_TOLERANCE}")
+        return StabilityVerdict(True, contact_forces(system, lam), (), residual)
+    if result.status == 2:
+        return _unbalanced(system, rhs)
+    raise SolverError(f"stability LP failed: {result.message}")
+
+
+def _unbalanced(system: EquilibriumSystem, rhs: np.ndarray) -> StabilityVerdict:
+    """Least total imbalance (L1 over the scaled rows); bodies with imbalance left are the ones that move."""
+    rows = system.A.shape[0]
+    identity = sparse.identity(rows, format="csc")
+    A = sparse.hstack([system.A, identity, -identity], format="csc")
+    cost = np.concatenate([np.zeros(system.columns), np.ones(2 * rows)])
+    result = linprog(cost, A_eq=A, b_eq=rhs, bounds=(0, None), method="highs", options=LP_OPTIONS)
+    if result.status != 0:
+        raise SolverError(f"imbalance LP failed: {result.message}")
+    slack = result.x[system.columns:system.columns + rows] + result.x[system.columns + rows:]
+    moving = _bodies(system, slack > RESIDUAL_TOLERANCE)
+    return StabilityVerdict(False, None, moving, float(result.fun))
+
+
+def _bodies(system: EquilibriumSystem, rows: np.ndarray) -> tuple[int, ...]:
+    return tuple(sorted({int(b) for b in system.body_of_row[rows]}))
+
+
+class SupportOracle:
+    """max c.g over the cube section {g in V, |g|_inf <= 1} of the stable cone V (sec. III); counts its LPs."""
+
+    def __init__(self, system: EquilibriumSystem) -> None:
+        self.system = system
+        rows = system.A.shape[0]
+        self.A = sparse.hstack([sparse.csc_matrix(system.B), system.A], format="csc")
+        self.b = np.zeros(rows)
+        self.bounds = [(-1.0, 1.0)] * 3 + [(0.0, None)] * system.columns
+        self.calls = 0
+
+    def __call__(self, direction: np.ndarray) -> tuple[float, np.ndarray]:
+        self.calls += 1
+        direction = np.asarray(direction, dtype=float)
+        if self.system.A.shape[0] == 0:  # nothing free: every g is stable
+            g = np.sign(direction)
+            return float(direction @ g), g
+        cost = np.concatenate([-direction, np.zeros(self.system.columns)])
+        result = linprog(cost, A_eq=self.A, b_eq=self.b, bounds=self.bounds, method="highs", options=LP_OPTIONS)
+        if result.status != 0:
+            raise SolverError(f"support LP failed (status {result.status}): {result.message}")
+        g = result.x[:3]
+        lam = np.maximum(result.x[3:], 0.0)
+        residual = float(np.abs(self.system.A @ lam + self.system.B @ g).max()) if self.system.columns else 0.0
+        if residual > RESIDUAL_TOLERANCE:
+            raise SolverError(f"support LP residual {residual:.3g} > {RESIDUAL_TOLERANCE}")
+        return float(direction @ g), g

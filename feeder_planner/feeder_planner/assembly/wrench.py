@@ -1,0 +1,103 @@
+"""The equilibrium system of eqs. (5)-(9): contact wrench matrix with a K-facet friction pyramid, and gravity."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import sparse
+
+from feeder_planner.assembly.contacts import Contact
+from feeder_planner.assembly.geometry import tangent_basis
+from feeder_planner.assembly.model import Assembly
+from feeder_planner.errors import InputError
+
+STANDARD_GRAVITY = 9.80665  # m/s^2: contact forces are reported in newtons for |g| = 1 standard gravity
+
+
+@dataclass(frozen=True)
+class EquilibriumSystem:
+    """Scaled system  A lam + B g = 0,  lam >= 0  (eq. 9 with generator form of the friction pyramid).
+
+    Column k of A is the wrench of one pyramid edge (generator) of one contact, scaled by ``column_scale`` (kg)
+    so that lam is O(1) for any mass ratio; rows of body j are divided by M_j (forces) and M_j L_j (torques).
+    ``generators[k]`` is the force direction of column k; ``contact_of[k]`` its contact.
+    """
+
+    A: sparse.csc_matrix
+    B: np.ndarray
+    generators: np.ndarray
+    contact_of: np.ndarray
+    column_scale: np.ndarray
+    body_of_row: np.ndarray
+    contacts: tuple[Contact, ...]
+    facets: int
+
+    @property
+    def columns(self) -> int:
+        return self.A.shape[1]
+
+
+def pyramid_directions(normal: np.ndarray, mu: float, facets: int, circumscribed: bool = False) -> np.ndarray:
+    """Edges of the K-facet pyramid inscribed in the Coulomb cone (eq. 9 for K = 4), one row each.
+
+    Edge k is n + mu (cos t_k u + sin t_k v) with t_k = (2k + 1) pi / K, which for K = 4 is exactly
+    |f_x|, |f_y| <= mu f_n / sqrt(2) in the paper's (u, v) axes. ``circumscribed`` scales the tangential part by
+    1 / cos(pi / K), giving the smallest pyramid that contains the cone (used to bound the exact cone).
+    """
+    if mu == 0.0:
+        return normal[None, :].copy()
+    u, v = tangent_basis(normal)
+    angles = (2 * np.arange(facets) + 1) * np.pi / facets
+    radius = mu / np.cos(np.pi / facets) if circumscribed else mu
+    return normal[None, :] + radius * (np.cos(angles)[:, None] * u[None, :] + np.sin(angles)[:, None] * v[None, :])
+
+
+def build_system(assembly: Assembly, contacts: list[Contact], facets: int = 4, circumscribed: bool = False
+                 ) -> EquilibriumSystem:
+    """Assemble eq. (6)'s J^T f + G in scaled generator form for the free bodies."""
+    if isinstance(facets, bool) or not isinstance(facets, (int, np.integer)) or facets < 3:
+        raise InputError("facets", f"the friction pyramid needs K >= 3 facets, got {facets!r}")
+    free = assembly.free_bodies
+    row_of = {body: 6 * k for k, body in enumerate(free)}
+    masses = np.array([assembly.bodies[b].mass for b in free])
+    lengths = np.array([assembly.bodies[b].size for b in free])
+    rows, cols, vals = [], [], []
+    generators, contact_of, column_scale = [], [], []
+    column = 0
+    for index, contact in enumerate(contacts):
+        directions = pyramid_directions(contact.normal, contact.mu, facets, circumscribed)
+        involved = [b for b in (contact.a, contact.b) if b in row_of]
+        scale = min(assembly.bodies[b].mass for b in involved)
+        for direction in directions:
+            for body, sign in ((contact.a, 1.0), (contact.b, -1.0)):
+                if body not in row_of:
+                    continue
+                k = row_of[body] // 6
+                arm = contact.point - assembly.bodies[body].center
+                force = sign * direction * scale / masses[k]
+                torque = sign * np.cross(arm, direction) * scale / (masses[k] * lengths[k])
+                for r, value in enumerate(np.concatenate([force, torque])):
+                    if value != 0.0:
+                        rows.append(row_of[body] + r)
+                        cols.append(column)
+                        vals.append(value)
+            generators.append(direction)
+            contact_of.append(index)
+            column_scale.append(scale)
+            column += 1
+    A = sparse.csc_matrix((vals, (rows, cols)), shape=(6 * len(free), column))
+    B = np.zeros((6 * len(free), 3))
+    for k in range(len(free)):
+        B[6 * k:6 * k + 3] = np.eye(3)
+    return EquilibriumSystem(A, B, np.asarray(generators).reshape(-1, 3), np.asarray(contact_of, dtype=int),
+                             np.asarray(column_scale), np.repeat(np.asarray(free, dtype=int), 6), tuple(contacts),
+                             facets)
+
+
+def contact_forces(system: EquilibriumSystem, lam: np.ndarray, gravity: float = STANDARD_GRAVITY) -> np.ndarray:
+    """Force on body a at each contact (N), from the scaled multipliers, for |g| = ``gravity``."""
+    forces = np.zeros((len(system.contacts), 3))
+    weighted = system.generators * (lam * system.column_scale * gravity)[:, None]
+    np.add.at(forces, system.contact_of, weighted)
+    return forces
