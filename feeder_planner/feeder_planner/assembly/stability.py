@@ -8,6 +8,7 @@ import numpy as np
 from scipy import sparse
 from scipy.optimize import linprog
 
+from feeder_planner.assembly.lp import WarmLP
 from feeder_planner.assembly.wrench import EquilibriumSystem, contact_forces
 from feeder_planner.errors import InputError, SolverError
 
@@ -39,26 +40,43 @@ def unit_gravity(g: np.ndarray, field: str = "g") -> np.ndarray:
     return g / norm
 
 
+class StabilityChecker:
+    """Eq. (9) for one gravity direction at a time, on one warm-started LP (g's columns fixed by bounds)."""
+
+    def __init__(self, system: EquilibriumSystem) -> None:
+        self.system = system
+        columns = system.columns
+        A = sparse.hstack([sparse.csc_matrix(system.B), system.A], format="csc")
+        self.lp = WarmLP(A, np.zeros(system.A.shape[0]), np.concatenate([np.zeros(3), np.zeros(columns)]),
+                         np.concatenate([np.zeros(3), np.full(columns, np.inf)]))
+        # Minimise the total multiplier: a bounded objective that picks a small, well-scaled force distribution.
+        self.lp.set_cost(np.arange(3, 3 + columns), np.ones(columns))
+
+    def __call__(self, g: np.ndarray) -> StabilityVerdict:
+        system = self.system
+        g = unit_gravity(g)
+        rhs = -system.B @ g
+        if system.A.shape[0] == 0:
+            return StabilityVerdict(True, np.zeros((len(system.contacts), 3)), (), 0.0)
+        if system.columns == 0:
+            return StabilityVerdict(False, None, _bodies(system, np.abs(rhs) > RESIDUAL_TOLERANCE),
+                                    float(np.abs(rhs).max()))
+        self.lp.set_bounds(np.arange(3), g, g)
+        result = self.lp.solve()
+        if result.status == "optimal":
+            lam = np.maximum(result.x[3:], 0.0)
+            residual = float(np.abs(system.A @ lam - rhs).max())
+            if residual > RESIDUAL_TOLERANCE:
+                raise SolverError(f"stability LP returned forces with residual {residual:.3g} > {RESIDUAL_TOLERANCE}")
+            return StabilityVerdict(True, contact_forces(system, lam), (), residual)
+        if result.status == "infeasible":
+            return _unbalanced(system, rhs)
+        raise SolverError(f"stability LP failed: {result.message}")
+
+
 def check_stability(system: EquilibriumSystem, g: np.ndarray) -> StabilityVerdict:
     """Solve eq. (9) for unit g: feasible contact forces exist iff the assembly is potentially stable."""
-    g = unit_gravity(g)
-    rhs = -system.B @ g
-    if system.A.shape[0] == 0:
-        return StabilityVerdict(True, np.zeros((len(system.contacts), 3)), (), 0.0)
-    if system.columns == 0:
-        return StabilityVerdict(False, None, _bodies(system, np.abs(rhs) > RESIDUAL_TOLERANCE), float(np.abs(rhs).max()))
-    # Minimise the total multiplier: a bounded objective that picks a small, well-scaled force distribution.
-    result = linprog(np.ones(system.columns), A_eq=system.A, b_eq=rhs, bounds=(0, None), method="highs",
-                     options=LP_OPTIONS)
-    if result.status == 0:
-        lam = np.maximum(result.x, 0.0)
-        residual = float(np.abs(system.A @ lam - rhs).max())
-        if residual > RESIDUAL_TOLERANCE:
-            raise SolverError(f"stability LP returned forces with residual {residual:.3g} > {RESIDUAL_TOLERANCE}")
-        return StabilityVerdict(True, contact_forces(system, lam), (), residual)
-    if result.status == 2:
-        return _unbalanced(system, rhs)
-    raise SolverError(f"stability LP failed: {result.message}")
+    return StabilityChecker(system)(g)
 
 
 def _unbalanced(system: EquilibriumSystem, rhs: np.ndarray) -> StabilityVerdict:
@@ -84,23 +102,23 @@ class SupportOracle:
 
     def __init__(self, system: EquilibriumSystem) -> None:
         self.system = system
-        rows = system.A.shape[0]
-        self.A = sparse.hstack([sparse.csc_matrix(system.B), system.A], format="csc")
-        self.b = np.zeros(rows)
-        self.bounds = [(-1.0, 1.0)] * 3 + [(0.0, None)] * system.columns
+        columns = system.columns
+        A = sparse.hstack([sparse.csc_matrix(system.B), system.A], format="csc")
+        self.lp = WarmLP(A, np.zeros(system.A.shape[0]), np.concatenate([-np.ones(3), np.zeros(columns)]),
+                         np.concatenate([np.ones(3), np.full(columns, np.inf)]))
         self.calls = 0
 
     def __call__(self, direction: np.ndarray) -> tuple[float, np.ndarray]:
         self.calls += 1
         direction = np.asarray(direction, dtype=float)
         if self.system.A.shape[0] == 0:  # nothing free: every g is stable
-            g = np.sign(direction)
+            g = np.where(direction >= 0, 1.0, -1.0)
             return float(direction @ g), g
-        cost = np.concatenate([-direction, np.zeros(self.system.columns)])
-        result = linprog(cost, A_eq=self.A, b_eq=self.b, bounds=self.bounds, method="highs", options=LP_OPTIONS)
-        if result.status != 0:
-            raise SolverError(f"support LP failed (status {result.status}): {result.message}")
-        g = result.x[:3]
+        self.lp.set_cost(np.arange(3), -direction)
+        result = self.lp.solve()
+        if result.status != "optimal":
+            raise SolverError(f"support LP failed ({result.status}): {result.message}")
+        g = np.clip(result.x[:3], -1.0, 1.0)
         lam = np.maximum(result.x[3:], 0.0)
         residual = float(np.abs(self.system.A @ lam + self.system.B @ g).max()) if self.system.columns else 0.0
         if residual > RESIDUAL_TOLERANCE:

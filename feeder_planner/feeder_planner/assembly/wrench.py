@@ -59,40 +59,49 @@ def build_system(assembly: Assembly, contacts: list[Contact], facets: int = 4, c
     if isinstance(facets, bool) or not isinstance(facets, (int, np.integer)) or facets < 3:
         raise InputError("facets", f"the friction pyramid needs K >= 3 facets, got {facets!r}")
     free = assembly.free_bodies
-    row_of = {body: 6 * k for k, body in enumerate(free)}
+    slot = np.full(len(assembly.bodies), -1)
+    slot[free] = np.arange(len(free))
     masses = np.array([assembly.bodies[b].mass for b in free])
     lengths = np.array([assembly.bodies[b].size for b in free])
-    rows, cols, vals = [], [], []
-    generators, contact_of, column_scale = [], [], []
-    column = 0
+    centers = np.array([assembly.bodies[b].center for b in free]).reshape(-1, 3)
+    all_mass = np.array([b.mass for b in assembly.bodies])
+    grounded = np.array([b.grounded for b in assembly.bodies])
+    generators, contact_of = [], []
     for index, contact in enumerate(contacts):
         directions = pyramid_directions(contact.normal, contact.mu, facets, circumscribed)
-        involved = [b for b in (contact.a, contact.b) if b in row_of]
-        scale = min(assembly.bodies[b].mass for b in involved)
-        for direction in directions:
-            for body, sign in ((contact.a, 1.0), (contact.b, -1.0)):
-                if body not in row_of:
-                    continue
-                k = row_of[body] // 6
-                arm = contact.point - assembly.bodies[body].center
-                force = sign * direction * scale / masses[k]
-                torque = sign * np.cross(arm, direction) * scale / (masses[k] * lengths[k])
-                for r, value in enumerate(np.concatenate([force, torque])):
-                    if value != 0.0:
-                        rows.append(row_of[body] + r)
-                        cols.append(column)
-                        vals.append(value)
-            generators.append(direction)
-            contact_of.append(index)
-            column_scale.append(scale)
-            column += 1
-    A = sparse.csc_matrix((vals, (rows, cols)), shape=(6 * len(free), column))
+        generators.append(directions)
+        contact_of.append(np.full(len(directions), index))
+    generators_array = np.vstack(generators) if generators else np.zeros((0, 3))
+    contact_array = np.concatenate(contact_of) if contact_of else np.zeros(0, dtype=int)
+    a = np.array([c.a for c in contacts], dtype=int)[contact_array]
+    b = np.array([c.b for c in contacts], dtype=int)[contact_array]
+    points = np.array([c.point for c in contacts]).reshape(-1, 3)[contact_array]
+    # Column scale: the lightest free body the contact touches, so lam is O(1) at any mass ratio.
+    mass_a = np.where(grounded[a], np.inf, all_mass[a])
+    mass_b = np.where(grounded[b], np.inf, all_mass[b])
+    column_scale = np.minimum(mass_a, mass_b)
+    rows, cols, vals = [], [], []
+    columns = np.arange(len(generators_array))
+    for body, sign in ((a, 1.0), (b, -1.0)):
+        k = slot[body]
+        on = k >= 0
+        kk = k[on]
+        arm = points[on] - centers[kk]
+        factor = sign * column_scale[on] / masses[kk]
+        force = generators_array[on] * factor[:, None]
+        torque = np.cross(arm, generators_array[on]) * (factor / lengths[kk])[:, None]
+        block = np.hstack([force, torque])
+        rows.append((6 * kk[:, None] + np.arange(6)[None, :]).ravel())
+        cols.append(np.repeat(columns[on], 6))
+        vals.append(block.ravel())
+    A = sparse.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                          shape=(6 * len(free), len(generators_array)))
+    A.eliminate_zeros()
     B = np.zeros((6 * len(free), 3))
     for k in range(len(free)):
         B[6 * k:6 * k + 3] = np.eye(3)
-    return EquilibriumSystem(A, B, np.asarray(generators).reshape(-1, 3), np.asarray(contact_of, dtype=int),
-                             np.asarray(column_scale), np.repeat(np.asarray(free, dtype=int), 6), tuple(contacts),
-                             facets)
+    return EquilibriumSystem(A, B, generators_array, contact_array.astype(int), column_scale,
+                             np.repeat(np.asarray(free, dtype=int), 6), tuple(contacts), facets)
 
 
 def contact_forces(system: EquilibriumSystem, lam: np.ndarray, gravity: float = STANDARD_GRAVITY) -> np.ndarray:
