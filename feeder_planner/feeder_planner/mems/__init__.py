@@ -1,0 +1,1 @@
+"""MEMS field array mechanics: exact lifted radial potential, fields, equilibria (Lamiroux & Kavraki)."""

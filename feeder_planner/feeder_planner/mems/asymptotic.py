@@ -1,0 +1,170 @@
+"""Method (b): the algorithm of Table 1 and Theorem 7, equilibria for small delta from d^k x*/d delta^k (theta, 0)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from feeder_planner.errors import SolverError
+from feeder_planner.mems.curve import hessian_xyt, pivot_translation
+from feeder_planner.mems.lifted import Edges, derivatives, part_edges, taylor_factorials
+from feeder_planner.mems.result import EquilibriaResult, Equilibrium
+from feeder_planner.parts import Part
+
+MAX_ORDER = 9            # n up to 9 (Table 1's loop), plus EXTRA orders for the refinement of theta(delta)
+EXTRA = 2
+PIVOT_TOL = 1e-10        # |(X0, Y0)| below this fraction of the part radius: pivot = centroid (Table 1's test)
+ZERO_TOL = 1e-9          # d^k x*/d delta^k is 'identically zero' below this fraction of max_{j<=k} |d^j (X*, Y*)|
+SAMPLES = 64             # theta samples: the trig polynomials have degree <= k + 1 < 32, so the FFT is exact
+
+
+def _series_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Product of power series in delta (last axis = coefficient index), truncated."""
+    out = np.zeros_like(a)
+    n = a.shape[-1]
+    for k in range(n):
+        out[..., k] = (a[..., : k + 1] * b[..., k::-1]).sum(-1)
+    return out
+
+
+def taylor_coefficients(v: dict[tuple[int, int], float], area: float, theta: np.ndarray, order: int) -> np.ndarray:
+    """c_k(theta), k = 0..order, with (X*, Y*)(theta, delta) = Z0 + sum_k c_k delta^k (c_0 = 0).
+
+    Solves grad V(Z0 + W) + delta |S| (sin, cos) = 0 order by order (Prop. 8, eq. 25): at order k the
+    unknown enters only through Hess V c_k, so c_k = -Hess^{-1} E_k with E_k from lower orders.
+    """
+    m = len(theta)
+    hess = np.array([[v[(2, 0)], v[(1, 1)]], [v[(1, 1)], v[(0, 2)]]])
+    fact = taylor_factorials(order)
+    c = np.zeros((m, 2, order + 1))
+    b = np.column_stack([np.sin(theta), np.cos(theta)])
+    for k in range(1, order + 1):
+        wx, wy = c[:, 0, :], c[:, 1, :]
+        px = [np.eye(1, order + 1, 0).repeat(m, 0)]
+        py = [np.eye(1, order + 1, 0).repeat(m, 0)]
+        for _ in range(order):
+            px.append(_series_mul(px[-1], wx))
+            py.append(_series_mul(py[-1], wy))
+        residual = np.zeros((m, 2))
+        for i in range(k + 1):
+            for j in range(k + 1 - i):
+                if i + j == 0:
+                    continue
+                term = _series_mul(px[i], py[j])[:, k] * fact[i, j]
+                residual[:, 0] += v[(i + 1, j)] * term
+                residual[:, 1] += v[(i, j + 1)] * term
+        if k == 1:
+            residual += area * b
+        c[:, :, k] = -np.linalg.solve(hess, residual.T).T
+    return c
+
+
+def _fourier(samples: np.ndarray) -> np.ndarray:
+    return np.fft.rfft(samples) / len(samples)
+
+
+def _trig_eval(coef: np.ndarray, theta: np.ndarray, derivative: int = 0) -> np.ndarray:
+    """Evaluate a real trig polynomial from its rfft coefficients (and its theta-derivatives)."""
+    k = np.arange(len(coef))
+    weights = np.where(k == 0, 1.0, 2.0)
+    phase = np.exp(1j * np.outer(theta, k))
+    return ((coef * weights * (1j * k) ** derivative)[None, :] * phase).sum(-1).real
+
+
+def _trig_roots(coef: np.ndarray) -> np.ndarray:
+    """Sign changes in [0, 2 pi) of a real trig polynomial, polished by Newton on the trig form.
+
+    Coefficients below ZERO_TOL of the largest are rounding noise of an exactly symmetric part and
+    are dropped first; 16 samples per period of the highest frequency cannot miss a simple root pair
+    of a polynomial of this degree (roots closer than that are reported as multiple roots below).
+    """
+    coef = np.where(np.abs(coef) > ZERO_TOL * np.abs(coef).max(), coef, 0.0)
+    degree = int(np.max(np.flatnonzero(coef)))
+    grid = np.linspace(0.0, 2 * math.pi, 16 * max(degree, 1) + 1)
+    values = _trig_eval(coef, grid)
+    roots = []
+    for i in range(len(grid) - 1):
+        a, b, fa, fb = grid[i], grid[i + 1], values[i], values[i + 1]
+        if fa == 0.0:
+            roots.append(a)
+            continue
+        if fa * fb > 0:
+            continue
+        for _ in range(200):          # bisection to full precision, then a Newton step
+            mid = 0.5 * (a + b)
+            fm = _trig_eval(coef, np.array([mid]))[0]
+            if fm == 0.0 or b - a < 1e-15:
+                break
+            a, b, fa = (mid, b, fm) if fa * fm > 0 else (a, mid, fa)
+        roots.append(0.5 * (a + b))
+    return np.mod(np.array(roots), 2 * math.pi)
+
+
+def asymptotic_equilibria(part: Part, delta: float, edges: Edges | None = None) -> EquilibriaResult:
+    """All equilibria for small delta by Table 1 and Theorem 7, refined with EXTRA orders of the expansion."""
+    edges = edges or part_edges(part)
+    z0 = pivot_translation(edges)
+    scale = edges.scale
+    rho = float(np.hypot(*z0))
+    theta_grid = 2 * math.pi * np.arange(SAMPLES) / SAMPLES
+    c_t, s_t = np.cos(theta_grid), np.sin(theta_grid)
+    if rho > PIVOT_TOL * scale:
+        n = 0
+    else:
+        n = None
+    order = EXTRA if n == 0 else None
+    v: dict[tuple[int, int], float] = {}
+    coefs = None
+    if n is None:
+        # Table 1, second branch: increase n until d^n x*/d delta^n (theta, 0) is not identically zero.
+        size = 0.0
+        for k in range(1, MAX_ORDER + 1):
+            v = derivatives(edges, z0, k + 1)
+            c = taylor_coefficients(v, part.area, theta_grid, k)
+            xk = math.factorial(k) * (c_t * c[:, 0, k] - s_t * c[:, 1, k])
+            # All d^k X*/d delta^k are lengths; compare with the largest so far (exact zeros are noise).
+            size = max(size, math.factorial(k) * np.abs(c[:, :, k]).max())
+            if np.abs(xk).max() > ZERO_TOL * size:
+                n = k
+                break
+        if n is None:
+            raise SolverError(f"d^k x*/d delta^k (theta, 0) vanishes identically for k <= {MAX_ORDER}: "
+                              "the part is (nearly) rotation-invariant, orientation undetermined")
+        order = n + EXTRA
+    v = derivatives(edges, z0, order + 1)
+    c = taylor_coefficients(v, part.area, theta_grid, order)
+    x_k = [c_t * z0[0] - s_t * z0[1]] + [math.factorial(k) * (c_t * c[:, 0, k] - s_t * c[:, 1, k])
+                                          for k in range(1, order + 1)]
+    coefs = [_fourier(x) for x in x_k]
+    coefs[n] = np.where(np.abs(coefs[n]) > ZERO_TOL * np.abs(coefs[n]).max(), coefs[n], 0.0)
+    roots = _trig_roots(coefs[n])
+    slopes = _trig_eval(coefs[n], roots, 1)
+    amplitude = np.abs(coefs[n]).max()
+    if len(roots) == 0 or np.any(np.abs(slopes) <= 1e-7 * amplitude):
+        raise SolverError(f"d^{n} x*/d delta^{n} (theta, 0) has a multiple root: Theorem 7 (iii) does not apply")
+    # theta(delta): root of sum_k x_k delta^(k-n)/k! near each Theorem-7 root (Newton on the truncated series).
+    thetas = roots.copy()
+    for _ in range(20):
+        f = sum(_trig_eval(coefs[k], thetas) * delta ** (k - n) / math.factorial(k) for k in range(n, order + 1))
+        df = sum(_trig_eval(coefs[k], thetas, 1) * delta ** (k - n) / math.factorial(k) for k in range(n, order + 1))
+        thetas = thetas - f / df
+    if np.any(np.abs(np.angle(np.exp(1j * (thetas - roots)))) > 0.5 * math.pi / max(len(roots), 1)):
+        raise SolverError(f"delta = {delta} is outside the range of the small-delta expansion")
+    equilibria = []
+    for theta, slope in zip(thetas, slopes):
+        c_here = taylor_coefficients(v, part.area, np.array([theta]), order)[0]
+        z = z0 + sum(c_here[:, k] * delta ** k for k in range(1, order + 1))
+        ct, st = math.cos(theta), math.sin(theta)
+        equilibria.append(Equilibrium(float(ct * z[0] - st * z[1]), float(st * z[0] + ct * z[1]),
+                                      float(theta % (2 * math.pi)), bool(slope > 0)))
+    equilibria.sort(key=lambda e: e.theta)
+    details = {"n": n, "pivot_distance": rho, "theorem7_roots": [float(r) for r in roots],
+               "theorem7_slopes": [float(s) for s in slopes],
+               "dn_x_fourier": {str(k): float(2 * abs(a) if k else abs(a)) for k, a in enumerate(coefs[n])
+                                if abs(a) > 1e-9 * amplitude}}
+    if n == 0:
+        psi = math.atan2(z0[1], z0[0])
+        details["stable_limit_theta"] = (1.5 * math.pi - psi) % (2 * math.pi)
+    return EquilibriaResult((float(-z0[0]), float(-z0[1])), part.area, delta, "asymptotic",
+                            tuple(equilibria), details)

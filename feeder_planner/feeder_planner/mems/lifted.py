@@ -1,0 +1,180 @@
+"""Exact lifted unit-radial potential V(X, Y) = int_S |(X, Y) + r| dA (eq. 4) and its derivatives.
+
+Orders 0-2 are closed forms of boundary integrals (divergence theorem: V = 1/3 oint |r| (r.n) ds,
+grad V = oint |r| n ds (eqs. 5-6), Hess V = oint (r/|r|) n^T ds (eqs. 7-9)); every edge integral is
+elementary (sqrt and asinh). Orders >= 3 use d^{k}V = oint d^{k-1}|r| n ds, the (k-1)-th derivatives
+of |r| obtained exactly by the Leibniz recursion of |r|*|r| = xi^2 + eta^2 and integrated by
+Gauss-Legendre on pieces graded geometrically away from the foot of the origin on each edge line, so
+that every piece sees the integrand's complex singularities (foot +- i h) at least one piece length
+away: 24 nodes then give a relative error below 1e-14. Valid while the origin is not on the boundary.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+from math import comb, factorial
+
+import numpy as np
+
+from feeder_planner.errors import InputError
+from feeder_planner.parts import Part
+
+
+@dataclass(frozen=True)
+class Edges:
+    """All boundary edges of a part (outer counter-clockwise, holes clockwise) as arrays."""
+
+    start: np.ndarray    # (E, 2) in the part frame
+    direction: np.ndarray  # (E, 2) unit tangent
+    normal: np.ndarray   # (E, 2) unit outward normal of the area
+    length: np.ndarray   # (E,)
+    scale: float         # part radius, the length scale of tolerances
+
+
+def part_edges(part: Part) -> Edges:
+    """Edges of the part's loops, oriented so the area lies on their left."""
+    starts, ends = [], []
+    for loop in part.loops():
+        starts.append(loop)
+        ends.append(np.roll(loop, -1, axis=0))
+    a, b = np.vstack(starts), np.vstack(ends)
+    d = b - a
+    length = np.hypot(d[:, 0], d[:, 1])
+    u = d / length[:, None]
+    n = np.column_stack([u[:, 1], -u[:, 0]])
+    return Edges(a, u, n, length, part.radius)
+
+
+def _edge_terms(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Per-edge (s0, s1, h, rho0, rho1, h*A, h^2*A) with A = int ds/|r| along the translated edge."""
+    a = edges.start + z[..., None, :]                       # (..., E, 2)
+    s0 = np.einsum("...ek,ek->...e", a, edges.direction)
+    h = np.einsum("...ek,ek->...e", a, edges.normal)
+    s1 = s0 + edges.length
+    ah = np.abs(h)
+    rho0 = np.hypot(s0, h)
+    rho1 = np.hypot(s1, h)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # asinh(s1/|h|) - asinh(s0/|h|) without cancellation: pick the form by the signs of s0, s1.
+        pos = np.log((s1 + rho1) / (s0 + rho0))
+        neg = np.log((rho0 - s0) / (rho1 - s1))
+        straddle = np.log((s1 + rho1) / ah) + np.log((rho0 - s0) / ah)
+        big = np.where(s0 >= 0, pos, np.where(s1 <= 0, neg, straddle))
+        h_a = np.where(h == 0.0, 0.0, h * big)
+    return s0, s1, h, rho0, rho1, h_a
+
+
+def potential(edges: Edges, z: np.ndarray) -> np.ndarray:
+    """V at translations z (..., 2): 1/3 sum_e h_e int |r| ds, int |r| ds = [s rho + h^2 asinh(s/|h|)]/2."""
+    s0, s1, h, rho0, rho1, h_a = _edge_terms(edges, np.asarray(z, float))
+    i0 = 0.5 * (s1 * rho1 - s0 * rho0 + h * h_a)
+    return (h * i0).sum(axis=-1) / 3.0
+
+
+def gradient(edges: Edges, z: np.ndarray) -> np.ndarray:
+    """(dV/dX, dV/dY) at translations z (..., 2), eqs. (5-6) as oint |r| n ds."""
+    s0, s1, h, rho0, rho1, h_a = _edge_terms(edges, np.asarray(z, float))
+    i0 = 0.5 * (s1 * rho1 - s0 * rho0 + h * h_a)
+    return np.einsum("...e,ek->...k", i0, edges.normal)
+
+
+def value_gradient_hessian(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """V, grad V and Hess V (eqs. 4-9) at translations z (..., 2), all closed forms."""
+    s0, s1, h, rho0, rho1, h_a = _edge_terms(edges, np.asarray(z, float))
+    i0 = 0.5 * (s1 * rho1 - s0 * rho0 + h * h_a)
+    value = (h * i0).sum(axis=-1) / 3.0
+    grad = np.einsum("...e,ek->...k", i0, edges.normal)
+    # int r/|r| ds = u [rho] + n h A; Hess_ij = sum_e (int r_i/|r| ds) n_j, symmetric in exact arithmetic.
+    w = (rho1 - rho0)[..., None] * edges.direction + h_a[..., None] * edges.normal
+    hess = np.einsum("...ei,ej->...ij", w, edges.normal)
+    hess = 0.5 * (hess + np.swapaxes(hess, -1, -2))
+    return value, grad, hess
+
+
+def gradient_noise(edges: Edges, z: np.ndarray) -> np.ndarray:
+    """A bound on the rounding error of ``gradient`` at z (..., ): 8 eps times the sum of its terms."""
+    s0, s1, h, rho0, rho1, h_a = _edge_terms(edges, np.asarray(z, float))
+    terms = 0.5 * (np.abs(s1 * rho1) + np.abs(s0 * rho0) + np.abs(h * h_a))
+    return 8.0 * np.finfo(float).eps * terms.sum(axis=-1)
+
+
+def _rho_derivatives(xi: np.ndarray, eta: np.ndarray, order: int) -> dict[tuple[int, int], np.ndarray]:
+    """All d^{i+j}|r| / dxi^i deta^j for i + j <= order, by Leibniz on |r|^2 = xi^2 + eta^2."""
+    rho = np.hypot(xi, eta)
+    d: dict[tuple[int, int], np.ndarray] = {(0, 0): rho}
+    square = {(1, 0): 2 * xi, (0, 1): 2 * eta, (2, 0): 2.0, (0, 2): 2.0}
+    for total in range(1, order + 1):
+        for i in range(total, -1, -1):
+            j = total - i
+            acc = np.asarray(square.get((i, j), 0.0), float) * np.ones_like(rho)
+            for bi in range(i + 1):
+                for bj in range(j + 1):
+                    if (bi, bj) in ((0, 0), (i, j)):
+                        continue
+                    acc = acc - comb(i, bi) * comb(j, bj) * d[(bi, bj)] * d[(i - bi, j - bj)]
+            d[(i, j)] = acc / (2.0 * rho)
+    return d
+
+
+@lru_cache(maxsize=8)
+def _gauss(nodes: int) -> tuple[np.ndarray, np.ndarray]:
+    x, w = np.polynomial.legendre.leggauss(nodes)
+    return 0.5 * (x + 1.0), 0.5 * w
+
+
+def _pieces(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Breakpoints on every translated edge, graded geometrically about the foot of the origin."""
+    a = edges.start + z
+    s0 = -(a * edges.direction).sum(axis=1)       # foot of the origin, arc length from the edge start
+    h = np.abs((a * edges.normal).sum(axis=1))
+    length = edges.length
+    outside = np.maximum(np.maximum(-s0, s0 - length), 0.0)   # distance from the foot to the segment
+    r0 = np.maximum(h, 0.5 * outside)
+    if np.any(r0 <= 1e-15 * edges.scale):
+        raise InputError("field centre", "lies on the part boundary: V is not differentiable there (Prop. 2)")
+    levels = int(np.clip(np.ceil(np.log2((length.max() + np.abs(s0).max()) / r0.min())) + 2, 1, 80))
+    k = r0[:, None] * 2.0 ** np.arange(levels)[None, :]
+    cuts = np.concatenate([np.zeros((len(s0), 1)), length[:, None], s0[:, None], s0[:, None] + k,
+                           s0[:, None] - k], axis=1)
+    cuts = np.sort(np.clip(cuts, 0.0, length[:, None]), axis=1)
+    return a, cuts[:, :-1], cuts[:, 1:]
+
+
+def derivatives(part_or_edges: Part | Edges, z: np.ndarray, order: int, nodes: int = 24) -> dict[tuple[int, int], float]:
+    """All partial derivatives V_{i,j} = d^{i+j}V / dX^i dY^j at z for 1 <= i + j <= order (Table 1 input).
+
+    Orders <= 2 come from the closed forms; higher ones from the graded boundary quadrature.
+    Raises InputError when the field centre lies on the part boundary (V is only C^2 there).
+    """
+    edges = part_or_edges if isinstance(part_or_edges, Edges) else part_edges(part_or_edges)
+    z = np.asarray(z, float)
+    _, grad, hess = value_gradient_hessian(edges, z)
+    out: dict[tuple[int, int], float] = {(1, 0): float(grad[0]), (0, 1): float(grad[1]),
+                                         (2, 0): float(hess[0, 0]), (1, 1): float(hess[0, 1]),
+                                         (0, 2): float(hess[1, 1])}
+    if order <= 2:
+        return {key: value for key, value in out.items() if sum(key) <= order}
+    a, lo, hi = _pieces(edges, z)
+    t, w = _gauss(nodes)
+    s = lo[:, :, None] + (hi - lo)[:, :, None] * t           # (E, P, G)
+    weight = (hi - lo)[:, :, None] * w
+    points = a[:, None, None, :] + s[..., None] * edges.direction[:, None, None, :]
+    d = _rho_derivatives(points[..., 0], points[..., 1], order - 1)
+    nx, ny = edges.normal[:, 0][:, None, None], edges.normal[:, 1][:, None, None]
+    for total in range(3, order + 1):
+        for i in range(total, -1, -1):
+            j = total - i
+            # Peel one derivative off onto the boundary normal: d_X^i d_Y^j V = oint d^{i-1,j}|r| n_x ds.
+            integrand = d[(i - 1, j)] * nx if i > 0 else d[(i, j - 1)] * ny
+            out[(i, j)] = float((integrand * weight).sum())
+    return out
+
+
+def taylor_factorials(order: int) -> np.ndarray:
+    """1 / (i! j!) for i + j <= order, as a square array (a helper of the Taylor expansions)."""
+    f = np.zeros((order + 1, order + 1))
+    for i in range(order + 1):
+        for j in range(order + 1 - i):
+            f[i, j] = 1.0 / (factorial(i) * factorial(j))
+    return f
