@@ -86,13 +86,13 @@ def stable_region(system: EquilibriumSystem) -> StableRegion:
             return _region("antipodal_pair", [], other, [d, -d], 0.0, d if d[2] <= 0 else -d, system, oracle)
         return _region("point", [-d], other, [d], 0.0, d, system, oracle)
     basis = np.array(span)
-    facets = _facets(oracle, basis, points)
+    facets, section = _facets(oracle, basis, points)
     origin_normals = _unique([basis.T @ n for n, offset in facets if offset < ORIGIN_TOLERANCE])
     if dim == 2:
         e = np.cross(span[0], span[1])
         e /= np.linalg.norm(e)
         return _planar(origin_normals, e, system, oracle)
-    return _solid(origin_normals, system, oracle)
+    return _solid(origin_normals, section, system, oracle)
 
 
 def _region(kind: str, normals: list, equalities: list, vertices: list, area: float, center: np.ndarray | None,
@@ -137,36 +137,60 @@ def _complement(span: list[np.ndarray]) -> list[np.ndarray]:
     return []
 
 
-def _facets(oracle: SupportOracle, basis: np.ndarray, points: list[np.ndarray]) -> list[tuple[np.ndarray, float]]:
-    """Certified facets (normal, offset) of P in the coordinates of ``basis`` (outer/inner iteration)."""
-    coords = [basis @ p for p in points]
-    confirmed: list[tuple[np.ndarray, float]] = []
+def _facets(oracle: SupportOracle, basis: np.ndarray, points: list[np.ndarray]
+            ) -> tuple[list[tuple[np.ndarray, float]], np.ndarray]:
+    """Certified facets (normal, offset) of P in the coordinates of ``basis`` (outer/inner iteration), and P's points.
+
+    Each round solves one LP per unconfirmed hull facet: the facet is confirmed when its support value does not
+    exceed its offset, else the optimiser joins the point set; the hull is rebuilt after each round.
+    """
+    coords = np.asarray([basis @ p for p in points])
+    confirmed_n = np.zeros((0, basis.shape[0]))
+    confirmed_h = np.zeros(0)
     for _ in range(10000):
         try:
-            hull = ConvexHull(np.asarray(coords))
+            hull = ConvexHull(coords)
         except QhullError as exc:
             raise SolverError(f"hull of the stable cone section failed: {str(exc).splitlines()[0]}") from None
-        planes = []
-        for equation in hull.equations:
-            normal, offset = equation[:-1], -equation[-1]
-            if not any(normal @ n > 1 - 1e-9 and abs(offset - h) < 1e-9 for n, h in planes):
-                planes.append((normal, offset))
-        pending = [(n, h) for n, h in planes
-                   if not any(n @ m > 1 - 1e-9 and abs(h - k) < 1e-9 for m, k in confirmed)]
-        if not pending:
-            return planes
-        grew = False
-        for normal, offset in pending:
-            value, g = oracle(basis.T @ normal)
-            if value <= offset + SUPPORT_TOLERANCE:
-                confirmed.append((normal, offset))
+        normals, offsets = _distinct_planes(hull.equations[:, :-1], -hull.equations[:, -1])
+        if len(confirmed_h):
+            match = (normals @ confirmed_n.T > 1 - 1e-9) & (np.abs(offsets[:, None] - confirmed_h[None, :]) < 1e-9)
+            pending = np.nonzero(~match.any(axis=1))[0]
+        else:
+            pending = np.arange(len(offsets))
+        if len(pending) == 0:
+            return list(zip(normals, offsets)), coords @ basis
+        new_points = []
+        for i in pending:
+            value, g = oracle(basis.T @ normals[i])
+            if value <= offsets[i] + SUPPORT_TOLERANCE:
+                confirmed_n = np.vstack([confirmed_n, normals[i]])
+                confirmed_h = np.append(confirmed_h, offsets[i])
             else:
-                coords.append(basis @ g)
-                grew = True
-                break
-        if not grew:
-            return planes
+                new_points.append(basis @ g)
+        if new_points:
+            coords = np.vstack([coords, _distinct_rows(np.asarray(new_points))])
     raise SolverError("stable region iteration did not converge")
+
+
+def _distinct_planes(normals: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Merge the coplanar triangles qhull reports for one facet."""
+    keep: list[int] = []
+    for i in range(len(offsets)):
+        if keep:
+            kn = normals[keep]
+            if np.any((kn @ normals[i] > 1 - 1e-9) & (np.abs(offsets[keep] - offsets[i]) < 1e-9)):
+                continue
+        keep.append(i)
+    return normals[keep], offsets[keep]
+
+
+def _distinct_rows(rows: np.ndarray) -> np.ndarray:
+    keep: list[int] = []
+    for i in range(len(rows)):
+        if not keep or np.min(np.linalg.norm(rows[keep] - rows[i], axis=1)) > 1e-12:
+            keep.append(i)
+    return rows[keep]
 
 
 def _unique(vectors: list[np.ndarray]) -> list[np.ndarray]:
@@ -198,7 +222,8 @@ def _planar(normals: list[np.ndarray], e: np.ndarray, system: EquilibriumSystem,
     return _region("arc", normals, [e], ends, 0.0, ends[0] + ends[1], system, oracle)
 
 
-def _solid(normals: list[np.ndarray], system: EquilibriumSystem, oracle: SupportOracle) -> StableRegion:
+def _solid(normals: list[np.ndarray], section: np.ndarray, system: EquilibriumSystem, oracle: SupportOracle
+           ) -> StableRegion:
     """V is 3-D: the sphere, a hemisphere, a lune, or a convex spherical polygon."""
     if not normals:
         return _region("sphere", [], [], [], 4 * math.pi, np.array([0.0, 0.0, -1.0]), system, oracle)
@@ -211,26 +236,30 @@ def _solid(normals: list[np.ndarray], system: EquilibriumSystem, oracle: Support
         angle = math.pi - math.acos(float(np.clip(n1 @ n2, -1.0, 1.0)))
         return _region("region", normals, [], _ccw([axis, -axis], -(n1 + n2)), 2 * angle, -(n1 + n2), system,
                        oracle)
-    vertices = _vertices(normals)
-    center = _center(normals)
+    # The sum of P's points is inside the pointed cone V: a direction to order the vertices around.
+    inside = section.sum(axis=0)
+    vertices = _vertices(normals, inside)
+    center = _center(normals, vertices)
     area = _polygon_area(vertices, center)
     return _region("region", normals, [], vertices, area, center, system, oracle)
 
 
-def _vertices(normals: list[np.ndarray]) -> list[np.ndarray]:
+def _vertices(normals: list[np.ndarray], inside: np.ndarray) -> list[np.ndarray]:
+    """Corners of the spherical polygon: n_i x n_j (either sign) satisfying every n.g <= 0."""
     n = np.asarray(normals)
+    i, j = np.triu_indices(len(n), 1)
+    axes = np.cross(n[i], n[j])
+    norms = np.linalg.norm(axes, axis=1)
+    axes = axes[norms > 1e-12] / norms[norms > 1e-12, None]
+    candidates = np.vstack([axes, -axes])
+    feasible = candidates[np.all(candidates @ n.T <= 1e-8, axis=1)]
     found: list[np.ndarray] = []
-    for i, j in itertools.combinations(range(len(n)), 2):
-        axis = np.cross(n[i], n[j])
-        norm = np.linalg.norm(axis)
-        if norm < 1e-12:
-            continue
-        for v in (axis / norm, -axis / norm):
-            if np.all(n @ v <= 1e-8) and not any(v @ u > 1 - 1e-12 for u in found):
-                found.append(v)
+    for v in feasible:
+        if not found or np.max(np.asarray(found) @ v) < 1 - 1e-12:
+            found.append(v)
     if len(found) < 3:
         raise SolverError(f"stable region with {len(normals)} facets has only {len(found)} vertices")
-    return _ccw(found, np.sum(found, axis=0))
+    return _ccw(found, inside)
 
 
 def _ccw(vertices: list[np.ndarray], around: np.ndarray) -> list[np.ndarray]:
@@ -240,13 +269,16 @@ def _ccw(vertices: list[np.ndarray], around: np.ndarray) -> list[np.ndarray]:
     return sorted(vertices, key=lambda p: math.atan2(float(p @ v), float(p @ u)))
 
 
-def _center(normals: list[np.ndarray]) -> np.ndarray:
+def _center(normals: list[np.ndarray], vertices: list[np.ndarray]) -> np.ndarray:
     """argmax over unit g of min_i (-n_i . g): the point farthest in angle from every boundary great circle.
 
     The optimum is equidistant from an active set of at most three great circles, so enumerating the
     candidate points of every set of one, two or three normals and keeping the best feasible one is exact.
+    Beyond 60 facets (fine pyramids only) the max-min is solved by SLSQP from the vertex mean instead.
     """
     n = np.asarray(normals)
+    if len(n) > 60:
+        return _center_slsqp(n, np.sum(vertices, axis=0))
     candidates = [-n]
     pairs = np.array(list(itertools.combinations(range(len(n)), 2)))
     candidates.append(-(n[pairs[:, 0]] + n[pairs[:, 1]]))
@@ -261,6 +293,20 @@ def _center(normals: list[np.ndarray]) -> np.ndarray:
     cand = cand[norms > 1e-12] / norms[norms > 1e-12, None]
     scores = np.min(-(cand @ n.T), axis=1)
     return cand[int(np.argmax(scores))]
+
+
+def _center_slsqp(n: np.ndarray, start: np.ndarray) -> np.ndarray:
+    from scipy.optimize import minimize
+
+    x0 = np.concatenate([start / np.linalg.norm(start), [0.0]])
+    result = minimize(lambda x: -x[3], x0, jac=lambda x: np.array([0.0, 0.0, 0.0, -1.0]), method="SLSQP",
+                      constraints=[{"type": "ineq", "fun": lambda x: -(n @ x[:3]) - x[3],
+                                    "jac": lambda x: np.hstack([-n, -np.ones((len(n), 1))])},
+                                   {"type": "ineq", "fun": lambda x: 1.0 - x[:3] @ x[:3],
+                                    "jac": lambda x: np.concatenate([-2 * x[:3], [0.0]])[None, :]}],
+                      options={"ftol": 1e-12, "maxiter": 500})
+    g = result.x[:3]
+    return g / np.linalg.norm(g)
 
 
 def _chunks(items: list, size: int):
