@@ -82,7 +82,7 @@ def edge_bounds(part: ArmPart, params: ThrowParams, points: int = SCAN_POINTS) -
             flips = np.flatnonzero(~out.is_jog(np.full(points, i)))
             if flips.size:
                 first = int(flips[0])
-                flip[i] = float(r[first])
+                flip[i] = _refine_flip(part, params, i, float(r[first - 1]), float(r[first])) if first else float(r[0])
                 outward[i] = bool(np.all(out.radius[:first] > r[:first]))
                 top[i] = max(float(r[first]), float(out.radius[:first].max()) if first else float(r[first]))
                 break
@@ -107,6 +107,18 @@ def edge_bounds(part: ArmPart, params: ThrowParams, points: int = SCAN_POINTS) -
     else:
         invariant = False
     return EdgeBounds(grasp, low, flip, top, outward, invariant)
+
+
+def _refine_flip(part: ArmPart, params: ThrowParams, edge: int, jog_r: float, flip_r: float) -> float:
+    """Bisect between the last jog and the first flip of the scan grid (to 1e-12 of the radius)."""
+    one = np.array([edge])
+    while flip_r - jog_r > 1e-12 * flip_r:
+        mid = 0.5 * (jog_r + flip_r)
+        if throw_batch(part, one, np.array([mid]), params).is_jog(one)[0]:
+            jog_r = mid
+        else:
+            flip_r = mid
+    return flip_r
 
 
 @dataclass
