@@ -8,13 +8,13 @@ import numpy as np
 
 from feeder_planner.errors import SolverError
 from feeder_planner.mems.curve import hessian_xyt, pivot_translation
-from feeder_planner.mems.lifted import Edges, derivatives, part_edges, taylor_factorials
+from feeder_planner.mems.lifted import Edges, derivatives, gradient_noise, part_edges, taylor_factorials, value_gradient_hessian
 from feeder_planner.mems.result import EquilibriaResult, Equilibrium
 from feeder_planner.parts import Part
 
 MAX_ORDER = 9            # n up to 9 (Table 1's loop), plus EXTRA orders for the refinement of theta(delta)
 EXTRA = 2
-PIVOT_TOL = 1e-10        # |(X0, Y0)| below this fraction of the part radius: pivot = centroid (Table 1's test)
+PIVOT_TOL = 100.0        # |(X0, Y0)| below PIVOT_TOL times its rounding-error bound: pivot = centroid (Table 1's test)
 ZERO_TOL = 1e-9          # d^k x*/d delta^k is 'identically zero' below this fraction of max_{j<=k} |d^j (X*, Y*)|
 SAMPLES = 64             # theta samples: the trig polynomials have degree <= k + 1 < 32, so the FFT is exact
 
@@ -109,7 +109,10 @@ def asymptotic_equilibria(part: Part, delta: float, edges: Edges | None = None) 
     rho = float(np.hypot(*z0))
     theta_grid = 2 * math.pi * np.arange(SAMPLES) / SAMPLES
     c_t, s_t = np.cos(theta_grid), np.sin(theta_grid)
-    if rho > PIVOT_TOL * scale:
+    # Table 1 tests grad V(0, 0) != 0; in floating point: is the pivot resolvably off the centroid?
+    hess0 = value_gradient_hessian(edges, z0)[2]
+    noise = float(gradient_noise(edges, z0)) / float(np.linalg.eigvalsh(hess0)[0])
+    if rho > PIVOT_TOL * noise:
         n = 0
     else:
         n = None

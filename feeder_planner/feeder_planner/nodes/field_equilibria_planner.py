@@ -1,0 +1,131 @@
+"""ROS 2 node: the equilibria planner of the MEMS field array (thin adapter around feeder_planner.mems)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import rclpy
+from geometry_msgs.msg import Pose
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+from feeder_msgs.msg import EquilibriaPrediction, Equilibrium, FieldProgram, MemsPartStates, MemsParts
+from feeder_msgs.srv import EquilibriaCompute
+from feeder_planner.errors import FeederError, InputError
+from feeder_planner.mems.equilibria import METHODS, find_equilibria
+from feeder_planner.mems.fields import CombinedField
+from feeder_planner.mems.messages import program_from_msg
+from feeder_planner.mems.predict import final_equilibrium
+from feeder_planner.nodes.ros_common import ParameterSpec, declare_parameters, part_from_msg, positive, service_guard
+
+LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+
+PARAMETERS = (
+    ParameterSpec("default_method", "auto", "method when a request leaves it empty: auto | asymptotic | numeric",
+                  lambda v: None if v in METHODS else f"must be one of {', '.join(METHODS)}, got {v!r}"),
+    ParameterSpec("prediction_rate", 2.0, "rate (Hz) at which predicted final poses are refreshed", positive),
+)
+
+
+class FieldEquilibriaPlanner(Node):
+    """Serves /mems/equilibria and publishes /mems/predicted_poses for the array's last field."""
+
+    def __init__(self) -> None:
+        super().__init__("field_equilibria_planner")
+        self.p = declare_parameters(self, PARAMETERS)
+        self.create_service(EquilibriaCompute, "/mems/equilibria", service_guard(self)(self.on_compute))
+        self.prediction_pub = self.create_publisher(EquilibriaPrediction, "/mems/predicted_poses", LATCHED)
+        self.create_subscription(FieldProgram, "/mems/field_program", self.on_program, LATCHED)
+        self.create_subscription(MemsParts, "/mems/parts", self.on_parts, LATCHED)
+        self.create_subscription(MemsPartStates, "/mems/part_states", self.on_states, 10)
+        self.program = None
+        self.parts: list = []
+        self.states = None
+        self.results: dict[int, Any] = {}
+        self.last_published: list[tuple[float, float, float]] | None = None
+        self.create_timer(1.0 / self.p["prediction_rate"], self.predict)
+
+    def on_compute(self, request: Any, response: Any) -> Any:
+        part = part_from_msg(request.part, "part")
+        method = request.method or self.p["default_method"]
+        if method not in METHODS:
+            raise InputError("method", f"unknown method {method!r} (expected one of {', '.join(METHODS)})")
+        result = find_equilibria(part, request.delta, method)
+        response.method = result.method
+        response.pivot_x, response.pivot_y = result.pivot
+        response.area = result.area
+        response.equilibria = [Equilibrium(x=e.x, y=e.y, theta=e.theta % (2 * math.pi), stable=e.stable)
+                               for e in result.equilibria]
+        return response
+
+    def on_program(self, msg: FieldProgram) -> None:
+        try:
+            self.program = program_from_msg(msg)
+        except InputError as error:
+            self.get_logger().warning(f"ignoring field program: {error}")
+            return
+        self.results.clear()
+
+    def on_parts(self, msg: MemsParts) -> None:
+        try:
+            self.parts = [part_from_msg(p, f"parts[{i}]") for i, p in enumerate(msg.parts)]
+        except InputError as error:
+            self.get_logger().warning(f"ignoring parts: {error}")
+            return
+        self.results.clear()
+
+    def on_states(self, msg: MemsPartStates) -> None:
+        self.states = msg
+
+    def predict(self) -> None:
+        if self.program is None or not self.parts or self.states is None:
+            return
+        field = self.program[-1].field
+        if not isinstance(field, CombinedField) or field.delta <= 0:
+            return   # only the radial + constant field has the planned equilibria (section 3)
+        out = EquilibriaPrediction(field_type="combined", delta=field.delta)
+        out.header.stamp = self.get_clock().now().to_msg()
+        out.header.frame_id = self.states.header.frame_id
+        summary = []
+        for i, (part, state) in enumerate(zip(self.parts, self.states.parts)):
+            try:
+                if i not in self.results:
+                    self.results[i] = find_equilibria(part, field.delta, self.p["default_method"])
+            except FeederError as error:
+                self.get_logger().warning(f"no prediction for {state.name}: {error}")
+                return
+            # equilibria are computed for the field centred at the origin; the field's centre translates them
+            e = final_equilibrium(self.results[i], state.theta)
+            x, y = e.x + field.center[0], e.y + field.center[1]
+            pose = Pose()
+            pose.position.x, pose.position.y = x, y
+            pose.orientation.z, pose.orientation.w = math.sin(e.theta / 2), math.cos(e.theta / 2)
+            out.names.append(state.name)
+            out.poses.append(pose)
+            out.theta.append(e.theta)
+            summary.append((round(x, 12), round(y, 12), round(e.theta, 9)))
+        if summary != self.last_published:
+            self.prediction_pub.publish(out)
+            self.last_published = summary
+
+
+def main(args: list[str] | None = None) -> None:
+    rclpy.init(args=args)
+    try:
+        node = FieldEquilibriaPlanner()
+    except InputError as error:
+        rclpy.logging.get_logger("field_equilibria_planner").fatal(f"bad configuration: {error}")
+        rclpy.try_shutdown()
+        raise SystemExit(2) from None
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    main()

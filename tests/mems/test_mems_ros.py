@@ -1,0 +1,120 @@
+"""Over DDS: the MEMS array simulator settles where the equilibria planner says; bad requests are answered."""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import pytest
+import ros_harness
+import yaml
+
+from feeder_planner.mems.equilibria import find_equilibria
+from feeder_planner.parts import load_part
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "mems"
+PART = EXAMPLES / "bracket.yaml"
+DELTA = 0.3
+
+
+def part_msg():
+    from feeder_msgs.msg import Part, Polygon2D
+    from feeder_planner.nodes.ros_common import part_to_msg
+    return part_to_msg(yaml.safe_load(PART.read_text()), Part, Polygon2D)
+
+
+@pytest.fixture(scope="module")
+def nodes(launch_module_node):
+    sim = launch_module_node("feeder_sim", "mems_field_array", {
+        "part_files": [str(PART)], "seed": 7, "real_time_factor": 20.0, "publish_rate": 20.0,
+        "time_step": 5e-4, "default_delta": DELTA, "placement_radius": 1e-3},
+        wait_topics=("/mems/part_states", "/mems/field_program", "/clock"),
+        wait_services=("/mems/set_program", "/mems/place_parts"))
+    planner = launch_module_node("feeder_planner", "field_equilibria_planner", {},
+                                 wait_services=("/mems/equilibria",), wait_topics=("/mems/predicted_poses",))
+    return sim, planner
+
+
+def compute(ros_client, **fields):
+    from feeder_msgs.srv import EquilibriaCompute
+    request = EquilibriaCompute.Request(part=fields.pop("part", part_msg()), delta=DELTA, method="")
+    for key, value in fields.items():
+        setattr(request, key, value)
+    return ros_harness.call_service(ros_client, EquilibriaCompute, "/mems/equilibria", request)
+
+
+@pytest.mark.ros
+def test_service_matches_mechanics(nodes, ros_client) -> None:
+    response = compute(ros_client)
+    assert response.ok, response.error
+    expected = find_equilibria(load_part(PART), DELTA)
+    assert len(response.equilibria) == len(expected.equilibria)
+    for got, want in zip(response.equilibria, expected.equilibria):
+        assert got.stable == want.stable and abs(got.theta - want.theta % (2 * math.pi)) <= 1e-9
+    assert (response.pivot_x, response.pivot_y) == pytest.approx(expected.pivot, abs=1e-15)
+
+
+@pytest.mark.ros
+def test_simulator_settles_at_a_planned_stable_equilibrium(nodes, ros_client) -> None:
+    from feeder_msgs.msg import EquilibriaPrediction, MemsPartStates
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    stable = [e for e in compute(ros_client).equilibria if e.stable]
+    deadline = time.monotonic() + 90
+    previous = None
+    while time.monotonic() < deadline:
+        state = ros_harness.collect(ros_client, MemsPartStates, "/mems/part_states", count=1)[-1].parts[0]
+        pose = (state.pose.position.x, state.pose.position.y, state.theta)
+        if previous is not None and math.hypot(pose[0] - previous[0], pose[1] - previous[1]) < 1e-9 and \
+                abs(math.remainder(pose[2] - previous[2], 2 * math.pi)) < 1e-6:
+            break
+        previous = pose
+        time.sleep(0.5)
+    else:
+        pytest.fail(f"the part did not come to rest; last pose {pose}")
+    gaps = [(abs(math.remainder(pose[2] - e.theta, 2 * math.pi)), math.hypot(pose[0] - e.x, pose[1] - e.y))
+            for e in stable]
+    angle_gap, distance = min(gaps)
+    assert angle_gap <= 1e-4 and distance <= 1e-7          # stated tolerance: 1e-4 rad, 0.1 um
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+    prediction = ros_harness.collect(ros_client, EquilibriaPrediction, "/mems/predicted_poses", count=1, qos=latched)[-1]
+    assert abs(math.remainder(prediction.theta[0] - pose[2], 2 * math.pi)) <= 1e-4
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize("change,field", [({"delta": 1.5}, "delta"), ({"delta": float("nan")}, "delta"),
+                                          ({"method": "guess"}, "method")])
+def test_bad_requests_name_the_field_and_node_keeps_serving(nodes, ros_client, change, field) -> None:
+    response = compute(ros_client, **change)
+    assert not response.ok and field in response.error
+    assert compute(ros_client).ok
+
+
+@pytest.mark.ros
+def test_bad_part_in_request(nodes, ros_client) -> None:
+    msg = part_msg()
+    msg.outer.x, msg.outer.y = [0.0, 1.0, 1.0, 0.0], [0.0, 1.0, 0.0, 1.0]      # self-intersecting
+    response = compute(ros_client, part=msg)
+    assert not response.ok and "part.outer" in response.error
+    msg.outer.x, msg.outer.y = [0.0, 1.0], [0.0, 1.0]
+    response = compute(ros_client, part=msg)
+    assert not response.ok and "part.outer" in response.error
+
+
+@pytest.mark.ros
+def test_bad_program_and_placement(nodes, ros_client) -> None:
+    from feeder_msgs.msg import FieldProgram, FieldSpec
+    from feeder_msgs.srv import FieldSetProgram, MemsPlaceParts
+    bad = FieldSetProgram.Request(program=FieldProgram(steps=[FieldSpec(type="vortex")]))
+    response = ros_harness.call_service(ros_client, FieldSetProgram, "/mems/set_program", bad)
+    assert not response.ok and "program.steps[0].type" in response.error
+    bad = FieldSetProgram.Request(program=FieldProgram(steps=[FieldSpec(type="combined", delta=2.0)]))
+    response = ros_harness.call_service(ros_client, FieldSetProgram, "/mems/set_program", bad)
+    assert not response.ok and "program.steps[0].delta" in response.error
+    place = MemsPlaceParts.Request(names=["nobody"], x=[0.0], y=[0.0], theta=[0.0])
+    response = ros_harness.call_service(ros_client, MemsPlaceParts, "/mems/place_parts", place)
+    assert not response.ok and "names[0]" in response.error
+    place = MemsPlaceParts.Request(names=["bracket"], x=[float("nan")], y=[0.0], theta=[0.0])
+    response = ros_harness.call_service(ros_client, MemsPlaceParts, "/mems/place_parts", place)
+    assert not response.ok and "x[0]" in response.error
+    assert nodes[0].alive()
