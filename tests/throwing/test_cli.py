@@ -1,0 +1,88 @@
+"""`feeder throw` / `feeder limit-set` per the contract: JSON in SI, file units on the command line, bad input."""
+
+import json
+import math
+
+import pytest
+
+from feeder_planner.cli.main import main
+from feeder_planner.parts import load_part
+from feeder_planner.throwing.geometry import arm_part
+from feeder_planner.throwing.throw_map import throw
+from helpers import EXAMPLES, TRIANGLE_PARAMS
+
+TRI = str(EXAMPLES / "triangle.yaml")
+PAPER = ["--offset", "-0.5", "--release-speed", "320deg", "--gravity", "-966", "--mu", "0.5"]
+
+
+def _run(capsys, argv):
+    code = main(argv)
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_throw_json_is_si_and_matches_the_library(capsys):
+    code, out, err = _run(capsys, ["throw", TRI, "--edge", "1", "--radius", "12", *PAPER, "--json"])
+    assert code == 0 and err == ""
+    result = json.loads(out)
+    expected = throw(arm_part(load_part(TRI)), 1, 0.12, TRIANGLE_PARAMS)
+    assert result["edge"] == expected.edge and result["kind"] == expected.kind
+    assert math.isclose(result["radius"], expected.radius, rel_tol=1e-12)
+    assert 0.05 < result["radius"] < 0.5  # metres, not centimetres
+
+
+def test_release_speed_in_radians_equals_degrees(capsys):
+    argv = ["throw", TRI, "--edge", "1", "--radius", "12", "--offset", "-0.5", "--gravity", "-966", "--mu", "0.5",
+            "--json", "--release-speed"]
+    _, a, _ = _run(capsys, argv + ["320deg"])
+    _, b, _ = _run(capsys, argv + [repr(math.radians(320))])
+    assert json.loads(a) == json.loads(b)
+
+
+def test_limit_set_json_has_contract_keys(capsys):
+    code, out, _ = _run(capsys, ["limit-set", TRI, *PAPER, "--goal-edge", "1", "--starts-per-edge", "6",
+                                 "--throws", "200", "--json"])
+    assert code == 0
+    r = json.loads(out)
+    for key in ("stable_edges", "grasp_radius", "cycle", "edge_radius_ranges", "trigger"):
+        assert key in r
+    assert r["cycle"]["edges"] and r["cycle"]["throws_per_cycle"] > 0
+    assert r["trigger"]["goal_edge"] == 1
+    lo, hi = r["trigger"]["radius_range"]
+    assert lo < hi
+    assert set(r["grasp_radius"]) == {str(i) for i in r["stable_edges"]}
+
+
+@pytest.mark.parametrize("change,flag", [
+    (("--gravity", "966"), "--gravity"), (("--gravity", "0"), "--gravity"),
+    (("--release-speed", "0"), "--release-speed"), (("--release-speed", "-3"), "--release-speed"),
+    (("--mu", "0"), "--mu"), (("--mu", "-1"), "--mu"), (("--radius", "1"), "--radius"),
+    (("--radius", "nan"), "--radius"), (("--edge", "7"), "--edge"),
+])
+def test_bad_flags_exit_2_with_one_line_naming_the_flag(capsys, change, flag):
+    argv = ["throw", TRI, "--edge", "1", "--radius", "12", *PAPER]
+    i = argv.index(change[0])
+    argv[i + 1] = change[1]
+    try:
+        code = main(argv)
+    except SystemExit as stop:
+        code = stop.code
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert len([line for line in err if not line.startswith("usage")]) == 1
+    assert flag in err[-1]
+
+
+def test_non_simple_polygon_names_file_and_field(tmp_path, capsys):
+    bad = tmp_path / "bow.yaml"
+    bad.write_text("name: bow\nvertices: [[0, 0], [1, 1], [1, 0], [0, 1]]\n")
+    code, out, err = _run(capsys, ["limit-set", str(bad), *PAPER])
+    assert code == 2 and out == ""
+    assert str(bad) in err and "vertices" in err and len(err.strip().splitlines()) == 1
+
+
+def test_unstable_goal_edge_is_refused(capsys):
+    code, _, err = _run(capsys, ["limit-set", str(EXAMPLES / "bracket.yaml"), "--offset", "-0.25", "--release-speed",
+                                 "320deg", "--gravity", "-220", "--mu", "0.5", "--goal-edge", "3",
+                                 "--starts-per-edge", "3", "--throws", "60"])
+    assert code == 2 and "--goal-edge" in err
