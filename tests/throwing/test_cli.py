@@ -9,7 +9,7 @@ from feeder_planner.cli.main import main
 from feeder_planner.parts import load_part
 from feeder_planner.throwing.geometry import arm_part
 from feeder_planner.throwing.throw_map import throw
-from helpers import EXAMPLES, TRIANGLE_PARAMS
+from throwing_helpers import EXAMPLES, TRIANGLE_PARAMS
 
 TRI = str(EXAMPLES / "triangle.yaml")
 PAPER = ["--offset", "-0.5", "--release-speed", "320deg", "--gravity", "-966", "--mu", "0.5"]

@@ -7,7 +7,7 @@ import pytest
 
 from feeder_planner.throwing.flight import earliest_impact, flight_state, vertex_positions
 from feeder_planner.throwing.impact import kinetic_energy, sticking_impact
-from helpers import TRIANGLE_PARAMS, bracket, rectangle, regular, triangle
+from throwing_helpers import TRIANGLE_PARAMS, bracket, rectangle, regular, triangle
 
 
 def test_flight_conserves_energy_and_matches_its_derivatives():

@@ -6,7 +6,7 @@ import numpy as np
 
 from feeder_planner.parts import make_part
 from feeder_planner.throwing.geometry import arm_part
-from helpers import bracket, rectangle, triangle
+from throwing_helpers import bracket, rectangle, triangle
 
 
 def test_hull_numbering_starts_at_first_file_vertex_on_hull_and_runs_ccw():

@@ -7,7 +7,7 @@ import pytest
 
 from feeder_planner.errors import InputError
 from feeder_planner.throwing.grasp import carry_in_grasp, grasp_radius, impulse_in_grasp
-from helpers import bracket, triangle
+from throwing_helpers import bracket, triangle
 
 
 @pytest.mark.parametrize("make", [triangle, bracket])

@@ -8,7 +8,7 @@ import pytest
 from feeder_planner.throwing.limit_set import edge_bounds, iterate, limit_set
 from feeder_planner.throwing.sensor import reads
 from feeder_planner.throwing.throw_map import ThrowParams, lowest_radius, throw_batch
-from helpers import BRACKET_PARAMS, TRIANGLE_PARAMS, bracket, triangle
+from throwing_helpers import BRACKET_PARAMS, TRIANGLE_PARAMS, bracket, triangle
 
 
 def test_proposition_iv1_no_stable_jog_fixed_point_when_all_edges_stable():

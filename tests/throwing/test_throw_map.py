@@ -8,7 +8,7 @@ import pytest
 from feeder_planner.errors import InputError
 from feeder_planner.throwing.grasp import grasp_radius
 from feeder_planner.throwing.throw_map import ThrowParams, lowest_radius, throw, throw_batch
-from helpers import BRACKET_PARAMS, TRIANGLE_PARAMS, bracket, rectangle, regular, triangle
+from throwing_helpers import BRACKET_PARAMS, TRIANGLE_PARAMS, bracket, rectangle, regular, triangle
 
 
 def _energy_at_rest(part, edge, params):
