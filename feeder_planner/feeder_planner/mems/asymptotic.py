@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 
@@ -16,16 +17,21 @@ MAX_ORDER = 9            # n up to 9 (Table 1's loop), plus EXTRA orders for the
 EXTRA = 2
 PIVOT_TOL = 100.0        # |(X0, Y0)| below PIVOT_TOL times its rounding-error bound: pivot = centroid (Table 1's test)
 ZERO_TOL = 1e-9          # d^k x*/d delta^k is 'identically zero' below this fraction of max_{j<=k} |d^j (X*, Y*)|
-SAMPLES = 64             # theta samples: the trig polynomials have degree <= k + 1 < 32, so the FFT is exact
+SAMPLES = 32             # theta samples: the trig polynomials have degree <= k + 1 <= 12 < 16, so the FFT is exact
+
+
+@lru_cache(maxsize=16)
+def _convolution(n: int) -> np.ndarray:
+    t = np.zeros((n, n, n))
+    for i in range(n):
+        for j in range(n - i):
+            t[i, j, i + j] = 1.0
+    return t
 
 
 def _series_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Product of power series in delta (last axis = coefficient index), truncated."""
-    out = np.zeros_like(a)
-    n = a.shape[-1]
-    for k in range(n):
-        out[..., k] = (a[..., : k + 1] * b[..., k::-1]).sum(-1)
-    return out
+    return np.einsum("...i,...j,ijk->...k", a, b, _convolution(a.shape[-1]), optimize=False)
 
 
 def taylor_coefficients(v: dict[tuple[int, int], float], area: float, theta: np.ndarray, order: int) -> np.ndarray:
@@ -43,7 +49,7 @@ def taylor_coefficients(v: dict[tuple[int, int], float], area: float, theta: np.
         wx, wy = c[:, 0, :], c[:, 1, :]
         px = [np.eye(1, order + 1, 0).repeat(m, 0)]
         py = [np.eye(1, order + 1, 0).repeat(m, 0)]
-        for _ in range(order):
+        for _ in range(k):
             px.append(_series_mul(px[-1], wx))
             py.append(_series_mul(py[-1], wy))
         residual = np.zeros((m, 2))
@@ -83,21 +89,15 @@ def _trig_roots(coef: np.ndarray) -> np.ndarray:
     degree = int(np.max(np.flatnonzero(coef)))
     grid = np.linspace(0.0, 2 * math.pi, 16 * max(degree, 1) + 1)
     values = _trig_eval(coef, grid)
-    roots = []
-    for i in range(len(grid) - 1):
-        a, b, fa, fb = grid[i], grid[i + 1], values[i], values[i + 1]
-        if fa == 0.0:
-            roots.append(a)
-            continue
-        if fa * fb > 0:
-            continue
-        for _ in range(200):          # bisection to full precision, then a Newton step
-            mid = 0.5 * (a + b)
-            fm = _trig_eval(coef, np.array([mid]))[0]
-            if fm == 0.0 or b - a < 1e-15:
-                break
-            a, b, fa = (mid, b, fm) if fa * fm > 0 else (a, mid, fa)
-        roots.append(0.5 * (a + b))
+    exact = grid[:-1][values[:-1] == 0.0]
+    change = np.flatnonzero((values[:-1] * values[1:] < 0))
+    a, b, fa = grid[change], grid[change + 1], values[change]
+    for _ in range(60):                # bisection of every bracket at once, to full precision
+        mid = 0.5 * (a + b)
+        fm = _trig_eval(coef, mid)
+        left = fa * fm > 0
+        a, b, fa = np.where(left, mid, a), np.where(left, b, mid), np.where(left, fm, fa)
+    roots = np.sort(np.concatenate([exact, 0.5 * (a + b)]))
     return np.mod(np.array(roots), 2 * math.pi)
 
 
@@ -116,29 +116,29 @@ def asymptotic_equilibria(part: Part, delta: float, edges: Edges | None = None) 
         n = 0
     else:
         n = None
-    order = EXTRA if n == 0 else None
-    v: dict[tuple[int, int], float] = {}
-    coefs = None
-    if n is None:
-        # Table 1, second branch: increase n until d^n x*/d delta^n (theta, 0) is not identically zero.
+    first_guess = 3 + EXTRA          # enough for n <= 3 (every 4-fold symmetric part); raised when needed
+    order = EXTRA if n == 0 else first_guess
+    while True:
+        v = derivatives(edges, z0, order + 1)
+        c = taylor_coefficients(v, part.area, theta_grid, order)
+        x_k = [c_t * z0[0] - s_t * z0[1]] + [math.factorial(k) * (c_t * c[:, 0, k] - s_t * c[:, 1, k])
+                                              for k in range(1, order + 1)]
+        if n == 0:
+            break
+        # Table 1, second branch: the first d^k x*/d delta^k (theta, 0) not identically zero.
         size = 0.0
-        for k in range(1, MAX_ORDER + 1):
-            v = derivatives(edges, z0, k + 1)
-            c = taylor_coefficients(v, part.area, theta_grid, k)
-            xk = math.factorial(k) * (c_t * c[:, 0, k] - s_t * c[:, 1, k])
-            # All d^k X*/d delta^k are lengths; compare with the largest so far (exact zeros are noise).
+        for k in range(1, order - EXTRA + 1):
             size = max(size, math.factorial(k) * np.abs(c[:, :, k]).max())
-            if np.abs(xk).max() > ZERO_TOL * size:
+            if np.abs(x_k[k]).max() > ZERO_TOL * size:
                 n = k
                 break
-        if n is None:
+        if n is not None:
+            order = n + EXTRA
+            break
+        if order >= MAX_ORDER + EXTRA:
             raise SolverError(f"d^k x*/d delta^k (theta, 0) vanishes identically for k <= {MAX_ORDER}: "
                               "the part is (nearly) rotation-invariant, orientation undetermined")
-        order = n + EXTRA
-    v = derivatives(edges, z0, order + 1)
-    c = taylor_coefficients(v, part.area, theta_grid, order)
-    x_k = [c_t * z0[0] - s_t * z0[1]] + [math.factorial(k) * (c_t * c[:, 0, k] - s_t * c[:, 1, k])
-                                          for k in range(1, order + 1)]
+        order = MAX_ORDER + EXTRA
     coefs = [_fourier(x) for x in x_k]
     coefs[n] = np.where(np.abs(coefs[n]) > ZERO_TOL * np.abs(coefs[n]).max(), coefs[n], 0.0)
     roots = _trig_roots(coefs[n])
@@ -148,15 +148,17 @@ def asymptotic_equilibria(part: Part, delta: float, edges: Edges | None = None) 
         raise SolverError(f"d^{n} x*/d delta^{n} (theta, 0) has a multiple root: Theorem 7 (iii) does not apply")
     # theta(delta): root of sum_k x_k delta^(k-n)/k! near each Theorem-7 root (Newton on the truncated series).
     thetas = roots.copy()
-    for _ in range(20):
-        f = sum(_trig_eval(coefs[k], thetas) * delta ** (k - n) / math.factorial(k) for k in range(n, order + 1))
-        df = sum(_trig_eval(coefs[k], thetas, 1) * delta ** (k - n) / math.factorial(k) for k in range(n, order + 1))
-        thetas = thetas - f / df
+    series = sum(coefs[k] * delta ** (k - n) / math.factorial(k) for k in range(n, order + 1))
+    for _ in range(30):
+        step = _trig_eval(series, thetas) / _trig_eval(series, thetas, 1)
+        thetas = thetas - step
+        if np.all(np.abs(step) <= 1e-15):
+            break
     if np.any(np.abs(np.angle(np.exp(1j * (thetas - roots)))) > 0.5 * math.pi / max(len(roots), 1)):
         raise SolverError(f"delta = {delta} is outside the range of the small-delta expansion")
     equilibria = []
-    for theta, slope in zip(thetas, slopes):
-        c_here = taylor_coefficients(v, part.area, np.array([theta]), order)[0]
+    c_here_all = taylor_coefficients(v, part.area, thetas, order)
+    for theta, slope, c_here in zip(thetas, slopes, c_here_all):
         z = z0 + sum(c_here[:, k] * delta ** k for k in range(1, order + 1))
         ct, st = math.cos(theta), math.sin(theta)
         equilibria.append(Equilibrium(float(ct * z[0] - st * z[1]), float(st * z[0] + ct * z[1]),

@@ -156,12 +156,16 @@ def derivatives(part_or_edges: Part | Edges, z: np.ndarray, order: int, nodes: i
     if order <= 2:
         return {key: value for key, value in out.items() if sum(key) <= order}
     a, lo, hi = _pieces(edges, z)
+    keep = hi > lo                                   # clipping leaves many empty pieces; drop them
+    edge_index = np.broadcast_to(np.arange(len(lo))[:, None], lo.shape)[keep]
+    lo, hi = lo[keep], hi[keep]
     t, w = _gauss(nodes)
-    s = lo[:, :, None] + (hi - lo)[:, :, None] * t           # (E, P, G)
-    weight = (hi - lo)[:, :, None] * w
-    points = a[:, None, None, :] + s[..., None] * edges.direction[:, None, None, :]
+    s = lo[:, None] + (hi - lo)[:, None] * t          # (pieces, G)
+    weight = (hi - lo)[:, None] * w
+    points = a[edge_index][:, None, :] + s[..., None] * edges.direction[edge_index][:, None, :]
     d = _rho_derivatives(points[..., 0], points[..., 1], order - 1)
-    nx, ny = edges.normal[:, 0][:, None, None], edges.normal[:, 1][:, None, None]
+    nx = edges.normal[edge_index, 0][:, None]
+    ny = edges.normal[edge_index, 1][:, None]
     for total in range(3, order + 1):
         for i in range(total, -1, -1):
             j = total - i
