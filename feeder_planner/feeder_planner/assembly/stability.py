@@ -52,7 +52,8 @@ class StabilityChecker:
         # Minimise the total multiplier: a bounded objective that picks a small, well-scaled force distribution.
         self.lp.set_cost(np.arange(3, 3 + columns), np.ones(columns))
 
-    def __call__(self, g: np.ndarray) -> StabilityVerdict:
+    def __call__(self, g: np.ndarray, explain: bool = True) -> StabilityVerdict:
+        """Verdict for g; ``explain`` also finds the bodies that cannot be balanced when unstable (one more LP)."""
         system = self.system
         g = unit_gravity(g)
         rhs = -system.B @ g
@@ -70,7 +71,7 @@ class StabilityChecker:
                 raise SolverError(f"stability LP returned forces with residual {residual:.3g} > {RESIDUAL_TOLERANCE}")
             return StabilityVerdict(True, contact_forces(system, lam), (), residual)
         if result.status == "infeasible":
-            return _unbalanced(system, rhs)
+            return _unbalanced(system, rhs) if explain else StabilityVerdict(False, None, (), float("nan"))
         raise SolverError(f"stability LP failed: {result.message}")
 
 
