@@ -78,3 +78,13 @@ def test_program_parsing_names_bad_fields() -> None:
     with pytest.raises(InputError) as info:
         program_from_mapping({"steps": [{"field": {"type": "radial"}, "duration": -1}]})
     assert info.value.field == "program.steps[0].duration"
+
+
+def test_example_program_file_loads() -> None:
+    from pathlib import Path
+
+    from feeder_planner.fields_io import load_yaml_mapping
+    path = Path(__file__).resolve().parents[2] / "examples" / "mems" / "program_squeeze_then_orient.yaml"
+    program = program_from_mapping(load_yaml_mapping(path))
+    assert [type(s.field).__name__ for s in program] == ["SqueezeField", "QuadraticField", "CombinedField"]
+    assert math.isinf(program[-1].duration)
