@@ -118,3 +118,32 @@ def test_bad_program_and_placement(nodes, ros_client) -> None:
     response = ros_harness.call_service(ros_client, MemsPlaceParts, "/mems/place_parts", place)
     assert not response.ok and "x[0]" in response.error
     assert nodes[0].alive()
+
+
+@pytest.mark.ros
+def test_clock_and_latched_cell_forces(nodes, ros_client) -> None:
+    from feeder_msgs.msg import MemsCellForces
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from rosgraph_msgs.msg import Clock
+    ticks = ros_harness.collect(ros_client, Clock, "/clock", count=3)
+    times = [t.clock.sec + 1e-9 * t.clock.nanosec for t in ticks]
+    assert times == sorted(times) and times[-1] > times[0]
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+    cells = ros_harness.collect(ros_client, MemsCellForces, "/mems/cell_forces", count=1, qos=latched)[-1]
+    assert cells.nx == 100 and len(cells.fx) == 100 * 100
+    # the default combined field: every cell force has magnitude |(-r/|r|) - delta (0, 1)| in [1 - delta, 1 + delta]
+    magnitude = [math.hypot(x, y) for x, y in zip(cells.fx, cells.fy)]
+    assert 1 - DELTA - 1e-12 <= min(magnitude) and max(magnitude) <= 1 + DELTA + 1e-12
+
+
+@pytest.mark.ros
+def test_bad_parameter_stops_the_node_with_a_named_error(ros_domain, tmp_path) -> None:
+    node = ros_harness.start_node("feeder_sim", "mems_field_array", {"fidelity": "psychic"}, tmp_path)
+    try:
+        deadline = time.monotonic() + 30
+        while node.alive() and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert not node.alive()
+        assert "fidelity" in node.output()
+    finally:
+        node.stop()
