@@ -11,7 +11,6 @@ from shapes import washer
 from feeder_planner.errors import InputError
 from feeder_planner.mems.fields import (CombinedField, ConstantField, QuadraticField, RadialField, SqueezeField,
                                         field_from_mapping, program_from_mapping)
-from feeder_planner import polygon
 
 FIELDS = [RadialField((0.1, 0.2), 1.3), ConstantField((0.3, -1.0)), CombinedField(0.3, (0.1, 0.2)),
           SqueezeField((0.2, 0.1), 0.4, 1.0), QuadraticField((0.1, 0.3), (1.0, 3.0), 0.3)]
@@ -40,7 +39,6 @@ def test_wrench_matches_dense_sampling(field) -> None:
     xs = np.linspace(-4, 4, n, endpoint=False) + 4.0 / n
     gx, gy = np.meshgrid(xs, xs)
     pts = np.column_stack([gx.ravel(), gy.ravel()])
-    inside = np.array([polygon.point_in_polygon(p, loops[0]) for p in pts[:0]])  # placeholder for typing
     from matplotlib.path import Path
     inside = Path(loops[0]).contains_points(pts) & ~Path(loops[1]).contains_points(pts)
     cell = (xs[1] - xs[0]) ** 2

@@ -8,7 +8,7 @@ from functools import lru_cache
 import numpy as np
 
 from feeder_planner.errors import SolverError
-from feeder_planner.mems.curve import hessian_xyt, pivot_translation
+from feeder_planner.mems.curve import pivot_translation
 from feeder_planner.mems.lifted import Edges, derivatives, gradient_noise, part_edges, taylor_factorials, value_gradient_hessian
 from feeder_planner.mems.result import EquilibriaResult, Equilibrium
 from feeder_planner.parts import Part

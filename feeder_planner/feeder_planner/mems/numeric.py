@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from feeder_planner.errors import SolverError
-from feeder_planner.mems.curve import CurvePoints, curve, hessian_xyt, pivot_translation
+from feeder_planner.mems.curve import curve, hessian_xyt, pivot_translation
 from feeder_planner.mems.lifted import Edges, part_edges
 from feeder_planner.mems.result import EquilibriaResult, Equilibrium
 from feeder_planner.parts import Part
@@ -48,7 +48,6 @@ def numeric_equilibria(part: Part, delta: float, edges: Edges | None = None) -> 
         raise SolverError(f"x*(theta, delta={delta}) stays below {100 * floor:.3g} m for every theta: "
                           "too small to resolve numerically (use the asymptotic method)")
     # Subdivide intervals that might hide a pair of crossings, until none is left.
-    nodes = {float(t): i for i, t in enumerate(pts.theta)}
     th, xs, ds, zs = list(pts.theta), list(pts.x), list(pts.dx), list(pts.z)
     for _ in range(MAX_DEPTH):
         order = np.argsort(th)
@@ -64,7 +63,6 @@ def numeric_equilibria(part: Part, delta: float, edges: Edges | None = None) -> 
         th += list(more.theta); xs += list(more.x); ds += list(more.dx); zs += list(more.z)
     else:
         raise SolverError("could not separate the zero crossings of x*(theta) (tangential crossing?)")
-    del nodes
     th_a, x_a = np.array(th), np.array(xs)
     z_a = np.array(zs)
     # Samples within the rounding floor count as zero; a crossing there is bracketed by its neighbours.
