@@ -30,10 +30,12 @@ def check_delta(delta: float, field: str = "delta") -> float:
 
 
 def agree(a: EquilibriaResult, b: EquilibriaResult, scale: float) -> bool:
-    """Same count and stability, angles within CERT_THETA, positions within CERT_POSITION * scale."""
+    """Same count and stability, angles within CERT_THETA + delta^3 (+ b's theta resolution), positions
+    within (CERT_POSITION + the same slack) * scale."""
     if len(a.equilibria) != len(b.equilibria):
         return False
-    slack = a.delta ** 3
+    # the numeric side's own resolution (its rounding floor over the slope of x*) widens the window
+    slack = a.delta ** 3 + 2.0 * float(b.details.get("theta_uncertainty", 0.0))
     for ea in a.equilibria:
         match = [eb for eb in b.equilibria if eb.stable == ea.stable
                  and abs(math.remainder(ea.theta - eb.theta, 2 * math.pi)) <= CERT_THETA + slack]

@@ -98,6 +98,8 @@ def numeric_equilibria(part: Part, delta: float, edges: Edges | None = None) -> 
     final = curve(edges, part.area, delta, guess, zstart)
     equilibria = []
     eig_min = []
+    # theta is only as good as x* near its root: rounding floor over the slope (Prop. 6 crossing)
+    uncertainty = floor / np.maximum(np.abs(final.dx), 1e-300) + THETA_TOL
     for k in range(len(guess)):
         hxy = hessian_xyt(final.grad[k], final.hess[k], final.z[k], float(guess[k]))
         eig = np.linalg.eigvalsh(hxy)
@@ -117,5 +119,6 @@ def numeric_equilibria(part: Part, delta: float, edges: Edges | None = None) -> 
             unique.append(e)
     if len(unique) > 1 and abs(unique[-1].theta - unique[0].theta - 2 * math.pi) <= 1e-9:
         unique.pop()
-    details = {"samples": len(th_a), "x_resolution": floor, "hessian_min_eigenvalues": [eig_min[i] for i in order]}
+    details = {"samples": len(th_a), "x_resolution": floor, "hessian_min_eigenvalues": [eig_min[i] for i in order],
+               "theta_uncertainty": float(uncertainty.max())}
     return EquilibriaResult((float(-z0[0]), float(-z0[1])), part.area, delta, "numeric", tuple(unique), details)
