@@ -197,7 +197,11 @@ def test_nearly_symmetric_part_is_not_misclassified() -> None:
     assert np.hypot(*pivot_translation(edges)) <= 1e-12
     auto = find_equilibria(part, 1e-3, "auto")
     numeric = find_equilibria(part, 1e-3, "numeric")
-    assert [round(e.theta, 9) for e in auto.equilibria] == [round(e.theta, 9) for e in numeric.equilibria]
+    # agreement within the numeric method's own stated resolution (its x* floor over the slope)
+    window = 1e-6 + 2 * numeric.details["theta_uncertainty"]
+    assert len(auto.equilibria) == len(numeric.equilibria) == 8
+    for a in auto.equilibria:
+        assert min(angle_gap(a.theta, b.theta) for b in numeric.equilibria if b.stable == a.stable) <= window
     assert len(auto.stable) == 4
     try:
         tiny = find_equilibria(part, 1e-9, "auto")
