@@ -8,6 +8,12 @@ ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 VENV="$ROOT/.venv"
 WS="$ROOT/ros_ws"
 say() { printf 'setup: %s\n' "$*"; }
+
+# Concurrent setups (two shells, parallel test runs) would race in pip and colcon: one at a time.
+if command -v flock >/dev/null 2>&1; then
+  exec 9>"$ROOT/.setup.lock"
+  flock 9
+fi
 die() { printf 'setup: ERROR: %s\n' "$*" >&2; exit 1; }
 
 # --- 1. Tools the build needs; stop at once and say how to get a missing one. -------------------
