@@ -1,11 +1,10 @@
-"""Programmable force fields on the array: radial (eq. 3), constant, combined u = |r| + delta*eta, squeeze, quadratic.
-
-Every field is a force per unit area f(r) = -grad u(r). ``wrench`` returns the exact resultant force
-(eq. 1) and torque about a reference point (eq. 2) on placed polygon loops, ``lifted`` the lifted
-potential (Definition 1); no sampling of the area anywhere.
-"""
+"""Programmable force fields: radial (eq. 3), constant, combined u = |r| + delta*eta, squeeze, quadratic."""
 
 from __future__ import annotations
+
+# Every field is a force per unit area f(r) = -grad u(r). ``wrench`` returns the exact resultant force
+# (eq. 1) and torque about a reference point (eq. 2) on placed polygon loops, ``lifted`` the lifted
+# potential (Definition 1); no sampling of the area anywhere.
 
 import math
 from dataclasses import dataclass

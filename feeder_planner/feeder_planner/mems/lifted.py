@@ -1,15 +1,14 @@
-"""Exact lifted unit-radial potential V(X, Y) = int_S |(X, Y) + r| dA (eq. 4) and its derivatives.
-
-Orders 0-2 are closed forms of boundary integrals (divergence theorem: V = 1/3 oint |r| (r.n) ds,
-grad V = oint |r| n ds (eqs. 5-6), Hess V = oint (r/|r|) n^T ds (eqs. 7-9)); every edge integral is
-elementary (sqrt and asinh). Orders >= 3 use d^{k}V = oint d^{k-1}|r| n ds, the (k-1)-th derivatives
-of |r| obtained exactly by the Leibniz recursion of |r|*|r| = xi^2 + eta^2 and integrated by
-Gauss-Legendre on pieces graded geometrically away from the foot of the origin on each edge line, so
-that every piece sees the integrand's complex singularities (foot +- i h) at least one piece length
-away: 24 nodes then give a relative error below 1e-14. Valid while the origin is not on the boundary.
-"""
+"""Exact lifted unit-radial potential V(X, Y) = int_S |(X, Y) + r| dA (eq. 4) and its derivatives of any order."""
 
 from __future__ import annotations
+
+# Orders 0-2 are closed forms of boundary integrals (divergence theorem: V = 1/3 oint |r| (r.n) ds,
+# grad V = oint |r| n ds (eqs. 5-6), Hess V = oint (r/|r|) n^T ds (eqs. 7-9)); every edge integral is
+# elementary (sqrt and asinh). Orders >= 3 use d^{k}V = oint d^{k-1}|r| n ds, the (k-1)-th derivatives
+# of |r| obtained exactly by the Leibniz recursion of |r|*|r| = xi^2 + eta^2 and integrated by
+# Gauss-Legendre on pieces graded geometrically away from the foot of the origin on each edge line, so
+# that every piece sees the integrand's complex singularities (foot +- i h) at least one piece length
+# away: 24 nodes then leave only rounding (relative error < 1e-12, tested). Valid while the origin is not on the boundary.
 
 from dataclasses import dataclass
 from functools import lru_cache

@@ -1,12 +1,11 @@
-"""Exact area and first moments of a polygon inside every cell of an axis-aligned grid.
-
-Q(X, Y) = integrals of (1, x, y) over P and {x < X, y < Y} follow from Green's theorem as
--oint 1[x < X] G(x, y) dx with dG/dy = (1, x, y) clipped at Y; on each edge piece where
-min(y, Y) is one polynomial the integrand has degree <= 2, integrated in closed form from its end values. Cell
-moments are second differences of Q at the grid nodes (only nodes around the part are evaluated).
-"""
+"""Exact area and first moments of a polygon inside every cell of an axis-aligned grid."""
 
 from __future__ import annotations
+
+# Q(X, Y) = integrals of (1, x, y) over P and {x < X, y < Y} follow from Green's theorem as
+# -oint 1[x < X] G(x, y) dx with dG/dy = (1, x, y) clipped at Y; on each edge piece where
+# min(y, Y) is one polynomial the integrand has degree <= 2, integrated in closed form from its end values. Cell
+# moments are second differences of Q at the grid nodes (only nodes around the part are evaluated).
 
 import numpy as np
 

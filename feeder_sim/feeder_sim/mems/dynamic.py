@@ -1,11 +1,10 @@
-"""The 'dynamic' fidelity: rigid bodies with inertia, surface friction and collisions (pymunk).
-
-One part alone has no contacts, so it is integrated directly (semi-implicit Euler, the same
-scheme pymunk uses) and pymunk is not even imported; several parts share a pymunk space whose
-shapes are ear-clipped triangles of each outer boundary (holes do not take part in collisions).
-"""
+"""The 'dynamic' fidelity: rigid bodies with inertia, surface friction and collisions (pymunk)."""
 
 from __future__ import annotations
+
+# One part alone has no contacts, so it is integrated directly (semi-implicit Euler, the same
+# scheme pymunk uses) and pymunk is not even imported; several parts share a pymunk space whose
+# shapes are ear-clipped triangles of each outer boundary (holes do not take part in collisions).
 
 import math
 from typing import TYPE_CHECKING
