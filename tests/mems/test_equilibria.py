@@ -239,3 +239,9 @@ def test_unknown_method_named() -> None:
     with pytest.raises(InputError) as info:
         find_equilibria(bracket(), 0.1, "guess")
     assert info.value.field == "method"
+
+
+def test_certification_flags() -> None:
+    assert find_equilibria(bracket(), 0.2, "numeric").details["certified"] is True
+    assert find_equilibria(bracket(), 0.2, "asymptotic").details["certified"] is False
+    assert find_equilibria(plus(), 1e-3, "auto").details["certified"] is True

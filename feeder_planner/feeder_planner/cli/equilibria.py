@@ -36,6 +36,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _summary(result: dict[str, Any]) -> str:
     lines = [f"pivot (part frame): ({result['pivot'][0]:.6g}, {result['pivot'][1]:.6g}) m, "
              f"area {result['area']:.6g} m^2, delta {result['delta']:g}, method {result['method']}"]
+    if not result["details"].get("certified", True):
+        lines.append("  note: asymptotic result (limit delta -> 0, Theorem 7), not certified at this delta; "
+                     "use --method auto or numeric for a certified answer")
     for e in result["equilibria"]:
         kind = "stable  " if e["stable"] else "unstable"
         lines.append(f"  {kind} x={e['x']:+.6e} m  y={e['y']:+.6e} m  theta={e['theta']:.9f} rad "

@@ -164,7 +164,8 @@ def asymptotic_equilibria(part: Part, delta: float, edges: Edges | None = None) 
         equilibria.append(Equilibrium(float(ct * z[0] - st * z[1]), float(st * z[0] + ct * z[1]),
                                       float(theta % (2 * math.pi)), bool(slope > 0)))
     equilibria.sort(key=lambda e: e.theta)
-    details = {"n": n, "pivot_distance": rho, "theorem7_roots": [float(r) for r in roots],
+    # Theorem 7 holds for delta below an unknown delta_0: alone, this result is not certified at delta.
+    details = {"n": n, "certified": False, "pivot_distance": rho, "theorem7_roots": [float(r) for r in roots],
                "theorem7_slopes": [float(s) for s in slopes],
                "dn_x_fourier": {str(k): float(2 * abs(a) if k else abs(a)) for k, a in enumerate(coefs[n])
                                 if abs(a) > 1e-9 * amplitude}}

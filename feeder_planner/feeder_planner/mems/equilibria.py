@@ -75,11 +75,12 @@ def find_equilibria(part: Part, delta: float, method: str = "auto") -> Equilibri
             except SolverError:
                 continue
             if agree(check_asym, check_num, edges.scale):
-                return _relabel(asym, "asymptotic", {"certified_at_delta": d_cert, "numeric_refused": str(error)})
+                return _relabel(asym, "asymptotic", {"certified": True, "certified_at_delta": d_cert,
+                                                     "numeric_refused": str(error)})
             break
         raise SolverError(f"asymptotic result could not be certified and numeric refused: {error}") from None
     if agree(asym, num, edges.scale):
-        return _relabel(asym, "asymptotic", {"certified_at_delta": delta})
+        return _relabel(asym, "asymptotic", {"certified": True, "certified_at_delta": delta})
     return _relabel(num, "numeric", {"asymptotic_disagreed": True})
 
 

