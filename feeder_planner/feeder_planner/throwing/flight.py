@@ -68,19 +68,18 @@ def earliest_impact(part: ArmPart, edge: np.ndarray, radius: np.ndarray, offset:
 
     # Inflection times: sin(W t + c) = g / (W^2 s); none when W^2 s <= |g| (f concave throughout).
     sigma = np.clip(g / (w * w * s), -1.0, 1.0)
-    turns = int(math.ceil(w * float(t_end.max()) / (2 * math.pi))) + 1
-    phases = np.concatenate([np.arcsin(sigma), math.pi - np.arcsin(sigma)], axis=0)  # (2, n)
-    cuts = []
-    for phase in phases:
-        first = np.mod(phase[None, :] - c, 2 * math.pi) / w         # (B, n)
-        for j in range(turns):
-            cuts.append(first + 2 * math.pi * j / w)
-    has_inflection = (w * w * s > -g)
-    bounds = np.stack(cuts, axis=-1)                               # (B, n, P)
-    bounds = np.where(has_inflection[..., None], bounds, np.inf)
-    bounds = np.minimum(bounds, t_end[..., None])
-    bounds = np.sort(np.concatenate([np.zeros(bounds.shape[:2] + (1,)), bounds,
-                                     np.broadcast_to(t_end[..., None], bounds.shape[:2] + (1,))], axis=-1), axis=-1)
+    has_inflection = (w * w * s > -g)[0]                           # (n,)
+    batch, n = len(radius), len(q)
+    edges_ = [np.zeros((batch, n, 1)), np.broadcast_to(t_end[..., None], (batch, n, 1))]
+    if has_inflection.any():
+        turns = int(math.ceil(w * float(t_end.max()) / (2 * math.pi))) + 1
+        phases = np.concatenate([np.arcsin(sigma), math.pi - np.arcsin(sigma)], axis=0)  # (2, n)
+        first = np.mod(phases[:, None, :] - c[None, :, :], 2 * math.pi) / w              # (2, B, n)
+        cuts = first[..., None] + (2 * math.pi / w) * np.arange(turns)                  # (2, B, n, J)
+        cuts = np.moveaxis(cuts, 0, -2).reshape(batch, n, -1)
+        cuts = np.where(has_inflection[None, :, None], cuts, np.inf)
+        edges_.insert(1, np.minimum(cuts, t_end[..., None]))
+    bounds = np.sort(np.concatenate(edges_, axis=-1), axis=-1)
     a_, b_ = bounds[..., :-1], bounds[..., 1:]                     # pieces (B, n, P)
     bi, ki, pi = np.nonzero(b_ > a_)
     a_, b_ = a_[bi, ki, pi], b_[bi, ki, pi]
