@@ -65,3 +65,11 @@ def test_dynamic_arm_in_the_simulator():
     arm = ThrowingArm(part, p, 1, 0.12, fidelity="dynamic", dynamic_step=5e-4)
     out = arm.throw()
     assert out.kind in ("jog", "flip") and math.isfinite(out.radius_after) and out.path
+
+
+def test_dynamic_carry_outside_the_grasp_is_a_fault_not_a_simulation():
+    part, p = triangle(), TRIANGLE_PARAMS
+    # A long, slow carry tilts the arm past the friction angle atan(0.5): the part would slide.
+    out = dynamic_throw(part, p, 1, 0.12, step=5e-4, carry_angle=1.0)
+    assert out.kind == "fault" and "dynamic grasp" in out.fault
+    assert dynamic_throw(part, p, 1, 0.12, step=5e-4).kind in ("jog", "flip")

@@ -9,6 +9,7 @@ import pymunk
 
 from feeder_planner.errors import SolverError
 from feeder_planner.throwing.geometry import ArmPart
+from feeder_planner.throwing.grasp import carry_in_grasp
 from feeder_planner.throwing.throw_map import ThrowParams
 
 CARRY_ANGLE = 0.02  # rad: the arm turns this far while accelerating to W (a short but real carry)
@@ -26,6 +27,13 @@ def dynamic_throw(part: ArmPart, params: ThrowParams, edge: int, radius: float, 
     """
     from feeder_sim.throwing.arm import ThrowOutcome
 
+    alpha = params.speed ** 2 / (2 * carry_angle)   # uniform angular acceleration over the carry
+    for theta in np.linspace(0.0, carry_angle, 9):
+        # Wrench-cone test of section III-A.1 along the real carry (theta, theta_dot, theta_ddot).
+        if not carry_in_grasp(part, edge, radius, params.offset, params.gravity, params.mu, float(theta),
+                              math.sqrt(2 * alpha * theta), alpha):
+            return ThrowOutcome(edge, radius, -1, math.nan, "fault", 0, 0.0,
+                                f"the carry leaves the dynamic grasp at arm angle {theta:.3g} rad")
     scale = 1.0 / part.radius
     w, g, h = params.speed, params.gravity * scale, params.offset * scale
     mu = params.mu if friction is None else friction
@@ -51,7 +59,6 @@ def dynamic_throw(part: ArmPart, params: ThrowParams, edge: int, radius: float, 
     # Let the part settle into contact before the throw.
     for _ in range(int(0.02 / step)):
         space.step(step)
-    alpha = w * w / (2 * carry_angle)       # uniform angular acceleration over the carry
     carry_time = w / alpha
     t, angle = 0.0, 0.0
     path: list[tuple[float, float, float, float]] = []
