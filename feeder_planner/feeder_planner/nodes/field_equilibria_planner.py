@@ -53,6 +53,7 @@ class FieldEquilibriaPlanner(Node):
             raise InputError("method", f"unknown method {method!r} (expected one of {', '.join(METHODS)})")
         result = find_equilibria(part, request.delta, method)
         response.method = result.method
+        response.certified = bool(result.details.get("certified", True))
         response.pivot_x, response.pivot_y = result.pivot
         response.area = result.area
         response.equilibria = [Equilibrium(x=e.x, y=e.y, theta=e.theta % (2 * math.pi), stable=e.stable)
