@@ -30,22 +30,31 @@ def quadrant_moments(loops: tuple[np.ndarray, ...], xs: np.ndarray, ys: np.ndarr
     slope = (y1 - y0) / (x1 - x0)
     sign = np.sign(x1 - x0)
     lo, hi = np.minimum(x0, x1), np.maximum(x0, x1)
-    e = (slice(None), None, None)
-    big_x = xs[None, :, None]
+    # Each edge clipped to x < X_i is the segment [a, b] (empty when X_i <= lo).
+    a = np.broadcast_to(lo[:, None], (len(lo), len(xs)))
+    b = np.clip(xs[None, :], lo[:, None], hi[:, None])
+    ya = y0[:, None] + slope[:, None] * (a - x0[:, None])
+    yb = y0[:, None] + slope[:, None] * (b - x0[:, None])
+    w = b - a
     cap = ys[None, None, :]
-    top = np.minimum(hi[e], big_x)
-    top = np.maximum(top, lo[e])                 # empty range when X <= lo
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cross = x0[e] + (cap - y0[e]) / slope[e]
-    cross = np.where(np.isfinite(cross), cross, lo[e])
-    t = np.clip(cross, lo[e], top)
-    shape = np.broadcast_shapes(top.shape, cap.shape)
-    args = [np.broadcast_to(v, shape) for v in (x0[e], y0[e], slope[e])]
-    lo_b, t_b, top_b, cap_b = (np.broadcast_to(v, shape) for v in (lo[e], t, top, cap))
-    first = _piece(*args, lo_b, t_b, cap_b)
-    second = _piece(*args, t_b, top_b, cap_b)
-    sg = sign[:, None, None]
-    return -np.stack([((u + v) * sg).sum(axis=0) for u, v in zip(first, second)])
+    # Rows above the clipped segment see min(y, Y) = y, rows below see Y: both in closed form.
+    above = cap >= np.maximum(ya, yb)[..., None]
+    whole = (0.5 * w * (ya + yb), w * (2 * a * ya + a * yb + b * ya + 2 * b * yb) / 6.0,
+             w * (ya * ya + ya * yb + yb * yb) / 6.0)
+    flat = (cap * w[..., None], cap * (0.5 * (b * b - a * a))[..., None], 0.5 * cap * cap * w[..., None])
+    out = np.stack([np.where(above, u[..., None], v) for u, v in zip(whole, flat)])
+    # Rows the segment crosses: split at the crossing, each side one line (only these cells pay).
+    mid = ~above & (cap > np.minimum(ya, yb)[..., None])
+    e, i, j = np.nonzero(mid)
+    if e.size:
+        cap_m = ys[j]
+        cross = x0[e] + (cap_m - y0[e]) / slope[e]
+        t = np.clip(cross, a[e, i], b[e, i])
+        first = _piece(x0[e], y0[e], slope[e], a[e, i], t, cap_m)
+        second = _piece(x0[e], y0[e], slope[e], t, b[e, i], cap_m)
+        for k in range(3):
+            out[k, e, i, j] = first[k] + second[k]
+    return -(out * sign[None, :, None, None]).sum(axis=1)
 
 
 class Grid:
