@@ -27,8 +27,15 @@ class PreparedAssembly:
     system: EquilibriumSystem
     mu: float | None
     facets: int
-    checker: StabilityChecker
+    _checker: StabilityChecker | None = field(default=None, repr=False)
     _region: StableRegion | None = field(default=None, repr=False)
+
+    @property
+    def checker(self) -> StabilityChecker:
+        """The warm-started single-direction LP (built on first use)."""
+        if self._checker is None:
+            self._checker = StabilityChecker(self.system)
+        return self._checker
 
     @property
     def region(self) -> StableRegion:
@@ -60,7 +67,7 @@ def prepare(assembly: Assembly, mu: float | None = None, facets: int = DEFAULT_F
         raise InputError("facets", f"the friction pyramid needs an integer K >= 3, got {facets!r}")
     contacts = assembly_contacts(assembly, mu)
     system = build_system(assembly, contacts, int(facets))
-    return PreparedAssembly(assembly, contacts, system, mu, int(facets), StabilityChecker(system))
+    return PreparedAssembly(assembly, contacts, system, mu, int(facets))
 
 
 def region_result(prepared: PreparedAssembly) -> dict:

@@ -66,13 +66,7 @@ def build_system(assembly: Assembly, contacts: list[Contact], facets: int = 4, c
     centers = np.array([assembly.bodies[b].center for b in free]).reshape(-1, 3)
     all_mass = np.array([b.mass for b in assembly.bodies])
     grounded = np.array([b.grounded for b in assembly.bodies])
-    generators, contact_of = [], []
-    for index, contact in enumerate(contacts):
-        directions = pyramid_directions(contact.normal, contact.mu, facets, circumscribed)
-        generators.append(directions)
-        contact_of.append(np.full(len(directions), index))
-    generators_array = np.vstack(generators) if generators else np.zeros((0, 3))
-    contact_array = np.concatenate(contact_of) if contact_of else np.zeros(0, dtype=int)
+    generators_array, contact_array = _generators(contacts, facets, circumscribed)
     a = np.array([c.a for c in contacts], dtype=int)[contact_array]
     b = np.array([c.b for c in contacts], dtype=int)[contact_array]
     points = np.array([c.point for c in contacts]).reshape(-1, 3)[contact_array]
@@ -102,6 +96,31 @@ def build_system(assembly: Assembly, contacts: list[Contact], facets: int = 4, c
         B[6 * k:6 * k + 3] = np.eye(3)
     return EquilibriumSystem(A, B, generators_array, contact_array.astype(int), column_scale,
                              np.repeat(np.asarray(free, dtype=int), 6), tuple(contacts), facets)
+
+
+def _generators(contacts: list[Contact], facets: int, circumscribed: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Pyramid edges of all contacts (vectorised pyramid_directions), ordered by contact, and their contact index."""
+    if not contacts:
+        return np.zeros((0, 3)), np.zeros(0, dtype=int)
+    normals = np.array([c.normal for c in contacts])
+    mus = np.array([c.mu for c in contacts])
+    u = np.array([tangent_basis(n)[0] for n in normals])
+    v = np.cross(normals, u)
+    angles = (2 * np.arange(facets) + 1) * np.pi / facets
+    radius = mus / np.cos(np.pi / facets) if circumscribed else mus
+    edges = normals[:, None, :] + radius[:, None, None] * (np.cos(angles)[None, :, None] * u[:, None, :] +
+                                                           np.sin(angles)[None, :, None] * v[:, None, :])
+    frictional = mus > 0
+    generators, owners = [], []
+    # mu = 0 contacts have the single generator n (the pyramid collapses onto its axis).
+    for index in range(len(contacts)):
+        if frictional[index]:
+            generators.append(edges[index])
+            owners.append(np.full(facets, index))
+        else:
+            generators.append(normals[index][None, :])
+            owners.append(np.array([index]))
+    return np.vstack(generators), np.concatenate(owners)
 
 
 def contact_forces(system: EquilibriumSystem, lam: np.ndarray, gravity: float = STANDARD_GRAVITY) -> np.ndarray:
