@@ -18,7 +18,7 @@ AREA_TOLERANCE = 1e-9
 
 @dataclass(frozen=True)
 class Contact:
-    """One contact point: force on body ``a`` is along +normal (unit, from b into a); b = -1 never happens."""
+    """One contact point between bodies ``a`` and ``b`` (indices): the force on a is along +normal (from b into a)."""
 
     a: int
     b: int

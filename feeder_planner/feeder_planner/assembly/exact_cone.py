@@ -8,7 +8,6 @@ the pair bounds the exact region's area and lets the paper's K = 4 linearisation
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np

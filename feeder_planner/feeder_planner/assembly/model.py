@@ -12,7 +12,7 @@ import yaml
 
 from feeder_planner.assembly.geometry import ConvexPiece, box_piece, faces_piece, hull_piece, overlap_depth
 from feeder_planner.errors import InputError
-from feeder_planner.fields_io import finite_number, load_yaml_mapping, non_negative_number, optional, point_array, \
+from feeder_planner.fields_io import load_yaml_mapping, non_negative_number, optional, point_array, \
     positive_number, required
 from feeder_planner.units import length_scale
 
@@ -245,7 +245,3 @@ def _explicit_contacts(raw: Any, assembly: Assembly, scale: float) -> tuple[Expl
         contacts.append(ExplicitContact(names[0], names[1], point, normal / length, mu))
     return tuple(contacts)
 
-
-def check_mu(value: float, field_name: str = "mu") -> float:
-    """A friction coefficient: finite and >= 0."""
-    return non_negative_number(finite_number(value, field_name), field_name)
