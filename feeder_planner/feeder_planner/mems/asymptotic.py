@@ -92,11 +92,18 @@ def _trig_roots(coef: np.ndarray) -> np.ndarray:
     exact = grid[:-1][values[:-1] == 0.0]
     change = np.flatnonzero((values[:-1] * values[1:] < 0))
     a, b, fa = grid[change], grid[change + 1], values[change]
-    for _ in range(60):                # bisection of every bracket at once, to full precision
+    for _ in range(12):                # bisection of every bracket at once, then safeguarded Newton
         mid = 0.5 * (a + b)
         fm = _trig_eval(coef, mid)
         left = fa * fm > 0
         a, b, fa = np.where(left, mid, a), np.where(left, b, mid), np.where(left, fm, fa)
+    guess = 0.5 * (a + b)
+    for _ in range(8):
+        step = _trig_eval(coef, guess) / _trig_eval(coef, guess, 1)
+        guess = np.clip(guess - step, a, b)
+        if np.all(np.abs(step) <= 1e-15):
+            break
+    a = b = guess
     roots = np.sort(np.concatenate([exact, 0.5 * (a + b)]))
     return np.mod(np.array(roots), 2 * math.pi)
 
@@ -157,9 +164,14 @@ def asymptotic_equilibria(part: Part, delta: float, edges: Edges | None = None) 
     if np.any(np.abs(np.angle(np.exp(1j * (thetas - roots)))) > 0.5 * math.pi / max(len(roots), 1)):
         raise SolverError(f"delta = {delta} is outside the range of the small-delta expansion")
     equilibria = []
-    c_here_all = taylor_coefficients(v, part.area, thetas, order)
-    for theta, slope, c_here in zip(thetas, slopes, c_here_all):
-        z = z0 + sum(c_here[:, k] * delta ** k for k in range(1, order + 1))
+    # (X*, Y*)(theta, delta) at the roots: the c_k are trig polynomials of degree <= k, so the
+    # samples' Fourier series interpolates them exactly.
+    powers = np.arange(c.shape[-1])
+    z_series = c[:, :, : order + 1] @ (delta ** powers[: order + 1] * (powers[: order + 1] > 0))  # (SAMPLES, 2)
+    z_at = np.column_stack([_trig_eval(_fourier(z_series[:, 0]), thetas),
+                            _trig_eval(_fourier(z_series[:, 1]), thetas)])
+    for theta, slope, dz in zip(thetas, slopes, z_at):
+        z = z0 + dz
         ct, st = math.cos(theta), math.sin(theta)
         equilibria.append(Equilibrium(float(ct * z[0] - st * z[1]), float(st * z[0] + ct * z[1]),
                                       float(theta % (2 * math.pi)), bool(slope > 0)))
