@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from feeder_planner.errors import SolverError
-from feeder_planner.mems.lifted import Edges, gradient_noise, value_gradient_hessian
+from feeder_planner.mems.lifted import Edges, potential, value_gradient_hessian_noise
 
 # Newton stops when the step is below this fraction of the part radius; V is strictly convex
 # (Prop. 3 (i)) so damped Newton converges from anywhere, and quadratically near the minimum.
@@ -24,23 +24,27 @@ def _newton(edges: Edges, z: np.ndarray, tilt: np.ndarray) -> np.ndarray:
         if not active.any():
             return z
         za, ta = z[active], tilt[active]
-        value, grad, hess = value_gradient_hessian(edges, za)
+        value, grad, hess, gnoise = value_gradient_hessian_noise(edges, za)
         g = grad + ta
         step = -np.linalg.solve(hess, g[..., None])[..., 0]
-        # Backtrack only where the full step does not decrease U (far from the minimum).
+        # Backtrack only where a long step might not decrease U; near the minimum Newton is safe.
         f0 = value + (ta * za).sum(-1)
         t = np.ones(len(za))
+        long = np.hypot(step[:, 0], step[:, 1]) > 1e-3 * scale
         for _ in range(40):
-            trial = za + t[:, None] * step
-            f1 = value_gradient_hessian(edges, trial)[0] + (ta * trial).sum(-1)
-            bad = f1 > f0 + 1e-13 * np.abs(f0) + 1e-300
+            if not long.any():
+                break
+            trial = za[long] + t[long, None] * step[long]
+            f1 = potential(edges, trial) + (ta[long] * trial).sum(-1)
+            bad = np.zeros(len(za), bool)
+            bad[long] = f1 > f0[long] + 1e-13 * np.abs(f0[long]) + 1e-300
             if not bad.any():
                 break
             t = np.where(bad, 0.5 * t, t)
         za = za + t[:, None] * step
         z[active] = za
         # Stop at STEP_TOL, or at the rounding floor of the gradient mapped through Hess^-1.
-        noise = (gradient_noise(edges, za) + 8 * np.finfo(float).eps * np.abs(ta).sum(-1)) / np.linalg.eigvalsh(hess)[:, 0]
+        noise = (gnoise + 8 * np.finfo(float).eps * np.abs(ta).sum(-1)) / np.linalg.eigvalsh(hess)[:, 0]
         done = np.hypot(step[:, 0], step[:, 1]) * t <= np.maximum(STEP_TOL * scale, 4.0 * noise)
         idx = np.flatnonzero(active)
         active[idx[done]] = False
@@ -73,14 +77,14 @@ def curve(edges: Edges, area: float, delta: float, theta: np.ndarray, start: np.
     tilt = delta * area * b
     z0 = np.broadcast_to(start if start is not None else np.zeros(2), b.shape)
     z = _newton(edges, z0, tilt)
-    _, grad, hess = value_gradient_hessian(edges, z)
+    _, grad, hess, gnoise = value_gradient_hessian_noise(edges, z)
     c, s = np.cos(theta), np.sin(theta)
     x = c * z[:, 0] - s * z[:, 1]
     y = s * z[:, 0] + c * z[:, 1]
     # Hess V dZ/dtheta = -delta |S| (cos theta, -sin theta)
     dz = -np.linalg.solve(hess, (delta * area * np.column_stack([c, -s]))[..., None])[..., 0]
     dx = -s * z[:, 0] - c * z[:, 1] + c * dz[:, 0] - s * dz[:, 1]
-    error = 2.0 * (gradient_noise(edges, z) + 8 * np.finfo(float).eps * np.abs(tilt).sum(-1)) / np.linalg.eigvalsh(hess)[:, 0]
+    error = 2.0 * (gnoise + 8 * np.finfo(float).eps * np.abs(tilt).sum(-1)) / np.linalg.eigvalsh(hess)[:, 0]
     return CurvePoints(theta, z, x, y, dx, hess, grad, error + STEP_TOL * edges.scale)
 
 

@@ -80,7 +80,13 @@ def gradient(edges: Edges, z: np.ndarray) -> np.ndarray:
 
 def value_gradient_hessian(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """V, grad V and Hess V (eqs. 4-9) at translations z (..., 2), all closed forms."""
+    return value_gradient_hessian_noise(edges, z)[:3]
+
+
+def value_gradient_hessian_noise(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """value_gradient_hessian plus gradient_noise, from one evaluation of the edge terms."""
     s0, s1, h, rho0, rho1, h_a = _edge_terms(edges, np.asarray(z, float))
+    noise = 8.0 * np.finfo(float).eps * (0.5 * (np.abs(s1 * rho1) + np.abs(s0 * rho0) + np.abs(h * h_a))).sum(axis=-1)
     i0 = 0.5 * (s1 * rho1 - s0 * rho0 + h * h_a)
     value = (h * i0).sum(axis=-1) / 3.0
     grad = np.einsum("...e,ek->...k", i0, edges.normal)
@@ -88,7 +94,7 @@ def value_gradient_hessian(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, np.
     w = (rho1 - rho0)[..., None] * edges.direction + h_a[..., None] * edges.normal
     hess = np.einsum("...ei,ej->...ij", w, edges.normal)
     hess = 0.5 * (hess + np.swapaxes(hess, -1, -2))
-    return value, grad, hess
+    return value, grad, hess, noise
 
 
 def gradient_noise(edges: Edges, z: np.ndarray) -> np.ndarray:
