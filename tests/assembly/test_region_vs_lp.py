@@ -63,3 +63,17 @@ def test_tilted_convex_block_on_an_incline(from_doc) -> None:
     assert compared > 1900
     # Straight down is stable iff tan(20 deg) <= mu along the pyramid's weakest direction (mu / sqrt(2) here).
     assert prepared.check(np.array([0.0, 0.0, -1.0])).stable == (np.tan(slope) <= 0.5 / np.sqrt(2))
+
+
+def test_independent_sub_assemblies_solved_apart_give_the_same_region(from_doc, monkeypatch) -> None:
+    from feeder_planner.assembly import region as region_module
+    from feeder_planner.assembly.wrench import split_components
+
+    prepared = from_doc(random_assembly(2, 27, mu=0.9))
+    assert len(split_components(prepared.system)) > 2            # towers linked only through grounded bodies
+    whole = region_module.stable_region(prepared.system)
+    monkeypatch.setattr(region_module, "SPLIT_COLUMNS", 0)
+    split = region_module.stable_region(prepared.system)
+    assert split.kind == whole.kind == "region"
+    assert split.area_sr == pytest.approx(whole.area_sr, rel=1e-7)
+    assert np.allclose(sorted(map(tuple, split.vertices)), sorted(map(tuple, whole.vertices)), atol=1e-7)

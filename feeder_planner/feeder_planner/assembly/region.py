@@ -15,18 +15,22 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
 from feeder_planner.assembly.geometry import tangent_basis
+from scipy import sparse
+
+from feeder_planner.assembly.lp import WarmLP
 from feeder_planner.assembly.stability import SupportOracle
-from feeder_planner.assembly.wrench import EquilibriumSystem
+from feeder_planner.assembly.wrench import EquilibriumSystem, split_components
 from feeder_planner.errors import SolverError
 
 SUPPORT_TOLERANCE = 1e-7   # a support value above a facet offset by more than this is a new vertex (cube metric)
 ORIGIN_TOLERANCE = 1e-6    # facets of P with offset below this pass through the origin: they are facets of V
+SPLIT_COLUMNS = 1000        # LP columns above which independent sub-assemblies are solved separately
 KINDS = ("empty", "point", "antipodal_pair", "arc", "great_circle", "region", "hemisphere", "sphere")
 
 
@@ -72,8 +76,49 @@ class StableRegion:
 
 
 def stable_region(system: EquilibriumSystem) -> StableRegion:
-    """The exact region of potentially stable unit gravity directions for the system of eq. (9)."""
-    oracle = SupportOracle(system)
+    """The exact region of potentially stable unit gravity directions for the system of eq. (9).
+
+    Independent sub-assemblies (linked only through grounded bodies) are solved separately and their
+    constraints intersected: V is the intersection of their cones, each found with its own, smaller LPs.
+    """
+    # Splitting pays off only for big LPs: each part costs its own dozen small LPs plus a final combination.
+    parts = split_components(system) if system.columns > SPLIT_COLUMNS else [system]
+    if len(parts) == 1:
+        return _cone_region(SupportOracle(system), system.facets)
+    regions = [_cone_region(SupportOracle(part), part.facets) for part in parts]
+    spent = sum(r.lp_count for r in regions)
+    empty = next((r for r in regions if r.kind == "empty"), None)
+    if empty is not None:
+        return replace(empty, lp_count=spent)
+    oracle = ConstraintOracle(np.vstack([r.normals for r in regions]), np.vstack([r.equalities for r in regions]))
+    combined = _cone_region(oracle, system.facets)
+    return replace(combined, lp_count=combined.lp_count + spent)
+
+
+class ConstraintOracle:
+    """max c.g over {|g|_inf <= 1, n.g <= 0, e.g = 0}: the support LP of an explicitly described cone."""
+
+    def __init__(self, normals: np.ndarray, equalities: np.ndarray) -> None:
+        k, e = len(normals), len(equalities)
+        top = np.hstack([normals.reshape(k, 3), np.eye(k)])
+        bottom = np.hstack([equalities.reshape(e, 3), np.zeros((e, k))])
+        self.lp = WarmLP(sparse.csc_matrix(np.vstack([top, bottom])), np.zeros(k + e),
+                         np.concatenate([-np.ones(3), np.zeros(k)]), np.concatenate([np.ones(3), np.full(k, np.inf)]))
+        self.calls = 0
+
+    def __call__(self, direction: np.ndarray) -> tuple[float, np.ndarray]:
+        self.calls += 1
+        self.lp.set_cost(np.arange(3), -np.asarray(direction, float))
+        result = self.lp.solve()
+        if result.status != "optimal":
+            raise SolverError(f"support LP of the intersected cone failed ({result.status}): {result.message}")
+        g = np.clip(result.x[:3], -1.0, 1.0)
+        return float(np.asarray(direction, float) @ g), g
+
+
+def _cone_region(oracle, facets: int) -> StableRegion:
+    """Classify and describe V from its support oracle (Property 1's cases, then the spherical polygon)."""
+    system = _Facets(facets)
     points, span = _span(oracle)
     dim = len(span)
     if dim == 0:
@@ -95,8 +140,13 @@ def stable_region(system: EquilibriumSystem) -> StableRegion:
     return _solid(origin_normals, section, system, oracle)
 
 
+@dataclass(frozen=True)
+class _Facets:
+    facets: int
+
+
 def _region(kind: str, normals: list, equalities: list, vertices: list, area: float, center: np.ndarray | None,
-            system: EquilibriumSystem, oracle: SupportOracle) -> StableRegion:
+            system: _Facets, oracle: SupportOracle) -> StableRegion:
     as_array = lambda rows: np.asarray(rows, dtype=float).reshape(-1, 3)  # noqa: E731
     return StableRegion(kind, as_array(normals), as_array(equalities), as_array(vertices), float(area),
                         None if center is None else np.asarray(center, float) / np.linalg.norm(center),
@@ -202,7 +252,7 @@ def _unique(vectors: list[np.ndarray]) -> list[np.ndarray]:
     return unique
 
 
-def _planar(normals: list[np.ndarray], e: np.ndarray, system: EquilibriumSystem, oracle: SupportOracle
+def _planar(normals: list[np.ndarray], e: np.ndarray, system: _Facets, oracle: SupportOracle
             ) -> StableRegion:
     """V spans a plane: a great circle (no bounding line), a half circle (one) or a shorter arc (two)."""
     if not normals:
@@ -222,7 +272,7 @@ def _planar(normals: list[np.ndarray], e: np.ndarray, system: EquilibriumSystem,
     return _region("arc", normals, [e], ends, 0.0, ends[0] + ends[1], system, oracle)
 
 
-def _solid(normals: list[np.ndarray], section: np.ndarray, system: EquilibriumSystem, oracle: SupportOracle
+def _solid(normals: list[np.ndarray], section: np.ndarray, system: _Facets, oracle: SupportOracle
            ) -> StableRegion:
     """V is 3-D: the sphere, a hemisphere, a lune, or a convex spherical polygon."""
     if not normals:

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import sparse
+from scipy.sparse.csgraph import connected_components
 
 from feeder_planner.assembly.contacts import Contact
 from feeder_planner.assembly.geometry import tangent_basis
@@ -129,3 +130,34 @@ def contact_forces(system: EquilibriumSystem, lam: np.ndarray, gravity: float = 
     weighted = system.generators * (lam * system.column_scale * gravity)[:, None]
     np.add.at(forces, system.contact_of, weighted)
     return forces
+
+
+def split_components(system: EquilibriumSystem) -> list[EquilibriumSystem]:
+    """Independent sub-assemblies: free bodies linked only through grounded ones have separate equations.
+
+    Eq. (9) is then a product of smaller LPs and V is the intersection of their cones, so each part's region can
+    be found on its own (smaller, faster LPs) and the parts' constraints intersected.
+    """
+    rows = system.A.shape[0]
+    bodies = rows // 6
+    if bodies <= 1:
+        return [system]
+    pattern = (system.A != 0).astype(np.int8).tocsr()
+    # Body-by-column incidence (sum of each body's six rows), then body adjacency through shared columns.
+    collapse = sparse.csr_matrix((np.ones(rows, dtype=np.int8), (np.arange(rows) // 6, np.arange(rows))),
+                                 shape=(bodies, rows))
+    incidence = (collapse @ pattern) != 0
+    count, labels = connected_components(incidence @ incidence.T, directed=False)
+    if count == 1:
+        return [system]
+    parts = []
+    incidence_csc = incidence.tocsc()
+    for label in range(count):
+        members = np.nonzero(labels == label)[0]
+        row_index = (6 * members[:, None] + np.arange(6)[None, :]).ravel()
+        columns = np.unique(incidence_csc[members].nonzero()[1])
+        parts.append(EquilibriumSystem(system.A[row_index][:, columns].tocsc(), system.B[row_index],
+                                       system.generators[columns], system.contact_of[columns],
+                                       system.column_scale[columns], system.body_of_row[row_index],
+                                       system.contacts, system.facets))
+    return parts
