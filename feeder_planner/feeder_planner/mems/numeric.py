@@ -12,7 +12,7 @@ from feeder_planner.mems.lifted import Edges, part_edges
 from feeder_planner.mems.result import EquilibriaResult, Equilibrium
 from feeder_planner.parts import Part
 
-SAMPLES = 96          # initial theta grid; intervals that might hide two crossings are subdivided
+SAMPLES = 64          # initial theta grid; intervals that might hide two crossings are subdivided
 MAX_DEPTH = 12
 THETA_TOL = 1e-12     # root refinement tolerance on theta (rad)
 RESOLUTION = 10.0     # x* within RESOLUTION times its rounding-error bound is indistinguishable from 0
