@@ -14,7 +14,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from feeder_planner.assembly.exact_cone import compare_pyramids
-from feeder_planner.assembly.generate import random_assembly
+from feeder_planner.assembly.generate import brick_wall, random_assembly
 from feeder_planner.assembly.model import Assembly, assembly_from_document, load_assembly
 from feeder_planner.assembly.planner import prepare
 from feeder_planner.assembly.stability import StabilityChecker
@@ -81,6 +81,13 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
             rows.append(_row("assembly stable region", f"exact region, {points[n]} contact points ({region.kind}, "
                              f"{region.lp_count} LPs), median of {repeats}", region_time[n] * 1e3, "ms",
                              f"< {target * 1e3:.0f} ms", "none (absolute)", region_time[n] < target))
+
+    # One connected sub-assembly (no splitting possible): a running-bond brick wall, to show where the LP bites.
+    wall = assembly_from_document(brick_wall(8, 6))
+    wall_time, (wall_prepared, wall_region) = _median_time(lambda: _region(wall), 1 if quick else 3)
+    rows.append(_row("assembly stable region", f"exact region, connected brick wall 8x6, "
+                     f"{len(wall_prepared.contacts)} contact points ({wall_region.kind}, {wall_region.lp_count} LPs)",
+                     wall_time * 1e3, "ms", "< 2000 ms", "none (absolute)", wall_time < 2.0))
 
     # Naive baseline: one LP per direction of a 2-degree equal-area grid, on the 100-point assembly, same run.
     assembly = assemblies[100]

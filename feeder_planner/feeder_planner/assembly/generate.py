@@ -40,3 +40,22 @@ def random_assembly(seed: int, contact_faces: int, mu: float = 0.3, walls: bool 
             box["min"] = [float(v * scale) for v in box["min"]]
             box["max"] = [float(v * scale) for v in box["max"]]
     return {"name": f"random_{seed}", "length_unit": "m", "mu": float(mu), "bodies": bodies, "contacts": "auto"}
+
+
+def brick_wall(rows: int, columns: int, mu: float = 0.6) -> dict[str, Any]:
+    """A running-bond wall of 2 x 1 x 1 bricks on a grounded footing: one connected sub-assembly.
+
+    Each brick rests on two bricks of the row below (half offset) and touches its neighbours in its row, so
+    there are about (3 rows x columns) contact faces of 4 points each.
+    """
+    bodies: list[dict[str, Any]] = [{"name": "footing", "grounded": True,
+                                     "boxes": [{"min": [-1.0, -1.0, -1.0], "max": [2.0 * columns + 2.0, 2.0, 0.0]}]}]
+    for row in range(rows):
+        offset = 0.0 if row % 2 == 0 else 1.0
+        count = columns if row % 2 == 0 else columns - 1
+        for column in range(count):
+            x = offset + 2.0 * column
+            bodies.append({"name": f"b{row}_{column}",
+                           "boxes": [{"min": [x, 0.0, float(row)], "max": [x + 2.0, 1.0, float(row + 1)]}]})
+    return {"name": f"wall_{rows}x{columns}", "length_unit": "m", "mu": float(mu), "bodies": bodies,
+            "contacts": "auto"}
