@@ -23,6 +23,11 @@ def readme_nodes() -> list[tuple[str, str]]:
 
 NODES = readme_nodes()
 
+# The least each node needs to start; everything else has a documented default.
+START_PARAMETERS = {
+    "throwing_arm": {"part_file": str(ROOT / "examples/throwing/triangle.yaml")},
+}
+
 
 def test_readme_lists_all_six_nodes() -> None:
     assert sorted(NODES) == sorted([
@@ -42,7 +47,7 @@ def test_readme_node_resolves_through_the_ament_index(executable: str, package: 
 @pytest.mark.parametrize("executable, package", NODES)
 def test_node_starts_joins_the_graph_and_ends_by_pid(executable: str, package: str, ros_client,
                                                       started_processes, tmp_path: Path) -> None:
-    node = ros_harness.start_node(package, executable, None, tmp_path)
+    node = ros_harness.start_node(package, executable, START_PARAMETERS.get(executable), tmp_path)
     started_processes.append(node)
     try:
         ros_harness.wait_for_graph_node(ros_client, node, executable, timeout=30.0)
