@@ -66,6 +66,8 @@ def auto_contacts(assembly: Assembly) -> list[Contact]:
 
 def _piece_contacts(bi: int, p: ConvexPiece, bj: int, q: ConvexPiece, tol: float, assembly: Assembly
                     ) -> list[Contact]:
+    if p.is_box and q.is_box:
+        return _box_contacts(bi, p, bj, q, tol, assembly)
     found = []
     cos_tol = np.cos(ANGLE_TOLERANCE)
     for fp in p.faces:
@@ -86,6 +88,36 @@ def _piece_contacts(bi: int, p: ConvexPiece, bj: int, q: ConvexPiece, tol: float
             mu = assembly.mu
             found.extend(Contact(a, b, point, normal.copy(), mu) for point in polygon)
     return found
+
+
+def _box_contacts(bi: int, p: ConvexPiece, bj: int, q: ConvexPiece, tol: float, assembly: Assembly
+                  ) -> list[Contact]:
+    """Axis-aligned boxes: the same face-pair rule, with the common rectangle computed directly."""
+    for axis in range(3):
+        for sign, gap in ((1.0, q.lower[axis] - p.upper[axis]), (-1.0, p.lower[axis] - q.upper[axis])):
+            if abs(gap) > tol:
+                continue
+            others = [k for k in range(3) if k != axis]
+            lo = np.maximum(p.lower[others], q.lower[others])
+            hi = np.minimum(p.upper[others], q.upper[others])
+            extent = hi - lo
+            smaller = min(np.linalg.norm((p.upper - p.lower)[others]), np.linalg.norm((q.upper - q.lower)[others]))
+            if np.any(extent <= 0) or extent[0] * extent[1] <= AREA_TOLERANCE * smaller * smaller:
+                continue
+            level = (p.upper[axis] + q.lower[axis]) / 2 if sign > 0 else (p.lower[axis] + q.upper[axis]) / 2
+            normal_pq = np.zeros(3)
+            normal_pq[axis] = sign  # from p into q
+            if assembly.bodies[bi].grounded:
+                a, b, normal = bj, bi, normal_pq
+            else:
+                a, b, normal = bi, bj, -normal_pq
+            corners = []
+            for u, v in ((lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1])):
+                point = np.empty(3)
+                point[axis], point[others[0]], point[others[1]] = level, u, v
+                corners.append(Contact(a, b, point, normal.copy(), assembly.mu))
+            return corners
+    return []
 
 
 def _face_intersection(fp: Face, fq: Face) -> np.ndarray | None:
