@@ -12,7 +12,19 @@ ROOT = Path(__file__).resolve().parents[1]
 FEEDER = [sys.executable, "-m", "feeder_planner.cli.main"]
 
 # (title, feeder arguments): the planners, on example files of examples/.
-PLANNER_STEPS: tuple[tuple[str, list[str]], ...] = ()
+PLANNER_STEPS: tuple[tuple[str, list[str]], ...] = (
+    ("MEMS: a plus shape (4-fold symmetric) in the radial field plus a small constant field",
+     ["equilibria", "examples/mems/plus.yaml", "--delta", "0.01"]),
+    ("MEMS: a non-symmetric bracket, one stable equilibrium",
+     ["equilibria", "examples/mems/bracket.yaml", "--delta", "0.1"]),
+    ("Throwing arm: the paper's triangle (g = -966 cm/s^2, h = -0.5 cm, 320 deg/s), its limit set",
+     ["limit-set", "examples/throwing/triangle.yaml", "--offset", "-0.5", "--release-speed", "320deg",
+      "--gravity", "-966", "--mu", "0.5", "--goal-edge", "1"]),
+    ("Assembly fixture: a cube in a corner, frictionless (the octant of Fig. 11)",
+     ["stable-region", "examples/assembly/cube_in_corner.yaml", "--mu", "0"]),
+    ("Assembly fixture: a block in an L bracket with mu = 0.2 (Fig. 14)",
+     ["stable-region", "examples/assembly/block_in_l_bracket.yaml", "--mu", "0.2"]),
+)
 SCENE = ROOT / "examples" / "scenes" / "demo.yaml"
 SCENE_SECONDS = "20"
 
