@@ -16,6 +16,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field, replace
+from typing import Protocol
 
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
@@ -116,9 +117,9 @@ class ConstraintOracle:
         return float(np.asarray(direction, float) @ g), g
 
 
-def _cone_region(oracle, facets: int) -> StableRegion:
+def _cone_region(oracle: Oracle, facets: int) -> StableRegion:
     """Classify and describe V from its support oracle (Property 1's cases, then the spherical polygon)."""
-    system = _Facets(facets)
+    system = _Pyramid(facets)
     points, span = _span(oracle)
     dim = len(span)
     if dim == 0:
@@ -131,8 +132,8 @@ def _cone_region(oracle, facets: int) -> StableRegion:
             return _region("antipodal_pair", [], other, [d, -d], 0.0, d if d[2] <= 0 else -d, system, oracle)
         return _region("point", [-d], other, [d], 0.0, d, system, oracle)
     basis = np.array(span)
-    facets, section = _facets(oracle, basis, points)
-    origin_normals = _unique([basis.T @ n for n, offset in facets if offset < ORIGIN_TOLERANCE])
+    planes, section = _facets(oracle, basis, points)
+    origin_normals = _unique([basis.T @ n for n, offset in planes if offset < ORIGIN_TOLERANCE])
     if dim == 2:
         e = np.cross(span[0], span[1])
         e /= np.linalg.norm(e)
@@ -141,19 +142,29 @@ def _cone_region(oracle, facets: int) -> StableRegion:
 
 
 @dataclass(frozen=True)
-class _Facets:
+class _Pyramid:
+    """What the description records about the friction model: the pyramid's K."""
+
     facets: int
 
 
+class Oracle(Protocol):
+    """A support function of the cone section P: direction -> (max value, maximiser); counts its LPs."""
+
+    calls: int
+
+    def __call__(self, direction: np.ndarray) -> tuple[float, np.ndarray]: ...
+
+
 def _region(kind: str, normals: list, equalities: list, vertices: list, area: float, center: np.ndarray | None,
-            system: _Facets, oracle: SupportOracle) -> StableRegion:
+            system: _Pyramid, oracle: Oracle) -> StableRegion:
     as_array = lambda rows: np.asarray(rows, dtype=float).reshape(-1, 3)  # noqa: E731
     return StableRegion(kind, as_array(normals), as_array(equalities), as_array(vertices), float(area),
                         None if center is None else np.asarray(center, float) / np.linalg.norm(center),
                         system.facets, oracle.calls)
 
 
-def _span(oracle: SupportOracle) -> tuple[list[np.ndarray], list[np.ndarray]]:
+def _span(oracle: Oracle) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """Points of P spanning the linear hull of V, and an orthonormal basis of that hull (Property 1's cases)."""
     points = [np.zeros(3)]
     span: list[np.ndarray] = []
@@ -187,7 +198,7 @@ def _complement(span: list[np.ndarray]) -> list[np.ndarray]:
     return []
 
 
-def _facets(oracle: SupportOracle, basis: np.ndarray, points: list[np.ndarray]
+def _facets(oracle: Oracle, basis: np.ndarray, points: list[np.ndarray]
             ) -> tuple[list[tuple[np.ndarray, float]], np.ndarray]:
     """Certified facets (normal, offset) of P in the coordinates of ``basis`` (outer/inner iteration), and P's points.
 
@@ -252,7 +263,7 @@ def _unique(vectors: list[np.ndarray]) -> list[np.ndarray]:
     return unique
 
 
-def _planar(normals: list[np.ndarray], e: np.ndarray, system: _Facets, oracle: SupportOracle
+def _planar(normals: list[np.ndarray], e: np.ndarray, system: _Pyramid, oracle: Oracle
             ) -> StableRegion:
     """V spans a plane: a great circle (no bounding line), a half circle (one) or a shorter arc (two)."""
     if not normals:
@@ -272,7 +283,7 @@ def _planar(normals: list[np.ndarray], e: np.ndarray, system: _Facets, oracle: S
     return _region("arc", normals, [e], ends, 0.0, ends[0] + ends[1], system, oracle)
 
 
-def _solid(normals: list[np.ndarray], section: np.ndarray, system: _Facets, oracle: SupportOracle
+def _solid(normals: list[np.ndarray], section: np.ndarray, system: _Pyramid, oracle: Oracle
            ) -> StableRegion:
     """V is 3-D: the sphere, a hemisphere, a lune, or a convex spherical polygon."""
     if not normals:
