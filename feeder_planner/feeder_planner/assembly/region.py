@@ -70,9 +70,11 @@ class StableRegion:
         return min(values)
 
     def to_json(self) -> dict:
-        return {"kind": self.kind, "normals": self.normals.tolist(), "equalities": self.equalities.tolist(),
-                "vertices": self.vertices.tolist(), "area_sr": self.area_sr,
-                "center": None if self.center is None else self.center.tolist(), "facets": self.facets,
+        # Components below 1e-15 are rounding noise of unit vectors (the LP tolerance is 1e-9): print them as 0.
+        clean = lambda a: np.where(np.abs(a) < 1e-15, 0.0, a).tolist()  # noqa: E731
+        return {"kind": self.kind, "normals": clean(self.normals), "equalities": clean(self.equalities),
+                "vertices": clean(self.vertices), "area_sr": self.area_sr,
+                "center": None if self.center is None else clean(self.center), "facets": self.facets,
                 "lp_count": self.lp_count, **self.extra}
 
 
