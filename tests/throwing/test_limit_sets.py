@@ -1,6 +1,5 @@
 """Propositions IV.1 and IV.4, Theorem IV.6 (Figs. 7, 8) and the sensor trigger range."""
 
-import math
 
 import numpy as np
 import pytest

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from feeder_planner.errors import SolverError
+from feeder_planner.errors import InputError, SolverError
 from feeder_planner.throwing.geometry import ArmPart
 from feeder_planner.throwing.grasp import grasp_radii
 from feeder_planner.throwing.sensor import trigger_range
@@ -183,6 +183,8 @@ def limit_set(part: ArmPart, params: ThrowParams, goal_edge: int | None = None, 
     ``throws`` times; states after ``burn_in`` throws are taken as the limit set. The cycle is unique when
     every start's visit sequence has the same period.
     """
+    if goal_edge is not None and goal_edge not in part.stable_edges:
+        raise InputError("goal_edge", f"edge {goal_edge} is not a stable edge (stable: {part.stable_edges})")
     bounds = edge_bounds(part, params)
     edges, radii = [], []
     for i in part.stable_edges:
@@ -212,9 +214,6 @@ def limit_set(part: ArmPart, params: ThrowParams, goal_edge: int | None = None, 
         cycle = Cycle(names[0], float(np.mean(counts)), (lo, hi))
     trigger = None
     if goal_edge is not None:
-        if goal_edge not in part.stable_edges:
-            from feeder_planner.errors import InputError
-            raise InputError("goal_edge", f"edge {goal_edge} is not a stable edge (stable: {part.stable_edges})")
         height = 0.01 * part.radius if sensing_height is None else sensing_height
         runs = [list(zip((int(v) for v in e), (float(r) for r in rr))) for e, rr in zip(tail_e, tail_r)]
         trigger = trigger_range(part, goal_edge, height, runs)

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from feeder_planner.throwing.geometry import ArmPart, rotate
@@ -149,7 +147,3 @@ def _starts_inside(run: list[tuple[int, float]], end: int, goal: int) -> bool:
         start -= 1
     return start > 0
 
-
-def arm_sensor_default(part: ArmPart) -> float:
-    """Default sensing height: 1 % of the part radius."""
-    return 0.01 * part.radius if math.isfinite(part.radius) else 0.0
