@@ -242,3 +242,28 @@ def test_planner_limit_set_and_design_services_match_the_cli_library(planner, ro
         part=part_msg(), goal_edge=GOAL, offsets=[-0.005], release_speeds=[-1.0], gravity=PAPER["gravity"],
         mu=PAPER["mu"], sensing_height=HEIGHT), 60)
     assert not bad.ok and "release_speed" in bad.error
+
+
+@pytest.mark.ros
+def test_dynamic_fidelity_node_throws_on_command(ros_client, launch_node):
+    from feeder_msgs.msg import ThrowEvent
+    from feeder_msgs.srv import ArmCommand
+    launch_node("feeder_sim", "throwing_arm", {"part_file": str(TRIANGLE), **PAPER, "fidelity": "dynamic",
+                                               "dynamic_step": 5e-4, "period": 0.2, "initial_edge": 1,
+                                               "initial_radius": 0.12},
+                wait_services=("/throwing_arm/command",), wait_topics=("/throwing_arm/throw_events",))
+    got = []
+    sub = ros_client.create_subscription(ThrowEvent, "/throwing_arm/throw_events", got.append, 50)
+    try:
+        reply = ros_harness.call_service(ros_client, ArmCommand, "/throwing_arm/command",
+                                         ArmCommand.Request(command="throw", count=3))
+        assert reply.ok and reply.pending == 3
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and len(got) < 3:
+            time.sleep(0.1)
+    finally:
+        ros_client.destroy_subscription(sub)
+    assert len(got) == 3
+    assert all(ev.fidelity == "dynamic" and ev.kind in ("jog", "flip") and not ev.fault for ev in got)
+    assert got[0].edge_before == 1 and abs(got[0].radius_before - 0.12) < 1e-12
+    assert all(a.edge_after == b.edge_before and a.radius_after == b.radius_before for a, b in zip(got, got[1:]))
