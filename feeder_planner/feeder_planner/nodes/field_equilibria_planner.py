@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import rclpy
 from geometry_msgs.msg import Pose
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -17,7 +16,9 @@ from feeder_planner.mems.equilibria import METHODS, find_equilibria
 from feeder_planner.mems.fields import CombinedField
 from feeder_planner.mems.messages import program_from_msg
 from feeder_planner.mems.predict import final_equilibrium
-from feeder_planner.nodes.ros_common import ParameterSpec, declare_parameters, part_from_msg, positive, service_guard
+from feeder_planner.nodes.ros_common import (
+    ParameterSpec, declare_parameters, part_from_msg, positive, run_node, service_guard,
+)
 
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
 
@@ -112,20 +113,7 @@ class FieldEquilibriaPlanner(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    rclpy.init(args=args)
-    try:
-        node = FieldEquilibriaPlanner()
-    except InputError as error:
-        rclpy.logging.get_logger("field_equilibria_planner").fatal(f"bad configuration: {error}")
-        rclpy.try_shutdown()
-        raise SystemExit(2) from None
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(FieldEquilibriaPlanner, "field_equilibria_planner", args)
 
 
 if __name__ == "__main__":

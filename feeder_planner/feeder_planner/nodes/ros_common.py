@@ -107,3 +107,24 @@ def positive(value: Any) -> str | None:
 def non_negative(value: Any) -> str | None:
     return None if isinstance(value, (int, float)) and 0 <= value < float("inf") \
         else f"must be a finite number >= 0, got {value!r}"
+
+
+def run_node(factory: Callable[[], Node], name: str, args: list[str] | None = None) -> None:
+    """The ``main`` of every feeder node: a bad configuration is a FATAL log and exit 2; Ctrl-C a clean stop."""
+    import rclpy
+    from rclpy.executors import ExternalShutdownException
+
+    rclpy.init(args=args)
+    try:
+        node = factory()
+    except InputError as error:
+        rclpy.logging.get_logger(name).fatal(f"bad configuration: {error}")
+        rclpy.try_shutdown()
+        raise SystemExit(2) from None
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()

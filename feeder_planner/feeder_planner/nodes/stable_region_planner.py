@@ -6,9 +6,7 @@ import math
 from typing import Any
 
 import numpy as np
-import rclpy
 from geometry_msgs.msg import Point, Vector3
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
@@ -19,7 +17,7 @@ from feeder_planner.assembly.model import Assembly, assembly_from_text, load_ass
 from feeder_planner.assembly.planner import PreparedAssembly, check_result, path_result, prepare
 from feeder_planner.assembly.region import StableRegion as Region
 from feeder_planner.errors import InputError
-from feeder_planner.nodes.ros_common import ParameterSpec, declare_parameters, service_guard
+from feeder_planner.nodes.ros_common import ParameterSpec, declare_parameters, run_node, service_guard
 
 PARAMETERS = (
     ParameterSpec("assembly_file", "", "assembly YAML file (contract section 2); empty = the built-in block in an "
@@ -128,20 +126,7 @@ class StableRegionPlanner(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    rclpy.init(args=args)
-    try:
-        node = StableRegionPlanner()
-    except InputError as error:
-        rclpy.logging.get_logger("stable_region_planner").fatal(f"bad configuration: {error}")
-        rclpy.try_shutdown()
-        raise SystemExit(2) from None
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(StableRegionPlanner, "stable_region_planner", args)
 
 
 if __name__ == "__main__":

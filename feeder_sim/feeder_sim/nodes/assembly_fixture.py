@@ -6,9 +6,7 @@ import math
 from typing import Any
 
 import numpy as np
-import rclpy
 from geometry_msgs.msg import Vector3Stamped
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
@@ -17,7 +15,9 @@ from feeder_msgs.msg import StabilityStatus
 from feeder_msgs.srv import FixtureMove
 from feeder_planner.assembly.planner import prepare
 from feeder_planner.errors import FeederError, InputError
-from feeder_planner.nodes.ros_common import ParameterSpec, declare_parameters, positive, service_guard
+from feeder_planner.nodes.ros_common import (
+    ParameterSpec, declare_parameters, positive, run_node, service_guard,
+)
 from feeder_planner.nodes.stable_region_planner import PARAMETERS as PLANNER_PARAMETERS
 from feeder_planner.nodes.stable_region_planner import StableRegionPlanner, force_msgs, from_vec, vec
 from feeder_sim.fixture.interlock import DEFAULT_STEP, certify, sample_waypoints
@@ -141,20 +141,7 @@ def _header(stamp: Any) -> Header:
 
 
 def main(args: list[str] | None = None) -> None:
-    rclpy.init(args=args)
-    try:
-        node = AssemblyFixture()
-    except InputError as error:
-        rclpy.logging.get_logger("assembly_fixture").fatal(f"bad configuration: {error}")
-        rclpy.try_shutdown()
-        raise SystemExit(2) from None
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(AssemblyFixture, "assembly_fixture", args)
 
 
 if __name__ == "__main__":

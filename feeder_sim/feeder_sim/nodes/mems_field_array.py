@@ -6,7 +6,6 @@ import math
 from typing import Any
 
 import numpy as np
-import rclpy
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Pose, PoseArray
 from rclpy.node import Node
@@ -19,7 +18,9 @@ from feeder_planner.errors import InputError
 from feeder_planner.fields_io import load_yaml_mapping
 from feeder_planner.mems.fields import CombinedField, ProgramStep, program_from_mapping
 from feeder_planner.mems.messages import fill_field_spec, program_from_msg
-from feeder_planner.nodes.ros_common import ParameterSpec, declare_parameters, non_negative, part_to_msg, positive, service_guard
+from feeder_planner.nodes.ros_common import (
+    ParameterSpec, declare_parameters, non_negative, part_to_msg, positive, run_node, service_guard,
+)
 from feeder_planner.parts import load_part
 from feeder_sim.mems.scene import FIDELITIES, Body, Scene
 
@@ -203,20 +204,7 @@ class MemsFieldArray(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    rclpy.init(args=args)
-    try:
-        node = MemsFieldArray()
-    except InputError as error:
-        rclpy.logging.get_logger("mems_field_array").fatal(f"bad configuration: {error}")
-        rclpy.try_shutdown()
-        raise SystemExit(2) from None
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(MemsFieldArray, "mems_field_array", args)
 
 
 if __name__ == "__main__":
