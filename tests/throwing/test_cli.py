@@ -86,3 +86,20 @@ def test_unstable_goal_edge_is_refused(capsys):
                                  "320deg", "--gravity", "-220", "--mu", "0.5", "--goal-edge", "3",
                                  "--starts-per-edge", "3", "--throws", "60"])
     assert code == 2 and "--goal-edge" in err
+
+
+def test_radius_error_is_in_the_file_unit(capsys):
+    code, _, err = _run(capsys, ["throw", TRI, "--edge", "1", "--radius", "1", *PAPER])
+    assert code == 2 and "R = 1 cm" in err and "R_grasp = 1.97" in err
+
+
+def test_throw_design_json_table(capsys):
+    code, out, _ = _run(capsys, ["throw-design", TRI, "--offsets", "-0.5", "-0.2", "--release-speeds", "320deg",
+                                 "--gravity", "-966", "--mu", "0.5", "--goal-edge", "1", "--json"])
+    assert code == 0
+    r = json.loads(out)
+    assert len(r["designs"]) == 2 and r["goal_edge"] == 1
+    assert all(math.isclose(d["release_speed"], math.radians(320)) for d in r["designs"])
+    assert {round(d["offset"], 6) for d in r["designs"]} == {-0.005, -0.002}   # metres in JSON
+    assert r["best"] is not None  # h = -0.5 cm is the paper's design: unique, with a trigger range
+    assert r["best"]["unique"] and r["best"]["width"] == max(d["width"] for d in r["designs"] if d["unique"])

@@ -9,7 +9,10 @@ from feeder_planner.cli.common import add_json_flag, angle, emit, finite_float
 from feeder_planner.errors import InputError
 from feeder_planner.parts import Part, load_part
 from feeder_planner.throwing import api
+from feeder_planner.throwing.geometry import arm_part
+from feeder_planner.throwing.grasp import grasp_radius
 from feeder_planner.throwing.throw_map import ThrowParams
+from feeder_planner.units import LENGTH_UNITS
 
 CONVENTIONS = """Frame at the arm pivot; gravity (0, G) with G < 0; the arm's top surface is y = H while
 horizontal; a throw turns the arm counter-clockwise and releases at angular speed W > 0 (impulsive).
@@ -85,9 +88,21 @@ def _params(args: argparse.Namespace, part: Part) -> ThrowParams:
     return ThrowParams(args.offset * scale, args.release_speed, args.gravity * scale, args.mu)
 
 
+def _unit_name(part: Part) -> str:
+    return next((name for name, scale in LENGTH_UNITS.items() if scale == part.unit_scale), "m")
+
+
 def run_throw(args: argparse.Namespace) -> int:
     part = load_part(args.part)
     params = _params(args, part)
+    arm = arm_part(part)
+    if 0 <= args.edge < arm.n and arm.stable[args.edge]:
+        # Say it in the file's unit, as the flag was given.
+        r_grasp = grasp_radius(arm, args.edge, params.offset, params.mu) / part.unit_scale
+        if args.radius < r_grasp * (1 - 1e-12) - 1e-300:
+            unit = _unit_name(part)
+            raise InputError("--radius", f"R = {args.radius:.6g} {unit} is below R_grasp = {r_grasp:.6g} {unit} of "
+                                         f"edge {args.edge}: the throw is not in a dynamic grasp (eqs. 1-4)")
     result = api.throw_dict(part, args.edge, args.radius * part.unit_scale, params)
     unit = part.unit_scale
     emit(args, result, lambda r: f"edge {r['start_edge']} at R={r['start_radius'] / unit:.6g} -> edge {r['edge']} at "
