@@ -112,7 +112,6 @@ def asymptotic_equilibria(part: Part, delta: float, edges: Edges | None = None) 
     """All equilibria for small delta by Table 1 and Theorem 7, refined with EXTRA orders of the expansion."""
     edges = edges or part_edges(part)
     z0 = pivot_translation(edges)
-    scale = edges.scale
     rho = float(np.hypot(*z0))
     theta_grid = 2 * math.pi * np.arange(SAMPLES) / SAMPLES
     c_t, s_t = np.cos(theta_grid), np.sin(theta_grid)

@@ -6,14 +6,14 @@ import json
 import math
 from typing import Any
 
-import rclpy
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
 from feeder_msgs.msg import DesignCandidate, LimitEdgeRange
 from feeder_msgs.srv import DesignSearch, GraspRadii, LimitSetCompute, SensorTriggerRadii, ThrowCompute
 from feeder_planner.errors import InputError
-from feeder_planner.nodes.ros_common import ParameterSpec, declare_parameters, part_from_msg, service_guard
+from feeder_planner.nodes.ros_common import (
+    ParameterSpec, declare_parameters, part_from_msg, run_node, service_guard,
+)
 from feeder_planner.throwing import api
 from feeder_planner.throwing.throw_map import ThrowParams
 
@@ -119,20 +119,7 @@ class ThrowPlanner(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    rclpy.init(args=args)
-    try:
-        node = ThrowPlanner()
-    except InputError as error:
-        rclpy.logging.get_logger("throw_planner").fatal(f"bad configuration: {error}")
-        rclpy.try_shutdown()
-        raise SystemExit(2) from None
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(ThrowPlanner, "throw_planner", args)
 
 
 if __name__ == "__main__":

@@ -5,10 +5,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import rclpy
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool
@@ -16,7 +14,9 @@ from std_msgs.msg import Bool
 from feeder_msgs.msg import ThrowEvent
 from feeder_msgs.srv import ArmCommand, ArmPlacePart
 from feeder_planner.errors import InputError
-from feeder_planner.nodes.ros_common import ParameterSpec, declare_parameters, non_negative, positive, service_guard
+from feeder_planner.nodes.ros_common import (
+    ParameterSpec, declare_parameters, non_negative, positive, run_node, service_guard,
+)
 from feeder_planner.parts import load_part
 from feeder_planner.throwing.geometry import arm_part
 from feeder_planner.throwing.throw_map import ThrowParams, lowest_radius
@@ -182,19 +182,8 @@ class ThrowingArmNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    rclpy.init(args=args)
-    try:
-        node = ThrowingArmNode()
-    except InputError as error:
-        rclpy.logging.get_logger("throwing_arm").fatal(str(error))
-        rclpy.try_shutdown()
-        raise SystemExit(2) from None
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(ThrowingArmNode, "throwing_arm", args)
+
+
 if __name__ == "__main__":
     main()

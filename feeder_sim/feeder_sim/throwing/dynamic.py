@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pymunk
@@ -12,12 +13,15 @@ from feeder_planner.throwing.geometry import ArmPart
 from feeder_planner.throwing.grasp import carry_in_grasp
 from feeder_planner.throwing.throw_map import ThrowParams
 
+if TYPE_CHECKING:  # arm.py imports this module, so only the type checker may import arm.py here
+    from feeder_sim.throwing.arm import ThrowOutcome
+
 CARRY_ANGLE = 0.02  # rad: the arm turns this far while accelerating to W (a short but real carry)
 
 
 def dynamic_throw(part: ArmPart, params: ThrowParams, edge: int, radius: float, step: float = 1e-4,
                   elasticity: float = 0.05, friction: float | None = None, carry_angle: float = CARRY_ANGLE,
-                  arm_length: float = math.inf) -> "ThrowOutcome":
+                  arm_length: float = math.inf) -> ThrowOutcome:
     """One throw in pymunk: the arm (kinematic) accelerates uniformly through ``carry_angle`` to W, stops dead
     (the part flies off), swings back to horizontal, and the part bounces, slides and settles under gravity.
 
