@@ -62,7 +62,8 @@ def test_record_decode_replay_rerecord(ros_domain: int, tmp_path: Path) -> None:
     assert _decoded_strings(original, "/latched") == ["latched-hello"]
 
     rerecorder = _record(replayed, 8.0, ["/talk", "/latched"])
-    player = subprocess.run([*FEEDER, "play", str(original), "--rate", "2", "--json"], capture_output=True,
+    player = subprocess.run([*FEEDER, "play", str(original), "--rate", "2", "--wait-for-subscribers", "30",
+                             "--json"], capture_output=True,
                             text=True, timeout=60)
     assert player.returncode == 0, player.stderr
     assert json.loads(player.stdout)["topics"]["/talk"]["count"] == 30

@@ -24,8 +24,12 @@ def open_bag(path: Path) -> Reader:
 
 
 def play(node: Node, path: Path, rate: float = 1.0, topics: tuple[str, ...] = (),
-         keep_going: Callable[[], bool] = lambda: True) -> dict[str, int]:
-    """Publish every message of the bag; returns messages published per topic."""
+         keep_going: Callable[[], bool] = lambda: True, wait_for_subscribers: float = 0.0) -> dict[str, int]:
+    """Publish every message of the bag; returns messages published per topic.
+
+    ``wait_for_subscribers`` > 0: before the first message, wait up to that many seconds until every
+    topic has a matched subscriber (volatile messages published earlier would reach nobody).
+    """
     if not rate > 0:
         raise InputError("rate", f"must be > 0, got {rate}")
     reader = open_bag(path)
@@ -35,8 +39,13 @@ def play(node: Node, path: Path, rate: float = 1.0, topics: tuple[str, ...] = ()
         for connection in connections:
             qos = from_bag_qos(getattr(connection.ext, "offered_qos_profiles", ()))
             publishers[connection.id] = node.create_publisher(message_class(connection.msgtype), connection.topic, qos)
-        # Give subscribers a moment to match before the first message; DDS discovery is not instant.
-        time.sleep(0.5)
+        if wait_for_subscribers > 0:
+            deadline = time.monotonic() + wait_for_subscribers
+            while keep_going() and time.monotonic() < deadline and any(
+                    p.get_subscription_count() == 0 for p in publishers.values()):
+                time.sleep(0.05)
+        else:
+            time.sleep(0.5)  # DDS discovery is not instant; give existing subscribers a moment to match
         counts = {c.topic: 0 for c in connections}
         first_stamp: int | None = None
         started = time.monotonic()

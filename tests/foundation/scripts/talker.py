@@ -12,7 +12,11 @@ node = rclpy.create_node("feeder_test_talker")
 talk = node.create_publisher(String, "/talk", 10)
 latched = node.create_publisher(String, "/latched", QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
 latched.publish(String(data="latched-hello"))
-rclpy.spin_once(node, timeout_sec=1.5)  # let the recorder discover us before the numbered messages start
+# Volatile messages reach only subscribers already matched: wait (bounded) for the recorder.
+waited = 0.0
+while talk.get_subscription_count() == 0 and waited < 30.0:
+    rclpy.spin_once(node, timeout_sec=0.1)
+    waited += 0.1
 for i in range(count):
     talk.publish(String(data=f"msg-{i}"))
     rclpy.spin_once(node, timeout_sec=period)
