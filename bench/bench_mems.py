@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import statistics
 import sys
 import time
 from pathlib import Path
@@ -19,20 +18,7 @@ from feeder_planner.mems.equilibria import find_equilibria  # noqa: E402
 from feeder_planner.mems.fields import CombinedField, ProgramStep  # noqa: E402
 from feeder_planner.parts import make_part  # noqa: E402
 from feeder_sim.mems.scene import Body, Scene  # noqa: E402
-
-
-def median_time(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
-
-
-def row(benchmark: str, measure: str, value: float, unit: str, target: str, baseline: str, met: bool) -> dict:
-    return {"benchmark": benchmark, "measure": measure, "value": float(value), "unit": unit, "target": target,
-            "baseline": baseline, "met": bool(met)}
+from benchlib import median_time, row  # noqa: E402
 
 
 def washer():

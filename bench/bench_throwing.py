@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import statistics
 import time
 from pathlib import Path
 
@@ -13,6 +12,8 @@ from feeder_planner.parts import load_part, make_part
 from feeder_planner.throwing.geometry import arm_part
 from feeder_planner.throwing.limit_set import edge_bounds, iterate, limit_set
 from feeder_planner.throwing.throw_map import ThrowParams, throw, throw_batch
+
+from benchlib import median_time
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "throwing"
 TRIANGLE = ThrowParams(-0.005, math.radians(320), -9.66, 0.5)
@@ -24,15 +25,6 @@ def _decagon():
     angles = np.linspace(0, 2 * math.pi, 10, endpoint=False) + 0.15 * np.sin(np.arange(10))
     radii = 0.025 * (1 + 0.04 * np.cos(3 * np.arange(10)))
     return arm_part(make_part(np.c_[radii * np.cos(angles), radii * np.sin(angles)].tolist()))
-
-
-def _median_time(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times)
 
 
 def run(out_dir: Path, quick: bool) -> list[dict]:
@@ -50,9 +42,9 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     n = 2000
     edges = rng.choice(part.stable_edges, n)
     radii = np.array([rng.uniform(b.low[e], b.max[e]) for e in edges])
-    t_batch = _median_time(lambda: throw_batch(part, edges, radii, p), repeats)
+    t_batch = median_time(lambda: throw_batch(part, edges, radii, p), repeats)
     m = 100 if quick else 300
-    t_scalar = _median_time(lambda: [throw(part, int(e), float(r), p) for e, r in zip(edges[:m], radii[:m])], repeats) / m
+    t_scalar = median_time(lambda: [throw(part, int(e), float(r), p) for e, r in zip(edges[:m], radii[:m])], repeats) / m
     rate = n / t_batch
     rows.append({"benchmark": "throwing: analytic throw map (10-vertex part, batched)", "measure": "throughput",
                  "value": rate, "unit": "throws/s", "target": ">= 10000 throws/s",
@@ -60,7 +52,7 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
                  "met": rate >= 10000})
 
     tri = arm_part(load_part(EXAMPLES / "triangle.yaml"))
-    t_limit = _median_time(lambda: limit_set(tri, TRIANGLE, goal_edge=1, starts_per_edge=34, throws=300), repeats)
+    t_limit = median_time(lambda: limit_set(tri, TRIANGLE, goal_edge=1, starts_per_edge=34, throws=300), repeats)
     rows.append({"benchmark": "throwing: limit set, 102 starts x 300 throws (triangle, with R_max and trigger)",
                  "measure": "wall time", "value": t_limit, "unit": "s", "target": "< 5 s", "baseline": "-",
                  "met": t_limit < 5.0})
@@ -74,7 +66,7 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     for e in tri.stable_edges:
         starts += [(e, float(r)) for r in np.linspace(bounds.low[e] + 0.01, bounds.max[e], per_edge)]
     ana = [throw(tri, e, r, TRIANGLE) for e, r in starts]
-    t_ana = _median_time(lambda: [throw(tri, e, r, TRIANGLE) for e, r in starts], repeats) / len(starts)
+    t_ana = median_time(lambda: [throw(tri, e, r, TRIANGLE) for e, r in starts], repeats) / len(starts)
     agree_rates, errors, ratios = [], [], []
     for step in steps:
         t = time.perf_counter()

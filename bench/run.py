@@ -12,6 +12,7 @@ from pathlib import Path
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 BENCH_DIR = Path(__file__).resolve().parent
+sys.path.insert(0, str(BENCH_DIR))  # the device modules share bench/benchlib.py
 COLUMNS = ("benchmark", "measure", "value", "unit", "target", "met", "baseline")
 
 

@@ -1,0 +1,23 @@
+"""Shared pieces of the device benchmarks: median timing and the table's row format."""
+
+from __future__ import annotations
+
+import statistics
+import time
+from typing import Any, Callable
+
+
+def median_time(function: Callable[[], Any], repeats: int) -> float:
+    """Median wall time of ``repeats`` calls (s): robust to the odd slow call on a shared machine."""
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def row(benchmark: str, measure: str, value: float, unit: str, target: str, baseline: str, met: bool) -> dict:
+    """One line of the `make bench` table."""
+    return {"benchmark": benchmark, "measure": measure, "value": float(value), "unit": unit, "target": target,
+            "baseline": baseline, "met": bool(met)}
