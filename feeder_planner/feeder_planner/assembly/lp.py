@@ -19,6 +19,7 @@ except ImportError:  # pragma: no cover - exercised only on older scipy
     _highs = None
 
 FEASIBILITY_TOLERANCE = 1e-9
+PRIMAL_SIMPLEX = 4  # HiGHS simplex_strategy value
 
 
 @dataclass(frozen=True)
@@ -76,6 +77,31 @@ class WarmLP:
         self.lower[indices], self.upper[indices] = lower, upper
         if self._model is not None:
             self._model.changeColsBounds(len(indices), indices, np.asarray(lower, float), np.asarray(upper, float))
+
+    def basis(self):
+        """The last solve's simplex basis (None without the HiGHS binding), to restart a later solve from it."""
+        return None if self._model is None else self._model.getBasis()
+
+    def solve_from(self, basis) -> LPResult:
+        """Solve by the primal simplex started from ``basis`` (a basis saved by ``basis()`` on this model).
+
+        A basis that was optimal for another objective stays primal feasible (only the costs changed), so the
+        primal simplex continues from that vertex instead of restarting phase 1: with an objective close to the
+        old one this takes a handful of pivots where a cold start takes thousands on these degenerate LPs.
+        """
+        if self._model is None or basis is None:
+            return self.solve()
+        model = self._model
+        saved = {name: model.getOptionValue(name)[1] for name in ("simplex_strategy", "presolve")}
+        model.setBasis(basis)
+        model.setOptionValue("simplex_strategy", PRIMAL_SIMPLEX)
+        model.setOptionValue("presolve", "off")
+        try:
+            return self.solve()
+        finally:
+            for name, value in saved.items():
+                if self._model is model:  # solve() rebuilds the model after a failure
+                    model.setOptionValue(name, value)
 
     def solve(self) -> LPResult:
         self.solves += 1

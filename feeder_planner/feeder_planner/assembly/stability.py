@@ -108,6 +108,9 @@ class SupportOracle:
         self.lp = WarmLP(A, np.zeros(system.A.shape[0]), np.concatenate([-np.ones(3), np.zeros(columns)]),
                          np.concatenate([np.ones(3), np.full(columns, np.inf)]))
         self.calls = 0
+        # Optimal bases found so far, with their maximisers g: each is primal feasible for any new direction.
+        self._points: list[np.ndarray] = []
+        self._bases: list = []
 
     def __call__(self, direction: np.ndarray) -> tuple[float, np.ndarray]:
         self.calls += 1
@@ -116,7 +119,14 @@ class SupportOracle:
             g = np.where(direction >= 0, 1.0, -1.0)
             return float(direction @ g), g
         self.lp.set_cost(np.arange(3), -direction)
-        result = self.lp.solve()
+        # Parametric start (sec. III): the primal simplex resumes from the known vertex of P that is best for the
+        # new direction. Restarting from the last basis instead (whatever its vertex) costs thousands of
+        # degenerate pivots on statically indeterminate assemblies.
+        if self._points:
+            best = int(np.argmax(np.asarray(self._points) @ direction))
+            result = self.lp.solve_from(self._bases[best])
+        else:
+            result = self.lp.solve()
         if result.status != "optimal":
             raise SolverError(f"support LP failed ({result.status}): {result.message}")
         g = np.clip(result.x[:3], -1.0, 1.0)
@@ -124,4 +134,8 @@ class SupportOracle:
         residual = float(np.abs(self.system.A @ lam + self.system.B @ g).max()) if self.system.columns else 0.0
         if residual > RESIDUAL_TOLERANCE:
             raise SolverError(f"support LP residual {residual:.3g} > {RESIDUAL_TOLERANCE}")
+        basis = self.lp.basis()
+        if basis is not None:
+            self._points.append(g)
+            self._bases.append(basis)
         return float(direction @ g), g
