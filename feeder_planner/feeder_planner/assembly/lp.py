@@ -79,8 +79,11 @@ class WarmLP:
             self._model.changeColsBounds(len(indices), indices, np.asarray(lower, float), np.asarray(upper, float))
 
     def basis(self):
-        """The last solve's simplex basis (None without the HiGHS binding), to restart a later solve from it."""
-        return None if self._model is None else self._model.getBasis()
+        """The last solve's simplex basis (None if there is none), to restart a later solve from it."""
+        if self._model is None:
+            return None
+        basis = self._model.getBasis()
+        return basis if basis.valid else None
 
     def solve_from(self, basis) -> LPResult:
         """Solve by the primal simplex started from ``basis`` (a basis saved by ``basis()`` on this model).
