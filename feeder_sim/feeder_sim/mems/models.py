@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from feeder_planner.mems.fields import Field
+from feeder_sim.mems.cellsum import CellForceSums
 from feeder_sim.mems.coverage import Grid
 
 
@@ -34,6 +35,7 @@ class ArrayForces:
         self.directions = int(directions)
         self._field: Field | None = None
         self._forces = np.zeros((nx, ny, 2))
+        self._sums: CellForceSums | None = None
 
     def cell_forces(self, field: Field) -> np.ndarray:
         """(nx, ny, 2) force per unit area of every cell for this field (cached per field)."""
@@ -45,9 +47,17 @@ class ArrayForces:
                 norm = np.hypot(forces[..., 0], forces[..., 1])
                 forces = norm[..., None] * np.stack([np.cos(angle), np.sin(angle)], axis=-1)
             self._field, self._forces = field, forces
+            self._sums = CellForceSums(forces, self.grid.x_nodes, self.grid.y_nodes)
         return self._forces
 
     def wrench(self, field: Field, loops: tuple[np.ndarray, ...], about: np.ndarray) -> np.ndarray:
+        """Sum over cells of cell force times exact covered area (and first moments for the torque),
+        from edge integrals over the cells the boundary crosses (``CellForceSums``)."""
+        self.cell_forces(field)
+        return self._sums.wrench(loops, about)
+
+    def wrench_by_cells(self, field: Field, loops: tuple[np.ndarray, ...], about: np.ndarray) -> np.ndarray:
+        """Reference: the same sum from the covered area and moments of every cell (``Grid.cell_moments``)."""
         forces = self.cell_forces(field)
         si, sj, cells = self.grid.cell_moments(loops)
         f = forces[si, sj]
