@@ -1,7 +1,7 @@
-"""One HiGHS model kept alive across solves, so a changed objective or bound re-solves from the last basis.
+"""One HiGHS model kept alive across solves: a changed bound re-solves from the last basis, a new objective can
+restart from any saved optimal basis.
 
-This is the parametric programming of sec. III in practice: each new objective direction starts the dual
-simplex from the previous optimal basis. It uses the HiGHS binding that scipy ships
+This is the parametric programming of sec. III in practice. It uses the HiGHS binding that scipy ships
 (``scipy.optimize._highspy``); if that private module is missing, every solve falls back to ``linprog``.
 """
 
