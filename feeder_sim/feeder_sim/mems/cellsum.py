@@ -36,10 +36,11 @@ class CellForceSums:
         # exclusive prefix sums up each column: H and K at the bottom of every padded cell
         h = np.concatenate([np.zeros((nx + 2, 1, 2)), np.cumsum(f * height, axis=1)[:, :-1]], axis=1)
         k = np.concatenate([np.zeros((nx + 2, 1, 2)), np.cumsum(f * first, axis=1)[:, :-1]], axis=1)
-        # one row per padded cell (index i * (ny + 2) + j): fx, fy, Hx, Hy, Kx, bottom
-        self.table = np.ascontiguousarray(np.concatenate(
-            [f, h, k[..., :1], np.broadcast_to(bottom[None, :, None], (nx + 2, ny + 2, 1))], axis=2).reshape(-1, 6))
-        self._columns = self.table.reshape(nx + 2, ny + 2, 6)
+        # per padded cell (flat index i * (ny + 2) + j): fx, fy, Hx, Hy, Kx at its bottom, its bottom y
+        table = np.concatenate([f, h, k[..., :1], np.broadcast_to(bottom[None, :, None], (nx + 2, ny + 2, 1))],
+                               axis=2)
+        self._fields_by_column = np.ascontiguousarray(np.moveaxis(table, 2, 0))
+        self._fields = self._fields_by_column.reshape(6, -1)
         self._simpson = np.array([1.0, 4.0, 1.0])[:, None] / 6.0
         self._next: dict[tuple[int, ...], np.ndarray] = {}
 
@@ -84,16 +85,16 @@ class CellForceSums:
         e = q // (width - 1)
         tf = t.ravel()
         ta, tb = tf[q + e], tf[q + e + 1]
-        sx, sy, ex, ey = np.concatenate([start, d], axis=1)[e].T
+        sx, sy, ex, ey = np.concatenate([start.T, d.T])[:, e]
         tt = np.concatenate([ta[None], (0.5 * (ta + tb))[None], tb[None]])
         x = sx + tt * ex
         y = sy + tt * ey
         # each piece's padded cell from its midpoint (searchsorted is exact against the nodes)
         i = xn.searchsorted(x[1], side="right")
         j = yn.searchsorted(y[1], side="right")
-        cell = self.table[i * (self.ny + 2) + j].T
+        cell = self._fields[:, i * (self.ny + 2) + j]
         # prefix sums relative to the row of the part's lowest point (a column offset: oint = 0)
-        ref = self._columns[:, j0][i].T
+        ref = self._fields_by_column[:, :, j0][:, i]
         fx, fy, bottom = cell[0], cell[1], cell[5]
         hx, hy = cell[2] - ref[2], cell[3] - ref[3]
         ax, ay = float(about[0]), float(about[1])
