@@ -8,7 +8,7 @@ import math
 import statistics
 import time
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -19,25 +19,13 @@ from feeder_planner.assembly.model import Assembly, assembly_from_document, load
 from feeder_planner.assembly.planner import prepare
 from feeder_planner.assembly.stability import StabilityChecker
 
+from benchlib import median_time_and_result, row
+
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLING_STEP = math.radians(2.0)
 # Random towers whose stable region is a proper spherical polygon: nominal size -> (seed, contact faces);
 # they give 108, 240, 512 and 1012 contact points.
 ASSEMBLIES = {100: (2, 27), 250: (2, 64), 500: (2, 128), 1000: (0, 256)}
-
-
-def _median_time(function: Callable[[], Any], repeats: int) -> tuple[float, Any]:
-    times, result = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        result = function()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), result
-
-
-def _row(benchmark: str, measure: str, value: float, unit: str, target: str, baseline: str, met: bool) -> dict:
-    return {"benchmark": benchmark, "measure": measure, "value": float(value), "unit": unit, "target": target,
-            "baseline": baseline, "met": bool(met)}
 
 
 def _region(assembly: Assembly):
@@ -74,11 +62,11 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     region_time: dict[int, float] = {}
     points: dict[int, int] = {}
     for n, assembly in assemblies.items():
-        region_time[n], (prepared, region) = _median_time(lambda a=assembly: _region(a), repeats)
+        region_time[n], (prepared, region) = median_time_and_result(lambda a=assembly: _region(a), repeats)
         points[n] = len(prepared.contacts)
         target = 0.1 if n == 100 else 2.0 if n == 1000 else None
         if target is not None:
-            rows.append(_row("assembly stable region", f"exact region, {points[n]} contact points ({region.kind}, "
+            rows.append(row("assembly stable region", f"exact region, {points[n]} contact points ({region.kind}, "
                              f"{region.lp_count} LPs), median of {repeats}", region_time[n] * 1e3, "ms",
                              f"< {target * 1e3:.0f} ms", "none (absolute)", region_time[n] < target))
 
@@ -86,8 +74,8 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     # and highly degenerate LPs. 8 x 6 bricks give 448 contact points, 12 x 8 give 960 (the 1000-point target).
     for wall_rows, wall_columns, wall_repeats in ((8, 6, repeats), (12, 8, 1 if quick else 3)):
         wall = assembly_from_document(brick_wall(wall_rows, wall_columns))
-        wall_time, (wall_prepared, wall_region) = _median_time(lambda w=wall: _region(w), wall_repeats)
-        rows.append(_row("assembly stable region", f"exact region, connected brick wall {wall_rows}x{wall_columns}, "
+        wall_time, (wall_prepared, wall_region) = median_time_and_result(lambda w=wall: _region(w), wall_repeats)
+        rows.append(row("assembly stable region", f"exact region, connected brick wall {wall_rows}x{wall_columns}, "
                          f"{len(wall_prepared.contacts)} contact points ({wall_region.kind}, {wall_region.lp_count} "
                          f"LPs), median of {wall_repeats}", wall_time * 1e3, "ms", "< 2000 ms", "none (absolute)",
                          wall_time < 2.0))
@@ -100,7 +88,7 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     verdicts = _sampling(assembly, samples)
     sampling_time = time.perf_counter() - start
     ratio = sampling_time / region_time[100]
-    rows.append(_row("assembly stable region", f"speed-up over 2-deg sphere sampling ({len(samples)} LPs, "
+    rows.append(row("assembly stable region", f"speed-up over 2-deg sphere sampling ({len(samples)} LPs, "
                      f"{sampling_time:.2f} s), {points[100]} contact points", ratio, "x", ">= 50x",
                      "2-deg sampling, one LP each", ratio >= 50))
     # Accuracy against the LP itself at fresh random directions: region membership vs nearest-sample verdict.
@@ -113,11 +101,11 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     exact_wrong = int(np.sum(np.array([region.contains(g) for g in tests]) != truth))
     nearest = cKDTree(samples).query(tests)[1]
     sampling_wrong = int(np.sum(verdicts[nearest] != truth))
-    rows.append(_row("assembly stable region", f"misclassified of {len(tests)} random directions: exact region "
+    rows.append(row("assembly stable region", f"misclassified of {len(tests)} random directions: exact region "
                      f"{exact_wrong}, sampling {sampling_wrong}", exact_wrong, "directions",
                      "<= sampling's", f"2-deg sampling: {sampling_wrong}", exact_wrong <= sampling_wrong))
     sampled_area = 4 * math.pi * verdicts.mean()
-    rows.append(_row("assembly stable region", f"area: exact {region.area_sr:.5f} sr, sampling {sampled_area:.5f} sr",
+    rows.append(row("assembly stable region", f"area: exact {region.area_sr:.5f} sr, sampling {sampled_area:.5f} sr",
                      abs(sampled_area - region.area_sr), "sr (sampling error)", "report",
                      "exact spherical polygon area", True))
 
@@ -131,7 +119,7 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     per_lp = {}
     for n in xs:
         subset = samples[:: max(1, len(samples) // 150)]
-        t, _ = _median_time(lambda a=assemblies[n], s=subset: _sampling(a, s), 1)
+        t, _ = median_time_and_result(lambda a=assemblies[n], s=subset: _sampling(a, s), 1)
         per_lp[n] = t / len(subset)
     axis.loglog([points[n] for n in xs], [per_lp[n] * len(samples) for n in xs], "s--",
                 label=f"2-deg sampling ({len(samples)} LPs, extrapolated)")
@@ -153,7 +141,7 @@ def _peer_rows(quick: bool) -> list[dict]:
     try:
         import compas_cra  # noqa: F401
     except ImportError as exc:
-        return [_row("assembly check vs compas_cra", f"compas_cra not importable ({exc})", float("nan"), "ms",
+        return [row("assembly check vs compas_cra", f"compas_cra not importable ({exc})", float("nan"), "ms",
                      "run side by side", "compas_cra RBE", False)]
     ours, theirs, agree, total, failed = [], [], 0, 0, 0
     ours_stable = theirs_stable = 0
@@ -165,7 +153,7 @@ def _peer_rows(quick: bool) -> list[dict]:
         center = prepared.region.center if prepared.region.center is not None else np.array([0, 0, -1.0])
         for g in [center, -center] + [center + 0.3 * rng.normal(size=3) for _ in range(3)]:
             g = g / np.linalg.norm(g)
-            t, verdict = _median_time(lambda g=g: prepared.checker(g, explain=False), 3)
+            t, verdict = median_time_and_result(lambda g=g: prepared.checker(g, explain=False), 3)
             ours.append(t)
             peer, elapsed = _cra_check(assembly, g, 0.6)
             theirs.append(elapsed)
@@ -176,11 +164,11 @@ def _peer_rows(quick: bool) -> list[dict]:
             theirs_stable += bool(peer)
     ours_ms, theirs_ms = statistics.median(ours) * 1e3, statistics.median(theirs) * 1e3
     return [
-        _row("assembly check vs compas_cra", f"time per direction, ours (LP eq. 9), {total} checks", ours_ms, "ms",
+        row("assembly check vs compas_cra", f"time per direction, ours (LP eq. 9), {total} checks", ours_ms, "ms",
              "< compas_cra", f"compas_cra RBE: {theirs_ms:.2f} ms", ours_ms < theirs_ms),
-        _row("assembly check vs compas_cra", "speed-up over compas_cra RBE (IPOPT)", theirs_ms / ours_ms, "x",
+        row("assembly check vs compas_cra", "speed-up over compas_cra RBE (IPOPT)", theirs_ms / ours_ms, "x",
              ">= 1x", "compas_cra RBE", theirs_ms >= ours_ms),
-        _row("assembly check vs compas_cra", f"verdicts agreeing: ours stable {ours_stable}/{total}, RBE stable "
+        row("assembly check vs compas_cra", f"verdicts agreeing: ours stable {ours_stable}/{total}, RBE stable "
              f"{theirs_stable}/{total}, {failed} RBE solves failed (RBE: friction square |f_t| <= mu f_n per axis, "
              "tension penalised; stable iff no tension)", agree, f"of {total}", "report", "compas_cra RBE", True),
     ]
@@ -233,13 +221,13 @@ def _cone_rows(out_dir: Path, quick: bool, plt: Any) -> list[dict]:
     comparison = compare_pyramids(assembly, prepared.contacts, (4, 8, 16, 32), reference)
     times = {}
     for k in (4, 8, 16, 32):
-        times[k], _ = _median_time(lambda k=k: prepare(assembly, 0.3, k).region, 3)
+        times[k], _ = median_time_and_result(lambda k=k: prepare(assembly, 0.3, k).region, 3)
     rows = []
     first = comparison["pyramids"][0]
     lo, hi = comparison["exact_area_sr"]
     for entry in comparison["pyramids"]:
         k = entry["facets"]
-        rows.append(_row("assembly pyramid vs exact cone", f"K = {k}: area error (exact area in [{lo:.6f}, {hi:.6f}] "
+        rows.append(row("assembly pyramid vs exact cone", f"K = {k}: area error (exact area in [{lo:.6f}, {hi:.6f}] "
                          f"sr, K = {reference} bracket), Hausdorff {entry['hausdorff_rad']:.2e} rad, "
                          f"{times[k] * 1e3:.1f} ms", entry["area_error_sr"], "sr", "<= K = 4's",
                          "exact circular cone", entry["area_error_sr"] <= first["area_error_sr"] + 1e-12))

@@ -7,14 +7,19 @@ import time
 from typing import Any, Callable
 
 
-def median_time(function: Callable[[], Any], repeats: int) -> float:
-    """Median wall time of ``repeats`` calls (s): robust to the odd slow call on a shared machine."""
-    times = []
+def median_time_and_result(function: Callable[[], Any], repeats: int) -> tuple[float, Any]:
+    """Median wall time of ``repeats`` calls (s), robust to the odd slow call on a shared machine, and the last result."""
+    times, result = [], None
     for _ in range(repeats):
         start = time.perf_counter()
-        function()
+        result = function()
         times.append(time.perf_counter() - start)
-    return statistics.median(times)
+    return statistics.median(times), result
+
+
+def median_time(function: Callable[[], Any], repeats: int) -> float:
+    """Median wall time of ``repeats`` calls (s)."""
+    return median_time_and_result(function, repeats)[0]
 
 
 def row(benchmark: str, measure: str, value: float, unit: str, target: str, baseline: str, met: bool) -> dict:
