@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import math
 import traceback
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -99,14 +100,21 @@ def declare_parameters(node: Node, specs: tuple[ParameterSpec, ...]) -> dict[str
     return values
 
 
+def _is_number(value: Any) -> bool:
+    # bool is an int subclass, but a parameter given as true is not a number.
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def finite(value: Any) -> str | None:
+    return None if _is_number(value) else f"must be a finite number, got {value!r}"
+
+
 def positive(value: Any) -> str | None:
-    return None if isinstance(value, (int, float)) and value > 0 and value == value and value != float("inf") \
-        else f"must be a finite number > 0, got {value!r}"
+    return None if _is_number(value) and value > 0 else f"must be a finite number > 0, got {value!r}"
 
 
 def non_negative(value: Any) -> str | None:
-    return None if isinstance(value, (int, float)) and 0 <= value < float("inf") \
-        else f"must be a finite number >= 0, got {value!r}"
+    return None if _is_number(value) and value >= 0 else f"must be a finite number >= 0, got {value!r}"
 
 
 def run_node(factory: Callable[[], Node], name: str, args: list[str] | None = None) -> None:

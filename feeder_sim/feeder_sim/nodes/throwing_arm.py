@@ -15,7 +15,7 @@ from feeder_msgs.msg import ThrowEvent
 from feeder_msgs.srv import ArmCommand, ArmPlacePart
 from feeder_planner.errors import InputError
 from feeder_planner.nodes.ros_common import (
-    ParameterSpec, declare_parameters, non_negative, positive, run_node, service_guard,
+    ParameterSpec, declare_parameters, finite, non_negative, positive, run_node, service_guard,
 )
 from feeder_planner.parts import load_part
 from feeder_planner.throwing.geometry import arm_part
@@ -23,14 +23,10 @@ from feeder_planner.throwing.throw_map import ThrowParams, lowest_radius
 from feeder_sim.throwing.arm import FIDELITIES, ThrowingArm
 
 
-def _finite(value: Any) -> str | None:
-    return None if isinstance(value, (int, float)) and math.isfinite(value) else f"must be a finite number, got {value!r}"
-
-
 PARAMETERS = (
-    ParameterSpec("part_file", "", "part file (YAML, contract section 2); required", 
+    ParameterSpec("part_file", "", "part file (YAML, contract section 2); required",
                   lambda v: None if isinstance(v, str) and v else "must name a part file"),
-    ParameterSpec("offset", -0.005, "h: height of the arm surface above the pivot (m)", _finite),
+    ParameterSpec("offset", -0.005, "h: height of the arm surface above the pivot (m)", finite),
     ParameterSpec("release_speed", math.radians(320), "W: release angular speed (rad/s, > 0)", positive),
     ParameterSpec("gravity", -9.66, "g: gravity along y (m/s^2, < 0)",
                   lambda v: None if isinstance(v, float) and v < 0 and math.isfinite(v) else f"must be < 0, got {v!r}"),
@@ -41,7 +37,7 @@ PARAMETERS = (
     ParameterSpec("period", 0.5, "time between throws (s, wall clock)", positive),
     ParameterSpec("motion_fraction", 0.3, "fraction of the period spent showing the throw; the rest is at rest",
                   lambda v: None if isinstance(v, float) and 0 < v < 1 else f"must be in (0, 1), got {v!r}"),
-    ParameterSpec("sensor_radius", 0.2, "x of the proximity sensor on the arm (m); may change at runtime", _finite),
+    ParameterSpec("sensor_radius", 0.2, "x of the proximity sensor on the arm (m); may change at runtime", finite),
     ParameterSpec("sensing_height", 0.001, "sensing height above the arm surface (m, >= 0); may change at runtime",
                   non_negative),
     ParameterSpec("sensor_rate", 100.0, "rate of the sensor, joint state and part pose topics (Hz)", positive),
@@ -90,7 +86,7 @@ class ThrowingArmNode(Node):
         for change in changes:
             if change.name in ("sensor_radius", "sensing_height"):
                 value = change.value
-                bad = _finite(value) if change.name == "sensor_radius" else non_negative(value)
+                bad = finite(value) if change.name == "sensor_radius" else non_negative(value)
                 if bad:
                     return SetParametersResult(successful=False, reason=f"{change.name}: {bad}")
             elif change.name in {spec.name for spec in PARAMETERS}:
