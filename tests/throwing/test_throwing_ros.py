@@ -38,22 +38,34 @@ def _trigger(ros_client):
     return ros_harness.call_service(ros_client, SensorTriggerRadii, "/throw_planner/trigger_radii", request, 60)
 
 
+def _wait_for(condition, timeout: float, what: str):
+    deadline = time.monotonic() + timeout
+    while True:
+        value = condition()
+        if value is not None:
+            return value
+        assert time.monotonic() < deadline, f"timed out after {timeout:.0f} s waiting for {what}"
+        time.sleep(0.005)
+
+
 @pytest.mark.ros
 def test_sensor_at_planned_radius_reads_true_only_on_goal_edge_and_every_cycle(planner, ros_client, launch_node):
     from feeder_msgs.msg import ThrowEvent
-    from sensor_msgs.msg import JointState
+    from feeder_msgs.srv import ArmCommand
     from std_msgs.msg import Bool
     plan = _trigger(ros_client)
     assert plan.ok, plan.error
     assert plan.has_trigger and plan.radius_min < plan.radius_max and GOAL in plan.cycle_edges
     sensor_radius = 0.5 * (plan.radius_min + plan.radius_max)
-    period, fraction = 0.2, 0.15
-    # Arrival order in this process: the node publishes each tick's Bool right before that tick's stamped
-    # JointState, so a Bool's tick time is the stamp of the next JointState to arrive (within one tick).
-    events, arrivals, lock = [], [], threading.Lock()
-
-    def stamp(msg):
-        return msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+    # std_msgs/Bool carries no stamp, so which rest phase a reading belongs to is made certain by
+    # construction: one commanded throw at a time, and readings taken only after that throw's event
+    # (published when the motion ends) while no further throw is queued; the part is at rest throughout.
+    # Readings on one topic arrive in publish order, but a client that falls behind still delivers the
+    # previous rest's readings after the throw's event (rclpy's multi-threaded executor lagged by up to
+    # 0.8 s at 100 Hz here). So this test listens on its own single-threaded node, the sensor runs at
+    # 50 Hz, and only the newest readings of a run that starts after a settling pause are judged.
+    settle_s, run_length, judged_length = 0.1, 10, 3
+    events, readings, lock = [], [], threading.Lock()
 
     def on_event(msg):
         with lock:
@@ -61,64 +73,60 @@ def test_sensor_at_planned_radius_reads_true_only_on_goal_edge_and_every_cycle(p
 
     def on_sensor(msg):
         with lock:
-            arrivals.append(("bool", msg.data))
+            readings.append(msg.data)
 
-    def on_joint(msg):
-        with lock:
-            arrivals.append(("joint", stamp(msg)))
-
-    subs = [ros_client.create_subscription(ThrowEvent, "/throwing_arm/throw_events", on_event, 100),
-            ros_client.create_subscription(Bool, "/throwing_arm/sensor", on_sensor, 200),
-            ros_client.create_subscription(JointState, "/throwing_arm/joint_states", on_joint, 200)]
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    listener = rclpy.create_node("sensor_listener", context=context)
+    listener.create_subscription(ThrowEvent, "/throwing_arm/throw_events", on_event, 100)
+    listener.create_subscription(Bool, "/throwing_arm/sensor", on_sensor, 200)
+    command = listener.create_client(ArmCommand, "/throwing_arm/command")
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(listener)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    burn_in, wanted = 30, 300
+    rest_reads = []   # (edge at rest, readings while at rest)
     try:
         sim = launch_node("feeder_sim", "throwing_arm", {
             "part_file": str(TRIANGLE), **PAPER, "sensor_radius": sensor_radius, "sensing_height": HEIGHT,
-            "period": period, "motion_fraction": fraction, "initial_edge": 1, "initial_radius": 0.12,
-            "arm_length": 0.4, "autostart": True},
-            wait_topics=("/throwing_arm/sensor", "/throwing_arm/throw_events", "/throwing_arm/joint_states",
-                         "/throwing_arm/part_pose"))
-        burn_in, wanted = 30, 330
-        deadline = time.monotonic() + wanted * period * 2 + 30
-        while time.monotonic() < deadline:
+            "period": 0.1, "motion_fraction": 0.3, "initial_edge": 1, "initial_radius": 0.12,
+            "arm_length": 0.4, "autostart": False, "sensor_rate": 50.0},
+            wait_topics=("/throwing_arm/sensor", "/throwing_arm/throw_events"),
+            wait_services=("/throwing_arm/command",))
+        assert command.wait_for_service(timeout_sec=30)
+        for _ in range(burn_in + wanted):
             with lock:
-                if len(events) >= wanted + 1:
-                    break
-            assert sim.alive(), sim.output()[-3000:]
-            time.sleep(0.2)
+                seen = len(events)
+            future = command.call_async(ArmCommand.Request(command="throw", count=1))
+            response = _wait_for(lambda: future.result() if future.done() else None, 30, "the throw command")
+            assert response.ok, response.error
+            event = _wait_for(lambda: events[seen] if len(events) > seen else None, 30,
+                              f"throw event {seen + 1}; node log:\n{sim.output()[-2000:]}")
+            # Readings published during the flight may still be in transit when the event arrives.
+            time.sleep(settle_s)
+            with lock:
+                readings.clear()
+            got = _wait_for(lambda: list(readings) if len(readings) >= run_length else None, 30,
+                            "sensor readings at rest")
+            rest_reads.append((event.edge_after, got[-judged_length:]))
     finally:
-        for sub in subs:
-            ros_client.destroy_subscription(sub)
+        executor.shutdown(timeout_sec=2.0)
+        listener.destroy_node()
+        rclpy.try_shutdown(context=context)
+        spinner.join(timeout=5.0)
     with lock:
-        events_, arrivals_ = list(events), list(arrivals)
-    assert len(events_) >= wanted + 1, f"only {len(events_)} throw events"
+        events_ = list(events)
+    assert len(events_) == burn_in + wanted
     # The event's own record: at rest the sensor is true only on the goal edge.
     assert not any(ev.sensor_at_rest and ev.edge_after != GOAL for ev in events_)
     assert not any(ev.fault for ev in events_), [ev.fault_reason for ev in events_ if ev.fault][:3]
-    samples_, pending = [], []
-    for kind, value in arrivals_:
-        if kind == "bool":
-            pending.append(value)
-        else:
-            samples_.extend((value, v) for v in pending)
-            pending = []
-    samples_.sort(key=lambda item: item[0])
-    times = [t for t, _ in samples_]
-    rest_reads = []   # (edge at rest, readings in the core of that rest phase)
-    window = period * fraction
-    margin = 0.025
-    import bisect
-    for ev, nxt in zip(events_[burn_in:-1], events_[burn_in + 1:]):
-        lo, hi = stamp(ev) + margin, stamp(nxt) - window - margin
-        i, j = bisect.bisect_left(times, lo), bisect.bisect_right(times, hi)
-        rest_reads.append((ev.edge_after, [v for _, v in samples_[i:j]]))
-    assert len(rest_reads) >= 300
-    assert sum(len(r) for _, r in rest_reads) >= 300
+    rest_reads = rest_reads[burn_in:]
     wrong = [(e, r) for e, r in rest_reads if e != GOAL and any(r)]
     assert not wrong, f"sensor read true off the goal edge: {wrong[:5]}"
-    # Every visit to the goal edge (once per cycle) shows at least one true reading at rest. Rest phases
-    # whose core window caught no sample (the node's timer stalled on a loaded machine) cannot be judged;
-    # they must stay a minority.
-    assert sum(1 for _, r in rest_reads if not r) <= 0.2 * len(rest_reads)
+    # Every visit to the goal edge (once per cycle of the limit set) shows a true reading at rest.
     visits, current = [], []
     for e, r in rest_reads:
         if e == GOAL:
@@ -128,9 +136,8 @@ def test_sensor_at_planned_radius_reads_true_only_on_goal_edge_and_every_cycle(p
             current = []
     complete = visits[1:]  # the first visit may be cut by the burn-in
     assert len(complete) >= 15
-    judged = [v for v in complete if all(v)]
-    assert len(judged) >= 0.6 * len(complete)
-    assert all(any(any(r) for r in v) for v in judged), [v for v in judged if not any(any(r) for r in v)][:3]
+    assert all(any(any(r) for r in visit) for visit in complete), \
+        [v for v in complete if not any(any(r) for r in v)][:3]
 
 
 @pytest.mark.ros
