@@ -60,3 +60,15 @@ def test_warm_restarted_region_equals_cold_reference(from_doc, document, monkeyp
     assert sum(restarts) >= 3  # the warm restart path was exercised
     reference = region_module._cone_region(ColdOracle(prepared.system), prepared.facets)
     _same_region(fast, reference)
+
+
+def test_far_support_lps_go_through_interior_point_and_match_cold_reference(from_doc) -> None:
+    """On a statically indeterminate wall some restarts exceed FAR_PIVOTS; their interior-point + crossover
+    answers must leave the region exactly as the cold reference computes it."""
+    prepared = from_doc(brick_wall(8, 6, mu=0.6))
+    oracle = SupportOracle(prepared.system)
+    assert oracle.lp.interior_point_available()  # clarabel is a pinned requirement, not optional here
+    fast = region_module._cone_region(oracle, prepared.facets)
+    assert oracle.far_solves >= 1
+    reference = region_module._cone_region(ColdOracle(prepared.system), prepared.facets)
+    _same_region(fast, reference)

@@ -19,13 +19,12 @@ from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
+from scipy import sparse
 from scipy.spatial import ConvexHull, QhullError
 
 from feeder_planner.assembly.geometry import tangent_basis
-from scipy import sparse
-
 from feeder_planner.assembly.lp import WarmLP
-from feeder_planner.assembly.stability import SupportOracle
+from feeder_planner.assembly.stability import FAR_PIVOTS, SupportOracle
 from feeder_planner.assembly.wrench import EquilibriumSystem, split_components
 from feeder_planner.errors import SolverError
 
@@ -78,17 +77,18 @@ class StableRegion:
                 "lp_count": self.lp_count, **self.extra}
 
 
-def stable_region(system: EquilibriumSystem) -> StableRegion:
+def stable_region(system: EquilibriumSystem, far_pivots: int | None = FAR_PIVOTS) -> StableRegion:
     """The exact region of potentially stable unit gravity directions for the system of eq. (9).
 
     Independent sub-assemblies (linked only through grounded bodies) are solved separately and their
     constraints intersected: V is the intersection of their cones, each found with its own, smaller LPs.
+    ``far_pivots`` is the SupportOracle's switch to the interior point route (None: simplex only, the baseline).
     """
     # Splitting pays off only for big LPs: each part costs its own dozen small LPs plus a final combination.
     parts = split_components(system) if system.columns > SPLIT_COLUMNS else [system]
     if len(parts) == 1:
-        return _cone_region(SupportOracle(system), system.facets)
-    regions = [_cone_region(SupportOracle(part), part.facets) for part in parts]
+        return _cone_region(SupportOracle(system, far_pivots), system.facets)
+    regions = [_cone_region(SupportOracle(part, far_pivots), part.facets) for part in parts]
     spent = sum(r.lp_count for r in regions)
     empty = next((r for r in regions if r.kind == "empty"), None)
     if empty is not None:

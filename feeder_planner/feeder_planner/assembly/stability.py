@@ -15,6 +15,9 @@ from feeder_planner.errors import InputError, SolverError
 # HiGHS tolerances; a stable verdict is certified by re-checking the residual of the returned forces.
 LP_OPTIONS = {"primal_feasibility_tolerance": 1e-9, "dual_feasibility_tolerance": 1e-9, "presolve": True}
 RESIDUAL_TOLERANCE = 1e-7  # on the scaled equations: a fraction of each body's weight (and weight x size)
+# A restarted support LP still unsolved after this many pivots has its optimum in another corner of P: it is
+# solved by the interior point method and crossover instead (see SupportOracle). Small LPs never get there.
+FAR_PIVOTS = 150
 
 
 @dataclass(frozen=True)
@@ -101,13 +104,16 @@ def _bodies(system: EquilibriumSystem, rows: np.ndarray) -> tuple[int, ...]:
 class SupportOracle:
     """max c.g over the cube section {g in V, |g|_inf <= 1} of the stable cone V (sec. III); counts its LPs."""
 
-    def __init__(self, system: EquilibriumSystem) -> None:
+    def __init__(self, system: EquilibriumSystem, far_pivots: int | None = FAR_PIVOTS) -> None:
+        """``far_pivots``: simplex pivots after which an LP moves to the interior point route (None: never)."""
         self.system = system
         columns = system.columns
         A = sparse.hstack([sparse.csc_matrix(system.B), system.A], format="csc")
+        self.far_pivots = far_pivots
         self.lp = WarmLP(A, np.zeros(system.A.shape[0]), np.concatenate([-np.ones(3), np.zeros(columns)]),
                          np.concatenate([np.ones(3), np.full(columns, np.inf)]))
         self.calls = 0
+        self.far_solves = 0
         # Optimal bases found so far, with their maximisers g: each is primal feasible for any new direction.
         self._points: list[np.ndarray] = []
         self._bases: list = []
@@ -121,12 +127,18 @@ class SupportOracle:
         self.lp.set_cost(np.arange(3), -direction)
         # Parametric start (sec. III): the primal simplex resumes from the known vertex of P that is best for the
         # new direction. Restarting from the last basis instead (whatever its vertex) costs thousands of
-        # degenerate pivots on statically indeterminate assemblies.
+        # degenerate pivots on statically indeterminate assemblies. An optimum in another corner of P is still
+        # thousands of pivots away (each O(rows)): past FAR_PIVOTS the interior point method, whose cost does not
+        # grow with that distance, takes over and hands back an optimal basis for later restarts.
+        limit = self.far_pivots if self.lp.interior_point_available() else None
         if self._points:
             best = int(np.argmax(np.asarray(self._points) @ direction))
-            result = self.lp.solve_from(self._bases[best])
+            result = self.lp.solve_from(self._bases[best], limit)
         else:
-            result = self.lp.solve()
+            result = self.lp.solve(limit)
+        if result.status == "limit":
+            self.far_solves += 1
+            result = self.lp.solve_by_interior_point()
         if result.status != "optimal":
             raise SolverError(f"support LP failed ({result.status}): {result.message}")
         g = np.clip(result.x[:3], -1.0, 1.0)
