@@ -53,3 +53,29 @@ def test_interior_point_route_reports_infeasible_lp() -> None:
     lp = WarmLP(A, np.array([-1.0]), np.zeros(2), np.full(2, np.inf))  # x >= 0 cannot sum to -1
     lp.set_cost(np.arange(2), np.ones(2))
     assert lp.solve_by_interior_point().status == "infeasible"
+
+
+def test_interior_point_route_is_safe_from_two_threads(from_doc) -> None:
+    """Unserialised, HiGHS's crossover crashed the process while another thread was inside Clarabel."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from feeder_planner.assembly.generate import brick_wall
+
+    system = from_doc(brick_wall(12, 8)).system
+    A = sparse.hstack([sparse.csc_matrix(system.B), system.A], format="csc")
+    lower = np.concatenate([-np.ones(3), np.zeros(system.columns)])
+    upper = np.concatenate([np.ones(3), np.full(system.columns, np.inf)])
+
+    def solve_far_directions(_: int) -> list[float]:
+        lp = WarmLP(A, np.zeros(A.shape[0]), lower, upper)
+        values = []
+        for direction in ([1.0, 0.0, 0.0], [-1.0, 0.1, 0.0]):
+            lp.set_cost(np.arange(3), -np.asarray(direction))
+            result = lp.solve_by_interior_point()
+            assert result.status == "optimal"
+            values.append(result.value)
+        return values
+
+    with ThreadPoolExecutor(2) as pool:
+        first, second = pool.map(solve_far_directions, [0, 1])
+    assert first == pytest.approx(second, abs=1e-9)

@@ -9,7 +9,7 @@ from scipy.optimize import linprog
 
 from feeder_planner.assembly import region as region_module
 from feeder_planner.assembly.generate import brick_wall, random_assembly
-from feeder_planner.assembly.stability import SupportOracle
+from feeder_planner.assembly.support import SupportOracle
 from feeder_planner.assembly.wrench import split_components
 
 

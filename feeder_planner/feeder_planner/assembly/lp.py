@@ -8,6 +8,7 @@ point method and crosses over to an optimal HiGHS basis; HiGHS's simplex then ce
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,6 +25,9 @@ except ImportError:  # pragma: no cover - requirements.lock installs it; without
     _clarabel = None
 
 FEASIBILITY_TOLERANCE = 1e-9
+# HiGHS's crossover (IPX, through scipy's binding) crashed the process when it ran while another thread was in
+# Clarabel, even on separate models: the whole interior point route runs under one process-wide lock.
+_INTERIOR_POINT_LOCK = threading.Lock()
 PRIMAL_SIMPLEX = 4  # HiGHS simplex_strategy value
 # Clarabel's gap and feasibility tolerances: the crossover only needs the right active set, the simplex run from
 # the crossover basis restores HiGHS's 1e-9 tolerances and certifies optimality.
@@ -52,6 +56,7 @@ class WarmLP:
         self.solves = 0
         self.crossovers = 0  # interior-point solves that reached a crossover basis (not a fallback)
         self._model = self._build() if _highs is not None else None
+        self._has_run = False
         self._interior: _DualInteriorPoint | None = None  # built on first use, dropped when bounds change
 
     def _build(self):
@@ -144,15 +149,23 @@ class WarmLP:
         On the degenerate support LPs a far optimum costs the simplex thousands of pivots (each O(rows)), while
         the interior point method needs 10-30 iterations whatever the distance. Its point lies inside the optimal
         face, so it is made complementary (each variable at a bound or with zero reduced cost) and HiGHS's
-        crossover turns it into an optimal basis; the final simplex run, usually 0 pivots, is the certificate, so
-        the result is exactly as trustworthy as a plain simplex solve. Any failure falls back to ``solve()``.
+        crossover turns it into a basis. HiGHS certifies that basis optimal (primal and dual feasible at 1e-9, as
+        after any simplex solve), or the simplex continues from it, so the result is exactly as trustworthy as a
+        plain simplex solve. Any failure falls back to ``solve()``.
         """
         if not self.interior_point_available() or self._model is None:
             return self.solve()
+        with _INTERIOR_POINT_LOCK:
+            return self._interior_point_and_crossover()
+
+    def _interior_point_and_crossover(self) -> LPResult:
         start = self._interior_point()
         if start is None:
             return self.solve()
         x, y = start
+        if not self._has_run:
+            # HiGHS's crossover dereferences solver state that only a first run creates (it crashes otherwise).
+            self._solve_with({}, 0)
         solution = self._model.getSolution()  # a HighsSolution of the right shape, overwritten below
         reduced = self.cost - self.A.T @ y
         x, reduced = _complementary(x, reduced, self.lower, self.upper)
@@ -167,6 +180,10 @@ class WarmLP:
         if not basis.valid:
             return self.solve()
         self.crossovers += 1
+        if self._model.getModelStatus() == _highs.HighsModelStatus.kOptimal:
+            # HiGHS checked the crossover basis primal and dual feasible at its 1e-9 tolerances: a certified optimum.
+            x = np.asarray(self._model.getSolution().col_value)
+            return LPResult("optimal", x, float(self.cost @ x))
         return self.solve_from(basis)
 
     def _interior_point(self) -> tuple[np.ndarray, np.ndarray] | None:
@@ -186,6 +203,7 @@ class WarmLP:
         if self._model is None:
             return self._solve_linprog()
         self._model.run()
+        self._has_run = True
         status = self._model.getModelStatus()
         if status == _highs.HighsModelStatus.kOptimal:
             x = np.asarray(self._model.getSolution().col_value)
@@ -197,6 +215,7 @@ class WarmLP:
         # Anything else (a stalled warm start, say): one cold solve before giving up.
         result = self._solve_linprog()
         self._model = self._build()
+        self._has_run = False
         return result
 
     def _solve_linprog(self) -> LPResult:

@@ -24,7 +24,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from feeder_planner.assembly.geometry import tangent_basis
 from feeder_planner.assembly.lp import WarmLP
-from feeder_planner.assembly.stability import FAR_PIVOTS, SupportOracle
+from feeder_planner.assembly.support import FAR_PIVOTS, SupportOracle
 from feeder_planner.assembly.wrench import EquilibriumSystem, split_components
 from feeder_planner.errors import SolverError
 

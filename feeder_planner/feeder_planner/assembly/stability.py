@@ -1,4 +1,4 @@
-"""The stability linear program (eq. 9) for one gravity direction, and its support form over the cube (sec. III)."""
+"""The stability linear program (eq. 9) for one gravity direction: verdict, contact forces or moving bodies."""
 
 from __future__ import annotations
 
@@ -15,9 +15,6 @@ from feeder_planner.errors import InputError, SolverError
 # HiGHS tolerances; a stable verdict is certified by re-checking the residual of the returned forces.
 LP_OPTIONS = {"primal_feasibility_tolerance": 1e-9, "dual_feasibility_tolerance": 1e-9, "presolve": True}
 RESIDUAL_TOLERANCE = 1e-7  # on the scaled equations: a fraction of each body's weight (and weight x size)
-# A restarted support LP still unsolved after this many pivots has its optimum in another corner of P: it is
-# solved by the interior point method and crossover instead (see SupportOracle). Small LPs never get there.
-FAR_PIVOTS = 150
 
 
 @dataclass(frozen=True)
@@ -99,55 +96,3 @@ def _unbalanced(system: EquilibriumSystem, rhs: np.ndarray) -> StabilityVerdict:
 
 def _bodies(system: EquilibriumSystem, rows: np.ndarray) -> tuple[int, ...]:
     return tuple(sorted({int(b) for b in system.body_of_row[rows]}))
-
-
-class SupportOracle:
-    """max c.g over the cube section {g in V, |g|_inf <= 1} of the stable cone V (sec. III); counts its LPs."""
-
-    def __init__(self, system: EquilibriumSystem, far_pivots: int | None = FAR_PIVOTS) -> None:
-        """``far_pivots``: simplex pivots after which an LP moves to the interior point route (None: never)."""
-        self.system = system
-        columns = system.columns
-        A = sparse.hstack([sparse.csc_matrix(system.B), system.A], format="csc")
-        self.far_pivots = far_pivots
-        self.lp = WarmLP(A, np.zeros(system.A.shape[0]), np.concatenate([-np.ones(3), np.zeros(columns)]),
-                         np.concatenate([np.ones(3), np.full(columns, np.inf)]))
-        self.calls = 0
-        self.far_solves = 0
-        # Optimal bases found so far, with their maximisers g: each is primal feasible for any new direction.
-        self._points: list[np.ndarray] = []
-        self._bases: list = []
-
-    def __call__(self, direction: np.ndarray) -> tuple[float, np.ndarray]:
-        self.calls += 1
-        direction = np.asarray(direction, dtype=float)
-        if self.system.A.shape[0] == 0:  # nothing free: every g is stable
-            g = np.where(direction >= 0, 1.0, -1.0)
-            return float(direction @ g), g
-        self.lp.set_cost(np.arange(3), -direction)
-        # Parametric start (sec. III): the primal simplex resumes from the known vertex of P that is best for the
-        # new direction. Restarting from the last basis instead (whatever its vertex) costs thousands of
-        # degenerate pivots on statically indeterminate assemblies. An optimum in another corner of P is still
-        # thousands of pivots away (each O(rows)): past FAR_PIVOTS the interior point method, whose cost does not
-        # grow with that distance, takes over and hands back an optimal basis for later restarts.
-        limit = self.far_pivots if self.lp.interior_point_available() else None
-        if self._points:
-            best = int(np.argmax(np.asarray(self._points) @ direction))
-            result = self.lp.solve_from(self._bases[best], limit)
-        else:
-            result = self.lp.solve(limit)
-        if result.status == "limit":
-            self.far_solves += 1
-            result = self.lp.solve_by_interior_point()
-        if result.status != "optimal":
-            raise SolverError(f"support LP failed ({result.status}): {result.message}")
-        g = np.clip(result.x[:3], -1.0, 1.0)
-        lam = np.maximum(result.x[3:], 0.0)
-        residual = float(np.abs(self.system.A @ lam + self.system.B @ g).max()) if self.system.columns else 0.0
-        if residual > RESIDUAL_TOLERANCE:
-            raise SolverError(f"support LP residual {residual:.3g} > {RESIDUAL_TOLERANCE}")
-        basis = self.lp.basis()
-        if basis is not None:
-            self._points.append(g)
-            self._bases.append(basis)
-        return float(direction @ g), g
