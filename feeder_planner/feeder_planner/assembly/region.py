@@ -188,9 +188,17 @@ def _span(oracle: Oracle) -> tuple[list[np.ndarray], list[np.ndarray]]:
     return points, span
 
 
+def _generic_frame() -> np.ndarray:
+    """A fixed orthonormal frame in general position: assemblies are often axis-aligned, and an axis direction
+    then maximises over a whole edge or face of P, where an interior point solve returns the face's centre
+    instead of a vertex of P (a wasted far LP on a large system)."""
+    q, _ = np.linalg.qr(np.array([[0.8, 0.3, -0.5], [-0.2, 0.9, 0.4], [0.55, -0.35, 0.75]]))
+    return q.T
+
+
 def _complement(span: list[np.ndarray]) -> list[np.ndarray]:
     if not span:
-        return list(np.eye(3))
+        return list(_generic_frame())
     if len(span) == 1:
         u, v = tangent_basis(span[0])
         return [u, v]
