@@ -17,6 +17,10 @@ FAR_PIVOTS = 150
 # Below this many equations a far LP costs the simplex (pivots are O(rows)) less than the interior point route's
 # fixed cost (about 20 ms at 140 rows, 1.1x faster at 264 rows, 2x at 540): those LPs stay on the simplex.
 INTERIOR_POINT_ROWS = 200
+# Relative tilt of a far LP's objective for the interior point solve (see SupportOracle._far_optimum), along a
+# fixed axis in general position.
+FACE_TILT = 1e-4
+_TILT_AXIS = np.array([0.37, -0.61, 0.70]) / np.linalg.norm([0.37, -0.61, 0.70])
 
 
 class SupportOracle:
@@ -33,28 +37,22 @@ class SupportOracle:
         self.far_pivots = far_pivots
         self.calls = 0
         self.far_solves = 0
-        self.lp = self._new_lp()
+        columns = system.columns
+        A = sparse.hstack([sparse.csc_matrix(system.B), system.A], format="csc")
+        self.lp = WarmLP(A, np.zeros(system.A.shape[0]), np.concatenate([-np.ones(3), np.zeros(columns)]),
+                         np.concatenate([np.ones(3), np.full(columns, np.inf)]))
         self._large = system.A.shape[0] >= INTERIOR_POINT_ROWS
         self._points: list[np.ndarray] = []
         self._bases: list = []
 
     def __call__(self, direction: np.ndarray) -> tuple[float, np.ndarray]:
-        return self._solve(np.asarray(direction, dtype=float), self.lp)
-
-    def _new_lp(self) -> WarmLP:
-        columns = self.system.columns
-        A = sparse.hstack([sparse.csc_matrix(self.system.B), self.system.A], format="csc")
-        return WarmLP(A, np.zeros(self.system.A.shape[0]), np.concatenate([-np.ones(3), np.zeros(columns)]),
-                      np.concatenate([np.ones(3), np.full(columns, np.inf)]))
-
-    def _solve(self, direction: np.ndarray, lp: WarmLP) -> tuple[float, np.ndarray]:
+        direction = np.asarray(direction, dtype=float)
         self.calls += 1
-        start = self._restart_basis(direction)
         if self.system.A.shape[0] == 0:  # nothing free: every g is stable
             g = np.where(direction >= 0, 1.0, -1.0)
             return float(direction @ g), g
-        lp.set_cost(np.arange(3), -direction)
-        result = self._optimise(lp, start)
+        self.lp.set_cost(np.arange(3), -direction)
+        result = self._optimise(direction, self._restart_basis(direction))
         if result.status != "optimal":
             raise SolverError(f"support LP failed ({result.status}): {result.message}")
         g = np.clip(result.x[:3], -1.0, 1.0)
@@ -62,7 +60,7 @@ class SupportOracle:
         residual = float(np.abs(self.system.A @ lam + self.system.B @ g).max()) if self.system.columns else 0.0
         if residual > RESIDUAL_TOLERANCE:
             raise SolverError(f"support LP residual {residual:.3g} > {RESIDUAL_TOLERANCE}")
-        basis = lp.basis()
+        basis = self.lp.basis()
         if basis is not None:
             self._points.append(g)
             self._bases.append(basis)
@@ -74,7 +72,7 @@ class SupportOracle:
             return None
         return self._bases[int(np.argmax(np.asarray(self._points) @ direction))]
 
-    def _optimise(self, lp: WarmLP, start) -> LPResult:
+    def _optimise(self, direction: np.ndarray, start) -> LPResult:
         """Restarted primal simplex; past ``far_pivots`` on a large LP, interior point + crossover instead.
 
         Restarting from the last basis instead of the best vertex's costs thousands of degenerate pivots on
@@ -82,14 +80,31 @@ class SupportOracle:
         (each O(rows)); the interior point method's cost does not grow with that distance, and its crossover
         hands back an optimal basis for later restarts.
         """
+        lp = self.lp
         use_interior_point = self._large and self.far_pivots is not None and lp.interior_point_available()
         if use_interior_point and start is None:
             # Nothing to restart from: a cold simplex on a large degenerate LP takes thousands of pivots.
-            self.far_solves += 1
-            return lp.solve_by_interior_point()
+            return self._far_optimum(direction)
         limit = self.far_pivots if use_interior_point else None
         result = lp.solve_from(start, limit) if start is not None else lp.solve(limit)
         if result.status == "limit":
-            self.far_solves += 1
-            result = lp.solve_by_interior_point()
+            result = self._far_optimum(direction)
         return result
+
+    def _far_optimum(self, direction: np.ndarray) -> LPResult:
+        """Interior point + crossover on a slightly tilted objective, then the simplex on the exact one.
+
+        When ``direction`` is normal to an edge or facet of P (common: hull facets of symmetric assemblies) the
+        interior point method returns the centre of that face, not a vertex of P, and the far LP is wasted on a
+        point the hull does not need. Tilting by FACE_TILT (far above the interior point tolerance, 1e-8)
+        breaks the tie towards one vertex of the face; that vertex is still optimal for the exact direction
+        unless its normal cone is thinner than the tilt, and the simplex run on the exact objective from the
+        crossover basis certifies it (usually without a pivot) or moves on to the exact optimum.
+        """
+        self.far_solves += 1
+        lp = self.lp
+        scale = float(np.linalg.norm(direction))
+        lp.set_cost(np.arange(3), -(direction + FACE_TILT * scale * _TILT_AXIS))
+        lp.solve_by_interior_point()
+        lp.set_cost(np.arange(3), -direction)
+        return lp.solve_from(lp.basis()) if lp.basis() is not None else lp.solve()
