@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from feeder_planner.assembly.exact_cone import compare_pyramids
+from feeder_planner.assembly.exact_cone import compare_pyramids, hausdorff_to
 from feeder_planner.assembly.generate import brick_wall, random_assembly
 from feeder_planner.assembly.model import Assembly, assembly_from_document, load_assembly
 from feeder_planner.assembly.planner import prepare
@@ -82,15 +82,18 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
         simplex_time, simplex_region = median_time_and_result(
             lambda: stable_region(system, far_pivots=None), baseline_repeats)
         fast_time = median_time_and_result(lambda: stable_region(system), baseline_repeats)[0]
-        same = bool(len(simplex_region.normals) == len(wall_region.normals)
-                    and np.all(np.max(simplex_region.normals @ wall_region.normals.T, axis=1) > 1 - 1e-7))
+        # Same set, not the same facet list: a sliver edge's normal is ill-conditioned (two nearly parallel
+        # facets), so the two LP paths may describe it differently while the sets agree to the LP tolerance.
+        distance = max(hausdorff_to(wall_region, simplex_region, 256), hausdorff_to(simplex_region, wall_region, 256))
+        same = bool(abs(simplex_region.area_sr - wall_region.area_sr) < 1e-8 and distance < 1e-6)
         rows.append(row("assembly stable region", f"exact region, connected brick wall {wall_rows}x{wall_columns}, "
                          f"{len(wall_prepared.contacts)} contact points ({wall_region.kind}, {wall_region.lp_count} "
                          f"LPs), median of {wall_repeats}", wall_time * 1e3, "ms", "< 2000 ms", "none (absolute)",
                          wall_time < 2.0))
         rows.append(row("assembly stable region", f"brick wall {wall_rows}x{wall_columns}: far support LPs by interior "
                          f"point + crossover ({fast_time:.2f} s) vs simplex restarts only ({simplex_time:.2f} s), "
-                         f"region only, same facets: {same}", simplex_time / fast_time, "x", "> 1x, same region",
+                         f"region only; Hausdorff distance between the two regions {distance:.1e} rad",
+                         simplex_time / fast_time, "x", "> 1x, same region (< 1e-6 rad)",
                          "simplex-only restarts", same and simplex_time > fast_time))
 
     # Naive baseline: one LP per direction of a 2-degree equal-area grid, on the 100-point assembly, same run.
