@@ -53,6 +53,23 @@ def test_check_stability_json_and_summary(capsys) -> None:
     assert code == 0 and "NOT stable" in out and "cube" in out
 
 
+def test_check_stability_exact_cone_flag(capsys, tmp_path) -> None:
+    """A slab on the ground tilted along a tangent axis by tan(alpha) = 0.8 mu: the inscribed 4-facet pyramid
+    (half-width mu / sqrt 2 along that axis) lets it slide, the exact circular cone holds it."""
+    slab = tmp_path / "slab.yaml"
+    slab.write_text("name: slab\nmu: 0.5\nbodies:\n"
+                    "  - {name: ground, grounded: true, boxes: [{min: [-2, -2, -1], max: [2, 2, 0]}]}\n"
+                    "  - {name: slab, boxes: [{min: [-1, -1, 0], max: [1, 1, 0.2]}]}\n")
+    alpha = math.atan(0.8 * 0.5)
+    g = ["--g", f"{math.sin(alpha)}", "0", f"{-math.cos(alpha)}"]
+    code, out, _ = _run(capsys, "check-stability", str(slab), *g, "--exact-cone", "--json")
+    result = json.loads(out)
+    assert code == 0 and result["stable"] is False
+    assert result["exact_cone"] == {"stable": True, "method": "socp"}
+    code, out, _ = _run(capsys, "check-stability", str(slab), *g, "--exact-cone")
+    assert code == 0 and "NOT stable" in out and "exact circular friction cone: stable" in out
+
+
 def test_human_summary_of_the_region(capsys) -> None:
     code, out, _ = _run(capsys, "stable-region", CORNER)
     assert code == 0 and "region" in out and "sr" in out and not out.lstrip().startswith("{")

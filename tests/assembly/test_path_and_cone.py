@@ -73,3 +73,31 @@ def test_exact_cone_verdict_on_an_incline_matches_tan_alpha_le_mu(from_doc) -> N
     # The exact region is the cap of half-angle atan(mu): area 2 pi (1 - cos atan mu) lies in the bracket.
     cap = 2 * math.pi * (1 - math.cos(math.atan(0.5)))
     assert inner.area_sr <= cap <= outer.area_sr
+
+
+def test_exact_cone_conic_check_agrees_with_the_pyramid_bracket(example) -> None:
+    """The conic program and the bracket of growing pyramids are independent methods: wherever the bracket
+    decides, the verdicts must be equal, and the conic program must decide (no None) away from the boundary."""
+    from feeder_planner.assembly.exact_cone import check_exact_bracketed, check_exact_socp
+
+    prepared = example("block_in_l_bracket", mu=0.3)
+    rng = np.random.default_rng(3)
+    directions = rng.normal(size=(60, 3))
+    directions = np.vstack([directions, prepared.region.center + 0.3 * rng.normal(size=(60, 3))])
+    decided = 0
+    for g in directions / np.linalg.norm(directions, axis=1, keepdims=True):
+        conic = check_exact_socp(prepared.assembly, prepared.contacts, g)
+        bracket = check_exact_bracketed(prepared.assembly, prepared.contacts, g, 256)
+        assert conic.method == "socp"
+        if bracket.stable is not None:
+            assert conic.stable is bracket.stable
+            decided += 1
+    assert decided >= 100
+
+
+def test_exact_cone_conic_check_handles_frictionless_contacts(example) -> None:
+    from feeder_planner.assembly.exact_cone import check_exact_socp
+
+    prepared = example("cube_in_corner")  # mu = 0: the region is the octant of negative directions (Fig. 11)
+    assert check_exact_socp(prepared.assembly, prepared.contacts, np.array([-1.0, -2.0, -3.0])).stable is True
+    assert check_exact_socp(prepared.assembly, prepared.contacts, np.array([0.2, -1.0, -1.0])).stable is False

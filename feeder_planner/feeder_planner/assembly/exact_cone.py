@@ -1,9 +1,11 @@
-"""The exact (second-order) Coulomb cone of eq. (8), bracketed by inscribed and circumscribed K-facet pyramids.
+"""The exact (second-order) Coulomb cone of eq. (8): one direction by a conic program, the region by a bracket.
 
-For any K the inscribed pyramid is inside the circular cone and the circumscribed one (tangential radius
-mu / cos(pi/K)) contains it, so the exact stable set lies between the two LP regions. Refining K until the two
-verdicts agree decides a single direction exactly (or places it within the gap of the boundary); with a large K
-the pair bounds the exact region's area and lets the paper's K = 4 linearisation be measured against it.
+A single direction is decided by a second-order cone program (Clarabel): the contact forces of eq. (6) with
+|f_t| <= mu f_n exactly. The region under the exact cone is convex but not a polygon; for any K the inscribed
+pyramid is inside the circular cone and the circumscribed one (tangential radius mu / cos(pi/K)) contains it, so
+the exact region lies between the two LP regions: with a large K the pair bounds its area and lets the paper's
+K = 4 linearisation be measured against it. Refining K until the two verdicts agree is the conic check's
+fallback and cross-check.
 """
 
 from __future__ import annotations
@@ -11,26 +13,47 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import sparse
 
 from feeder_planner.assembly.contacts import Contact
+from feeder_planner.assembly.geometry import tangent_basis
 from feeder_planner.assembly.model import Assembly
 from feeder_planner.assembly.region import StableRegion, stable_region
-from feeder_planner.assembly.stability import StabilityChecker
-from feeder_planner.assembly.wrench import build_system
+from feeder_planner.assembly.stability import RESIDUAL_TOLERANCE, StabilityChecker, unit_gravity
+from feeder_planner.assembly.wrench import build_system, wrench_system
+
+try:
+    import clarabel as _clarabel
+except ImportError:  # pragma: no cover - requirements.lock installs it; the pyramid bracket decides instead
+    _clarabel = None
 
 REFERENCE_FACETS = 256
+# Accepted violation of |f_t| <= mu f_n by the conic solver's forces, relative to the largest scaled force.
+CONE_TOLERANCE = 1e-7
 
 
 @dataclass(frozen=True)
 class ExactVerdict:
-    """stable is True/False when certified, None when the direction is within the bracket's gap (on the boundary)."""
+    """stable is True/False when certified, None when undecided (the direction is on the boundary to tolerance).
+
+    ``method`` is 'socp' (one conic program; ``facets`` 0) or 'pyramids' (the bracket reached K = ``facets``).
+    """
 
     stable: bool | None
     facets: int
+    method: str = "pyramids"
 
 
 def check_exact(assembly: Assembly, contacts: list[Contact], g: np.ndarray, max_facets: int = 1024) -> ExactVerdict:
-    """Stability under the exact friction cone, decided by inscribed/circumscribed pyramids of growing K."""
+    """Stability of unit g under the exact friction cone: the conic program, else the pyramid bracket."""
+    if _clarabel is not None:
+        return check_exact_socp(assembly, contacts, g)
+    return check_exact_bracketed(assembly, contacts, g, max_facets)
+
+
+def check_exact_bracketed(assembly: Assembly, contacts: list[Contact], g: np.ndarray, max_facets: int = 1024
+                          ) -> ExactVerdict:
+    """Decided by inscribed (stable is proof) and circumscribed (unstable is proof) pyramids of growing K."""
     facets = 8
     while facets <= max_facets:
         if StabilityChecker(build_system(assembly, contacts, facets))(g).stable:
@@ -39,6 +62,75 @@ def check_exact(assembly: Assembly, contacts: list[Contact], g: np.ndarray, max_
             return ExactVerdict(False, facets)
         facets *= 2
     return ExactVerdict(None, max_facets)
+
+
+def check_exact_socp(assembly: Assembly, contacts: list[Contact], g: np.ndarray) -> ExactVerdict:
+    """Eq. (6) with the exact Coulomb cone (8): find forces f = f_n n + f_u u + f_v v per contact with
+    (mu f_n, f_u, f_v) in the second-order cone (f_n >= 0 only, for mu = 0) balancing every free body.
+
+    Stable only when the returned forces pass our own residual and cone checks; unstable only on the solver's
+    certificate of primal infeasibility; anything else (a direction on the boundary, to tolerance) is None.
+    """
+    g = unit_gravity(g)
+    generators, owners, frictional = [], [], []
+    for index, contact in enumerate(contacts):
+        n = np.asarray(contact.normal, float)
+        if contact.mu > 0:
+            u, v = tangent_basis(n)
+            generators += [n, u, v]
+            owners += [index] * 3
+            frictional.append(index)
+        else:
+            generators.append(n)
+            owners.append(index)
+    system = wrench_system(assembly, contacts, np.asarray(generators, float).reshape(-1, 3),
+                           np.asarray(owners, dtype=int), facets=0)
+    rows, columns = system.A.shape
+    rhs = -system.B @ g
+    if rows == 0:
+        return ExactVerdict(True, 0, "socp")
+    if columns == 0:
+        return ExactVerdict(bool(np.abs(rhs).max() <= RESIDUAL_TOLERANCE), 0, "socp")
+    first = np.searchsorted(owners, np.arange(len(contacts)))  # each contact's first column: its normal force
+    mus = np.array([c.mu for c in contacts], float)
+    normal_columns = first
+    cone_rows, nonneg_rows = [], []
+    for index in range(len(contacts)):
+        k = first[index]
+        if mus[index] > 0:
+            cone_rows.append([(k, mus[index]), (k + 1, 1.0), (k + 2, 1.0)])
+        else:
+            nonneg_rows.append(k)
+    # Clarabel's form A x + s = b, s in K: equilibrium rows (zero cone), then f_n >= 0, then one SOC per contact.
+    selector = lambda entries: sparse.csr_matrix(  # noqa: E731
+        ([-w for _, w in entries], ([0] * len(entries), [k for k, _ in entries])), shape=(1, columns))
+    blocks = [system.A.tocsr()]
+    blocks += [selector([(k, 1.0)]) for k in nonneg_rows]
+    blocks += [selector([entry]) for row in cone_rows for entry in row]
+    G = sparse.vstack(blocks, format="csc")
+    h = np.concatenate([rhs, np.zeros(G.shape[0] - rows)])
+    cones = [_clarabel.ZeroConeT(rows)]
+    if nonneg_rows:
+        cones.append(_clarabel.NonnegativeConeT(len(nonneg_rows)))
+    cones += [_clarabel.SecondOrderConeT(3) for _ in cone_rows]
+    cost = np.zeros(columns)
+    cost[normal_columns] = 1.0  # least total normal force: a bounded objective with well-scaled forces
+    settings = _clarabel.DefaultSettings()
+    settings.verbose = False
+    solution = _clarabel.DefaultSolver(sparse.csc_matrix((columns, columns)), cost, G, h, cones, settings).solve()
+    status = str(solution.status)
+    if status == "PrimalInfeasible":
+        return ExactVerdict(False, 0, "socp")
+    if status not in ("Solved", "AlmostSolved"):
+        return ExactVerdict(None, 0, "socp")
+    x = np.asarray(solution.x, float)
+    residual = float(np.abs(system.A @ x - rhs).max())
+    scale = max(1.0, float(np.abs(x).max()))
+    violation = max([float(np.hypot(x[k + 1], x[k + 2]) - mus[i] * x[k]) for i, k in enumerate(first)
+                     if mus[i] > 0] + [float(-x[k]) for k in nonneg_rows] + [0.0])
+    if residual <= RESIDUAL_TOLERANCE and violation <= CONE_TOLERANCE * scale:
+        return ExactVerdict(True, 0, "socp")
+    return ExactVerdict(None, 0, "socp")
 
 
 def exact_bracket(assembly: Assembly, contacts: list[Contact], facets: int = REFERENCE_FACETS

@@ -59,6 +59,14 @@ def build_system(assembly: Assembly, contacts: list[Contact], facets: int = 4, c
     """Assemble eq. (6)'s J^T f + G in scaled generator form for the free bodies."""
     if isinstance(facets, bool) or not isinstance(facets, (int, np.integer)) or facets < 3:
         raise InputError("facets", f"the friction pyramid needs K >= 3 facets, got {facets!r}")
+    generators_array, contact_array = _generators(contacts, facets, circumscribed)
+    return wrench_system(assembly, contacts, generators_array, contact_array, facets)
+
+
+def wrench_system(assembly: Assembly, contacts: list[Contact], generators_array: np.ndarray,
+                  contact_array: np.ndarray, facets: int) -> EquilibriumSystem:
+    """The scaled system of eq. (6) for arbitrary force directions: column k is a unit multiple of force
+    ``generators_array[k]`` at contact ``contact_array[k]`` (pyramid edges, or the exact cone's n, u, v axes)."""
     free = assembly.free_bodies
     slot = np.full(len(assembly.bodies), -1)
     slot[free] = np.arange(len(free))
@@ -67,7 +75,6 @@ def build_system(assembly: Assembly, contacts: list[Contact], facets: int = 4, c
     centers = np.array([assembly.bodies[b].center for b in free]).reshape(-1, 3)
     all_mass = np.array([b.mass for b in assembly.bodies])
     grounded = np.array([b.grounded for b in assembly.bodies])
-    generators_array, contact_array = _generators(contacts, facets, circumscribed)
     a = np.array([c.a for c in contacts], dtype=int)[contact_array]
     b = np.array([c.b for c in contacts], dtype=int)[contact_array]
     points = np.array([c.point for c in contacts]).reshape(-1, 3)[contact_array]

@@ -38,6 +38,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     _common(check)
     check.add_argument("--g", nargs=3, type=finite_float, required=True, metavar=("GX", "GY", "GZ"),
                        help="gravity direction in the assembly frame (any non-zero length)")
+    check.add_argument("--exact-cone", action="store_true",
+                       help="also decide the direction under the exact circular friction cone (a second-order "
+                            "cone program); undecided only on the boundary, to tolerance")
     check.set_defaults(handler=_check_stability)
 
 
@@ -89,11 +92,23 @@ def _check_stability(args: argparse.Namespace) -> int:
         raise InputError("--g", "must be a non-zero direction")
     prepared = _prepared(args)
     result = check_result(prepared, g)
+    if args.exact_cone:
+        from feeder_planner.assembly.exact_cone import check_exact
+        verdict = check_exact(prepared.assembly, prepared.contacts, g)
+        result["exact_cone"] = {"stable": verdict.stable, "method": verdict.method}
     emit(args, result, _check_summary)
     return 0
 
 
 def _check_summary(result: dict) -> str:
+    text = _pyramid_summary(result)
+    if "exact_cone" in result:
+        verdict = {True: "stable", False: "NOT stable", None: "undecided (on the boundary, to tolerance)"}
+        text += f"\nexact circular friction cone: {verdict[result['exact_cone']['stable']]}"
+    return text
+
+
+def _pyramid_summary(result: dict) -> str:
     if result["stable"]:
         text = f"stable for g = {_vec(result['g'])} (angular margin {result['margin_rad']:.6g} rad)"
         loads = [f"  {f['a']} on {f['b']} at {_vec(f['point'])}: force {_vec(f['force'])} N"
