@@ -72,14 +72,13 @@ def check_exact_socp(assembly: Assembly, contacts: list[Contact], g: np.ndarray)
     certificate of primal infeasibility; anything else (a direction on the boundary, to tolerance) is None.
     """
     g = unit_gravity(g)
-    generators, owners, frictional = [], [], []
+    generators, owners = [], []
     for index, contact in enumerate(contacts):
         n = np.asarray(contact.normal, float)
         if contact.mu > 0:
             u, v = tangent_basis(n)
             generators += [n, u, v]
             owners += [index] * 3
-            frictional.append(index)
         else:
             generators.append(n)
             owners.append(index)
@@ -93,28 +92,22 @@ def check_exact_socp(assembly: Assembly, contacts: list[Contact], g: np.ndarray)
         return ExactVerdict(bool(np.abs(rhs).max() <= RESIDUAL_TOLERANCE), 0, "socp")
     first = np.searchsorted(owners, np.arange(len(contacts)))  # each contact's first column: its normal force
     mus = np.array([c.mu for c in contacts], float)
-    normal_columns = first
-    cone_rows, nonneg_rows = [], []
-    for index in range(len(contacts)):
-        k = first[index]
-        if mus[index] > 0:
-            cone_rows.append([(k, mus[index]), (k + 1, 1.0), (k + 2, 1.0)])
-        else:
-            nonneg_rows.append(k)
-    # Clarabel's form A x + s = b, s in K: equilibrium rows (zero cone), then f_n >= 0, then one SOC per contact.
-    selector = lambda entries: sparse.csr_matrix(  # noqa: E731
-        ([-w for _, w in entries], ([0] * len(entries), [k for k, _ in entries])), shape=(1, columns))
-    blocks = [system.A.tocsr()]
-    blocks += [selector([(k, 1.0)]) for k in nonneg_rows]
-    blocks += [selector([entry]) for row in cone_rows for entry in row]
-    G = sparse.vstack(blocks, format="csc")
-    h = np.concatenate([rhs, np.zeros(G.shape[0] - rows)])
+    cone_first = first[mus > 0]
+    nonneg_rows = first[mus == 0]
+    # Clarabel's form G x + s = h, s in K: equilibrium rows (zero cone), f_n >= 0 rows, then per frictional contact
+    # the rows of s = (mu f_n, f_u, f_v) in a 3-D second-order cone.
+    selected = np.concatenate([nonneg_rows, (cone_first[:, None] + np.arange(3)[None, :]).ravel()]).astype(int)
+    weights = np.concatenate([np.ones(len(nonneg_rows)),
+                              (np.column_stack([mus[mus > 0], np.ones((len(cone_first), 2))])).ravel()])
+    cone_block = sparse.csr_matrix((-weights, (np.arange(len(selected)), selected)), shape=(len(selected), columns))
+    G = sparse.vstack([system.A, cone_block], format="csc")
+    h = np.concatenate([rhs, np.zeros(len(selected))])
     cones = [_clarabel.ZeroConeT(rows)]
-    if nonneg_rows:
+    if len(nonneg_rows):
         cones.append(_clarabel.NonnegativeConeT(len(nonneg_rows)))
-    cones += [_clarabel.SecondOrderConeT(3) for _ in cone_rows]
+    cones += [_clarabel.SecondOrderConeT(3) for _ in cone_first]
     cost = np.zeros(columns)
-    cost[normal_columns] = 1.0  # least total normal force: a bounded objective with well-scaled forces
+    cost[first] = 1.0  # least total normal force: a bounded objective with well-scaled forces
     settings = _clarabel.DefaultSettings()
     settings.verbose = False
     solution = _clarabel.DefaultSolver(sparse.csc_matrix((columns, columns)), cost, G, h, cones, settings).solve()
@@ -126,8 +119,9 @@ def check_exact_socp(assembly: Assembly, contacts: list[Contact], g: np.ndarray)
     x = np.asarray(solution.x, float)
     residual = float(np.abs(system.A @ x - rhs).max())
     scale = max(1.0, float(np.abs(x).max()))
-    violation = max([float(np.hypot(x[k + 1], x[k + 2]) - mus[i] * x[k]) for i, k in enumerate(first)
-                     if mus[i] > 0] + [float(-x[k]) for k in nonneg_rows] + [0.0])
+    violation = max(float(np.max(np.hypot(x[cone_first + 1], x[cone_first + 2]) - mus[mus > 0] * x[cone_first],
+                                 initial=0.0)),
+                    float(np.max(-x[nonneg_rows], initial=0.0)))
     if residual <= RESIDUAL_TOLERANCE and violation <= CONE_TOLERANCE * scale:
         return ExactVerdict(True, 0, "socp")
     return ExactVerdict(None, 0, "socp")

@@ -25,13 +25,13 @@ except ImportError:  # pragma: no cover - requirements.lock installs it; without
     _clarabel = None
 
 FEASIBILITY_TOLERANCE = 1e-9
+PRIMAL_SIMPLEX = 4  # HiGHS simplex_strategy value
+# Clarabel's gap and feasibility tolerances: the crossover only needs the right active set; HiGHS then certifies
+# the crossover basis at its own 1e-9 tolerances (or the simplex continues from it).
+INTERIOR_TOLERANCE = 1e-8
 # HiGHS's crossover (IPX, through scipy's binding) crashed the process when it ran while another thread was in
 # Clarabel, even on separate models: the whole interior point route runs under one process-wide lock.
 _INTERIOR_POINT_LOCK = threading.Lock()
-PRIMAL_SIMPLEX = 4  # HiGHS simplex_strategy value
-# Clarabel's gap and feasibility tolerances: the crossover only needs the right active set, the simplex run from
-# the crossover basis restores HiGHS's 1e-9 tolerances and certifies optimality.
-INTERIOR_TOLERANCE = 1e-8
 
 
 @dataclass(frozen=True)
