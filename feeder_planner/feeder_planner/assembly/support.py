@@ -107,4 +107,5 @@ class SupportOracle:
         lp.set_cost(np.arange(3), -(direction + FACE_TILT * scale * _TILT_AXIS))
         lp.solve_by_interior_point()
         lp.set_cost(np.arange(3), -direction)
-        return lp.solve_from(lp.basis()) if lp.basis() is not None else lp.solve()
+        basis = lp.basis()
+        return lp.solve_from(basis) if basis is not None else lp.solve()
