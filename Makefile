@@ -3,12 +3,13 @@ SHELL := /bin/bash
 .DEFAULT_GOAL := help
 ENV := source ./env.sh &&
 
-.PHONY: help setup demo test bench shell clean
+.PHONY: help setup gate demo test bench shell clean
 
 help:
 	@echo "make demo   set up (if needed), then run the demo: doctor, the three devices, a recorded bag"
 	@echo "make test   set up (if needed), then run the whole test suite"
 	@echo "make bench  set up (if needed), then run the benchmarks (table on stdout, plots in bench/results)"
+	@echo "make gate   only the lint and type gate (ruff, mypy), which make test runs first"
 	@echo "make setup  only the idempotent setup (.venv, pinned ROS 2 Jazzy wheels, colcon build)"
 	@echo "make shell  a bash shell inside the environment (same as 'source env.sh')"
 
@@ -18,7 +19,10 @@ setup:
 demo: setup
 	@$(ENV) python tools/demo.py
 
-test: setup
+gate: setup
+	@$(ENV) bash tools/gate.sh
+
+test: setup gate
 	@$(ENV) python -m pytest
 
 bench: setup

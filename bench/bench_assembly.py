@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from benchlib import median_time_and_result, row
 from scipy.spatial import cKDTree
 
 from feeder_planner.assembly.exact_cone import compare_pyramids, hausdorff_to
@@ -19,8 +20,6 @@ from feeder_planner.assembly.model import Assembly, assembly_from_document, load
 from feeder_planner.assembly.planner import prepare
 from feeder_planner.assembly.region import stable_region
 from feeder_planner.assembly.stability import StabilityChecker
-
-from benchlib import median_time_and_result, row
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLING_STEP = math.radians(2.0)
@@ -36,10 +35,10 @@ def _region(assembly: Assembly):
 
 def fibonacci_sphere(step: float) -> np.ndarray:
     """Equal-area points with mean spacing ``step`` (rad): the naive method's sample set."""
-    count = int(math.ceil(4 * math.pi / step ** 2))
+    count = int(math.ceil(4 * math.pi / step**2))
     i = np.arange(count) + 0.5
     z = 1 - 2 * i / count
-    phi = math.pi * (1 + 5 ** 0.5) * i
+    phi = math.pi * (1 + 5**0.5) * i
     r = np.sqrt(1 - z * z)
     return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
 
@@ -52,14 +51,18 @@ def _sampling(assembly: Assembly, samples: np.ndarray) -> np.ndarray:
 
 def run(out_dir: Path, quick: bool) -> list[dict]:
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     rows: list[dict] = []
     repeats = 3 if quick else 7
     sizes = (100, 1000) if quick else (100, 250, 500, 1000)
-    assemblies = {n: assembly_from_document(random_assembly(seed, faces, mu=0.9, walls=False))
-                  for n, (seed, faces) in ASSEMBLIES.items() if n in sizes}
+    assemblies = {
+        n: assembly_from_document(random_assembly(seed, faces, mu=0.9, walls=False))
+        for n, (seed, faces) in ASSEMBLIES.items()
+        if n in sizes
+    }
     region_time: dict[int, float] = {}
     points: dict[int, int] = {}
     for n, assembly in assemblies.items():
@@ -67,34 +70,65 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
         points[n] = len(prepared.contacts)
         target = 0.1 if n == 100 else 2.0 if n == 1000 else None
         if target is not None:
-            rows.append(row("assembly stable region", f"exact region, {points[n]} contact points ({region.kind}, "
-                             f"{region.lp_count} LPs), median of {repeats}", region_time[n] * 1e3, "ms",
-                             f"< {target * 1e3:.0f} ms", "none (absolute)", region_time[n] < target))
+            rows.append(
+                row(
+                    "assembly stable region",
+                    f"exact region, {points[n]} contact points ({region.kind}, "
+                    f"{region.lp_count} LPs), median of {repeats}",
+                    region_time[n] * 1e3,
+                    "ms",
+                    f"< {target * 1e3:.0f} ms",
+                    "none (absolute)",
+                    region_time[n] < target,
+                )
+            )
 
     # One connected sub-assembly each (no splitting possible): running-bond brick walls, statically indeterminate
     # and highly degenerate LPs. 8 x 6 bricks give 448 contact points, 12 x 8 give 960 (the 1000-point target).
     # Baseline in the same run: the same iteration with every support LP kept on the restarted simplex.
     for wall_rows, wall_columns, wall_repeats in ((8, 6, repeats), (12, 8, 3 if quick else 5)):
         wall = assembly_from_document(brick_wall(wall_rows, wall_columns))
-        wall_time, (wall_prepared, wall_region) = median_time_and_result(lambda w=wall: _region(w), wall_repeats)
+        wall_time, (wall_prepared, wall_region) = median_time_and_result(
+            lambda w=wall: _region(w), wall_repeats
+        )
         system = wall_prepared.system
         baseline_repeats = 1 if quick else 3
         simplex_time, simplex_region = median_time_and_result(
-            lambda: stable_region(system, far_pivots=None), baseline_repeats)
+            lambda: stable_region(system, far_pivots=None), baseline_repeats
+        )
         fast_time = median_time_and_result(lambda: stable_region(system), baseline_repeats)[0]
         # Same set, not the same facet list: a sliver edge's normal is ill-conditioned (two nearly parallel
         # facets), so the two LP paths may describe it differently while the sets agree to the LP tolerance.
-        distance = max(hausdorff_to(wall_region, simplex_region, 256), hausdorff_to(simplex_region, wall_region, 256))
+        distance = max(
+            hausdorff_to(wall_region, simplex_region, 256), hausdorff_to(simplex_region, wall_region, 256)
+        )
         same = bool(abs(simplex_region.area_sr - wall_region.area_sr) < 1e-8 and distance < 1e-6)
-        rows.append(row("assembly stable region", f"exact region, connected brick wall {wall_rows}x{wall_columns}, "
-                         f"{len(wall_prepared.contacts)} contact points ({wall_region.kind}, {wall_region.lp_count} "
-                         f"LPs), median of {wall_repeats}", wall_time * 1e3, "ms", "< 2000 ms", "none (absolute)",
-                         wall_time < 2.0))
-        rows.append(row("assembly stable region", f"brick wall {wall_rows}x{wall_columns}: far support LPs by interior "
-                         f"point + crossover ({fast_time:.2f} s) vs simplex restarts only ({simplex_time:.2f} s), "
-                         f"region only; Hausdorff distance between the two regions {distance:.1e} rad",
-                         simplex_time / fast_time, "x", "> 1x, same region (< 1e-6 rad)",
-                         "simplex-only restarts", same and simplex_time > fast_time))
+        rows.append(
+            row(
+                "assembly stable region",
+                f"exact region, connected brick wall {wall_rows}x{wall_columns}, "
+                f"{len(wall_prepared.contacts)} contact points ({wall_region.kind}, {wall_region.lp_count} "
+                f"LPs), median of {wall_repeats}",
+                wall_time * 1e3,
+                "ms",
+                "< 2000 ms",
+                "none (absolute)",
+                wall_time < 2.0,
+            )
+        )
+        rows.append(
+            row(
+                "assembly stable region",
+                f"brick wall {wall_rows}x{wall_columns}: far support LPs by interior "
+                f"point + crossover ({fast_time:.2f} s) vs simplex restarts only ({simplex_time:.2f} s), "
+                f"region only; Hausdorff distance between the two regions {distance:.1e} rad",
+                simplex_time / fast_time,
+                "x",
+                "> 1x, same region (< 1e-6 rad)",
+                "simplex-only restarts",
+                same and simplex_time > fast_time,
+            )
+        )
 
     # Naive baseline: one LP per direction of a 2-degree equal-area grid, on the 100-point assembly, same run.
     assembly = assemblies[100]
@@ -104,26 +138,54 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     verdicts = _sampling(assembly, samples)
     sampling_time = time.perf_counter() - start
     ratio = sampling_time / region_time[100]
-    rows.append(row("assembly stable region", f"speed-up over 2-deg sphere sampling ({len(samples)} LPs, "
-                     f"{sampling_time:.2f} s), {points[100]} contact points", ratio, "x", ">= 50x",
-                     "2-deg sampling, one LP each", ratio >= 50))
+    rows.append(
+        row(
+            "assembly stable region",
+            f"speed-up over 2-deg sphere sampling ({len(samples)} LPs, "
+            f"{sampling_time:.2f} s), {points[100]} contact points",
+            ratio,
+            "x",
+            ">= 50x",
+            "2-deg sampling, one LP each",
+            ratio >= 50,
+        )
+    )
     # Accuracy against the LP itself at fresh random directions: region membership vs nearest-sample verdict.
     rng = np.random.default_rng(7)
     tests = rng.normal(size=(2000, 3))
-    near = region.center + 0.3 * rng.normal(size=(1000, 3))  # half of them near the region, where errors happen
+    near = region.center + 0.3 * rng.normal(
+        size=(1000, 3)
+    )  # half of them near the region, where errors happen
     tests = np.vstack([tests, near])
     tests /= np.linalg.norm(tests, axis=1, keepdims=True)
     truth = np.array([prepared.checker(g, explain=False).stable for g in tests])
     exact_wrong = int(np.sum(np.array([region.contains(g) for g in tests]) != truth))
     nearest = cKDTree(samples).query(tests)[1]
     sampling_wrong = int(np.sum(verdicts[nearest] != truth))
-    rows.append(row("assembly stable region", f"misclassified of {len(tests)} random directions: exact region "
-                     f"{exact_wrong}, sampling {sampling_wrong}", exact_wrong, "directions",
-                     "<= sampling's", f"2-deg sampling: {sampling_wrong}", exact_wrong <= sampling_wrong))
+    rows.append(
+        row(
+            "assembly stable region",
+            f"misclassified of {len(tests)} random directions: exact region "
+            f"{exact_wrong}, sampling {sampling_wrong}",
+            exact_wrong,
+            "directions",
+            "<= sampling's",
+            f"2-deg sampling: {sampling_wrong}",
+            exact_wrong <= sampling_wrong,
+        )
+    )
     sampled_area = 4 * math.pi * verdicts.mean()
-    rows.append(row("assembly stable region", f"area: exact {region.area_sr:.5f} sr, sampling {sampled_area:.5f} sr",
-                     abs(sampled_area - region.area_sr), "sr (sampling error)", "report",
-                     "exact spherical polygon area", True))
+    rows.append(
+        row(
+            "assembly stable region",
+            f"area: exact {region.area_sr:.5f} sr, sampling {sampled_area:.5f} sr",
+            abs(sampled_area - region.area_sr),
+            "sr (sampling error)",
+            "report",
+            "exact spherical polygon area",
+            True,
+        )
+    )
 
     rows += _peer_rows(quick)
     rows += _cone_rows(out_dir, quick, plt)
@@ -137,8 +199,12 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
         subset = samples[:: max(1, len(samples) // 150)]
         t, _ = median_time_and_result(lambda a=assemblies[n], s=subset: _sampling(a, s), 1)
         per_lp[n] = t / len(subset)
-    axis.loglog([points[n] for n in xs], [per_lp[n] * len(samples) for n in xs], "s--",
-                label=f"2-deg sampling ({len(samples)} LPs, extrapolated)")
+    axis.loglog(
+        [points[n] for n in xs],
+        [per_lp[n] * len(samples) for n in xs],
+        "s--",
+        label=f"2-deg sampling ({len(samples)} LPs, extrapolated)",
+    )
     axis.axhline(0.1, color="grey", lw=0.5)
     axis.axhline(2.0, color="grey", lw=0.5)
     axis.set_xlabel("contact points")
@@ -157,8 +223,17 @@ def _peer_rows(quick: bool) -> list[dict]:
     try:
         import compas_cra  # noqa: F401
     except ImportError as exc:
-        return [row("assembly check vs compas_cra", f"compas_cra not importable ({exc})", float("nan"), "ms",
-                     "run side by side", "compas_cra RBE", False)]
+        return [
+            row(
+                "assembly check vs compas_cra",
+                f"compas_cra not importable ({exc})",
+                float("nan"),
+                "ms",
+                "run side by side",
+                "compas_cra RBE",
+                False,
+            )
+        ]
     ours, theirs, agree, total, failed = [], [], 0, 0, 0
     ours_stable = theirs_stable = 0
     seeds = (3, 5) if quick else (3, 5, 9, 11)
@@ -180,13 +255,35 @@ def _peer_rows(quick: bool) -> list[dict]:
             theirs_stable += bool(peer)
     ours_ms, theirs_ms = statistics.median(ours) * 1e3, statistics.median(theirs) * 1e3
     return [
-        row("assembly check vs compas_cra", f"time per direction, ours (LP eq. 9), {total} checks", ours_ms, "ms",
-             "< compas_cra", f"compas_cra RBE: {theirs_ms:.2f} ms", ours_ms < theirs_ms),
-        row("assembly check vs compas_cra", "speed-up over compas_cra RBE (IPOPT)", theirs_ms / ours_ms, "x",
-             ">= 1x", "compas_cra RBE", theirs_ms >= ours_ms),
-        row("assembly check vs compas_cra", f"verdicts agreeing: ours stable {ours_stable}/{total}, RBE stable "
-             f"{theirs_stable}/{total}, {failed} RBE solves failed (RBE: friction square |f_t| <= mu f_n per axis, "
-             "tension penalised; stable iff no tension)", agree, f"of {total}", "report", "compas_cra RBE", True),
+        row(
+            "assembly check vs compas_cra",
+            f"time per direction, ours (LP eq. 9), {total} checks",
+            ours_ms,
+            "ms",
+            "< compas_cra",
+            f"compas_cra RBE: {theirs_ms:.2f} ms",
+            ours_ms < theirs_ms,
+        ),
+        row(
+            "assembly check vs compas_cra",
+            "speed-up over compas_cra RBE (IPOPT)",
+            theirs_ms / ours_ms,
+            "x",
+            ">= 1x",
+            "compas_cra RBE",
+            theirs_ms >= ours_ms,
+        ),
+        row(
+            "assembly check vs compas_cra",
+            f"verdicts agreeing: ours stable {ours_stable}/{total}, RBE stable "
+            f"{theirs_stable}/{total}, {failed} RBE solves failed (RBE: friction square |f_t| <= mu f_n per axis, "
+            "tension penalised; stable iff no tension)",
+            agree,
+            f"of {total}",
+            "report",
+            "compas_cra RBE",
+            True,
+        ),
     ]
 
 
@@ -205,12 +302,14 @@ def _cra_check(assembly: Assembly, g: np.ndarray, mu: float) -> tuple[bool | Non
     for index, body in enumerate(assembly.bodies):
         piece = body.pieces[0]
         center = (piece.upper + piece.lower) / 2
-        cra.add_block(Block.from_shape(Box(*(piece.upper - piece.lower), Frame(center.tolist(), [1, 0, 0], [0, 1, 0]))),
-                      node=index)
+        cra.add_block(
+            Block.from_shape(Box(*(piece.upper - piece.lower), Frame(center.tolist(), [1, 0, 0], [0, 1, 0]))),
+            node=index,
+        )
     cra.set_boundary_conditions([i for i, b in enumerate(assembly.bodies) if b.grounded])
     scale = assembly.size
     with contextlib.redirect_stdout(io.StringIO()):
-        assembly_interfaces_numpy(cra, nmax=10, amin=1e-6 * scale ** 2, tmax=1e-6 * scale)
+        assembly_interfaces_numpy(cra, nmax=10, amin=1e-6 * scale**2, tmax=1e-6 * scale)
         if np.linalg.norm(axis) > 1e-12:
             cra.rotate_assembly([0, 0, 0], (axis / np.linalg.norm(axis)).tolist(), angle, is_rad=True)
         start = time.perf_counter()
@@ -243,10 +342,19 @@ def _cone_rows(out_dir: Path, quick: bool, plt: Any) -> list[dict]:
     lo, hi = comparison["exact_area_sr"]
     for entry in comparison["pyramids"]:
         k = entry["facets"]
-        rows.append(row("assembly pyramid vs exact cone", f"K = {k}: area error (exact area in [{lo:.6f}, {hi:.6f}] "
-                         f"sr, K = {reference} bracket), Hausdorff {entry['hausdorff_rad']:.2e} rad, "
-                         f"{times[k] * 1e3:.1f} ms", entry["area_error_sr"], "sr", "<= K = 4's",
-                         "exact circular cone", entry["area_error_sr"] <= first["area_error_sr"] + 1e-12))
+        rows.append(
+            row(
+                "assembly pyramid vs exact cone",
+                f"K = {k}: area error (exact area in [{lo:.6f}, {hi:.6f}] "
+                f"sr, K = {reference} bracket), Hausdorff {entry['hausdorff_rad']:.2e} rad, "
+                f"{times[k] * 1e3:.1f} ms",
+                entry["area_error_sr"],
+                "sr",
+                "<= K = 4's",
+                "exact circular cone",
+                entry["area_error_sr"] <= first["area_error_sr"] + 1e-12,
+            )
+        )
     figure, axes = plt.subplots(1, 2, figsize=(9, 3.6))
     ks = [e["facets"] for e in comparison["pyramids"]]
     axes[0].loglog([times[k] * 1e3 for k in ks], [e["area_error_sr"] for e in comparison["pyramids"]], "o-")

@@ -13,12 +13,12 @@ for sub in ("feeder_planner", "feeder_sim"):
         sys.path.insert(0, str(ROOT / sub))
 
 import numpy as np  # noqa: E402
+from benchlib import median_time, row  # noqa: E402
 
 from feeder_planner.mems.equilibria import find_equilibria  # noqa: E402
 from feeder_planner.mems.fields import CombinedField, ProgramStep  # noqa: E402
 from feeder_planner.parts import make_part  # noqa: E402
 from feeder_sim.mems.scene import Body, Scene  # noqa: E402
-from benchlib import median_time, row  # noqa: E402
 
 
 def washer():
@@ -27,7 +27,11 @@ def washer():
 
 def star(n: int, fold: int):
     t = 2 * math.pi * np.arange(n) / n
-    r = 1 + 0.3 * np.cos(fold * t) + 0.05 * np.sin(2 * fold * t) if fold else 1 + 0.3 * np.sin(3 * t) + 0.1 * np.cos(5 * t)
+    r = (
+        1 + 0.3 * np.cos(fold * t) + 0.05 * np.sin(2 * fold * t)
+        if fold
+        else 1 + 0.3 * np.sin(3 * t) + 0.1 * np.cos(5 * t)
+    )
     return make_part(np.c_[r * np.cos(t), r * np.sin(t)].tolist())
 
 
@@ -38,6 +42,7 @@ def bracket(scale: float):
 def exact_vs_sampling(quick: bool) -> list[dict]:
     """Time of the exact wrench vs the coarsest cell-centred sampling reaching 1e-4 relative error."""
     from matplotlib.path import Path as MplPath
+
     part, field = washer(), CombinedField(0.3, (0.7, -0.4))
     pose = (0.3, -0.2, 0.6)
     loops = part.placed(*pose)
@@ -66,21 +71,49 @@ def exact_vs_sampling(quick: bool) -> list[dict]:
         n *= 2
     t_sample = median_time(lambda: sampled(n), 1 if quick else 3)
     ratio = t_sample / t_exact
-    return [row("exact wrench (washer, combined field)", "time per wrench", t_exact * 1e6, "us", "-",
-                "rel. error <= 1e-12 (boundary integrals)", True),
-            row("exact vs dense sampling", "speed-up at sampling error 1e-4", ratio, "x", ">= 100x",
-                f"cell-centred sampling {n}x{n} (error {err:.1e}; exact is 1e-12 more accurate)", ratio >= 100)]
+    return [
+        row(
+            "exact wrench (washer, combined field)",
+            "time per wrench",
+            t_exact * 1e6,
+            "us",
+            "-",
+            "rel. error <= 1e-12 (boundary integrals)",
+            True,
+        ),
+        row(
+            "exact vs dense sampling",
+            "speed-up at sampling error 1e-4",
+            ratio,
+            "x",
+            ">= 100x",
+            f"cell-centred sampling {n}x{n} (error {err:.1e}; exact is 1e-12 more accurate)",
+            ratio >= 100,
+        ),
+    ]
 
 
 def equilibria_timing(quick: bool) -> list[dict]:
     rows = []
     repeats = 5 if quick else 15
-    for label, part in (("64-vertex non-symmetric", star(64, 0)), ("64-vertex 4-fold symmetric", star(64, 4))):
+    for label, part in (
+        ("64-vertex non-symmetric", star(64, 0)),
+        ("64-vertex 4-fold symmetric", star(64, 4)),
+    ):
         for method, target in (("numeric", 0.050), ("asymptotic", 0.010)):
             find_equilibria(part, 1e-3, method)
             t = median_time(lambda: find_equilibria(part, 1e-3, method), repeats)
-            rows.append(row(f"all equilibria, {label}", f"{method} method, delta 1e-3", t * 1e3, "ms",
-                            f"< {target * 1e3:.0f} ms", "median wall time", t < target))
+            rows.append(
+                row(
+                    f"all equilibria, {label}",
+                    f"{method} method, delta 1e-3",
+                    t * 1e3,
+                    "ms",
+                    f"< {target * 1e3:.0f} ms",
+                    "median wall time",
+                    t < target,
+                )
+            )
     return rows
 
 
@@ -88,12 +121,19 @@ def array_speed(quick: bool) -> list[dict]:
     """Steps per second of the `array` model (edge integrals of prefix-summed cell forces) and, in the same
     run, of the same model summing every covered cell's exact area and moments (the previous method)."""
     rows = []
-    for scale, label in ((0.5e-3, "2 mm part (about 20x15 cells covered)"), (1e-3, "4 mm part (about 40x30 cells)")):
+    for scale, label in (
+        (0.5e-3, "2 mm part (about 20x15 cells covered)"),
+        (1e-3, "4 mm part (about 40x30 cells)"),
+    ):
         part = bracket(scale)
         rates = {}
         for method in ("edges", "cells"):
-            scene = Scene([Body(part, np.array([1e-4, -2e-4, 0.4]))], (ProgramStep(CombinedField(0.3), math.inf),),
-                          "array", array=(100, 100, 1e-4))
+            scene = Scene(
+                [Body(part, np.array([1e-4, -2e-4, 0.4]))],
+                (ProgramStep(CombinedField(0.3), math.inf),),
+                "array",
+                array=(100, 100, 1e-4),
+            )
             if method == "cells":
                 scene.forces.wrench = scene.forces.wrench_by_cells
             steps = (200 if quick else 1000) // (1 if method == "edges" else 4)
@@ -101,16 +141,27 @@ def array_speed(quick: bool) -> list[dict]:
             t = median_time(lambda: [scene.step(1e-4) for _ in range(steps)], 3 if quick else 5)
             rates[method] = steps / t
         rate = rates["edges"]
-        rows.append(row(f"array model 100x100 cells, {label}", "simulation steps per second", rate, "steps/s",
-                        ">= 1000", f"one part, forward Euler, exact covered areas; cell-by-cell sum "
-                        f"{rates['cells']:.0f} steps/s in this run ({rate / rates['cells']:.1f}x)", rate >= 1000))
+        rows.append(
+            row(
+                f"array model 100x100 cells, {label}",
+                "simulation steps per second",
+                rate,
+                "steps/s",
+                ">= 1000",
+                f"one part, forward Euler, exact covered areas; cell-by-cell sum "
+                f"{rates['cells']:.0f} steps/s in this run ({rate / rates['cells']:.1f}x)",
+                rate >= 1000,
+            )
+        )
     return rows
 
 
 def fidelity_trade(out_dir: Path, quick: bool) -> list[dict]:
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     part = bracket(1e-3)
     delta = 0.3
     target = find_equilibria(part, delta, "numeric").stable[0]
@@ -122,19 +173,32 @@ def fidelity_trade(out_dir: Path, quick: bool) -> list[dict]:
     runs += [("dynamic", {}, 1e-3)]
     points, rows = [], []
     for fidelity, kw, dt in runs:
-        scene = Scene([Body(part, start.copy())], (ProgramStep(CombinedField(delta), math.inf),), fidelity, **kw)
+        scene = Scene(
+            [Body(part, start.copy())], (ProgramStep(CombinedField(delta), math.inf),), fidelity, **kw
+        )
         t0 = time.perf_counter()
         scene.run(duration, dt)
         cost = (time.perf_counter() - t0) / duration
         pose = scene.bodies[0].pose
-        error = abs(math.remainder(pose[2] - target.theta, 2 * math.pi)) + math.hypot(pose[0] - target.x,
-                                                                                      pose[1] - target.y) / part.radius
+        error = (
+            abs(math.remainder(pose[2] - target.theta, 2 * math.pi))
+            + math.hypot(pose[0] - target.x, pose[1] - target.y) / part.radius
+        )
         label = fidelity if fidelity != "array" else f"array pitch {kw['array'][2] * 1e6:.0f} um"
         if fidelity == "ideal":
             label += f" dt {dt:g}"
         points.append((label, cost, error))
-        rows.append(row("fidelity trade (4 mm bracket, delta 0.3)", f"{label}: final pose error", error,
-                        "rad + pos/radius", "-", f"cost {cost:.3g} s wall per simulated s; reference: planner", True))
+        rows.append(
+            row(
+                "fidelity trade (4 mm bracket, delta 0.3)",
+                f"{label}: final pose error",
+                error,
+                "rad + pos/radius",
+                "-",
+                f"cost {cost:.3g} s wall per simulated s; reference: planner",
+                True,
+            )
+        )
     fig, ax = plt.subplots(figsize=(6, 4))
     for label, cost, error in points:
         ax.loglog(cost, max(error, 1e-16), "o")
@@ -151,10 +215,16 @@ def fidelity_trade(out_dir: Path, quick: bool) -> list[dict]:
 def run(out_dir: Path, quick: bool) -> list[dict]:
     """All MEMS benchmark rows (see module docstring); plots go to out_dir."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    return exact_vs_sampling(quick) + equilibria_timing(quick) + array_speed(quick) + fidelity_trade(out_dir, quick)
+    return (
+        exact_vs_sampling(quick)
+        + equilibria_timing(quick)
+        + array_speed(quick)
+        + fidelity_trade(out_dir, quick)
+    )
 
 
 if __name__ == "__main__":
     import json
+
     for r in run(Path("/tmp/bench_mems"), "--full" not in sys.argv):
         print(json.dumps(r))

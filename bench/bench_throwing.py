@@ -7,13 +7,12 @@ import time
 from pathlib import Path
 
 import numpy as np
+from benchlib import median_time
 
 from feeder_planner.parts import load_part, make_part
 from feeder_planner.throwing.geometry import arm_part
 from feeder_planner.throwing.limit_set import edge_bounds, iterate, limit_set
 from feeder_planner.throwing.throw_map import ThrowParams, throw, throw_batch
-
-from benchlib import median_time
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "throwing"
 TRIANGLE = ThrowParams(-0.005, math.radians(320), -9.66, 0.5)
@@ -29,6 +28,7 @@ def _decagon():
 
 def run(out_dir: Path, quick: bool) -> list[dict]:
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -44,21 +44,42 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     radii = np.array([rng.uniform(b.low[e], b.max[e]) for e in edges])
     t_batch = median_time(lambda: throw_batch(part, edges, radii, p), repeats)
     m = 100 if quick else 300
-    t_scalar = median_time(lambda: [throw(part, int(e), float(r), p) for e, r in zip(edges[:m], radii[:m])], repeats) / m
+    t_scalar = (
+        median_time(lambda: [throw(part, int(e), float(r), p) for e, r in zip(edges[:m], radii[:m])], repeats)
+        / m
+    )
     rate = n / t_batch
-    rows.append({"benchmark": "throwing: analytic throw map (10-vertex part, batched)", "measure": "throughput",
-                 "value": rate, "unit": "throws/s", "target": ">= 10000 throws/s",
-                 "baseline": f"one throw per call: {1 / t_scalar:.0f} throws/s ({rate * t_scalar:.1f}x slower)",
-                 "met": rate >= 10000})
+    rows.append(
+        {
+            "benchmark": "throwing: analytic throw map (10-vertex part, batched)",
+            "measure": "throughput",
+            "value": rate,
+            "unit": "throws/s",
+            "target": ">= 10000 throws/s",
+            "baseline": f"one throw per call: {1 / t_scalar:.0f} throws/s ({rate * t_scalar:.1f}x slower)",
+            "met": rate >= 10000,
+        }
+    )
 
     tri = arm_part(load_part(EXAMPLES / "triangle.yaml"))
-    t_limit = median_time(lambda: limit_set(tri, TRIANGLE, goal_edge=1, starts_per_edge=34, throws=300), repeats)
-    rows.append({"benchmark": "throwing: limit set, 102 starts x 300 throws (triangle, with R_max and trigger)",
-                 "measure": "wall time", "value": t_limit, "unit": "s", "target": "< 5 s", "baseline": "-",
-                 "met": t_limit < 5.0})
+    t_limit = median_time(
+        lambda: limit_set(tri, TRIANGLE, goal_edge=1, starts_per_edge=34, throws=300), repeats
+    )
+    rows.append(
+        {
+            "benchmark": "throwing: limit set, 102 starts x 300 throws (triangle, with R_max and trigger)",
+            "measure": "wall time",
+            "value": t_limit,
+            "unit": "s",
+            "target": "< 5 s",
+            "baseline": "-",
+            "met": t_limit < 5.0,
+        }
+    )
 
     # analytic vs dynamic, against the pymunk step size
     from feeder_sim.throwing.dynamic import dynamic_throw
+
     steps = [1e-3, 5e-4, 2e-4] if quick else [2e-3, 1e-3, 5e-4, 2e-4, 1e-4]
     per_edge = 3 if quick else 8
     starts = []
@@ -74,16 +95,33 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
         t_dyn = (time.perf_counter() - t) / len(starts)
         same = [(a, d) for a, d in zip(ana, dyn) if d.kind == a.kind and d.edge_after == a.edge]
         agree_rates.append(len(same) / len(starts))
-        errors.append(float(np.median([abs(d.radius_after - a.radius) for a, d in same]) / tri.radius) if same else math.nan)
+        errors.append(
+            float(np.median([abs(d.radius_after - a.radius) for a, d in same]) / tri.radius)
+            if same
+            else math.nan
+        )
         ratios.append(t_dyn / t_ana)
-        rows.append({"benchmark": f"throwing: dynamic vs analytic, pymunk step {step:g} s", "measure": "agreement on (edge, jog/flip)",
-                     "value": agree_rates[-1], "unit": "fraction", "target": ">= 0.8",
-                     "baseline": f"analytic model; median |dR| = {errors[-1]:.3f} part radii; dynamic {ratios[-1]:.0f}x slower",
-                     "met": agree_rates[-1] >= 0.8})
+        rows.append(
+            {
+                "benchmark": f"throwing: dynamic vs analytic, pymunk step {step:g} s",
+                "measure": "agreement on (edge, jog/flip)",
+                "value": agree_rates[-1],
+                "unit": "fraction",
+                "target": ">= 0.8",
+                "baseline": f"analytic model; median |dR| = {errors[-1]:.3f} part radii; dynamic {ratios[-1]:.0f}x slower",
+                "met": agree_rates[-1] >= 0.8,
+            }
+        )
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.5))
-    for ax, values, label in zip(axes, (agree_rates, errors, ratios),
-                                 ("agreement (edge, jog/flip)", "median |R_dyn - R_ana| / part radius",
-                                  "time per throw, dynamic / analytic")):
+    for ax, values, label in zip(
+        axes,
+        (agree_rates, errors, ratios),
+        (
+            "agreement (edge, jog/flip)",
+            "median |R_dyn - R_ana| / part radius",
+            "time per throw, dynamic / analytic",
+        ),
+    ):
         ax.semilogx(steps, values, "o-")
         ax.set_xlabel("pymunk step (s)")
         ax.set_title(label, fontsize=9)
@@ -106,7 +144,9 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
             ax.scatter(np.nonzero(mask)[1], traj.radius[mask] * 100, s=3, label=f"edge {e}")
         ax.set_xlabel("throw")
         ax.set_ylabel("R (cm)")
-        ax.set_title(f"{name}: {len(es)} starts converge to one cycle (cf. paper Fig. {7 if name == 'triangle' else 8})")
+        ax.set_title(
+            f"{name}: {len(es)} starts converge to one cycle (cf. paper Fig. {7 if name == 'triangle' else 8})"
+        )
         ax.legend(markerscale=4, fontsize=8)
         fig.tight_layout()
         fig.savefig(out_dir / f"throwing_limit_set_{name}.png", dpi=110)
@@ -116,6 +156,7 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
 
 if __name__ == "__main__":
     import sys
+
     out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("/tmp/bench_throwing")
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.time()

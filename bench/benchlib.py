@@ -24,5 +24,12 @@ def median_time(function: Callable[[], Any], repeats: int) -> float:
 
 def row(benchmark: str, measure: str, value: float, unit: str, target: str, baseline: str, met: bool) -> dict:
     """One line of the `make bench` table."""
-    return {"benchmark": benchmark, "measure": measure, "value": float(value), "unit": unit, "target": target,
-            "baseline": baseline, "met": bool(met)}
+    return {
+        "benchmark": benchmark,
+        "measure": measure,
+        "value": float(value),
+        "unit": unit,
+        "target": target,
+        "baseline": baseline,
+        "met": bool(met),
+    }

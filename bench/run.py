@@ -29,16 +29,29 @@ def format_value(value: float) -> str:
 
 
 def table(rows: list[dict]) -> str:
-    cells = [[format_value(row.get(c, "")) if c == "value" else ("yes" if row.get(c) else "NO") if c == "met"
-              else str(row.get(c, "")) for c in COLUMNS] for row in rows]
+    cells = [
+        [
+            format_value(row.get(c, ""))
+            if c == "value"
+            else ("yes" if row.get(c) else "NO")
+            if c == "met"
+            else str(row.get(c, ""))
+            for c in COLUMNS
+        ]
+        for row in rows
+    ]
     widths = [max(len(c), *(len(r[i]) for r in cells)) if cells else len(c) for i, c in enumerate(COLUMNS)]
     line = lambda values: "| " + " | ".join(v.ljust(w) for v, w in zip(values, widths)) + " |"
     return "\n".join([line(COLUMNS), line(["-" * w for w in widths]), *(line(r) for r in cells)])
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description="Run the benchmarks; medians of repeats, ratios within one run.")
-    parser.add_argument("--quick", action="store_true", help="fewer repeats and smaller sweeps (about a minute per device)")
+    parser = argparse.ArgumentParser(
+        description="Run the benchmarks; medians of repeats, ratios within one run."
+    )
+    parser.add_argument(
+        "--quick", action="store_true", help="fewer repeats and smaller sweeps (about a minute per device)"
+    )
     parser.add_argument("--only", nargs="*", default=None, help="device names, e.g. mems throwing assembly")
     parser.add_argument("--out", type=Path, default=BENCH_DIR / "results")
     args = parser.parse_args()

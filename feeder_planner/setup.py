@@ -14,14 +14,16 @@ setup(
     ],
     install_requires=["setuptools"],
     zip_safe=True,
-    description="Planners of the emulated feeders and the exact mechanics they share (numpy/scipy, no rclpy at import).",
+    description=(
+        "The exact mechanics of the emulated feeders (numpy/scipy, no rclpy), "
+        "the node kit every node shares, and the planner nodes."
+    ),
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
             "field_equilibria_planner = feeder_planner.nodes.field_equilibria_planner:main",
             "throw_planner = feeder_planner.nodes.throw_planner:main",
             "stable_region_planner = feeder_planner.nodes.stable_region_planner:main",
-            "feeder = feeder_planner.cli.main:main",
         ],
     },
 )

@@ -7,7 +7,6 @@ from pathlib import Path
 from typing import Any, Callable, Iterator
 
 import pytest
-
 import ros_harness
 
 
@@ -46,13 +45,20 @@ def ros_client(ros_domain: int) -> Iterator[Any]:
     client.close()
 
 
-def _launcher(ros_client: Any, started: list[ros_harness.NodeProcess], log_dir: Path
-              ) -> tuple[Callable[..., ros_harness.NodeProcess], list[ros_harness.NodeProcess]]:
+def _launcher(
+    ros_client: Any, started: list[ros_harness.NodeProcess], log_dir: Path
+) -> tuple[Callable[..., ros_harness.NodeProcess], list[ros_harness.NodeProcess]]:
     mine: list[ros_harness.NodeProcess] = []
 
-    def launch(package: str, executable: str, parameters: dict[str, Any] | None = None,
-               wait_topics: tuple[str, ...] = (), wait_services: tuple[str, ...] = (),
-               timeout: float = 30.0, extra_args: tuple[str, ...] = ()) -> ros_harness.NodeProcess:
+    def launch(
+        package: str,
+        executable: str,
+        parameters: dict[str, Any] | None = None,
+        wait_topics: tuple[str, ...] = (),
+        wait_services: tuple[str, ...] = (),
+        timeout: float = 30.0,
+        extra_args: tuple[str, ...] = (),
+    ) -> ros_harness.NodeProcess:
         node = ros_harness.start_node(package, executable, parameters, log_dir, extra_args)
         started.append(node)
         mine.append(node)
@@ -63,7 +69,9 @@ def _launcher(ros_client: Any, started: list[ros_harness.NodeProcess], log_dir: 
 
 
 @pytest.fixture
-def launch_node(ros_client: Any, started_processes: list, tmp_path: Path) -> Iterator[Callable[..., ros_harness.NodeProcess]]:
+def launch_node(
+    ros_client: Any, started_processes: list, tmp_path: Path
+) -> Iterator[Callable[..., ros_harness.NodeProcess]]:
     """Start a node process for one test; it is ended by pid (SIGINT, then SIGKILL) when the test ends."""
     launch, mine = _launcher(ros_client, started_processes, tmp_path)
     yield launch
@@ -72,8 +80,9 @@ def launch_node(ros_client: Any, started_processes: list, tmp_path: Path) -> Ite
 
 
 @pytest.fixture(scope="module")
-def launch_module_node(ros_client: Any, started_processes: list, tmp_path_factory: pytest.TempPathFactory
-                       ) -> Iterator[Callable[..., ros_harness.NodeProcess]]:
+def launch_module_node(
+    ros_client: Any, started_processes: list, tmp_path_factory: pytest.TempPathFactory
+) -> Iterator[Callable[..., ros_harness.NodeProcess]]:
     """Like launch_node, but the node lives for the whole test module (for tests that share one node)."""
     launch, mine = _launcher(ros_client, started_processes, tmp_path_factory.mktemp("nodes"))
     yield launch

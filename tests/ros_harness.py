@@ -10,8 +10,8 @@ import time
 from pathlib import Path
 from typing import Any, Iterable
 
-from feeder_planner import launcher
-from feeder_planner.launcher import NodeProcess
+from feeder_cell.launcher import NodeProcess
+from feeder_cell import launcher
 
 DOMAIN_RANGE = range(1, 102)  # Fast DDS ports for domains above ~101 can collide with ephemeral ports
 
@@ -38,13 +38,25 @@ class DomainLease:
         self._handle.close()
 
 
-def start_node(package: str, executable: str, parameters: dict[str, Any] | None, log_dir: Path,
-               extra_args: Iterable[str] = ()) -> NodeProcess:
-    return launcher.start_node(launcher.NodeSpec(package, executable, parameters or {}), log_dir, tuple(extra_args))
+def start_node(
+    package: str,
+    executable: str,
+    parameters: dict[str, Any] | None,
+    log_dir: Path,
+    extra_args: Iterable[str] = (),
+) -> NodeProcess:
+    return launcher.start_node(
+        launcher.NodeSpec(package, executable, parameters or {}), log_dir, tuple(extra_args)
+    )
 
 
-def wait_for_graph(client: Any, node: NodeProcess | None, topics: Iterable[str] = (),
-                   services: Iterable[str] = (), timeout: float = 30.0) -> None:
+def wait_for_graph(
+    client: Any,
+    node: NodeProcess | None,
+    topics: Iterable[str] = (),
+    services: Iterable[str] = (),
+    timeout: float = 30.0,
+) -> None:
     """Wait until the topics and services are discovered; fail with what was seen and the node's log."""
     wanted_topics, wanted_services = set(topics), set(services)
     deadline = time.monotonic() + timeout
@@ -55,12 +67,16 @@ def wait_for_graph(client: Any, node: NodeProcess | None, topics: Iterable[str] 
         if not missing:
             return
         if node is not None and not node.alive():
-            raise AssertionError(f"{node.package}/{node.executable} exited with code {node.process.returncode} "
-                                 f"before {missing} appeared. Its log:\n{node.output()[-4000:]}")
+            raise AssertionError(
+                f"{node.package}/{node.executable} exited with code {node.process.returncode} "
+                f"before {missing} appeared. Its log:\n{node.output()[-4000:]}"
+            )
         if time.monotonic() > deadline:
             log = node.output()[-4000:] if node is not None else ""
-            raise AssertionError(f"not discovered within {timeout:.0f} s: {missing}. Seen topics: {sorted(seen_topics)}; "
-                                 f"services: {sorted(seen_services)}. Node log:\n{log}")
+            raise AssertionError(
+                f"not discovered within {timeout:.0f} s: {missing}. Seen topics: {sorted(seen_topics)}; "
+                f"services: {sorted(seen_services)}. Node log:\n{log}"
+            )
         time.sleep(0.1)
 
 
@@ -69,10 +85,14 @@ def wait_for_graph_node(client: Any, node: NodeProcess, node_name: str, timeout:
     deadline = time.monotonic() + timeout
     while node_name not in client.get_node_names():
         if not node.alive():
-            raise AssertionError(f"{node.executable} exited with code {node.process.returncode}:\n{node.output()[-4000:]}")
+            raise AssertionError(
+                f"{node.executable} exited with code {node.process.returncode}:\n{node.output()[-4000:]}"
+            )
         if time.monotonic() > deadline:
-            raise AssertionError(f"node {node_name} not in the graph within {timeout:.0f} s; "
-                                 f"seen {client.get_node_names()}. Log:\n{node.output()[-4000:]}")
+            raise AssertionError(
+                f"node {node_name} not in the graph within {timeout:.0f} s; "
+                f"seen {client.get_node_names()}. Log:\n{node.output()[-4000:]}"
+            )
         time.sleep(0.1)
 
 
@@ -121,8 +141,15 @@ def call_service(client: Any, srv_type: Any, name: str, request: Any, timeout: f
         client.destroy_client(service_client)
 
 
-def collect(client: Any, msg_type: Any, topic: str, count: int | None = None, duration: float | None = None,
-            qos: Any = 10, timeout: float = 30.0) -> list[Any]:
+def collect(
+    client: Any,
+    msg_type: Any,
+    topic: str,
+    count: int | None = None,
+    duration: float | None = None,
+    qos: Any = 10,
+    timeout: float = 30.0,
+) -> list[Any]:
     """Collect messages from a topic until ``count`` arrived or ``duration`` elapsed (timeout bounds both)."""
     if count is None and duration is None:
         raise ValueError("give count or duration")

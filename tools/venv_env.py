@@ -8,7 +8,9 @@ import sysconfig
 from pathlib import Path
 
 FOREIGN_PYTHON_INCLUDE = re.compile(r"/opt/python/cp3\d+-cp3\d+/include/python3\.\d+")
-FOREIGN_NUMPY_INCLUDE = re.compile(r"/opt/python/cp3\d+-cp3\d+/lib/python3\.\d+/site-packages/numpy/_core/include")
+FOREIGN_NUMPY_INCLUDE = re.compile(
+    r"/opt/python/cp3\d+-cp3\d+/lib/python3\.\d+/site-packages/numpy/_core/include"
+)
 
 
 def fix_cmake_exports(venv: Path) -> int:

@@ -13,6 +13,9 @@ from feeder_planner.errors import InputError
 from feeder_planner.fields_io import load_yaml_mapping, optional, point_array, positive_number, required
 from feeder_planner.units import length_scale
 
+# Contract section 2: a part file without `density` has uniform areal density 1 kg/m^2.
+DEFAULT_DENSITY = 1.0
+
 
 @dataclass(frozen=True)
 class Part:
@@ -29,9 +32,9 @@ class Part:
     holes: tuple[np.ndarray, ...]
     density: float
     area: float
-    offset: np.ndarray          # centroid of the file's frame, in metres: part frame = file frame - offset
-    file_vertices: np.ndarray   # outer boundary as given (metres, file frame, file order)
-    unit_scale: float = 1.0     # metres per length unit of the file
+    offset: np.ndarray  # centroid of the file's frame, in metres: part frame = file frame - offset
+    file_vertices: np.ndarray  # outer boundary as given (metres, file frame, file order)
+    unit_scale: float = 1.0  # metres per length unit of the file
     second_moment: tuple[float, float, float] = field(default=(0.0, 0.0, 0.0))  # Ixx, Iyy, Ixy about centroid
 
     @property
@@ -59,8 +62,14 @@ class Part:
         return tuple(loop @ rotation.T + np.array([x, y]) for loop in self.loops())
 
 
-def make_part(vertices: Any, holes: Any = (), density: float = 1.0, name: str = "part",
-              unit_scale: float = 1.0, field_prefix: str = "") -> Part:
+def make_part(
+    vertices: Any,
+    holes: Any = (),
+    density: float = DEFAULT_DENSITY,
+    name: str = "part",
+    unit_scale: float = 1.0,
+    field_prefix: str = "",
+) -> Part:
     """Validate and build a Part; vertices are in units of ``unit_scale`` metres."""
     outer_field = f"{field_prefix}vertices"
     outer = point_array(vertices, outer_field, 2, min_points=3) * unit_scale
@@ -72,11 +81,16 @@ def make_part(vertices: Any, holes: Any = (), density: float = 1.0, name: str = 
         hole_field = f"{field_prefix}holes[{index}]"
         loop = point_array(hole, hole_field, 2, min_points=3) * unit_scale
         polygon.check_simple(loop, hole_field)
-        if not all(polygon.point_in_polygon(p, outer) for p in loop) or polygon.polygons_intersect(loop, outer):
+        if not all(polygon.point_in_polygon(p, outer) for p in loop) or polygon.polygons_intersect(
+            loop, outer
+        ):
             raise InputError(hole_field, "hole is not strictly inside the outer boundary")
         for other_index, other in enumerate(hole_loops):
-            if polygon.polygons_intersect(loop, other) or polygon.point_in_polygon(loop[0], other) or (
-                    polygon.point_in_polygon(other[0], loop)):
+            if (
+                polygon.polygons_intersect(loop, other)
+                or polygon.point_in_polygon(loop[0], other)
+                or (polygon.point_in_polygon(other[0], loop))
+            ):
                 raise InputError(hole_field, f"hole overlaps holes[{other_index}]")
         hole_loops.append(loop)
     density_value = positive_number(density, f"{field_prefix}density")
@@ -92,16 +106,29 @@ def make_part(vertices: Any, holes: Any = (), density: float = 1.0, name: str = 
     moments = np.zeros(3)
     for loop in centred:
         moments += np.array(polygon.second_moments(loop))
-    return Part(name=str(name), outer=centred[0], holes=tuple(centred[1:]), density=density_value,
-                area=area, offset=offset, file_vertices=outer, unit_scale=unit_scale,
-                second_moment=(float(moments[0]), float(moments[1]), float(moments[2])))
+    return Part(
+        name=str(name),
+        outer=centred[0],
+        holes=tuple(centred[1:]),
+        density=density_value,
+        area=area,
+        offset=offset,
+        file_vertices=outer,
+        unit_scale=unit_scale,
+        second_moment=(float(moments[0]), float(moments[1]), float(moments[2])),
+    )
 
 
 def part_from_mapping(document: dict[str, Any]) -> Part:
     """Build a Part from a parsed part file (contract section 2)."""
     scale = length_scale(optional(document, "length_unit", "m"))
-    return make_part(required(document, "vertices"), optional(document, "holes", []),
-                     optional(document, "density", 1.0), optional(document, "name", "part"), scale)
+    return make_part(
+        required(document, "vertices"),
+        optional(document, "holes", []),
+        optional(document, "density", DEFAULT_DENSITY),
+        optional(document, "name", "part"),
+        scale,
+    )
 
 
 def load_part(path: str | Path) -> Part:

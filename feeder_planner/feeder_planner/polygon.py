@@ -40,19 +40,27 @@ def _segments_cross(p: np.ndarray, q: np.ndarray, r: np.ndarray, s: np.ndarray, 
     eps = 1e-12 * scale * scale
 
     def orient(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-        value = (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) - (b[..., 1] - a[..., 1]) * (c[..., 0] - a[..., 0])
+        value = (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) - (b[..., 1] - a[..., 1]) * (
+            c[..., 0] - a[..., 0]
+        )
         return np.where(np.abs(value) <= eps, 0.0, np.sign(value))
 
     def on_segment(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-        return (np.minimum(a[..., 0], b[..., 0]) <= c[..., 0] + 1e-12 * scale) & (
-            c[..., 0] <= np.maximum(a[..., 0], b[..., 0]) + 1e-12 * scale) & (
-            np.minimum(a[..., 1], b[..., 1]) <= c[..., 1] + 1e-12 * scale) & (
-            c[..., 1] <= np.maximum(a[..., 1], b[..., 1]) + 1e-12 * scale)
+        return (
+            (np.minimum(a[..., 0], b[..., 0]) <= c[..., 0] + 1e-12 * scale)
+            & (c[..., 0] <= np.maximum(a[..., 0], b[..., 0]) + 1e-12 * scale)
+            & (np.minimum(a[..., 1], b[..., 1]) <= c[..., 1] + 1e-12 * scale)
+            & (c[..., 1] <= np.maximum(a[..., 1], b[..., 1]) + 1e-12 * scale)
+        )
 
     o1, o2, o3, o4 = orient(p, q, r), orient(p, q, s), orient(r, s, p), orient(r, s, q)
     proper = (o1 * o2 < 0) & (o3 * o4 < 0)
-    touching = ((o1 == 0) & on_segment(p, q, r)) | ((o2 == 0) & on_segment(p, q, s)) | (
-        (o3 == 0) & on_segment(r, s, p)) | ((o4 == 0) & on_segment(r, s, q))
+    touching = (
+        ((o1 == 0) & on_segment(p, q, r))
+        | ((o2 == 0) & on_segment(p, q, s))
+        | ((o3 == 0) & on_segment(r, s, p))
+        | ((o4 == 0) & on_segment(r, s, q))
+    )
     return proper | touching
 
 
@@ -106,7 +114,9 @@ def polygons_intersect(a: np.ndarray, b: np.ndarray) -> bool:
     scale = float(max(np.ptp(a, axis=0).max(), np.ptp(b, axis=0).max()))
     i, j = np.meshgrid(np.arange(len(a)), np.arange(len(b)), indexing="ij")
     i, j = i.ravel(), j.ravel()
-    return bool(_segments_cross(a[i], np.roll(a, -1, axis=0)[i], b[j], np.roll(b, -1, axis=0)[j], scale).any())
+    return bool(
+        _segments_cross(a[i], np.roll(a, -1, axis=0)[i], b[j], np.roll(b, -1, axis=0)[j], scale).any()
+    )
 
 
 def convex_hull_indices(points: np.ndarray) -> list[int]:
@@ -116,8 +126,10 @@ def convex_hull_indices(points: np.ndarray) -> list[int]:
     eps = 1e-12 * scale * scale
 
     def cross(o: int, a: int, b: int) -> float:
-        return float((points[a, 0] - points[o, 0]) * (points[b, 1] - points[o, 1])
-                     - (points[a, 1] - points[o, 1]) * (points[b, 0] - points[o, 0]))
+        return float(
+            (points[a, 0] - points[o, 0]) * (points[b, 1] - points[o, 1])
+            - (points[a, 1] - points[o, 1]) * (points[b, 0] - points[o, 0])
+        )
 
     lower: list[int] = []
     for k in order:

@@ -26,7 +26,9 @@ def parse_angle(text: str, field: str) -> float:
     try:
         value = float(number)
     except ValueError:
-        raise InputError(field, f"expected an angle in radians or with a 'deg' suffix, got {text!r}") from None
+        raise InputError(
+            field, f"expected an angle in radians or with a 'deg' suffix, got {text!r}"
+        ) from None
     if not math.isfinite(value):
         raise InputError(field, f"must be finite, got {text!r}")
     return math.radians(value) if degrees else value

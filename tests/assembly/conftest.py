@@ -17,8 +17,10 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "assembly"
 @pytest.fixture
 def example():
     """prepare(examples/assembly/<name>.yaml, mu, K)."""
+
     def make(name: str, mu: float | None = None, facets: int = 4):
         return prepare(load_assembly(EXAMPLES / f"{name}.yaml"), mu, facets)
+
     return make
 
 
@@ -26,6 +28,7 @@ def example():
 def from_doc():
     def make(document: dict, mu: float | None = None, facets: int = 4):
         return prepare(assembly_from_document(document), mu, facets)
+
     return make
 
 

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import EXAMPLES
-from feeder_planner.cli.main import main
+
+from feeder_cell.cli.main import main
 
 CORNER = str(EXAMPLES / "cube_in_corner.yaml")
 
@@ -57,9 +57,11 @@ def test_check_stability_exact_cone_flag(capsys, tmp_path) -> None:
     """A slab on the ground tilted along a tangent axis by tan(alpha) = 0.8 mu: the inscribed 4-facet pyramid
     (half-width mu / sqrt 2 along that axis) lets it slide, the exact circular cone holds it."""
     slab = tmp_path / "slab.yaml"
-    slab.write_text("name: slab\nmu: 0.5\nbodies:\n"
-                    "  - {name: ground, grounded: true, boxes: [{min: [-2, -2, -1], max: [2, 2, 0]}]}\n"
-                    "  - {name: slab, boxes: [{min: [-1, -1, 0], max: [1, 1, 0.2]}]}\n")
+    slab.write_text(
+        "name: slab\nmu: 0.5\nbodies:\n"
+        "  - {name: ground, grounded: true, boxes: [{min: [-2, -2, -1], max: [2, 2, 0]}]}\n"
+        "  - {name: slab, boxes: [{min: [-1, -1, 0], max: [1, 1, 0.2]}]}\n"
+    )
     alpha = math.atan(0.8 * 0.5)
     g = ["--g", f"{math.sin(alpha)}", "0", f"{-math.cos(alpha)}"]
     code, out, _ = _run(capsys, "check-stability", str(slab), *g, "--exact-cone", "--json")
@@ -75,28 +77,40 @@ def test_human_summary_of_the_region(capsys) -> None:
     assert code == 0 and "region" in out and "sr" in out and not out.lstrip().startswith("{")
 
 
-@pytest.mark.parametrize("argv, words", [
-    (["stable-region", "/nonexistent/a.yaml"], "cannot read"),
-    (["stable-region", CORNER, "--mu", "-0.5"], "--mu: must be >= 0"),
-    (["stable-region", CORNER, "--mu", "nan"], "must be finite"),
-    (["stable-region", CORNER, "--facets", "2"], "--facets"),
-    (["check-stability", CORNER, "--g", "0", "0", "0"], "--g: must be a non-zero direction"),
-    (["check-stability", CORNER, "--g", "1", "inf", "0"], "must be finite"),
-])
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["stable-region", "/nonexistent/a.yaml"], "cannot read"),
+        (["stable-region", CORNER, "--mu", "-0.5"], "--mu: must be >= 0"),
+        (["stable-region", CORNER, "--mu", "nan"], "must be finite"),
+        (["stable-region", CORNER, "--facets", "2"], "--facets"),
+        (["check-stability", CORNER, "--g", "0", "0", "0"], "--g: must be a non-zero direction"),
+        (["check-stability", CORNER, "--g", "1", "inf", "0"], "must be finite"),
+    ],
+)
 def test_bad_flags_exit_2_with_one_line(capsys, argv: list[str], words: str) -> None:
     code, out, err = _run(capsys, *argv)
     assert code == 2 and out == ""
     assert words in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
 
 
-@pytest.mark.parametrize("text, words", [
-    ("name: x\nbodies:\n  - {name: a, boxes: [{min: [0,0,0], max: [1,1,1]}]}\n", "no grounded body"),
-    ("bodies:\n  - {name: g, grounded: true, boxes: [{min: [0,0,0], max: [2,2,1]}]}\n"
-     "  - {name: b, boxes: [{min: [0,0,0.5], max: [1,1,2]}]}\n", "interpenetrate"),
-    ("mu: -1\nbodies:\n  - {name: g, grounded: true, boxes: [{min: [0,0,0], max: [2,2,1]}]}\n", "mu: must be >= 0"),
-    ("bodies:\n  - {name: g, grounded: true, boxes: [{min: [0,0,.nan], max: [2,2,1]}]}\n", "finite"),
-    ("bodies: [\n", "not valid YAML"),
-])
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("name: x\nbodies:\n  - {name: a, boxes: [{min: [0,0,0], max: [1,1,1]}]}\n", "no grounded body"),
+        (
+            "bodies:\n  - {name: g, grounded: true, boxes: [{min: [0,0,0], max: [2,2,1]}]}\n"
+            "  - {name: b, boxes: [{min: [0,0,0.5], max: [1,1,2]}]}\n",
+            "interpenetrate",
+        ),
+        (
+            "mu: -1\nbodies:\n  - {name: g, grounded: true, boxes: [{min: [0,0,0], max: [2,2,1]}]}\n",
+            "mu: must be >= 0",
+        ),
+        ("bodies:\n  - {name: g, grounded: true, boxes: [{min: [0,0,.nan], max: [2,2,1]}]}\n", "finite"),
+        ("bodies: [\n", "not valid YAML"),
+    ],
+)
 def test_bad_files_exit_2_naming_file_and_field(capsys, tmp_path: Path, text: str, words: str) -> None:
     path = tmp_path / "bad.yaml"
     path.write_text(text)

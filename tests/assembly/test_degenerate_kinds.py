@@ -6,19 +6,27 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import random_directions
 
 
 def _pocket(floor: bool) -> dict:
     """A unit block in a square pocket (walls on +-x and +-y), with or without a floor under it; mu = 0."""
-    walls = [{"min": [0, 0, 0], "max": [1, 3, 3]}, {"min": [2, 0, 0], "max": [3, 3, 3]},
-             {"min": [0, 0, 0], "max": [3, 1, 3]}, {"min": [0, 2, 0], "max": [3, 3, 3]}]
+    walls = [
+        {"min": [0, 0, 0], "max": [1, 3, 3]},
+        {"min": [2, 0, 0], "max": [3, 3, 3]},
+        {"min": [0, 0, 0], "max": [3, 1, 3]},
+        {"min": [0, 2, 0], "max": [3, 3, 3]},
+    ]
     if floor:
         walls.append({"min": [0, 0, -1], "max": [3, 3, 0.5]})
-    return {"name": "pocket", "mu": 0.0, "bodies": [
-        {"name": "pocket", "grounded": True, "boxes": walls},
-        {"name": "block", "boxes": [{"min": [1, 1, 0.5], "max": [2, 2, 1.5]}]}]}
+    return {
+        "name": "pocket",
+        "mu": 0.0,
+        "bodies": [
+            {"name": "pocket", "grounded": True, "boxes": walls},
+            {"name": "block", "boxes": [{"min": [1, 1, 0.5], "max": [2, 2, 1.5]}]},
+        ],
+    }
 
 
 def test_block_in_a_pocket_with_a_floor_is_a_hemisphere(from_doc) -> None:

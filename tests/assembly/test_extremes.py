@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import in_cone, random_directions
+
 from feeder_planner.assembly.generate import random_assembly
 
 
@@ -18,12 +18,23 @@ def _pyramid(mu: float) -> np.ndarray:
 
 def _corner_stack(small: float, mu: float) -> dict:
     """A 1 m cube in a grounded corner (Fig. 11) with a cube ``small`` m across resting on its top face."""
-    return {"name": "corner_stack", "mu": mu, "bodies": [
-        {"name": "corner", "grounded": True, "boxes": [
-            {"min": [-1, -1, -1], "max": [2, 2, 0]}, {"min": [-1, -1, 0], "max": [0, 2, 2]},
-            {"min": [-1, -1, 0], "max": [2, 0, 2]}]},
-        {"name": "huge", "boxes": [{"min": [0, 0, 0], "max": [1, 1, 1]}]},
-        {"name": "tiny", "boxes": [{"min": [0.5, 0.5, 1], "max": [0.5 + small, 0.5 + small, 1 + small]}]}]}
+    return {
+        "name": "corner_stack",
+        "mu": mu,
+        "bodies": [
+            {
+                "name": "corner",
+                "grounded": True,
+                "boxes": [
+                    {"min": [-1, -1, -1], "max": [2, 2, 0]},
+                    {"min": [-1, -1, 0], "max": [0, 2, 2]},
+                    {"min": [-1, -1, 0], "max": [2, 0, 2]},
+                ],
+            },
+            {"name": "huge", "boxes": [{"min": [0, 0, 0], "max": [1, 1, 1]}]},
+            {"name": "tiny", "boxes": [{"min": [0.5, 0.5, 1], "max": [0.5 + small, 0.5 + small, 1 + small]}]},
+        ],
+    }
 
 
 def test_mass_ratio_1e_9_the_tiny_body_still_decides(from_doc) -> None:
@@ -38,9 +49,11 @@ def test_mass_ratio_1e_9_the_tiny_body_still_decides(from_doc) -> None:
     # With friction the tiny cube's pyramid (mu = 0.2) cuts the huge cube's region (the force cone of the
     # three corner faces' pyramids): g is stable iff -g is in both cones.
     s = 0.2 / math.sqrt(2)
-    corner = np.array([[a * s, b * s, 1] for a in (-1, 1) for b in (-1, 1)] +
-                      [[1, a * s, b * s] for a in (-1, 1) for b in (-1, 1)] +
-                      [[a * s, 1, b * s] for a in (-1, 1) for b in (-1, 1)])
+    corner = np.array(
+        [[a * s, b * s, 1] for a in (-1, 1) for b in (-1, 1)]
+        + [[1, a * s, b * s] for a in (-1, 1) for b in (-1, 1)]
+        + [[a * s, 1, b * s] for a in (-1, 1) for b in (-1, 1)]
+    )
     prepared = from_doc(_corner_stack(1e-3, 0.2))
     region = prepared.region
     assert region.kind == "region"
@@ -69,10 +82,15 @@ def test_mu_zero_and_mu_one_hundred(example) -> None:
 
 
 def test_one_contact_point_under_the_centre_of_mass_is_a_single_direction(from_doc) -> None:
-    document = {"name": "pin", "mu": 0.0, "bodies": [
-        {"name": "ground", "grounded": True, "boxes": [{"min": [-1, -1, -1], "max": [1, 1, 0]}]},
-        {"name": "ball", "boxes": [{"min": [-0.5, -0.5, 0.5], "max": [0.5, 0.5, 1.5]}]}],
-        "contacts": [{"a": "ball", "b": "ground", "point": [0, 0, 0], "normal": [0, 0, 1]}]}
+    document = {
+        "name": "pin",
+        "mu": 0.0,
+        "bodies": [
+            {"name": "ground", "grounded": True, "boxes": [{"min": [-1, -1, -1], "max": [1, 1, 0]}]},
+            {"name": "ball", "boxes": [{"min": [-0.5, -0.5, 0.5], "max": [0.5, 0.5, 1.5]}]},
+        ],
+        "contacts": [{"a": "ball", "b": "ground", "point": [0, 0, 0], "normal": [0, 0, 1]}],
+    }
     region = from_doc(document).region
     assert region.kind == "point"
     assert region.vertices[0] == pytest.approx([0, 0, -1])

@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import random_directions
+
 from feeder_planner.errors import InputError
 from feeder_sim.fixture.interlock import certify, sample_waypoints
 from feeder_sim.fixture.kinematics import TableLimits, gravity_of, joints_of, plan_joint_path
@@ -47,9 +47,14 @@ def test_timing_respects_the_rate_limits() -> None:
     assert gravity_of(path.at(path.duration)[0]) == pytest.approx(samples[-1] / np.linalg.norm(samples[-1]))
 
 
-@pytest.mark.parametrize("limits, field", [(TableLimits(x_min=0.2, x_max=0.1), "tilt_x_min/tilt_x_max"),
-                                           (TableLimits(rate_y=0.0), "max_rate_y"),
-                                           (TableLimits(y_max=math.nan), "tilt_y_max")])
+@pytest.mark.parametrize(
+    "limits, field",
+    [
+        (TableLimits(x_min=0.2, x_max=0.1), "tilt_x_min/tilt_x_max"),
+        (TableLimits(rate_y=0.0), "max_rate_y"),
+        (TableLimits(y_max=math.nan), "tilt_y_max"),
+    ],
+)
 def test_bad_limits_name_the_parameter(limits: TableLimits, field: str) -> None:
     with pytest.raises(InputError) as caught:
         limits.validate()

@@ -14,14 +14,18 @@ def _random_lp(seed: int) -> tuple[sparse.csc_matrix, np.ndarray, np.ndarray, np
     """A feasible, bounded LP whose columns have every kind of bound: free, lower, upper, boxed and fixed."""
     rng = np.random.default_rng(seed)
     rows, cols = 12, 40
-    A = sparse.random(rows, cols, density=0.35, random_state=seed, format="csc") + sparse.eye(rows, cols) * 2.0
+    A = (
+        sparse.random(rows, cols, density=0.35, random_state=seed, format="csc")
+        + sparse.eye(rows, cols) * 2.0
+    )
     kinds = rng.integers(0, 5, cols)
     kinds[:rows] = 2  # boxed columns on the identity part keep the LP bounded
     lower = np.where(np.isin(kinds, (1, 2, 4)), rng.uniform(-2, 0, cols), -np.inf)
     upper = np.where(np.isin(kinds, (2, 3)), rng.uniform(0.5, 3, cols), np.inf)
     upper = np.where(kinds == 4, lower, upper)  # fixed
-    feasible = np.clip(rng.normal(size=cols), np.where(np.isfinite(lower), lower, -5),
-                       np.where(np.isfinite(upper), upper, 5))
+    feasible = np.clip(
+        rng.normal(size=cols), np.where(np.isfinite(lower), lower, -5), np.where(np.isfinite(upper), upper, 5)
+    )
     b = A @ feasible
     # Costs that keep free and one-sided columns bounded: they point into the side that has a bound.
     cost = rng.normal(size=cols)

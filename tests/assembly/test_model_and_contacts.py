@@ -21,8 +21,11 @@ BASE = {"name": "base", "grounded": True, "boxes": [{"min": [0, 0, 0], "max": [4
 
 def test_mass_and_centre_of_a_union_of_overlapping_boxes() -> None:
     # Two overlapping boxes forming an L: volume and centroid by inclusion-exclusion, computed by hand.
-    body = {"name": "l", "density": 2.0, "boxes": [{"min": [0, 0, 0], "max": [3, 1, 1]},
-                                                   {"min": [0, 0, 0], "max": [1, 1, 2]}]}
+    body = {
+        "name": "l",
+        "density": 2.0,
+        "boxes": [{"min": [0, 0, 0], "max": [3, 1, 1]}, {"min": [0, 0, 0], "max": [1, 1, 2]}],
+    }
     assembly = assembly_from_document(_doc(BASE | {"boxes": [{"min": [-5, -5, -1], "max": [5, 5, 0]}]}, body))
     l_shape = assembly.bodies[1]
     assert l_shape.mass == pytest.approx(2.0 * 4.0)  # 3 + 2 - 1 overlapping unit cube
@@ -70,29 +73,68 @@ def test_edge_only_touching_gives_no_contact_polygon() -> None:
 
 
 def test_explicit_contacts_are_used_as_given() -> None:
-    document = _doc(BASE, {"name": "block", "boxes": [{"min": [1, 1, 1], "max": [2, 2, 2]}]},
-                    contacts=[{"a": "block", "b": "base", "point": [1.5, 1.5, 1], "normal": [0, 0, 1], "mu": 0.0}])
+    document = _doc(
+        BASE,
+        {"name": "block", "boxes": [{"min": [1, 1, 1], "max": [2, 2, 2]}]},
+        contacts=[{"a": "block", "b": "base", "point": [1.5, 1.5, 1], "normal": [0, 0, 1], "mu": 0.0}],
+    )
     contacts = assembly_contacts(assembly_from_document(document))
     assert len(contacts) == 1 and contacts[0].mu == 0.0
 
 
-@pytest.mark.parametrize("document, field, words", [
-    (_doc({"name": "a", "boxes": [{"min": [0, 0, 0], "max": [1, 1, 1]}]}), "bodies", "no grounded body"),
-    (_doc(BASE, {"name": "b", "boxes": [{"min": [1, 1, 0.5], "max": [2, 2, 2]}]}), "bodies", "interpenetrate"),
-    (_doc(BASE, {"name": "b", "boxes": [{"min": [1, 1, 1], "max": [1, 2, 2]}]}), "bodies[1].boxes[0]",
-     "degenerate box"),
-    (_doc(BASE, {"name": "b", "convex": [[[0, 0, 1], [1, 0, 1], [0, 1, 1], [1, 1, 1]]]}), "bodies[1].convex[0]",
-     "coplanar"),
-    (_doc(BASE, {"name": "b", "convex": [{"vertices": [[0, 0, 1], [1, 0, 1], [0, 1, 1], [0, 0, 2]],
-                                          "faces": [[0, 1, 2], [0, 1, 3], [1, 2, 3]]}]}),
-     "bodies[1].convex[0].faces", "open polyhedron"),
-    (_doc(BASE, {"name": "b", "boxes": [{"min": [1, 1, 1], "max": [2, 2, 2]}]}, mu=-0.1), "mu", ">= 0"),
-    (_doc(BASE, {"name": "b", "boxes": [{"min": [1, 1, float("nan")], "max": [2, 2, 2]}]}),
-     "bodies[1].boxes[0].min[0]", "finite"),
-    (_doc(BASE, {"name": "base", "boxes": [{"min": [1, 1, 1], "max": [2, 2, 2]}]}), "bodies[1].name", "duplicate"),
-    (_doc(BASE, {"name": "b", "density": 0, "boxes": [{"min": [1, 1, 1], "max": [2, 2, 2]}]}),
-     "bodies[1].density", "> 0"),
-])
+@pytest.mark.parametrize(
+    "document, field, words",
+    [
+        (_doc({"name": "a", "boxes": [{"min": [0, 0, 0], "max": [1, 1, 1]}]}), "bodies", "no grounded body"),
+        (
+            _doc(BASE, {"name": "b", "boxes": [{"min": [1, 1, 0.5], "max": [2, 2, 2]}]}),
+            "bodies",
+            "interpenetrate",
+        ),
+        (
+            _doc(BASE, {"name": "b", "boxes": [{"min": [1, 1, 1], "max": [1, 2, 2]}]}),
+            "bodies[1].boxes[0]",
+            "degenerate box",
+        ),
+        (
+            _doc(BASE, {"name": "b", "convex": [[[0, 0, 1], [1, 0, 1], [0, 1, 1], [1, 1, 1]]]}),
+            "bodies[1].convex[0]",
+            "coplanar",
+        ),
+        (
+            _doc(
+                BASE,
+                {
+                    "name": "b",
+                    "convex": [
+                        {
+                            "vertices": [[0, 0, 1], [1, 0, 1], [0, 1, 1], [0, 0, 2]],
+                            "faces": [[0, 1, 2], [0, 1, 3], [1, 2, 3]],
+                        }
+                    ],
+                },
+            ),
+            "bodies[1].convex[0].faces",
+            "open polyhedron",
+        ),
+        (_doc(BASE, {"name": "b", "boxes": [{"min": [1, 1, 1], "max": [2, 2, 2]}]}, mu=-0.1), "mu", ">= 0"),
+        (
+            _doc(BASE, {"name": "b", "boxes": [{"min": [1, 1, float("nan")], "max": [2, 2, 2]}]}),
+            "bodies[1].boxes[0].min[0]",
+            "finite",
+        ),
+        (
+            _doc(BASE, {"name": "base", "boxes": [{"min": [1, 1, 1], "max": [2, 2, 2]}]}),
+            "bodies[1].name",
+            "duplicate",
+        ),
+        (
+            _doc(BASE, {"name": "b", "density": 0, "boxes": [{"min": [1, 1, 1], "max": [2, 2, 2]}]}),
+            "bodies[1].density",
+            "> 0",
+        ),
+    ],
+)
 def test_bad_assemblies_name_the_field(document: dict, field: str, words: str) -> None:
     with pytest.raises(InputError) as caught:
         assembly_from_document(document)
@@ -102,7 +144,9 @@ def test_bad_assemblies_name_the_field(document: dict, field: str, words: str) -
 
 def test_interpenetration_error_names_both_bodies() -> None:
     with pytest.raises(InputError, match="'base'.*'intruder'"):
-        assembly_from_document(_doc(BASE, {"name": "intruder", "boxes": [{"min": [1, 1, 0.9], "max": [2, 2, 2]}]}))
+        assembly_from_document(
+            _doc(BASE, {"name": "intruder", "boxes": [{"min": [1, 1, 0.9], "max": [2, 2, 2]}]})
+        )
 
 
 def test_yaml_text_errors_name_the_source() -> None:
@@ -114,7 +158,12 @@ def test_yaml_text_errors_name_the_source() -> None:
 
 def test_interpenetrating_convex_pieces_are_detected_by_separating_axes() -> None:
     wedge = [[0, 0, 1], [2, 0, 1], [0, 2, 1], [0, 0, 3]]
-    cube = {"name": "cube", "convex": [[[x, y, z] for x in (0.2, 0.6) for y in (0.2, 0.6) for z in (1.2, 1.6)]]}
+    cube = {
+        "name": "cube",
+        "convex": [[[x, y, z] for x in (0.2, 0.6) for y in (0.2, 0.6) for z in (1.2, 1.6)]],
+    }
     with pytest.raises(InputError, match="interpenetrate"):
         assembly_from_document(_doc(BASE, {"name": "wedge", "convex": [wedge]}, cube))
-    assert math.isfinite(assembly_from_document(_doc(BASE, {"name": "wedge", "convex": [wedge]})).bodies[1].mass)
+    assert math.isfinite(
+        assembly_from_document(_doc(BASE, {"name": "wedge", "convex": [wedge]})).bodies[1].mass
+    )

@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import in_cone, random_directions
 
 
@@ -20,7 +19,7 @@ def test_fig11_cube_in_corner_is_the_negative_octant(example) -> None:
     assert region.kind == "region"
     assert _as_set(region.normals) == _as_set(np.eye(3))
     assert _as_set(region.vertices) == _as_set(-np.eye(3))
-    assert region.area_sr == pytest.approx(4 * math.pi / 8, rel=1e-9)      # one octant of the sphere
+    assert region.area_sr == pytest.approx(4 * math.pi / 8, rel=1e-9)  # one octant of the sphere
     assert region.center == pytest.approx(-np.ones(3) / math.sqrt(3), abs=1e-9)
     for g in random_directions(300, 11):
         assert region.contains(g) == bool(np.all(g <= 0))
@@ -77,16 +76,18 @@ def test_fig14_patch_grows_with_mu_and_contains_the_frictionless_arc(example) ->
     large = example("block_in_l_bracket", mu=0.4).region
     assert 0.0 < small.area_sr < large.area_sr
     for v in small.vertices:
-        assert large.margin(v) > 0.0                      # strictly inside the larger patch
+        assert large.margin(v) > 0.0  # strictly inside the larger patch
     for v in arc.vertices:
-        assert small.contains(v) and small.margin(v) > 0.0  # the arc's ends are interior once there is friction
+        assert (
+            small.contains(v) and small.margin(v) > 0.0
+        )  # the arc's ends are interior once there is friction
 
 
 def test_fig16_block_between_parallel_faces(example) -> None:
     frictionless = example("block_between_parallel_faces", mu=0.0).region
     assert frictionless.kind == "arc"
     ends = frictionless.vertices
-    assert ends[0] @ ends[1] == pytest.approx(-1.0)                # half a great circle
+    assert ends[0] @ ends[1] == pytest.approx(-1.0)  # half a great circle
     assert _as_set(ends) == _as_set([[1, 0, 0], [-1, 0, 0]])
     assert frictionless.contains(np.array([0.3, 0.0, -1.0]))
     # Friction 0.3: squeezing forces on the parallel faces hold the block against any gravity (potential stability).
@@ -97,10 +98,15 @@ def test_fig16_block_between_parallel_faces(example) -> None:
 
 
 def test_fig16_without_the_floor_frictionless_gives_an_antipodal_pair(from_doc) -> None:
-    document = {"name": "walls_only", "mu": 0.0, "bodies": [
-        {"name": "left", "grounded": True, "boxes": [{"min": [0, 0, 0], "max": [1, 2, 3]}]},
-        {"name": "right", "grounded": True, "boxes": [{"min": [2, 0, 0], "max": [3, 2, 3]}]},
-        {"name": "block", "boxes": [{"min": [1, 0.5, 1], "max": [2, 1.5, 2]}]}]}
+    document = {
+        "name": "walls_only",
+        "mu": 0.0,
+        "bodies": [
+            {"name": "left", "grounded": True, "boxes": [{"min": [0, 0, 0], "max": [1, 2, 3]}]},
+            {"name": "right", "grounded": True, "boxes": [{"min": [2, 0, 0], "max": [3, 2, 3]}]},
+            {"name": "block", "boxes": [{"min": [1, 0.5, 1], "max": [2, 1.5, 2]}]},
+        ],
+    }
     region = from_doc(document).region
     assert region.kind == "antipodal_pair"
     assert _as_set(region.vertices) == _as_set([[1, 0, 0], [-1, 0, 0]])

@@ -19,7 +19,9 @@ def test_safe_path_between_two_stable_directions_is_certified_and_inside_the_reg
     g1, g2 = region.vertices[0] * 0.9 + region.center * 0.1, region.vertices[2] * 0.9 + region.center * 0.1
     result = path_result(prepared, g1, g2, step=math.radians(0.5))
     path = np.asarray(result["path"])
-    assert path[0] == pytest.approx(g1 / np.linalg.norm(g1)) and path[-1] == pytest.approx(g2 / np.linalg.norm(g2))
+    assert path[0] == pytest.approx(g1 / np.linalg.norm(g1)) and path[-1] == pytest.approx(
+        g2 / np.linalg.norm(g2)
+    )
     steps = np.arccos(np.clip(np.einsum("ij,ij->i", path[1:], path[:-1]), -1, 1))
     assert steps.max() <= math.radians(0.5) + 1e-12
     # Every sample lies on the one great circle through g1 and g2 (eq. 11) and inside the region.
@@ -44,7 +46,9 @@ def test_antipodal_ends_on_the_sphere_go_through_a_stable_midpoint(example) -> N
     prepared = example("block_between_parallel_faces", mu=0.3)
     path = np.asarray(path_result(prepared, np.array([0, 0, -1.0]), np.array([0, 0, 1.0]))["path"])
     assert path[0] @ path[-1] == pytest.approx(-1.0)
-    assert np.arccos(np.clip(np.einsum("ij,ij->i", path[1:], path[:-1]), -1, 1)).max() <= math.radians(1) + 1e-12
+    assert (
+        np.arccos(np.clip(np.einsum("ij,ij->i", path[1:], path[:-1]), -1, 1)).max() <= math.radians(1) + 1e-12
+    )
 
 
 def test_exact_cone_is_bracketed_and_the_pyramids_converge(example) -> None:
@@ -61,13 +65,20 @@ def test_exact_cone_is_bracketed_and_the_pyramids_converge(example) -> None:
 
 def test_exact_cone_verdict_on_an_incline_matches_tan_alpha_le_mu(from_doc) -> None:
     # One flat contact, normal +z: g at angle alpha from -z slides iff tan(alpha) > mu (circular cone).
-    document = {"name": "flat", "mu": 0.5, "bodies": [
-        {"name": "ground", "grounded": True, "boxes": [{"min": [-2, -2, -1], "max": [2, 2, 0]}]},
-        {"name": "slab", "boxes": [{"min": [-1, -1, 0], "max": [1, 1, 0.2]}]}]}
+    document = {
+        "name": "flat",
+        "mu": 0.5,
+        "bodies": [
+            {"name": "ground", "grounded": True, "boxes": [{"min": [-2, -2, -1], "max": [2, 2, 0]}]},
+            {"name": "slab", "boxes": [{"min": [-1, -1, 0], "max": [1, 1, 0.2]}]},
+        ],
+    }
     prepared = from_doc(document)
     for azimuth in (0.0, 0.3, math.pi / 4):
         for alpha, stable in ((math.atan(0.5) - 0.01, True), (math.atan(0.5) + 0.01, False)):
-            g = np.array([math.sin(alpha) * math.cos(azimuth), math.sin(alpha) * math.sin(azimuth), -math.cos(alpha)])
+            g = np.array(
+                [math.sin(alpha) * math.cos(azimuth), math.sin(alpha) * math.sin(azimuth), -math.cos(alpha)]
+            )
             assert check_exact(prepared.assembly, prepared.contacts, g).stable is stable
     inner, outer = exact_bracket(prepared.assembly, prepared.contacts, 64)
     # The exact region is the cap of half-angle atan(mu): area 2 pi (1 - cos atan mu) lies in the bracket.

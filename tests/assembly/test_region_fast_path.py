@@ -26,8 +26,14 @@ class ColdOracle:
         self.calls += 1
         cost = np.zeros(self.A.shape[1])
         cost[:3] = -np.asarray(direction, float)
-        result = linprog(cost, A_eq=self.A, b_eq=np.zeros(self.A.shape[0]), bounds=self.bounds, method="highs",
-                         options={"primal_feasibility_tolerance": 1e-9, "dual_feasibility_tolerance": 1e-9})
+        result = linprog(
+            cost,
+            A_eq=self.A,
+            b_eq=np.zeros(self.A.shape[0]),
+            bounds=self.bounds,
+            method="highs",
+            options={"primal_feasibility_tolerance": 1e-9, "dual_feasibility_tolerance": 1e-9},
+        )
         assert result.status == 0, result.message
         g = np.clip(result.x[:3], -1.0, 1.0)
         return float(np.asarray(direction, float) @ g), g
@@ -46,10 +52,16 @@ def _same_region(fast, reference) -> None:
         assert np.all(np.max(fast.normals @ reference.normals.T, axis=1) > 1 - 1e-7)
 
 
-@pytest.mark.parametrize("document", [brick_wall(3, 3, mu=0.5), brick_wall(5, 4, mu=0.6),
-                                      random_assembly(11, 6, mu=0.7, walls=True),
-                                      random_assembly(12, 7, mu=0.4, walls=False)],
-                         ids=["wall3x3", "wall5x4", "tower11", "tower12"])
+@pytest.mark.parametrize(
+    "document",
+    [
+        brick_wall(3, 3, mu=0.5),
+        brick_wall(5, 4, mu=0.6),
+        random_assembly(11, 6, mu=0.7, walls=True),
+        random_assembly(12, 7, mu=0.4, walls=False),
+    ],
+    ids=["wall3x3", "wall5x4", "tower11", "tower12"],
+)
 def test_warm_restarted_region_equals_cold_reference(from_doc, document, monkeypatch) -> None:
     prepared = from_doc(document)
     assert len(split_components(prepared.system)) == 1  # one connected sub-assembly: no splitting helps

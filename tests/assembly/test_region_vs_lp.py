@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from conftest import random_directions
+
 from feeder_planner.assembly.generate import random_assembly
 
 BOUNDARY_BAND = 1e-6  # rad: directions this close to the boundary are not compared
@@ -34,9 +34,12 @@ def _agreement(prepared, count: int, seed: int) -> tuple[int, int, int]:
     return compared, count, stable
 
 
-@pytest.mark.parametrize("seed, faces, mu, facets", [(1, 6, 0.8, 4), (2, 12, 1.0, 4), (3, 8, 0.0, 4),
-                                                     (4, 10, 0.7, 7)])
-def test_random_assembly_membership_equals_the_lp(from_doc, seed: int, faces: int, mu: float, facets: int) -> None:
+@pytest.mark.parametrize(
+    "seed, faces, mu, facets", [(1, 6, 0.8, 4), (2, 12, 1.0, 4), (3, 8, 0.0, 4), (4, 10, 0.7, 7)]
+)
+def test_random_assembly_membership_equals_the_lp(
+    from_doc, seed: int, faces: int, mu: float, facets: int
+) -> None:
     prepared = from_doc(random_assembly(seed, faces, mu=mu), facets=facets)
     compared, count, stable = _agreement(prepared, 2000, seed)
     assert compared >= 0.98 * count
@@ -52,10 +55,20 @@ def test_tilted_convex_block_on_an_incline(from_doc) -> None:
     # A 1 x 1 x 0.4 block lying on the slope (x along the slope, z along its normal).
     origin = np.array([1.5, 0.5, 1.5 * np.tan(slope)])
     along, normal = np.array([c, 0, s]), np.array([-s, 0, c])
-    block = [list(origin + a * along + b * np.array([0, 1, 0]) + h * normal)
-             for a in (0, 1) for b in (0, 1) for h in (0, 0.4)]
-    document = {"name": "incline", "mu": 0.5, "bodies": [
-        {"name": "ramp", "grounded": True, "convex": [ramp]}, {"name": "block", "convex": [block]}]}
+    block = [
+        list(origin + a * along + b * np.array([0, 1, 0]) + h * normal)
+        for a in (0, 1)
+        for b in (0, 1)
+        for h in (0, 0.4)
+    ]
+    document = {
+        "name": "incline",
+        "mu": 0.5,
+        "bodies": [
+            {"name": "ramp", "grounded": True, "convex": [ramp]},
+            {"name": "block", "convex": [block]},
+        ],
+    }
     prepared = from_doc(document)
     assert len(prepared.contacts) == 4
     assert all(np.allclose(contact.normal, normal) for contact in prepared.contacts)
@@ -70,7 +83,7 @@ def test_independent_sub_assemblies_solved_apart_give_the_same_region(from_doc, 
     from feeder_planner.assembly.wrench import split_components
 
     prepared = from_doc(random_assembly(2, 27, mu=0.9))
-    assert len(split_components(prepared.system)) > 2            # towers linked only through grounded bodies
+    assert len(split_components(prepared.system)) > 2  # towers linked only through grounded bodies
     whole = region_module.stable_region(prepared.system)
     monkeypatch.setattr(region_module, "SPLIT_COLUMNS", 0)
     split = region_module.stable_region(prepared.system)

@@ -13,13 +13,17 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-FEEDER = [sys.executable, "-m", "feeder_planner.cli.main"]
+FEEDER = [sys.executable, "-m", "feeder_cell.cli.main"]
 TALKER = Path(__file__).with_name("scripts") / "talker.py"
 
 
 def _record(bag: Path, duration: float, topics: list[str]) -> subprocess.Popen:
-    return subprocess.Popen([*FEEDER, "record", str(bag), "--duration", str(duration), "--topics", *topics, "--json"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [*FEEDER, "record", str(bag), "--duration", str(duration), "--topics", *topics, "--json"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def _finish(process: subprocess.Popen, timeout: float = 60.0) -> dict:
@@ -45,8 +49,12 @@ def _decoded_strings(bag: Path, topic: str) -> list[str]:
 def test_record_decode_replay_rerecord(ros_domain: int, tmp_path: Path) -> None:
     original, replayed = tmp_path / "original", tmp_path / "replayed"
     recorder = _record(original, 6.0, ["/talk", "/latched"])
-    talker = subprocess.Popen([sys.executable, str(TALKER), "30", "0.05"], stdout=subprocess.DEVNULL,
-                              stderr=subprocess.PIPE, text=True)
+    talker = subprocess.Popen(
+        [sys.executable, str(TALKER), "30", "0.05"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         talker.wait(timeout=60)
     finally:
@@ -62,9 +70,12 @@ def test_record_decode_replay_rerecord(ros_domain: int, tmp_path: Path) -> None:
     assert _decoded_strings(original, "/latched") == ["latched-hello"]
 
     rerecorder = _record(replayed, 8.0, ["/talk", "/latched"])
-    player = subprocess.run([*FEEDER, "play", str(original), "--rate", "2", "--wait-for-subscribers", "30",
-                             "--json"], capture_output=True,
-                            text=True, timeout=60)
+    player = subprocess.run(
+        [*FEEDER, "play", str(original), "--rate", "2", "--wait-for-subscribers", "30", "--json"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert player.returncode == 0, player.stderr
     assert json.loads(player.stdout)["topics"]["/talk"]["count"] == 30
     _finish(rerecorder)
@@ -75,11 +86,16 @@ def test_record_decode_replay_rerecord(ros_domain: int, tmp_path: Path) -> None:
 def test_record_refuses_to_overwrite_and_play_names_a_bad_bag(tmp_path: Path) -> None:
     existing = tmp_path / "exists"
     existing.mkdir()
-    result = subprocess.run([*FEEDER, "record", str(existing), "--duration", "1"], capture_output=True, text=True,
-                            timeout=60)
+    result = subprocess.run(
+        [*FEEDER, "record", str(existing), "--duration", "1"], capture_output=True, text=True, timeout=60
+    )
     assert result.returncode == 2 and "already exists" in result.stderr
     result = subprocess.run([*FEEDER, "play", str(existing)], capture_output=True, text=True, timeout=60)
     assert result.returncode == 2 and "bag" in result.stderr and "Traceback" not in result.stderr
-    result = subprocess.run([*FEEDER, "record", str(tmp_path / "new"), "--duration", "-1"], capture_output=True,
-                            text=True, timeout=60)
+    result = subprocess.run(
+        [*FEEDER, "record", str(tmp_path / "new"), "--duration", "-1"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert result.returncode == 2 and "--duration" in result.stderr

@@ -7,9 +7,9 @@ import re
 from pathlib import Path
 
 import pytest
-
 import ros_harness
-from feeder_planner.launcher import resolve_executable
+
+from feeder_cell.launcher import resolve_executable
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -30,10 +30,16 @@ START_PARAMETERS = {
 
 
 def test_readme_lists_all_six_nodes() -> None:
-    assert sorted(NODES) == sorted([
-        ("mems_field_array", "feeder_sim"), ("throwing_arm", "feeder_sim"), ("assembly_fixture", "feeder_sim"),
-        ("field_equilibria_planner", "feeder_planner"), ("throw_planner", "feeder_planner"),
-        ("stable_region_planner", "feeder_planner")])
+    assert sorted(NODES) == sorted(
+        [
+            ("mems_field_array", "feeder_sim"),
+            ("throwing_arm", "feeder_sim"),
+            ("assembly_fixture", "feeder_sim"),
+            ("field_equilibria_planner", "feeder_planner"),
+            ("throw_planner", "feeder_planner"),
+            ("stable_region_planner", "feeder_planner"),
+        ]
+    )
 
 
 @pytest.mark.parametrize("executable, package", NODES)
@@ -45,8 +51,9 @@ def test_readme_node_resolves_through_the_ament_index(executable: str, package: 
 
 @pytest.mark.ros
 @pytest.mark.parametrize("executable, package", NODES)
-def test_node_starts_joins_the_graph_and_ends_by_pid(executable: str, package: str, ros_client,
-                                                      started_processes, tmp_path: Path) -> None:
+def test_node_starts_joins_the_graph_and_ends_by_pid(
+    executable: str, package: str, ros_client, started_processes, tmp_path: Path
+) -> None:
     node = ros_harness.start_node(package, executable, START_PARAMETERS.get(executable), tmp_path)
     started_processes.append(node)
     try:

@@ -8,12 +8,19 @@ import sys
 
 import pytest
 
-FEEDER = [sys.executable, "-m", "feeder_planner.cli.main"]
+FEEDER = [sys.executable, "-m", "feeder_cell.cli.main"]
 
 
-def feeder(*args: str, env: dict[str, str] | None = None, timeout: float = 60.0) -> subprocess.CompletedProcess:
-    return subprocess.run([*FEEDER, *args], capture_output=True, text=True, timeout=timeout,
-                          env=env if env is not None else dict(os.environ))
+def feeder(
+    *args: str, env: dict[str, str] | None = None, timeout: float = 60.0
+) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [*FEEDER, *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=env if env is not None else dict(os.environ),
+    )
 
 
 def test_help_lists_subcommands_and_units() -> None:

@@ -13,7 +13,9 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_second_setup_changes_nothing() -> None:
-    result = subprocess.run(["bash", str(ROOT / "tools/setup.sh")], capture_output=True, text=True, timeout=300)
+    result = subprocess.run(
+        ["bash", str(ROOT / "tools/setup.sh")], capture_output=True, text=True, timeout=300
+    )
     assert result.returncode == 0, result.stderr
     # A no-op run neither installs packages nor rebuilds the workspace.
     assert "installing" not in result.stdout
@@ -22,8 +24,23 @@ def test_second_setup_changes_nothing() -> None:
 
 def _path_without(tmp_path: Path, missing: set[str]) -> str:
     """A PATH holding links to the tools setup.sh uses, less the ``missing`` ones."""
-    tools = ["dirname", "sha256sum", "cut", "find", "sort", "cat", "chmod", "mv", "python3", "python3.11",
-             "cmake", "c++", "g++", "cc", "gcc"]
+    tools = [
+        "dirname",
+        "sha256sum",
+        "cut",
+        "find",
+        "sort",
+        "cat",
+        "chmod",
+        "mv",
+        "python3",
+        "python3.11",
+        "cmake",
+        "c++",
+        "g++",
+        "cc",
+        "gcc",
+    ]
     bin_dir = tmp_path / "bin"
     bin_dir.mkdir()
     for tool in tools:
@@ -34,11 +51,17 @@ def _path_without(tmp_path: Path, missing: set[str]) -> str:
 
 
 @pytest.mark.parametrize("missing, named", [({"cmake"}, "cmake"), ({"c++", "g++"}, "C++ compiler")])
-def test_missing_build_tool_stops_setup_with_its_name_and_install_hint(tmp_path: Path, missing: set[str],
-                                                                       named: str) -> None:
+def test_missing_build_tool_stops_setup_with_its_name_and_install_hint(
+    tmp_path: Path, missing: set[str], named: str
+) -> None:
     env = dict(os.environ, PATH=_path_without(tmp_path, missing))
-    result = subprocess.run([shutil.which("bash"), str(ROOT / "tools/setup.sh")], capture_output=True,
-                            text=True, env=env, timeout=60)
+    result = subprocess.run(
+        [shutil.which("bash"), str(ROOT / "tools/setup.sh")],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=60,
+    )
     assert result.returncode == 1
     assert named in result.stderr
     assert "apt-get install" in result.stderr

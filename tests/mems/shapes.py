@@ -11,7 +11,20 @@ from feeder_planner.parts import Part, make_part
 
 def plus(a: float = 1.0, b: float = 3.0, scale: float = 1.0) -> Part:
     """A plus shape aligned with the axes, symmetric under rotation by pi/2 (like Figure 6)."""
-    v = [[a, -a], [b, -a], [b, a], [a, a], [a, b], [-a, b], [-a, a], [-b, a], [-b, -a], [-a, -a], [-a, -b], [a, -b]]
+    v = [
+        [a, -a],
+        [b, -a],
+        [b, a],
+        [a, a],
+        [a, b],
+        [-a, b],
+        [-a, a],
+        [-b, a],
+        [-b, -a],
+        [-a, -a],
+        [-a, -b],
+        [a, -b],
+    ]
     return make_part(v, unit_scale=scale)
 
 
@@ -25,7 +38,9 @@ def bracket(scale: float = 1.0) -> Part:
 
 
 def regular(n: int, phase: float = 0.1) -> Part:
-    return make_part([[math.cos(phase + 2 * math.pi * k / n), math.sin(phase + 2 * math.pi * k / n)] for k in range(n)])
+    return make_part(
+        [[math.cos(phase + 2 * math.pi * k / n), math.sin(phase + 2 * math.pi * k / n)] for k in range(n)]
+    )
 
 
 def blob(n: int) -> Part:

@@ -36,7 +36,7 @@ def test_plus_shape_has_n3_with_only_frequency_4() -> None:
     part = plus()
     for k in (1, 2):
         coef, _ = derivative_fourier(part, k)
-        assert coef.max() <= 1e-12            # x*, d x*/d delta, d^2 x*/d delta^2 vanish identically
+        assert coef.max() <= 1e-12  # x*, d x*/d delta, d^2 x*/d delta^2 vanish identically
     coef, v = derivative_fourier(part, 3)
     assert np.argmax(coef) == 4
     assert np.delete(coef, 4).max() <= 1e-12 * coef[4]
@@ -119,7 +119,7 @@ def test_proposition_5_du_dtheta_equals_delta_area_x(delta: float) -> None:
     def u_star(t: np.ndarray) -> np.ndarray:
         pts = curve(edges, part.area, delta, t)
         b = np.column_stack([np.sin(t), np.cos(t)])
-        return lifted.potential(edges, pts.z) + delta * part.area * (b * pts.z).sum(1)   # eq. (12)
+        return lifted.potential(edges, pts.z) + delta * part.area * (b * pts.z).sum(1)  # eq. (12)
 
     derivative = (u_star(theta + h) - u_star(theta - h)) / (2 * h)
     x_star = curve(edges, part.area, delta, theta).x
@@ -143,13 +143,16 @@ def test_stable_equilibrium_is_a_local_minimum_of_u() -> None:
     """Independent check of the Hessian classification: perturb (x, y, theta) and evaluate U exactly."""
     part = washer()
     from feeder_planner.mems.fields import CombinedField
+
     field = CombinedField(0.3)
     result = find_equilibria(part, 0.3, "numeric")
     rng = np.random.default_rng(5)
     for e in result.equilibria:
         base = field.lifted(part.placed(e.x, e.y, e.theta))
-        trials = [field.lifted(part.placed(e.x + d[0], e.y + d[1], e.theta + d[2]))
-                  for d in rng.normal(scale=[1e-3, 1e-3, 1e-3], size=(30, 3))]
+        trials = [
+            field.lifted(part.placed(e.x + d[0], e.y + d[1], e.theta + d[2]))
+            for d in rng.normal(scale=[1e-3, 1e-3, 1e-3], size=(30, 3))
+        ]
         if e.stable:
             assert min(trials) > base
         else:
@@ -163,7 +166,7 @@ def test_stable_equilibrium_is_a_local_minimum_of_u() -> None:
 @pytest.mark.parametrize("delta", [1e-9, 1e-6, 0.5, 0.99])
 @pytest.mark.parametrize("scale", [0.25e-6, 0.25])
 def test_extremes_of_delta_and_size(delta: float, scale: float) -> None:
-    part = bracket(scale=scale)          # 1 um and 1 m across
+    part = bracket(scale=scale)  # 1 um and 1 m across
     result = find_equilibria(part, delta, "auto")
     assert len(result.stable) >= 1
     assert all(math.isfinite(v) for e in result.equilibria for v in (e.x, e.y, e.theta))
@@ -191,7 +194,20 @@ def test_many_vertices() -> None:
 
 def test_nearly_symmetric_part_is_not_misclassified() -> None:
     """Pivot within 1e-12 of the centroid: auto must agree with the numeric method at delta = 1e-3."""
-    v = [[1, -1], [3 + 3e-12, -1], [3, 1], [1, 1], [1, 3], [-1, 3], [-1, 1], [-3, 1], [-3, -1], [-1, -1], [-1, -3], [1, -3]]
+    v = [
+        [1, -1],
+        [3 + 3e-12, -1],
+        [3, 1],
+        [1, 1],
+        [1, 3],
+        [-1, 3],
+        [-1, 1],
+        [-3, 1],
+        [-3, -1],
+        [-1, -1],
+        [-1, -3],
+        [1, -3],
+    ]
     part = make_part(v)
     edges = lifted.part_edges(part)
     assert np.hypot(*pivot_translation(edges)) <= 1e-12
@@ -205,7 +221,7 @@ def test_nearly_symmetric_part_is_not_misclassified() -> None:
     assert len(auto.stable) == 4
     try:
         tiny = find_equilibria(part, 1e-9, "auto")
-    except SolverError as error:          # a clear refusal is allowed at the resolution limit
+    except SolverError as error:  # a clear refusal is allowed at the resolution limit
         assert "certif" in str(error) or "resolve" in str(error)
     else:
         assert all(math.isfinite(e.theta) for e in tiny.equilibria)
@@ -227,8 +243,10 @@ def test_pivot_within_1e9_of_the_boundary() -> None:
         assert all(math.isfinite(e.y) for e in result.equilibria)
 
 
-@pytest.mark.parametrize("delta,problem", [(1.0, "0 <= delta < 1"), (-0.1, "0 <= delta < 1"),
-                                           (float("nan"), "finite"), (0.0, "orientation")])
+@pytest.mark.parametrize(
+    "delta,problem",
+    [(1.0, "0 <= delta < 1"), (-0.1, "0 <= delta < 1"), (float("nan"), "finite"), (0.0, "orientation")],
+)
 def test_bad_delta_named(delta: float, problem: str) -> None:
     with pytest.raises(InputError, match=problem) as info:
         find_equilibria(bracket(), delta)

@@ -9,11 +9,23 @@ import pytest
 from shapes import washer
 
 from feeder_planner.errors import InputError
-from feeder_planner.mems.fields import (CombinedField, ConstantField, QuadraticField, RadialField, SqueezeField,
-                                        field_from_mapping, program_from_mapping)
+from feeder_planner.mems.fields import (
+    CombinedField,
+    ConstantField,
+    QuadraticField,
+    RadialField,
+    SqueezeField,
+    field_from_mapping,
+    program_from_mapping,
+)
 
-FIELDS = [RadialField((0.1, 0.2), 1.3), ConstantField((0.3, -1.0)), CombinedField(0.3, (0.1, 0.2)),
-          SqueezeField((0.2, 0.1), 0.4, 1.0), QuadraticField((0.1, 0.3), (1.0, 3.0), 0.3)]
+FIELDS = [
+    RadialField((0.1, 0.2), 1.3),
+    ConstantField((0.3, -1.0)),
+    CombinedField(0.3, (0.1, 0.2)),
+    SqueezeField((0.2, 0.1), 0.4, 1.0),
+    QuadraticField((0.1, 0.3), (1.0, 3.0), 0.3),
+]
 POSE = (0.3, -0.4, 0.7)
 
 
@@ -40,6 +52,7 @@ def test_wrench_matches_dense_sampling(field) -> None:
     gx, gy = np.meshgrid(xs, xs)
     pts = np.column_stack([gx.ravel(), gy.ravel()])
     from matplotlib.path import Path
+
     inside = Path(loops[0]).contains_points(pts) & ~Path(loops[1]).contains_points(pts)
     cell = (xs[1] - xs[0]) ** 2
     f = field.force_density(pts[inside]) * cell
@@ -52,6 +65,7 @@ def test_wrench_matches_dense_sampling(field) -> None:
 def test_radial_field_lifted_potential_is_eq_4() -> None:
     """The lifted potential of the unit radial field at (x, y, theta) equals V(X, Y) (eq. 4)."""
     from feeder_planner.mems import lifted
+
     part = washer()
     x, y, theta = POSE
     big_x = x * math.cos(theta) + y * math.sin(theta)
@@ -61,8 +75,14 @@ def test_radial_field_lifted_potential_is_eq_4() -> None:
 
 
 def test_program_parsing_names_bad_fields() -> None:
-    program = program_from_mapping({"steps": [{"field": {"type": "combined", "delta": 0.2}, "duration": 1.0},
-                                              {"field": {"type": "squeeze", "angle": 0.5}}]})
+    program = program_from_mapping(
+        {
+            "steps": [
+                {"field": {"type": "combined", "delta": 0.2}, "duration": 1.0},
+                {"field": {"type": "squeeze", "angle": 0.5}},
+            ]
+        }
+    )
     assert isinstance(program[0].field, CombinedField) and math.isinf(program[1].duration)
     with pytest.raises(InputError) as info:
         field_from_mapping({"type": "vortex"}, "program.steps[0].field")
@@ -71,7 +91,9 @@ def test_program_parsing_names_bad_fields() -> None:
         program_from_mapping({"steps": [{"field": {"type": "combined", "delta": 1.5}, "duration": 1}]})
     assert info.value.field == "program.steps[0].field.delta"
     with pytest.raises(InputError) as info:
-        program_from_mapping({"steps": [{"field": {"type": "radial", "center": [0, float("nan")]}, "duration": 1}]})
+        program_from_mapping(
+            {"steps": [{"field": {"type": "radial", "center": [0, float("nan")]}, "duration": 1}]}
+        )
     assert info.value.field == "program.steps[0].field.center[1]"
     with pytest.raises(InputError) as info:
         program_from_mapping({"steps": [{"field": {"type": "radial"}, "duration": -1}]})
@@ -82,6 +104,7 @@ def test_example_program_file_loads() -> None:
     from pathlib import Path
 
     from feeder_planner.fields_io import load_yaml_mapping
+
     path = Path(__file__).resolve().parents[2] / "examples" / "mems" / "program_squeeze_then_orient.yaml"
     program = program_from_mapping(load_yaml_mapping(path))
     assert [type(s.field).__name__ for s in program] == ["SqueezeField", "QuadraticField", "CombinedField"]

@@ -16,11 +16,13 @@ from feeder_planner.parts import make_part
 
 def rectangle_integral(x0: float, x1: float, y0: float, y1: float) -> float:
     """int int sqrt(x^2 + y^2) over a rectangle in the first quadrant, from the textbook antiderivative."""
+
     def f(x: float, y: float) -> float:
         r = math.hypot(x, y)
-        first = x**3 * math.log(y + r) if x else 0.0     # x^3 log(...) -> 0 as x -> 0
+        first = x**3 * math.log(y + r) if x else 0.0  # x^3 log(...) -> 0 as x -> 0
         second = y**3 * math.log(x + r) if y else 0.0
         return (2 * x * y * r + first + second) / 6
+
     return f(x1, y1) - f(x0, y1) - f(x1, y0) + f(x0, y0)
 
 
@@ -32,8 +34,12 @@ def test_potential_matches_independent_closed_form_to_1e12() -> None:
     assert abs(value / rectangle_integral(0.5, 2, 0.25, 1.5) - 1) <= 1e-12
     # origin inside a rectangle: split into four first-quadrant rectangles
     part = make_part([[-1, -0.5], [2, -0.5], [2, 3], [-1, 3]])
-    expected = (rectangle_integral(0, 2, 0, 3) + rectangle_integral(0, 1, 0, 3)
-                + rectangle_integral(0, 2, 0, 0.5) + rectangle_integral(0, 1, 0, 0.5))
+    expected = (
+        rectangle_integral(0, 2, 0, 3)
+        + rectangle_integral(0, 1, 0, 3)
+        + rectangle_integral(0, 2, 0, 0.5)
+        + rectangle_integral(0, 1, 0, 0.5)
+    )
     assert abs(lifted.potential(lifted.part_edges(part), part.offset) / expected - 1) <= 1e-12
 
 
@@ -64,7 +70,7 @@ def test_gradient_and_hessian_are_derivatives_of_v(make) -> None:
 
 def test_higher_derivatives_are_consistent_to_order_8() -> None:
     edges = lifted.part_edges(bracket())
-    z = np.array([0.3, -0.2])          # origin inside the part, off the boundary
+    z = np.array([0.3, -0.2])  # origin inside the part, off the boundary
     d = lifted.derivatives(edges, z, 8)
     step = 1e-4
     for axis in range(2):

@@ -19,25 +19,41 @@ DELTA = 0.3
 
 
 def part_msg():
-    from feeder_msgs.msg import Part, Polygon2D
-    from feeder_planner.nodes.ros_common import part_to_msg
-    return part_to_msg(yaml.safe_load(PART.read_text()), Part, Polygon2D)
+    from feeder_planner.node_kit.msg_parts import part_to_msg
+
+    return part_to_msg(yaml.safe_load(PART.read_text()))
 
 
 @pytest.fixture(scope="module")
 def nodes(launch_module_node):
-    sim = launch_module_node("feeder_sim", "mems_field_array", {
-        "part_files": [str(PART)], "seed": 7, "real_time_factor": 20.0, "publish_rate": 20.0,
-        "time_step": 5e-4, "default_delta": DELTA, "placement_radius": 1e-3},
+    sim = launch_module_node(
+        "feeder_sim",
+        "mems_field_array",
+        {
+            "part_files": [str(PART)],
+            "seed": 7,
+            "real_time_factor": 20.0,
+            "publish_rate": 20.0,
+            "time_step": 5e-4,
+            "default_delta": DELTA,
+            "placement_radius": 1e-3,
+        },
         wait_topics=("/mems/part_states", "/mems/field_program", "/clock"),
-        wait_services=("/mems/set_program", "/mems/place_parts"))
-    planner = launch_module_node("feeder_planner", "field_equilibria_planner", {},
-                                 wait_services=("/mems/equilibria",), wait_topics=("/mems/predicted_poses",))
+        wait_services=("/mems/set_program", "/mems/place_parts"),
+    )
+    planner = launch_module_node(
+        "feeder_planner",
+        "field_equilibria_planner",
+        {},
+        wait_services=("/mems/equilibria",),
+        wait_topics=("/mems/predicted_poses",),
+    )
     return sim, planner
 
 
 def compute(ros_client, **fields):
     from feeder_msgs.srv import EquilibriaCompute
+
     request = EquilibriaCompute.Request(part=fields.pop("part", part_msg()), delta=DELTA, method="")
     for key, value in fields.items():
         setattr(request, key, value)
@@ -58,33 +74,46 @@ def test_service_matches_mechanics(nodes, ros_client) -> None:
 
 @pytest.mark.ros
 def test_simulator_settles_at_a_planned_stable_equilibrium(nodes, ros_client) -> None:
-    from feeder_msgs.msg import EquilibriaPrediction, MemsPartStates
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    from feeder_msgs.msg import EquilibriaPrediction, MemsPartStates
+
     stable = [e for e in compute(ros_client).equilibria if e.stable]
     deadline = time.monotonic() + 90
     previous = None
     while time.monotonic() < deadline:
         state = ros_harness.collect(ros_client, MemsPartStates, "/mems/part_states", count=1)[-1].parts[0]
         pose = (state.pose.position.x, state.pose.position.y, state.theta)
-        if previous is not None and math.hypot(pose[0] - previous[0], pose[1] - previous[1]) < 1e-9 and \
-                abs(math.remainder(pose[2] - previous[2], 2 * math.pi)) < 1e-6:
+        if (
+            previous is not None
+            and math.hypot(pose[0] - previous[0], pose[1] - previous[1]) < 1e-9
+            and abs(math.remainder(pose[2] - previous[2], 2 * math.pi)) < 1e-6
+        ):
             break
         previous = pose
         time.sleep(0.5)
     else:
         pytest.fail(f"the part did not come to rest; last pose {pose}")
-    gaps = [(abs(math.remainder(pose[2] - e.theta, 2 * math.pi)), math.hypot(pose[0] - e.x, pose[1] - e.y))
-            for e in stable]
+    gaps = [
+        (abs(math.remainder(pose[2] - e.theta, 2 * math.pi)), math.hypot(pose[0] - e.x, pose[1] - e.y))
+        for e in stable
+    ]
     angle_gap, distance = min(gaps)
-    assert angle_gap <= 1e-4 and distance <= 1e-7          # stated tolerance: 1e-4 rad, 0.1 um
-    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
-    prediction = ros_harness.collect(ros_client, EquilibriaPrediction, "/mems/predicted_poses", count=1, qos=latched)[-1]
+    assert angle_gap <= 1e-4 and distance <= 1e-7  # stated tolerance: 1e-4 rad, 0.1 um
+    latched = QoSProfile(
+        depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE
+    )
+    prediction = ros_harness.collect(
+        ros_client, EquilibriaPrediction, "/mems/predicted_poses", count=1, qos=latched
+    )[-1]
     assert abs(math.remainder(prediction.theta[0] - pose[2], 2 * math.pi)) <= 1e-4
 
 
 @pytest.mark.ros
-@pytest.mark.parametrize("change,field", [({"delta": 1.5}, "delta"), ({"delta": float("nan")}, "delta"),
-                                          ({"method": "guess"}, "method")])
+@pytest.mark.parametrize(
+    "change,field",
+    [({"delta": 1.5}, "delta"), ({"delta": float("nan")}, "delta"), ({"method": "guess"}, "method")],
+)
 def test_bad_requests_name_the_field_and_node_keeps_serving(nodes, ros_client, change, field) -> None:
     response = compute(ros_client, **change)
     assert not response.ok and field in response.error
@@ -94,7 +123,7 @@ def test_bad_requests_name_the_field_and_node_keeps_serving(nodes, ros_client, c
 @pytest.mark.ros
 def test_bad_part_in_request(nodes, ros_client) -> None:
     msg = part_msg()
-    msg.outer.x, msg.outer.y = [0.0, 1.0, 1.0, 0.0], [0.0, 1.0, 0.0, 1.0]      # self-intersecting
+    msg.outer.x, msg.outer.y = [0.0, 1.0, 1.0, 0.0], [0.0, 1.0, 0.0, 1.0]  # self-intersecting
     response = compute(ros_client, part=msg)
     assert not response.ok and "part.outer" in response.error
     msg.outer.x, msg.outer.y = [0.0, 1.0], [0.0, 1.0]
@@ -106,6 +135,7 @@ def test_bad_part_in_request(nodes, ros_client) -> None:
 def test_bad_program_and_placement(nodes, ros_client) -> None:
     from feeder_msgs.msg import FieldProgram, FieldSpec
     from feeder_msgs.srv import FieldSetProgram, MemsPlaceParts
+
     bad = FieldSetProgram.Request(program=FieldProgram(steps=[FieldSpec(type="vortex")]))
     response = ros_harness.call_service(ros_client, FieldSetProgram, "/mems/set_program", bad)
     assert not response.ok and "program.steps[0].type" in response.error
@@ -123,13 +153,17 @@ def test_bad_program_and_placement(nodes, ros_client) -> None:
 
 @pytest.mark.ros
 def test_clock_and_latched_cell_forces(nodes, ros_client) -> None:
-    from feeder_msgs.msg import MemsCellForces
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from rosgraph_msgs.msg import Clock
+
+    from feeder_msgs.msg import MemsCellForces
+
     ticks = ros_harness.collect(ros_client, Clock, "/clock", count=3)
     times = [t.clock.sec + 1e-9 * t.clock.nanosec for t in ticks]
     assert times == sorted(times) and times[-1] > times[0]
-    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+    latched = QoSProfile(
+        depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE
+    )
     cells = ros_harness.collect(ros_client, MemsCellForces, "/mems/cell_forces", count=1, qos=latched)[-1]
     assert cells.nx == 100 and len(cells.fx) == 100 * 100
     # the default combined field: every cell force has magnitude |(-r/|r|) - delta (0, 1)| in [1 - delta, 1 + delta]

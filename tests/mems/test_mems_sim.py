@@ -29,7 +29,12 @@ def test_cell_coverage_is_exact() -> None:
         for j in range(cells.shape[2]):
             x0, y0 = grid.x_nodes[si.start + i], grid.y_nodes[sj.start + j]
             clipped = list(loops)
-            for normal, offset in (((1, 0), x0), ((-1, 0), -(x0 + 0.5)), ((0, 1), y0), ((0, -1), -(y0 + 0.5))):
+            for normal, offset in (
+                ((1, 0), x0),
+                ((-1, 0), -(x0 + 0.5)),
+                ((0, 1), y0),
+                ((0, -1), -(y0 + 0.5)),
+            ):
                 clipped = [clip_half_plane(loop, np.array(normal, float), offset) for loop in clipped]
             assert np.allclose(moments(tuple(clipped))[:3], cells[:, i, j], atol=1e-13)
 
@@ -43,7 +48,9 @@ def test_array_force_converges_to_ideal_as_pitch_shrinks() -> None:
     for pitch in (4e-4, 1e-4, 2.5e-5):
         n = int(round(0.02 / pitch))
         model = ArrayForces(n, n, pitch)
-        errors.append(np.linalg.norm(model.wrench(field, part.placed(*pose), np.array(pose[:2]))[:2] - exact[:2]))
+        errors.append(
+            np.linalg.norm(model.wrench(field, part.placed(*pose), np.array(pose[:2]))[:2] - exact[:2])
+        )
     assert errors[0] > errors[1] > errors[2]
     assert errors[2] <= 0.02 * np.linalg.norm(exact[:2])
 
@@ -60,7 +67,11 @@ def test_edge_integral_wrench_equals_cell_by_cell_sum() -> None:
             half = 0.5 * n * pitch
             field = CombinedField(0.3, (0.2 * half, -0.1 * half))
             for _ in range(25):
-                pose = (rng.uniform(-1.3, 1.3) * half, rng.uniform(-1.3, 1.3) * half, rng.uniform(0, 2 * math.pi))
+                pose = (
+                    rng.uniform(-1.3, 1.3) * half,
+                    rng.uniform(-1.3, 1.3) * half,
+                    rng.uniform(0, 2 * math.pi),
+                )
                 loops = part.placed(*pose)
                 about = np.array(pose[:2]) + rng.normal(size=2) * part.radius
                 fast = model.wrench(field, loops, about)
@@ -81,8 +92,9 @@ def test_quantised_directions() -> None:
 
 def settle(fidelity: str, start: tuple[float, float, float], **kw) -> np.ndarray:
     part = bracket(scale=1e-3)
-    scene = Scene([Body(part, np.array(start, float))], (ProgramStep(CombinedField(0.3), math.inf),),
-                  fidelity, **kw)
+    scene = Scene(
+        [Body(part, np.array(start, float))], (ProgramStep(CombinedField(0.3), math.inf),), fidelity, **kw
+    )
     scene.run(1.5, 5e-4)
     return scene.bodies[0].pose
 
@@ -94,21 +106,26 @@ def test_ideal_and_array_settle_at_a_planned_stable_equilibrium() -> None:
     for fidelity in ("ideal", "array"):
         start = (rng.uniform(-1e-3, 1e-3), rng.uniform(-1e-3, 1e-3), rng.uniform(0, 2 * math.pi))
         pose = settle(fidelity, start, array=(50, 50, 2e-4))
-        gaps = [abs(math.remainder(pose[2] - e.theta, 2 * math.pi)) + math.hypot(pose[0] - e.x, pose[1] - e.y) / 1e-3
-                for e in stable]
+        gaps = [
+            abs(math.remainder(pose[2] - e.theta, 2 * math.pi))
+            + math.hypot(pose[0] - e.x, pose[1] - e.y) / 1e-3
+            for e in stable
+        ]
         assert min(gaps) <= (1e-4 if fidelity == "ideal" else 5e-2)
 
 
 def test_dynamic_single_part_does_not_import_pymunk() -> None:
-    code = ("import sys, math, numpy as np\n"
-            "sys.path[:0] = ['feeder_planner', 'feeder_sim', 'tests/mems']\n"
-            "from shapes import bracket\n"
-            "from feeder_planner.mems.fields import CombinedField, ProgramStep\n"
-            "from feeder_sim.mems.scene import Body, Scene\n"
-            "s = Scene([Body(bracket(1e-3), np.zeros(3))], (ProgramStep(CombinedField(0.3), math.inf),), 'dynamic',"
-            " damping=1e3)\n"
-            "s.run(0.01, 1e-4)\n"
-            "print('pymunk' in sys.modules, np.all(np.isfinite(s.bodies[0].pose)))\n")
+    code = (
+        "import sys, math, numpy as np\n"
+        "sys.path[:0] = ['feeder_planner', 'feeder_sim', 'tests/mems']\n"
+        "from shapes import bracket\n"
+        "from feeder_planner.mems.fields import CombinedField, ProgramStep\n"
+        "from feeder_sim.mems.scene import Body, Scene\n"
+        "s = Scene([Body(bracket(1e-3), np.zeros(3))], (ProgramStep(CombinedField(0.3), math.inf),), 'dynamic',"
+        " damping=1e3)\n"
+        "s.run(0.01, 1e-4)\n"
+        "print('pymunk' in sys.modules, np.all(np.isfinite(s.bodies[0].pose)))\n"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60)
     assert out.stdout.split() == ["False", "True"]
 

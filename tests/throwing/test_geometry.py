@@ -3,10 +3,10 @@
 import math
 
 import numpy as np
+from throwing_helpers import bracket, rectangle, triangle
 
 from feeder_planner.parts import make_part
 from feeder_planner.throwing.geometry import arm_part
-from throwing_helpers import bracket, rectangle, triangle
 
 
 def test_hull_numbering_starts_at_first_file_vertex_on_hull_and_runs_ccw():
@@ -35,7 +35,7 @@ def test_d_and_contact_vertices_match_independent_line_distances():
 
 def test_rectangle_radius_of_gyration_and_stability():
     part = rectangle(0.3, 0.1)
-    assert math.isclose(part.rho ** 2, (0.3 ** 2 + 0.1 ** 2) / 12, rel_tol=1e-12)
+    assert math.isclose(part.rho**2, (0.3**2 + 0.1**2) / 12, rel_tol=1e-12)
     assert part.stable.all()
     assert math.isclose(part.d_min, 0.05, rel_tol=1e-12)
     assert math.isclose(part.radius, math.hypot(0.15, 0.05), rel_tol=1e-12)

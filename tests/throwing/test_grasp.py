@@ -4,10 +4,10 @@ import math
 
 import numpy as np
 import pytest
+from throwing_helpers import bracket, triangle
 
 from feeder_planner.errors import InputError
 from feeder_planner.throwing.grasp import carry_in_grasp, grasp_radius, impulse_in_grasp
-from throwing_helpers import bracket, triangle
 
 
 @pytest.mark.parametrize("make", [triangle, bracket])

@@ -1,13 +1,12 @@
 """Propositions IV.1 and IV.4, Theorem IV.6 (Figs. 7, 8) and the sensor trigger range."""
 
-
 import numpy as np
 import pytest
+from throwing_helpers import BRACKET_PARAMS, TRIANGLE_PARAMS, bracket, triangle
 
 from feeder_planner.throwing.limit_set import edge_bounds, iterate, limit_set
 from feeder_planner.throwing.sensor import reads
 from feeder_planner.throwing.throw_map import ThrowParams, lowest_radius, throw_batch
-from throwing_helpers import BRACKET_PARAMS, TRIANGLE_PARAMS, bracket, triangle
 
 
 def test_proposition_iv1_no_stable_jog_fixed_point_when_all_edges_stable():
@@ -42,11 +41,11 @@ def test_proposition_iv4_small_throws_jog_out_large_throws_move_in(make, params)
         if b.flip[i] > b.low[i]:
             r = np.linspace(b.low[i], b.flip[i], 200, endpoint=False)[1:]
             out = throw_batch(part, np.full(r.size, i), r, params)
-            assert out.is_jog(np.full(r.size, i)).all() and np.all(out.radius > r)   # property 1
+            assert out.is_jog(np.full(r.size, i)).all() and np.all(out.radius > r)  # property 1
         # Sufficiently large R: the leftward flight drift 2 W^2 R (d + h) / |g| exceeds any rolling distance.
         big = np.geomspace(20 * b.max[i], 200 * b.max[i], 100)
         out = throw_batch(part, np.full(big.size, i), big, params)
-        assert np.all(out.radius < big)                                          # negative feedback on R
+        assert np.all(out.radius < big)  # negative feedback on R
 
 
 @pytest.mark.parametrize("make,params", [(triangle, TRIANGLE_PARAMS), (bracket, BRACKET_PARAMS)])
@@ -78,4 +77,7 @@ def test_sensor_in_trigger_range_reads_only_on_goal_edge_and_every_cycle():
             assert not seen[e != 1].any()
             # At least once in every cycle: gaps between readings shorter than the longest cycle.
             hits = np.flatnonzero(seen)
-            assert hits.size and np.diff(np.concatenate([[0], hits, [len(e) - 1]])).max() <= ls.cycle.throws_range[1] + 1
+            assert (
+                hits.size
+                and np.diff(np.concatenate([[0], hits, [len(e) - 1]])).max() <= ls.cycle.throws_range[1] + 1
+            )

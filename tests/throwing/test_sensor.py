@@ -1,9 +1,9 @@
 """The one-bit sensor sees the part itself, not its hull (contract 3)."""
 
 import numpy as np
+from throwing_helpers import bracket, rectangle
 
 from feeder_planner.throwing.sensor import intersect, merge, reads, resting_cover, subtract
-from throwing_helpers import bracket, rectangle
 
 
 def test_bracket_on_its_bridging_hull_edge_is_seen_only_at_its_feet():
@@ -13,8 +13,8 @@ def test_bracket_on_its_bridging_hull_edge_is_seen_only_at_its_feet():
     (ul, _), (ur, _) = part.contact_vertices(e)
     height = 1e-5
     cover = resting_cover(part, e, height)
-    assert len(cover) == 2                               # two separate feet
-    assert not reads(part, e, 0.1, 0.1 + 0.5 * (ul + ur), height)   # nothing above the sensor mid-edge
+    assert len(cover) == 2  # two separate feet
+    assert not reads(part, e, 0.1, 0.1 + 0.5 * (ul + ur), height)  # nothing above the sensor mid-edge
     assert reads(part, e, 0.1, 0.1 + ul, height) and reads(part, e, 0.1, 0.1 + ur, height)
 
 

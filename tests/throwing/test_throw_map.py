@@ -4,11 +4,11 @@ import math
 
 import numpy as np
 import pytest
+from throwing_helpers import BRACKET_PARAMS, TRIANGLE_PARAMS, bracket, rectangle, regular, triangle
 
 from feeder_planner.errors import InputError
 from feeder_planner.throwing.grasp import grasp_radius
 from feeder_planner.throwing.throw_map import ThrowParams, lowest_radius, throw, throw_batch
-from throwing_helpers import BRACKET_PARAMS, TRIANGLE_PARAMS, bracket, rectangle, regular, triangle
 
 
 def _energy_at_rest(part, edge, params):
@@ -21,7 +21,9 @@ def test_throw_never_gains_energy_and_lands_on_a_stable_edge():
         r = np.linspace(lowest_radius(part, i, p) + 1e-4, 0.4, 200)
         out = throw_batch(part, np.full(r.size, i), r, p)
         assert part.stable[out.edge].all()
-        release = 0.5 * p.speed ** 2 * (r ** 2 + (p.offset + part.d[i]) ** 2 + part.rho ** 2) + _energy_at_rest(part, i, p)
+        release = 0.5 * p.speed**2 * (r**2 + (p.offset + part.d[i]) ** 2 + part.rho**2) + _energy_at_rest(
+            part, i, p
+        )
         rest = np.array([_energy_at_rest(part, e, p) for e in out.edge])
         assert np.all(rest <= release)
 
@@ -96,8 +98,14 @@ def test_several_turns_in_flight():
 
 
 def test_bad_parameters_name_the_field():
-    for kwargs, field in (({"gravity": 0.0}, "gravity"), ({"gravity": 1.0}, "gravity"), ({"speed": 0.0}, "release_speed"),
-                          ({"speed": -1.0}, "release_speed"), ({"mu": 0.0}, "mu"), ({"offset": float("nan")}, "offset")):
+    for kwargs, field in (
+        ({"gravity": 0.0}, "gravity"),
+        ({"gravity": 1.0}, "gravity"),
+        ({"speed": 0.0}, "release_speed"),
+        ({"speed": -1.0}, "release_speed"),
+        ({"mu": 0.0}, "mu"),
+        ({"offset": float("nan")}, "offset"),
+    ):
         base = {"offset": -0.005, "speed": 1.0, "gravity": -9.66, "mu": 0.5}
         base.update(kwargs)
         with pytest.raises(InputError) as info:

@@ -4,12 +4,12 @@ import json
 import math
 
 import pytest
+from throwing_helpers import EXAMPLES, TRIANGLE_PARAMS
 
-from feeder_planner.cli.main import main
+from feeder_cell.cli.main import main
 from feeder_planner.parts import load_part
 from feeder_planner.throwing.geometry import arm_part
 from feeder_planner.throwing.throw_map import throw
-from throwing_helpers import EXAMPLES, TRIANGLE_PARAMS
 
 TRI = str(EXAMPLES / "triangle.yaml")
 PAPER = ["--offset", "-0.5", "--release-speed", "320deg", "--gravity", "-966", "--mu", "0.5"]
@@ -32,16 +32,32 @@ def test_throw_json_is_si_and_matches_the_library(capsys):
 
 
 def test_release_speed_in_radians_equals_degrees(capsys):
-    argv = ["throw", TRI, "--edge", "1", "--radius", "12", "--offset", "-0.5", "--gravity", "-966", "--mu", "0.5",
-            "--json", "--release-speed"]
+    argv = [
+        "throw",
+        TRI,
+        "--edge",
+        "1",
+        "--radius",
+        "12",
+        "--offset",
+        "-0.5",
+        "--gravity",
+        "-966",
+        "--mu",
+        "0.5",
+        "--json",
+        "--release-speed",
+    ]
     _, a, _ = _run(capsys, argv + ["320deg"])
     _, b, _ = _run(capsys, argv + [repr(math.radians(320))])
     assert json.loads(a) == json.loads(b)
 
 
 def test_limit_set_json_has_contract_keys(capsys):
-    code, out, _ = _run(capsys, ["limit-set", TRI, *PAPER, "--goal-edge", "1", "--starts-per-edge", "6",
-                                 "--throws", "200", "--json"])
+    code, out, _ = _run(
+        capsys,
+        ["limit-set", TRI, *PAPER, "--goal-edge", "1", "--starts-per-edge", "6", "--throws", "200", "--json"],
+    )
     assert code == 0
     r = json.loads(out)
     for key in ("stable_edges", "grasp_radius", "cycle", "edge_radius_ranges", "trigger"):
@@ -53,12 +69,20 @@ def test_limit_set_json_has_contract_keys(capsys):
     assert set(r["grasp_radius"]) == {str(i) for i in r["stable_edges"]}
 
 
-@pytest.mark.parametrize("change,flag", [
-    (("--gravity", "966"), "--gravity"), (("--gravity", "0"), "--gravity"),
-    (("--release-speed", "0"), "--release-speed"), (("--release-speed", "-3"), "--release-speed"),
-    (("--mu", "0"), "--mu"), (("--mu", "-1"), "--mu"), (("--radius", "1"), "--radius"),
-    (("--radius", "nan"), "--radius"), (("--edge", "7"), "--edge"),
-])
+@pytest.mark.parametrize(
+    "change,flag",
+    [
+        (("--gravity", "966"), "--gravity"),
+        (("--gravity", "0"), "--gravity"),
+        (("--release-speed", "0"), "--release-speed"),
+        (("--release-speed", "-3"), "--release-speed"),
+        (("--mu", "0"), "--mu"),
+        (("--mu", "-1"), "--mu"),
+        (("--radius", "1"), "--radius"),
+        (("--radius", "nan"), "--radius"),
+        (("--edge", "7"), "--edge"),
+    ],
+)
 def test_bad_flags_exit_2_with_one_line_naming_the_flag(capsys, change, flag):
     argv = ["throw", TRI, "--edge", "1", "--radius", "12", *PAPER]
     i = argv.index(change[0])
@@ -82,9 +106,27 @@ def test_non_simple_polygon_names_file_and_field(tmp_path, capsys):
 
 
 def test_unstable_goal_edge_is_refused(capsys):
-    code, _, err = _run(capsys, ["limit-set", str(EXAMPLES / "bracket.yaml"), "--offset", "-0.25", "--release-speed",
-                                 "320deg", "--gravity", "-220", "--mu", "0.5", "--goal-edge", "3",
-                                 "--starts-per-edge", "3", "--throws", "60"])
+    code, _, err = _run(
+        capsys,
+        [
+            "limit-set",
+            str(EXAMPLES / "bracket.yaml"),
+            "--offset",
+            "-0.25",
+            "--release-speed",
+            "320deg",
+            "--gravity",
+            "-220",
+            "--mu",
+            "0.5",
+            "--goal-edge",
+            "3",
+            "--starts-per-edge",
+            "3",
+            "--throws",
+            "60",
+        ],
+    )
     assert code == 2 and "--goal-edge" in err
 
 
@@ -94,12 +136,29 @@ def test_radius_error_is_in_the_file_unit(capsys):
 
 
 def test_throw_design_json_table(capsys):
-    code, out, _ = _run(capsys, ["throw-design", TRI, "--offsets", "-0.5", "-0.2", "--release-speeds", "320deg",
-                                 "--gravity", "-966", "--mu", "0.5", "--goal-edge", "1", "--json"])
+    code, out, _ = _run(
+        capsys,
+        [
+            "throw-design",
+            TRI,
+            "--offsets",
+            "-0.5",
+            "-0.2",
+            "--release-speeds",
+            "320deg",
+            "--gravity",
+            "-966",
+            "--mu",
+            "0.5",
+            "--goal-edge",
+            "1",
+            "--json",
+        ],
+    )
     assert code == 0
     r = json.loads(out)
     assert len(r["designs"]) == 2 and r["goal_edge"] == 1
     assert all(math.isclose(d["release_speed"], math.radians(320)) for d in r["designs"])
-    assert {round(d["offset"], 6) for d in r["designs"]} == {-0.005, -0.002}   # metres in JSON
+    assert {round(d["offset"], 6) for d in r["designs"]} == {-0.005, -0.002}  # metres in JSON
     assert r["best"] is not None  # h = -0.5 cm is the paper's design: unique, with a trigger range
     assert r["best"]["unique"] and r["best"]["width"] == max(d["width"] for d in r["designs"] if d["unique"])

@@ -4,13 +4,13 @@ import math
 
 import numpy as np
 import pytest
+from throwing_helpers import BRACKET_PARAMS, TRIANGLE_PARAMS, bracket, triangle
 
 from feeder_planner.errors import InputError
 from feeder_planner.throwing.limit_set import iterate
 from feeder_planner.throwing.throw_map import lowest_radius, throw_batch
 from feeder_sim.throwing.arm import ThrowingArm
 from feeder_sim.throwing.dynamic import dynamic_throw
-from throwing_helpers import BRACKET_PARAMS, TRIANGLE_PARAMS, bracket, triangle
 
 
 def test_analytic_arm_follows_the_throw_map():
@@ -39,7 +39,9 @@ def test_start_outside_the_dynamic_grasp_is_refused():
         ThrowingArm(part, p, 1, 0.12, fidelity="magic")
 
 
-@pytest.mark.parametrize("make,params,span", [(triangle, TRIANGLE_PARAMS, 0.1), (bracket, BRACKET_PARAMS, 0.02)])
+@pytest.mark.parametrize(
+    "make,params,span", [(triangle, TRIANGLE_PARAMS, 0.1), (bracket, BRACKET_PARAMS, 0.02)]
+)
 def test_dynamic_fidelity_agrees_with_analytic(make, params, span):
     part = make()
     agree, errors, total = 0, [], 0

@@ -23,8 +23,14 @@ def bracket() -> ArmPart:
 
 
 def regular(n: int, radius: float = 0.02) -> ArmPart:
-    return arm_part(make_part([[radius * math.cos(2 * math.pi * k / n), radius * math.sin(2 * math.pi * k / n)]
-                               for k in range(n)]))
+    return arm_part(
+        make_part(
+            [
+                [radius * math.cos(2 * math.pi * k / n), radius * math.sin(2 * math.pi * k / n)]
+                for k in range(n)
+            ]
+        )
+    )
 
 
 def rectangle(width: float, height: float) -> ArmPart:

@@ -30,8 +30,10 @@ class Contact:
 def assembly_contacts(assembly: Assembly, mu: float | None = None) -> list[Contact]:
     """Explicit contacts of the file, or the automatic ones; ``mu`` overrides every coefficient when given."""
     if assembly.explicit_contacts is not None:
-        contacts = [Contact(assembly.index[c.a], assembly.index[c.b], c.point, c.normal, c.mu)
-                    for c in assembly.explicit_contacts]
+        contacts = [
+            Contact(assembly.index[c.a], assembly.index[c.b], c.point, c.normal, c.mu)
+            for c in assembly.explicit_contacts
+        ]
     else:
         contacts = auto_contacts(assembly)
     if mu is not None:
@@ -51,21 +53,26 @@ def auto_contacts(assembly: Assembly) -> list[Contact]:
     contacts: list[Contact] = []
     seen: set[tuple] = set()
     for k, (bi, piece) in enumerate(entries):
-        gap = np.min(np.minimum(upper[k + 1:], upper[k]) - np.maximum(lower[k + 1:], lower[k]), axis=1)
-        near = (gap >= -distance_tol) & (owner[k + 1:] != bi) & ~(grounded[k + 1:] & grounded[k])
+        gap = np.min(np.minimum(upper[k + 1 :], upper[k]) - np.maximum(lower[k + 1 :], lower[k]), axis=1)
+        near = (gap >= -distance_tol) & (owner[k + 1 :] != bi) & ~(grounded[k + 1 :] & grounded[k])
         for offset in np.nonzero(near)[0]:
             bj, other = entries[k + 1 + offset]
             for contact in _piece_contacts(bi, piece, bj, other, distance_tol, assembly):
-                key = (contact.a, contact.b, *np.round(contact.point / distance_tol).astype(np.int64),
-                       *np.round(contact.normal * 1e6).astype(np.int64))
+                key = (
+                    contact.a,
+                    contact.b,
+                    *np.round(contact.point / distance_tol).astype(np.int64),
+                    *np.round(contact.normal * 1e6).astype(np.int64),
+                )
                 if key not in seen:
                     seen.add(key)
                     contacts.append(contact)
     return contacts
 
 
-def _piece_contacts(bi: int, p: ConvexPiece, bj: int, q: ConvexPiece, tol: float, assembly: Assembly
-                    ) -> list[Contact]:
+def _piece_contacts(
+    bi: int, p: ConvexPiece, bj: int, q: ConvexPiece, tol: float, assembly: Assembly
+) -> list[Contact]:
     if p.is_box and q.is_box:
         return _box_contacts(bi, p, bj, q, tol, assembly)
     found = []
@@ -74,8 +81,10 @@ def _piece_contacts(bi: int, p: ConvexPiece, bj: int, q: ConvexPiece, tol: float
         for fq in q.faces:
             if np.dot(fp.normal, fq.normal) > -cos_tol:
                 continue
-            if np.max(np.abs(fp.polygon @ fq.normal - fq.offset)) > tol or \
-                    np.max(np.abs(fq.polygon @ fp.normal - fp.offset)) > tol:
+            if (
+                np.max(np.abs(fp.polygon @ fq.normal - fq.offset)) > tol
+                or np.max(np.abs(fq.polygon @ fp.normal - fp.offset)) > tol
+            ):
                 continue
             polygon = _face_intersection(fp, fq)
             if polygon is None:
@@ -90,8 +99,9 @@ def _piece_contacts(bi: int, p: ConvexPiece, bj: int, q: ConvexPiece, tol: float
     return found
 
 
-def _box_contacts(bi: int, p: ConvexPiece, bj: int, q: ConvexPiece, tol: float, assembly: Assembly
-                  ) -> list[Contact]:
+def _box_contacts(
+    bi: int, p: ConvexPiece, bj: int, q: ConvexPiece, tol: float, assembly: Assembly
+) -> list[Contact]:
     """Axis-aligned boxes: the same face-pair rule, with the common rectangle computed directly."""
     for axis in range(3):
         for sign, gap in ((1.0, q.lower[axis] - p.upper[axis]), (-1.0, p.lower[axis] - q.upper[axis])):
@@ -101,7 +111,9 @@ def _box_contacts(bi: int, p: ConvexPiece, bj: int, q: ConvexPiece, tol: float, 
             lo = np.maximum(p.lower[others], q.lower[others])
             hi = np.minimum(p.upper[others], q.upper[others])
             extent = hi - lo
-            smaller = min(np.linalg.norm((p.upper - p.lower)[others]), np.linalg.norm((q.upper - q.lower)[others]))
+            smaller = min(
+                np.linalg.norm((p.upper - p.lower)[others]), np.linalg.norm((q.upper - q.lower)[others])
+            )
             if np.any(extent <= 0) or extent[0] * extent[1] <= AREA_TOLERANCE * smaller * smaller:
                 continue
             level = (p.upper[axis] + q.lower[axis]) / 2 if sign > 0 else (p.lower[axis] + q.upper[axis]) / 2
@@ -133,7 +145,7 @@ def _face_intersection(fp: Face, fq: Face) -> np.ndarray | None:
     diameter = min(np.ptp(p2, axis=0).max(), np.ptp(q2, axis=0).max())
     if polygon_area(clipped) <= AREA_TOLERANCE * diameter * diameter:
         return None
-    plane_shift = (fq.normal * (np.mean(fp.polygon @ fq.normal) - fq.offset) / 2.0)
+    plane_shift = fq.normal * (np.mean(fp.polygon @ fq.normal) - fq.offset) / 2.0
     return origin + plane_shift + clipped[:, :1] * u + clipped[:, 1:] * v
 
 

@@ -44,15 +44,18 @@ class ExactVerdict:
     method: str = "pyramids"
 
 
-def check_exact(assembly: Assembly, contacts: list[Contact], g: np.ndarray, max_facets: int = 1024) -> ExactVerdict:
+def check_exact(
+    assembly: Assembly, contacts: list[Contact], g: np.ndarray, max_facets: int = 1024
+) -> ExactVerdict:
     """Stability of unit g under the exact friction cone: the conic program, else the pyramid bracket."""
     if _clarabel is not None:
         return check_exact_socp(assembly, contacts, g)
     return check_exact_bracketed(assembly, contacts, g, max_facets)
 
 
-def check_exact_bracketed(assembly: Assembly, contacts: list[Contact], g: np.ndarray, max_facets: int = 1024
-                          ) -> ExactVerdict:
+def check_exact_bracketed(
+    assembly: Assembly, contacts: list[Contact], g: np.ndarray, max_facets: int = 1024
+) -> ExactVerdict:
     """Decided by inscribed (stable is proof) and circumscribed (unstable is proof) pyramids of growing K."""
     facets = 8
     while facets <= max_facets:
@@ -82,8 +85,13 @@ def check_exact_socp(assembly: Assembly, contacts: list[Contact], g: np.ndarray)
         else:
             generators.append(n)
             owners.append(index)
-    system = wrench_system(assembly, contacts, np.asarray(generators, float).reshape(-1, 3),
-                           np.asarray(owners, dtype=int), facets=0)
+    system = wrench_system(
+        assembly,
+        contacts,
+        np.asarray(generators, float).reshape(-1, 3),
+        np.asarray(owners, dtype=int),
+        facets=0,
+    )
     rows, columns = system.A.shape
     rhs = -system.B @ g
     if rows == 0:
@@ -96,10 +104,15 @@ def check_exact_socp(assembly: Assembly, contacts: list[Contact], g: np.ndarray)
     nonneg_rows = first[mus == 0]
     # Clarabel's form G x + s = h, s in K: equilibrium rows (zero cone), f_n >= 0 rows, then per frictional contact
     # the rows of s = (mu f_n, f_u, f_v) in a 3-D second-order cone.
-    selected = np.concatenate([nonneg_rows, (cone_first[:, None] + np.arange(3)[None, :]).ravel()]).astype(int)
-    weights = np.concatenate([np.ones(len(nonneg_rows)),
-                              (np.column_stack([mus[mus > 0], np.ones((len(cone_first), 2))])).ravel()])
-    cone_block = sparse.csr_matrix((-weights, (np.arange(len(selected)), selected)), shape=(len(selected), columns))
+    selected = np.concatenate([nonneg_rows, (cone_first[:, None] + np.arange(3)[None, :]).ravel()]).astype(
+        int
+    )
+    weights = np.concatenate(
+        [np.ones(len(nonneg_rows)), (np.column_stack([mus[mus > 0], np.ones((len(cone_first), 2))])).ravel()]
+    )
+    cone_block = sparse.csr_matrix(
+        (-weights, (np.arange(len(selected)), selected)), shape=(len(selected), columns)
+    )
     G = sparse.vstack([system.A, cone_block], format="csc")
     h = np.concatenate([rhs, np.zeros(len(selected))])
     cones = [_clarabel.ZeroConeT(rows)]
@@ -110,7 +123,9 @@ def check_exact_socp(assembly: Assembly, contacts: list[Contact], g: np.ndarray)
     cost[first] = 1.0  # least total normal force: a bounded objective with well-scaled forces
     settings = _clarabel.DefaultSettings()
     settings.verbose = False
-    solution = _clarabel.DefaultSolver(sparse.csc_matrix((columns, columns)), cost, G, h, cones, settings).solve()
+    solution = _clarabel.DefaultSolver(
+        sparse.csc_matrix((columns, columns)), cost, G, h, cones, settings
+    ).solve()
     status = str(solution.status)
     if status == "PrimalInfeasible":
         return ExactVerdict(False, 0, "socp")
@@ -119,39 +134,58 @@ def check_exact_socp(assembly: Assembly, contacts: list[Contact], g: np.ndarray)
     x = np.asarray(solution.x, float)
     residual = float(np.abs(system.A @ x - rhs).max())
     scale = max(1.0, float(np.abs(x).max()))
-    violation = max(float(np.max(np.hypot(x[cone_first + 1], x[cone_first + 2]) - mus[mus > 0] * x[cone_first],
-                                 initial=0.0)),
-                    float(np.max(-x[nonneg_rows], initial=0.0)))
+    violation = max(
+        float(
+            np.max(np.hypot(x[cone_first + 1], x[cone_first + 2]) - mus[mus > 0] * x[cone_first], initial=0.0)
+        ),
+        float(np.max(-x[nonneg_rows], initial=0.0)),
+    )
     if residual <= RESIDUAL_TOLERANCE and violation <= CONE_TOLERANCE * scale:
         return ExactVerdict(True, 0, "socp")
     return ExactVerdict(None, 0, "socp")
 
 
-def exact_bracket(assembly: Assembly, contacts: list[Contact], facets: int = REFERENCE_FACETS
-                  ) -> tuple[StableRegion, StableRegion]:
+def exact_bracket(
+    assembly: Assembly, contacts: list[Contact], facets: int = REFERENCE_FACETS
+) -> tuple[StableRegion, StableRegion]:
     """Inner and outer regions that bracket the exact-cone region."""
     inner = stable_region(build_system(assembly, contacts, facets))
     outer = stable_region(build_system(assembly, contacts, facets, circumscribed=True))
     return inner, outer
 
 
-def compare_pyramids(assembly: Assembly, contacts: list[Contact], facet_counts: tuple[int, ...] = (4, 8, 16, 32),
-                     reference: int = REFERENCE_FACETS) -> dict:
+def compare_pyramids(
+    assembly: Assembly,
+    contacts: list[Contact],
+    facet_counts: tuple[int, ...] = (4, 8, 16, 32),
+    reference: int = REFERENCE_FACETS,
+) -> dict:
     """Area and Hausdorff angle of each K-facet region against the exact-cone region (bracketed)."""
     inner, outer = exact_bracket(assembly, contacts, reference)
     rows = []
     for k in facet_counts:
         region = stable_region(build_system(assembly, contacts, k))
-        rows.append({"facets": k, "kind": region.kind, "area_sr": region.area_sr,
-                     "area_error_sr": outer.area_sr - region.area_sr,
-                     "area_error_lower_sr": inner.area_sr - region.area_sr,
-                     "hausdorff_rad": hausdorff_to(region, outer), "lp_count": region.lp_count})
-    return {"exact_area_sr": [inner.area_sr, outer.area_sr], "reference_facets": reference,
-            "bracket_hausdorff_rad": hausdorff_to(inner, outer), "pyramids": rows}
+        rows.append(
+            {
+                "facets": k,
+                "kind": region.kind,
+                "area_sr": region.area_sr,
+                "area_error_sr": outer.area_sr - region.area_sr,
+                "area_error_lower_sr": inner.area_sr - region.area_sr,
+                "hausdorff_rad": hausdorff_to(region, outer),
+                "lp_count": region.lp_count,
+            }
+        )
+    return {
+        "exact_area_sr": [inner.area_sr, outer.area_sr],
+        "reference_facets": reference,
+        "bracket_hausdorff_rad": hausdorff_to(inner, outer),
+        "pyramids": rows,
+    }
 
 
 def hausdorff_to(region: StableRegion, outer: StableRegion, per_edge: int = 32) -> float:
-    """max over the boundary of ``outer`` of the angle to ``region`` (region inside outer; both 'region' kind).
+    """Max over the boundary of ``outer`` of the angle to ``region`` (region inside outer; both 'region' kind).
 
     For nested convex sets this is their Hausdorff distance; the boundary is sampled ``per_edge`` points per edge.
     """
@@ -173,12 +207,13 @@ def distances_to_region(points: np.ndarray, region: StableRegion) -> np.ndarray:
     b = np.roll(region.vertices, -1, axis=0)
     m = np.cross(a, b)
     m /= np.linalg.norm(m, axis=1, keepdims=True)
-    pm = points @ m.T                                                  # (S, E)
-    q = points[:, None, :] - pm[:, :, None] * m[None, :, :]             # projection on each edge's great circle
+    pm = points @ m.T  # (S, E)
+    q = points[:, None, :] - pm[:, :, None] * m[None, :, :]  # projection on each edge's great circle
     q /= np.maximum(np.linalg.norm(q, axis=2, keepdims=True), 1e-300)
     # q is on the arc iff it lies between a and b (both cross products along m).
-    on_arc = (np.einsum("sek,ek->se", np.cross(a[None], q), m) >= 0) & \
-             (np.einsum("sek,ek->se", np.cross(q, b[None]), m) >= 0)
+    on_arc = (np.einsum("sek,ek->se", np.cross(a[None], q), m) >= 0) & (
+        np.einsum("sek,ek->se", np.cross(q, b[None]), m) >= 0
+    )
     to_line = np.arcsin(np.clip(np.abs(pm), 0.0, 1.0))
     to_ends = np.minimum(np.arccos(np.clip(points @ a.T, -1, 1)), np.arccos(np.clip(points @ b.T, -1, 1)))
     distance = np.where(on_arc, to_line, to_ends).min(axis=1)

@@ -60,10 +60,14 @@ def box_piece(lower: np.ndarray, upper: np.ndarray, field: str) -> ConvexPiece:
     lower, upper = np.asarray(lower, float), np.asarray(upper, float)
     for axis, name in enumerate("xyz"):
         if not upper[axis] > lower[axis]:
-            raise InputError(field, f"degenerate box: max.{name} = {upper[axis]!r} is not greater than min.{name} = "
-                                    f"{lower[axis]!r}")
-    corners = np.array([[x, y, z] for x in (lower[0], upper[0]) for y in (lower[1], upper[1])
-                        for z in (lower[2], upper[2])])
+            raise InputError(
+                field,
+                f"degenerate box: max.{name} = {upper[axis]!r} is not greater than min.{name} = "
+                f"{lower[axis]!r}",
+            )
+    corners = np.array(
+        [[x, y, z] for x in (lower[0], upper[0]) for y in (lower[1], upper[1]) for z in (lower[2], upper[2])]
+    )
     faces = []
     for axis in range(3):
         for sign, value in ((-1.0, lower[axis]), (1.0, upper[axis])):
@@ -90,8 +94,10 @@ def hull_piece(points: np.ndarray, field: str) -> ConvexPiece:
         raise InputError(field, f"degenerate polyhedron: {str(exc).splitlines()[0]}") from None
     outside = sorted(set(range(len(points))) - set(hull.vertices.tolist()))
     if outside:
-        raise InputError(f"{field}[{outside[0]}]", "is not a vertex of the convex hull (not a convex polyhedron, "
-                                                    "or a repeated point)")
+        raise InputError(
+            f"{field}[{outside[0]}]",
+            "is not a vertex of the convex hull (not a convex polyhedron, or a repeated point)",
+        )
     return _piece_from_planes(points, hull.equations, size, field)
 
 
@@ -101,7 +107,9 @@ def faces_piece(points: np.ndarray, faces: list[list[int]], field: str) -> Conve
     edge_count: dict[tuple[int, int], int] = {}
     for f_index, face in enumerate(faces):
         if len(face) < 3:
-            raise InputError(f"{field}.faces[{f_index}]", f"a face needs at least 3 vertices, got {len(face)}")
+            raise InputError(
+                f"{field}.faces[{f_index}]", f"a face needs at least 3 vertices, got {len(face)}"
+            )
         for index in face:
             if not isinstance(index, int) or isinstance(index, bool) or not 0 <= index < len(points):
                 raise InputError(f"{field}.faces[{f_index}]", f"vertex index {index!r} out of range")
@@ -110,12 +118,18 @@ def faces_piece(points: np.ndarray, faces: list[list[int]], field: str) -> Conve
             edge_count[key] = edge_count.get(key, 0) + 1
     for (a, b), count in sorted(edge_count.items()):
         if count != 2:
-            raise InputError(f"{field}.faces", f"open polyhedron: edge ({a}, {b}) belongs to {count} face(s), "
-                                               f"a closed surface needs exactly 2")
+            raise InputError(
+                f"{field}.faces",
+                f"open polyhedron: edge ({a}, {b}) belongs to {count} face(s), "
+                f"a closed surface needs exactly 2",
+            )
     piece = hull_piece(points[sorted({i for face in faces for i in face})], f"{field}.vertices")
     if len(piece.faces) != len(faces):
-        raise InputError(f"{field}.faces", f"the {len(faces)} faces do not bound a convex polyhedron "
-                                           f"(its hull has {len(piece.faces)} faces)")
+        raise InputError(
+            f"{field}.faces",
+            f"the {len(faces)} faces do not bound a convex polyhedron "
+            f"(its hull has {len(piece.faces)} faces)",
+        )
     return piece
 
 
@@ -125,8 +139,10 @@ def _piece_from_planes(points: np.ndarray, equations: np.ndarray, size: float, f
     seen: list[np.ndarray] = []
     for equation in equations:
         normal, offset = equation[:3], -equation[3]
-        if any(np.dot(normal, other[:3]) > 1.0 - 1e-9 and abs(offset + other[3]) <= FLAT_TOLERANCE * size * 10
-               for other in seen):
+        if any(
+            np.dot(normal, other[:3]) > 1.0 - 1e-9 and abs(offset + other[3]) <= FLAT_TOLERANCE * size * 10
+            for other in seen
+        ):
             continue
         seen.append(equation)
         on_plane = points[np.abs(points @ normal - offset) <= FLAT_TOLERANCE * size * 10]

@@ -21,7 +21,9 @@ except ImportError:  # pragma: no cover - exercised only on older scipy
     _highs = None
 try:
     import clarabel as _clarabel
-except ImportError:  # pragma: no cover - requirements.lock installs it; without it far LPs stay on the simplex
+except (
+    ImportError
+):  # pragma: no cover - requirements.lock installs it; without it far LPs stay on the simplex
     _clarabel = None
 
 FEASIBILITY_TOLERANCE = 1e-9
@@ -92,7 +94,9 @@ class WarmLP:
         self.lower[indices], self.upper[indices] = lower, upper
         self._interior = None
         if self._model is not None:
-            self._model.changeColsBounds(len(indices), indices, np.asarray(lower, float), np.asarray(upper, float))
+            self._model.changeColsBounds(
+                len(indices), indices, np.asarray(lower, float), np.asarray(upper, float)
+            )
 
     def basis(self):
         """The last solve's simplex basis (None if there is none), to restart a later solve from it."""
@@ -219,11 +223,23 @@ class WarmLP:
         return result
 
     def _solve_linprog(self) -> LPResult:
-        bounds = np.column_stack([np.where(np.isfinite(self.lower), self.lower, -np.inf),
-                                  np.where(np.isfinite(self.upper), self.upper, np.inf)])
-        result = linprog(self.cost, A_eq=self.A, b_eq=self.b, bounds=bounds, method="highs",
-                         options={"primal_feasibility_tolerance": FEASIBILITY_TOLERANCE,
-                                  "dual_feasibility_tolerance": FEASIBILITY_TOLERANCE})
+        bounds = np.column_stack(
+            [
+                np.where(np.isfinite(self.lower), self.lower, -np.inf),
+                np.where(np.isfinite(self.upper), self.upper, np.inf),
+            ]
+        )
+        result = linprog(
+            self.cost,
+            A_eq=self.A,
+            b_eq=self.b,
+            bounds=bounds,
+            method="highs",
+            options={
+                "primal_feasibility_tolerance": FEASIBILITY_TOLERANCE,
+                "dual_feasibility_tolerance": FEASIBILITY_TOLERANCE,
+            },
+        )
         if result.status == 0:
             return LPResult("optimal", result.x, float(result.fun))
         if result.status == 2:
@@ -231,11 +247,13 @@ class WarmLP:
         return LPResult("failed", None, float("nan"), result.message)
 
 
-def _complementary(x: np.ndarray, reduced: np.ndarray, lower: np.ndarray, upper: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray]:
+def _complementary(
+    x: np.ndarray, reduced: np.ndarray, lower: np.ndarray, upper: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """The crossover's start: each variable either at a bound (reduced cost of the right sign) or with zero
     reduced cost, chosen by which of distance-to-bound and reduced cost is smaller (the interior point's own
-    indicator of the active set)."""
+    indicator of the active set).
+    """
     x = np.clip(x, lower, upper)
     reduced = reduced.copy()
     at_lower = np.isfinite(lower) & (x - lower <= np.maximum(reduced, 0.0))
@@ -267,22 +285,28 @@ class _DualInteriorPoint:
         zeros = lambda mask: sparse.csr_matrix((int(mask.sum()), k))  # noqa: E731
         # Variables (y, v, w) with v, w the boxed columns' bound multipliers. Zero-cone rows: free and boxed
         # columns (A_j.y + v_j - w_j = c_j); non-negative rows: one-sided columns, then v >= 0 and w >= 0.
-        G = sparse.vstack([
-            sparse.hstack([pick(self.free), zeros(self.free), zeros(self.free)]),
-            sparse.hstack([pick(self.boxed), eye, -eye]),
-            sparse.hstack([pick(self.lower_only), zeros(self.lower_only), zeros(self.lower_only)]),
-            sparse.hstack([-pick(self.upper_only), zeros(self.upper_only), zeros(self.upper_only)]),
-            sparse.hstack([sparse.csr_matrix((k, rows)), -eye, sparse.csr_matrix((k, k))]),
-            sparse.hstack([sparse.csr_matrix((k, rows)), sparse.csr_matrix((k, k)), -eye]),
-        ], format="csc")
+        G = sparse.vstack(
+            [
+                sparse.hstack([pick(self.free), zeros(self.free), zeros(self.free)]),
+                sparse.hstack([pick(self.boxed), eye, -eye]),
+                sparse.hstack([pick(self.lower_only), zeros(self.lower_only), zeros(self.lower_only)]),
+                sparse.hstack([-pick(self.upper_only), zeros(self.upper_only), zeros(self.upper_only)]),
+                sparse.hstack([sparse.csr_matrix((k, rows)), -eye, sparse.csr_matrix((k, k))]),
+                sparse.hstack([sparse.csr_matrix((k, rows)), sparse.csr_matrix((k, k)), -eye]),
+            ],
+            format="csc",
+        )
         # The dual objective's y-part collects the bounds of one-sided and fixed columns.
         bound_of = np.where(self.lower_only | self.fixed, lower, np.where(self.upper_only, upper, 0.0))
         bound_of = np.where(np.isfinite(bound_of), bound_of, 0.0)
         q = np.concatenate([-b + A @ bound_of, -lower[self.boxed], upper[self.boxed]])
         equalities = int(self.free.sum()) + k
         inequalities = int(self.lower_only.sum() + self.upper_only.sum()) + 2 * k
-        cones = [cone(size) for cone, size in ((_clarabel.ZeroConeT, equalities),
-                                               (_clarabel.NonnegativeConeT, inequalities)) if size]
+        cones = [
+            cone(size)
+            for cone, size in ((_clarabel.ZeroConeT, equalities), (_clarabel.NonnegativeConeT, inequalities))
+            if size
+        ]
         self.settings = _clarabel.DefaultSettings()
         self.settings.verbose = False
         self.settings.presolve_enable = False  # keeps the rows fixed, so later costs update the data in place
@@ -294,26 +318,36 @@ class _DualInteriorPoint:
 
     def _rhs(self, cost: np.ndarray) -> np.ndarray:
         k = int(self.boxed.sum())
-        return np.concatenate([cost[self.free], cost[self.boxed], cost[self.lower_only], -cost[self.upper_only],
-                               np.zeros(2 * k)])
+        return np.concatenate(
+            [
+                cost[self.free],
+                cost[self.boxed],
+                cost[self.lower_only],
+                -cost[self.upper_only],
+                np.zeros(2 * k),
+            ]
+        )
 
     def solve(self, cost: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         h = self._rhs(cost)
         if self._solver is None:
             size = self.G.shape[1]
-            self._solver = _clarabel.DefaultSolver(sparse.csc_matrix((size, size)), self.q, self.G, h, self.cones,
-                                                   self.settings)
+            self._solver = _clarabel.DefaultSolver(
+                sparse.csc_matrix((size, size)), self.q, self.G, h, self.cones, self.settings
+            )
         else:
             self._solver.update(b=h)
         solution = self._solver.solve()
         if str(solution.status) not in ("Solved", "AlmostSolved"):
             return None
-        y = np.asarray(solution.x, float)[:self.rows]
+        y = np.asarray(solution.x, float)[: self.rows]
         z = np.asarray(solution.z, float)
         x = np.where(self.fixed, self.lower, 0.0)
-        counts = np.cumsum([0, self.free.sum(), self.boxed.sum(), self.lower_only.sum(), self.upper_only.sum()])
-        x[self.free] = z[counts[0]:counts[1]]
-        x[self.boxed] = z[counts[1]:counts[2]]
-        x[self.lower_only] = self.lower[self.lower_only] + z[counts[2]:counts[3]]
-        x[self.upper_only] = self.upper[self.upper_only] - z[counts[3]:counts[4]]
+        counts = np.cumsum(
+            [0, self.free.sum(), self.boxed.sum(), self.lower_only.sum(), self.upper_only.sum()]
+        )
+        x[self.free] = z[counts[0] : counts[1]]
+        x[self.boxed] = z[counts[1] : counts[2]]
+        x[self.lower_only] = self.lower[self.lower_only] + z[counts[2] : counts[3]]
+        x[self.upper_only] = self.upper[self.upper_only] - z[counts[3] : counts[4]]
         return x, y

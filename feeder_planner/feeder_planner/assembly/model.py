@@ -12,8 +12,14 @@ import yaml
 
 from feeder_planner.assembly.geometry import ConvexPiece, box_piece, faces_piece, hull_piece, overlap_depth
 from feeder_planner.errors import InputError
-from feeder_planner.fields_io import load_yaml_mapping, non_negative_number, optional, point_array, \
-    positive_number, required
+from feeder_planner.fields_io import (
+    load_yaml_mapping,
+    non_negative_number,
+    optional,
+    point_array,
+    positive_number,
+    required,
+)
 from feeder_planner.units import length_scale
 
 # Two pieces whose overlap depth exceeds this fraction of the assembly's size interpenetrate.
@@ -88,7 +94,9 @@ def assembly_from_text(text: str, source: str = "assembly_yaml") -> Assembly:
         document = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
-        raise InputError("<yaml>", f"not valid YAML{f' at line {mark.line + 1}' if mark else ''}", source) from None
+        raise InputError(
+            "<yaml>", f"not valid YAML{f' at line {mark.line + 1}' if mark else ''}", source
+        ) from None
     if not isinstance(document, dict):
         raise InputError("<top level>", "expected a mapping of fields", source)
     try:
@@ -111,8 +119,15 @@ def assembly_from_document(document: dict[str, Any], source: str = "") -> Assemb
             raise InputError(f"bodies[{i}].name", f"duplicate body name {name!r}")
     if not any(b.grounded for b in bodies):
         raise InputError("bodies", "no grounded body: at least one body needs 'grounded: true'")
-    assembly = Assembly(str(optional(document, "name", "assembly")), tuple(bodies), mu, None, source, scale,
-                        {b.name: i for i, b in enumerate(bodies)})
+    assembly = Assembly(
+        str(optional(document, "name", "assembly")),
+        tuple(bodies),
+        mu,
+        None,
+        source,
+        scale,
+        {b.name: i for i, b in enumerate(bodies)},
+    )
     _check_interpenetration(assembly)
     contacts = optional(document, "contacts", "auto")
     if contacts != "auto":
@@ -150,7 +165,9 @@ def _body(raw: Any, field_name: str, scale: float) -> Body:
     for j, poly in enumerate(convex):
         item = f"{field_name}.convex[{j}]"
         if isinstance(poly, dict):
-            points = point_array(required(poly, "vertices", f"{item}.vertices"), f"{item}.vertices", 3) * scale
+            points = (
+                point_array(required(poly, "vertices", f"{item}.vertices"), f"{item}.vertices", 3) * scale
+            )
             faces = required(poly, "faces", f"{item}.faces")
             if not isinstance(faces, list) or not all(isinstance(f, list) for f in faces):
                 raise InputError(f"{item}.faces", "expected a list of vertex-index lists")
@@ -164,14 +181,19 @@ def _body(raw: Any, field_name: str, scale: float) -> Body:
     return Body(name, grounded, tuple(pieces), mass, center, density, tuple(fields))
 
 
-def _mass_properties(pieces: list[ConvexPiece], fields: list[str], density: float, field_name: str
-                     ) -> tuple[float, np.ndarray]:
+def _mass_properties(
+    pieces: list[ConvexPiece], fields: list[str], density: float, field_name: str
+) -> tuple[float, np.ndarray]:
     """Volume and centroid of the union: boxes exactly by coordinate compression; hulls must not overlap."""
-    size = float(np.linalg.norm(np.max([p.upper for p in pieces], axis=0) - np.min([p.lower for p in pieces], axis=0)))
+    size = float(
+        np.linalg.norm(np.max([p.upper for p in pieces], axis=0) - np.min([p.lower for p in pieces], axis=0))
+    )
     for (i, p), (j, q) in itertools.combinations(enumerate(pieces), 2):
         if (p.is_box and q.is_box) or overlap_depth(p, q) <= PENETRATION_TOLERANCE * size:
             continue
-        raise InputError(f"{fields[j]}", f"overlaps {fields[i]} of the same body; only boxes of one body may overlap")
+        raise InputError(
+            f"{fields[j]}", f"overlaps {fields[i]} of the same body; only boxes of one body may overlap"
+        )
     boxes = [p for p in pieces if p.is_box]
     volume, moment = 0.0, np.zeros(3)
     if boxes:
@@ -189,35 +211,50 @@ def _box_union(boxes: list[ConvexPiece]) -> tuple[float, np.ndarray]:
     grids = [np.unique(np.concatenate([[b.lower[a], b.upper[a]] for b in boxes])) for a in range(3)]
     cells = np.zeros(tuple(len(g) - 1 for g in grids), dtype=bool)
     for b in boxes:
-        slices = tuple(slice(np.searchsorted(grids[a], b.lower[a]), np.searchsorted(grids[a], b.upper[a]))
-                       for a in range(3))
+        slices = tuple(
+            slice(np.searchsorted(grids[a], b.lower[a]), np.searchsorted(grids[a], b.upper[a]))
+            for a in range(3)
+        )
         cells[slices] = True
     widths = [np.diff(g) for g in grids]
     mids = [(g[1:] + g[:-1]) / 2 for g in grids]
     cell_volume = widths[0][:, None, None] * widths[1][None, :, None] * widths[2][None, None, :]
     filled = np.where(cells, cell_volume, 0.0)
     volume = float(filled.sum())
-    center = np.array([(filled.sum(axis=(1, 2)) * mids[0]).sum(), (filled.sum(axis=(0, 2)) * mids[1]).sum(),
-                       (filled.sum(axis=(0, 1)) * mids[2]).sum()]) / volume
+    center = (
+        np.array(
+            [
+                (filled.sum(axis=(1, 2)) * mids[0]).sum(),
+                (filled.sum(axis=(0, 2)) * mids[1]).sum(),
+                (filled.sum(axis=(0, 1)) * mids[2]).sum(),
+            ]
+        )
+        / volume
+    )
     return volume, center
 
 
 def _check_interpenetration(assembly: Assembly) -> None:
     tolerance = PENETRATION_TOLERANCE * assembly.size
-    entries = [(bi, pi, piece) for bi, body in enumerate(assembly.bodies) for pi, piece in enumerate(body.pieces)]
+    entries = [
+        (bi, pi, piece) for bi, body in enumerate(assembly.bodies) for pi, piece in enumerate(body.pieces)
+    ]
     lower = np.array([e[2].lower for e in entries])
     upper = np.array([e[2].upper for e in entries])
     owner = np.array([e[0] for e in entries])
     for k, (bi, pi, piece) in enumerate(entries):
         # Bounding-box prefilter: only later pieces of other bodies whose boxes overlap by more than the tolerance.
-        overlap = np.min(np.minimum(upper[k + 1:], upper[k]) - np.maximum(lower[k + 1:], lower[k]), axis=1)
-        for offset in np.nonzero((overlap > tolerance) & (owner[k + 1:] != bi))[0]:
+        overlap = np.min(np.minimum(upper[k + 1 :], upper[k]) - np.maximum(lower[k + 1 :], lower[k]), axis=1)
+        for offset in np.nonzero((overlap > tolerance) & (owner[k + 1 :] != bi))[0]:
             bj, pj, other = entries[k + 1 + offset]
             depth = overlap_depth(piece, other)
             if depth > tolerance:
                 a, b = assembly.bodies[bi], assembly.bodies[bj]
-                raise InputError("bodies", f"bodies {a.name!r} ({a.piece_fields[pi]}) and {b.name!r} "
-                                           f"({b.piece_fields[pj]}) interpenetrate by {depth:.3g} m")
+                raise InputError(
+                    "bodies",
+                    f"bodies {a.name!r} ({a.piece_fields[pi]}) and {b.name!r} "
+                    f"({b.piece_fields[pj]}) interpenetrate by {depth:.3g} m",
+                )
 
 
 def _explicit_contacts(raw: Any, assembly: Assembly, scale: float) -> tuple[ExplicitContact, ...]:
@@ -244,4 +281,3 @@ def _explicit_contacts(raw: Any, assembly: Assembly, scale: float) -> tuple[Expl
         mu = non_negative_number(optional(item, "mu", assembly.mu), f"{where}.mu")
         contacts.append(ExplicitContact(names[0], names[1], point, normal / length, mu))
     return tuple(contacts)
-

@@ -29,8 +29,13 @@ def great_arc(g1: np.ndarray, g2: np.ndarray, step: float) -> np.ndarray:
     return points / np.linalg.norm(points, axis=1, keepdims=True)
 
 
-def safe_path(region: StableRegion, checker: StabilityChecker, g1: np.ndarray, g2: np.ndarray,
-              step: float = DEFAULT_STEP) -> np.ndarray:
+def safe_path(
+    region: StableRegion,
+    checker: StabilityChecker,
+    g1: np.ndarray,
+    g2: np.ndarray,
+    step: float = DEFAULT_STEP,
+) -> np.ndarray:
     """A sampled great-arc path from g1 to g2 whose every sample the stability LP certifies stable.
 
     Property 2: for two stable, non-antipodal directions the arc lies in the region. Antipodal ends (possible
@@ -56,11 +61,16 @@ def safe_path(region: StableRegion, checker: StabilityChecker, g1: np.ndarray, g
 
 def _antipodal_midpoint(region: StableRegion, g: np.ndarray) -> np.ndarray:
     if region.kind in ("sphere", "hemisphere"):
-        candidates = [-n for n in region.normals] or [np.cross(g, [1.0, 0.0, 0.0]), np.cross(g, [0.0, 1.0, 0.0])]
+        candidates = [-n for n in region.normals] or [
+            np.cross(g, [1.0, 0.0, 0.0]),
+            np.cross(g, [0.0, 1.0, 0.0]),
+        ]
     elif region.kind == "great_circle":
         candidates = [np.cross(region.equalities[0], g)]
     else:
-        raise InputError("to", f"is antipodal to 'from' and the region is a {region.kind}: no stable arc joins them")
+        raise InputError(
+            "to", f"is antipodal to 'from' and the region is a {region.kind}: no stable arc joins them"
+        )
     for c in candidates:
         c = c - (c @ g) * g
         if np.linalg.norm(c) > 1e-6:

@@ -73,9 +73,14 @@ def prepare(assembly: Assembly, mu: float | None = None, facets: int = DEFAULT_F
 def region_result(prepared: PreparedAssembly) -> dict:
     """The contract's ``stable-region --json`` object, plus the contact count and the LP count."""
     result = prepared.region.to_json()
-    result.update({"assembly": prepared.assembly.name, "contacts": len(prepared.contacts),
-                   "mu": prepared.mu if prepared.mu is not None else prepared.assembly.mu,
-                   "tolerance_rad": 1e-7})
+    result.update(
+        {
+            "assembly": prepared.assembly.name,
+            "contacts": len(prepared.contacts),
+            "mu": prepared.mu if prepared.mu is not None else prepared.assembly.mu,
+            "tolerance_rad": 1e-7,
+        }
+    )
     return result
 
 
@@ -83,19 +88,32 @@ def check_result(prepared: PreparedAssembly, g: np.ndarray, with_margin: bool = 
     """The contract's ``check-stability --json`` object: verdict, contact forces (N) or the bodies that move."""
     g = unit_gravity(g, "g")
     verdict = prepared.check(g)
-    result: dict = {"stable": verdict.stable, "g": g.tolist(), "facets": prepared.facets,
-                    "gravity_m_s2": STANDARD_GRAVITY,
-                    "unbalanced_bodies": prepared.body_names(verdict.unbalanced)}
+    result: dict = {
+        "stable": verdict.stable,
+        "g": g.tolist(),
+        "facets": prepared.facets,
+        "gravity_m_s2": STANDARD_GRAVITY,
+        "unbalanced_bodies": prepared.body_names(verdict.unbalanced),
+    }
     if verdict.forces is not None:
-        result["forces"] = [{"a": prepared.assembly.bodies[c.a].name, "b": prepared.assembly.bodies[c.b].name,
-                             "point": c.point.tolist(), "normal": c.normal.tolist(), "force": f.tolist()}
-                            for c, f in zip(prepared.contacts, verdict.forces)]
+        result["forces"] = [
+            {
+                "a": prepared.assembly.bodies[c.a].name,
+                "b": prepared.assembly.bodies[c.b].name,
+                "point": c.point.tolist(),
+                "normal": c.normal.tolist(),
+                "force": f.tolist(),
+            }
+            for c, f in zip(prepared.contacts, verdict.forces)
+        ]
     if with_margin:
         result["margin_rad"] = prepared.region.margin(g)
     return result
 
 
-def path_result(prepared: PreparedAssembly, g1: np.ndarray, g2: np.ndarray, step: float = DEFAULT_STEP) -> dict:
+def path_result(
+    prepared: PreparedAssembly, g1: np.ndarray, g2: np.ndarray, step: float = DEFAULT_STEP
+) -> dict:
     """A certified great-arc path (Property 2) as a list of unit gravity directions."""
     path = safe_path(prepared.region, prepared.checker, g1, g2, step)
     margins = [prepared.region.margin(g) for g in path]

@@ -28,9 +28,11 @@ from feeder_planner.assembly.support import FAR_PIVOTS, SupportOracle
 from feeder_planner.assembly.wrench import EquilibriumSystem, split_components
 from feeder_planner.errors import SolverError
 
-SUPPORT_TOLERANCE = 1e-7   # a support value above a facet offset by more than this is a new vertex (cube metric)
-ORIGIN_TOLERANCE = 1e-6    # facets of P with offset below this pass through the origin: they are facets of V
-SPLIT_COLUMNS = 1000        # LP columns above which independent sub-assemblies are solved separately
+SUPPORT_TOLERANCE = (
+    1e-7  # a support value above a facet offset by more than this is a new vertex (cube metric)
+)
+ORIGIN_TOLERANCE = 1e-6  # facets of P with offset below this pass through the origin: they are facets of V
+SPLIT_COLUMNS = 1000  # LP columns above which independent sub-assemblies are solved separately
 KINDS = ("empty", "point", "antipodal_pair", "arc", "great_circle", "region", "hemisphere", "sphere")
 
 
@@ -50,7 +52,9 @@ class StableRegion:
 
     def contains(self, g: np.ndarray, tolerance: float = 1e-9) -> bool:
         g = np.asarray(g, float) / np.linalg.norm(g)
-        return bool(np.all(self.normals @ g <= tolerance) and np.all(np.abs(self.equalities @ g) <= tolerance))
+        return bool(
+            np.all(self.normals @ g <= tolerance) and np.all(np.abs(self.equalities @ g) <= tolerance)
+        )
 
     def margin(self, g: np.ndarray) -> float:
         """Signed angle (rad) from g to the nearest boundary great circle: > 0 inside a 2-D region.
@@ -71,10 +75,17 @@ class StableRegion:
     def to_json(self) -> dict:
         # Components below 1e-15 are rounding noise of unit vectors (the LP tolerance is 1e-9): print them as 0.
         clean = lambda a: np.where(np.abs(a) < 1e-15, 0.0, a).tolist()  # noqa: E731
-        return {"kind": self.kind, "normals": clean(self.normals), "equalities": clean(self.equalities),
-                "vertices": clean(self.vertices), "area_sr": self.area_sr,
-                "center": None if self.center is None else clean(self.center), "facets": self.facets,
-                "lp_count": self.lp_count, **self.extra}
+        return {
+            "kind": self.kind,
+            "normals": clean(self.normals),
+            "equalities": clean(self.equalities),
+            "vertices": clean(self.vertices),
+            "area_sr": self.area_sr,
+            "center": None if self.center is None else clean(self.center),
+            "facets": self.facets,
+            "lp_count": self.lp_count,
+            **self.extra,
+        }
 
 
 def stable_region(system: EquilibriumSystem, far_pivots: int | None = FAR_PIVOTS) -> StableRegion:
@@ -93,7 +104,9 @@ def stable_region(system: EquilibriumSystem, far_pivots: int | None = FAR_PIVOTS
     empty = next((r for r in regions if r.kind == "empty"), None)
     if empty is not None:
         return replace(empty, lp_count=spent)
-    oracle = ConstraintOracle(np.vstack([r.normals for r in regions]), np.vstack([r.equalities for r in regions]))
+    oracle = ConstraintOracle(
+        np.vstack([r.normals for r in regions]), np.vstack([r.equalities for r in regions])
+    )
     combined = _cone_region(oracle, system.facets)
     return replace(combined, lp_count=combined.lp_count + spent)
 
@@ -105,8 +118,12 @@ class ConstraintOracle:
         k, e = len(normals), len(equalities)
         top = np.hstack([normals.reshape(k, 3), np.eye(k)])
         bottom = np.hstack([equalities.reshape(e, 3), np.zeros((e, k))])
-        self.lp = WarmLP(sparse.csc_matrix(np.vstack([top, bottom])), np.zeros(k + e),
-                         np.concatenate([-np.ones(3), np.zeros(k)]), np.concatenate([np.ones(3), np.full(k, np.inf)]))
+        self.lp = WarmLP(
+            sparse.csc_matrix(np.vstack([top, bottom])),
+            np.zeros(k + e),
+            np.concatenate([-np.ones(3), np.zeros(k)]),
+            np.concatenate([np.ones(3), np.full(k, np.inf)]),
+        )
         self.calls = 0
 
     def __call__(self, direction: np.ndarray) -> tuple[float, np.ndarray]:
@@ -114,7 +131,9 @@ class ConstraintOracle:
         self.lp.set_cost(np.arange(3), -np.asarray(direction, float))
         result = self.lp.solve()
         if result.status != "optimal":
-            raise SolverError(f"support LP of the intersected cone failed ({result.status}): {result.message}")
+            raise SolverError(
+                f"support LP of the intersected cone failed ({result.status}): {result.message}"
+            )
         g = np.clip(result.x[:3], -1.0, 1.0)
         return float(np.asarray(direction, float) @ g), g
 
@@ -158,12 +177,27 @@ class Oracle(Protocol):
     def __call__(self, direction: np.ndarray) -> tuple[float, np.ndarray]: ...
 
 
-def _region(kind: str, normals: list, equalities: list, vertices: list, area: float, center: np.ndarray | None,
-            system: _Pyramid, oracle: Oracle) -> StableRegion:
+def _region(
+    kind: str,
+    normals: list,
+    equalities: list,
+    vertices: list,
+    area: float,
+    center: np.ndarray | None,
+    system: _Pyramid,
+    oracle: Oracle,
+) -> StableRegion:
     as_array = lambda rows: np.asarray(rows, dtype=float).reshape(-1, 3)  # noqa: E731
-    return StableRegion(kind, as_array(normals), as_array(equalities), as_array(vertices), float(area),
-                        None if center is None else np.asarray(center, float) / np.linalg.norm(center),
-                        system.facets, oracle.calls)
+    return StableRegion(
+        kind,
+        as_array(normals),
+        as_array(equalities),
+        as_array(vertices),
+        float(area),
+        None if center is None else np.asarray(center, float) / np.linalg.norm(center),
+        system.facets,
+        oracle.calls,
+    )
 
 
 def _span(oracle: Oracle) -> tuple[list[np.ndarray], list[np.ndarray]]:
@@ -191,7 +225,8 @@ def _span(oracle: Oracle) -> tuple[list[np.ndarray], list[np.ndarray]]:
 def _generic_frame() -> np.ndarray:
     """A fixed orthonormal frame in general position for the first support LPs: assemblies are often axis-aligned,
     and an axis direction then maximises over a whole edge or face of P. A generic one hits a vertex of P, which
-    the hull needs anyway (measured on the 960-point wall: about 15 % less time)."""
+    the hull needs anyway (measured on the 960-point wall: about 15 % less time).
+    """
     q, _ = np.linalg.qr(np.array([[0.8, 0.3, -0.5], [-0.2, 0.9, 0.4], [0.55, -0.35, 0.75]]))
     return q.T
 
@@ -208,8 +243,9 @@ def _complement(span: list[np.ndarray]) -> list[np.ndarray]:
     return []
 
 
-def _facets(oracle: Oracle, basis: np.ndarray, points: list[np.ndarray]
-            ) -> tuple[list[tuple[np.ndarray, float]], np.ndarray]:
+def _facets(
+    oracle: Oracle, basis: np.ndarray, points: list[np.ndarray]
+) -> tuple[list[tuple[np.ndarray, float]], np.ndarray]:
     """Certified facets (normal, offset) of P in the coordinates of ``basis`` (outer/inner iteration), and P's points.
 
     Each round solves one LP per unconfirmed hull facet: the facet is confirmed when its support value does not
@@ -225,7 +261,9 @@ def _facets(oracle: Oracle, basis: np.ndarray, points: list[np.ndarray]
             raise SolverError(f"hull of the stable cone section failed: {str(exc).splitlines()[0]}") from None
         normals, offsets = _distinct_planes(hull.equations[:, :-1], -hull.equations[:, -1])
         if len(confirmed_h):
-            match = (normals @ confirmed_n.T > 1 - 1e-9) & (np.abs(offsets[:, None] - confirmed_h[None, :]) < 1e-9)
+            match = (normals @ confirmed_n.T > 1 - 1e-9) & (
+                np.abs(offsets[:, None] - confirmed_h[None, :]) < 1e-9
+            )
             pending = np.nonzero(~match.any(axis=1))[0]
         else:
             pending = np.arange(len(offsets))
@@ -273,8 +311,7 @@ def _unique(vectors: list[np.ndarray]) -> list[np.ndarray]:
     return unique
 
 
-def _planar(normals: list[np.ndarray], e: np.ndarray, system: _Pyramid, oracle: Oracle
-            ) -> StableRegion:
+def _planar(normals: list[np.ndarray], e: np.ndarray, system: _Pyramid, oracle: Oracle) -> StableRegion:
     """V spans a plane: a great circle (no bounding line), a half circle (one) or a shorter arc (two)."""
     if not normals:
         down = np.array([0.0, 0.0, -1.0]) - (e[2] * -1.0) * e
@@ -293,8 +330,7 @@ def _planar(normals: list[np.ndarray], e: np.ndarray, system: _Pyramid, oracle: 
     return _region("arc", normals, [e], ends, 0.0, ends[0] + ends[1], system, oracle)
 
 
-def _solid(normals: list[np.ndarray], section: np.ndarray, system: _Pyramid, oracle: Oracle
-           ) -> StableRegion:
+def _solid(normals: list[np.ndarray], section: np.ndarray, system: _Pyramid, oracle: Oracle) -> StableRegion:
     """V is 3-D: the sphere, a hemisphere, a lune, or a convex spherical polygon."""
     if not normals:
         return _region("sphere", [], [], [], 4 * math.pi, np.array([0.0, 0.0, -1.0]), system, oracle)
@@ -305,8 +341,9 @@ def _solid(normals: list[np.ndarray], section: np.ndarray, system: _Pyramid, ora
         axis = np.cross(n1, n2)
         axis /= np.linalg.norm(axis)
         angle = math.pi - math.acos(float(np.clip(n1 @ n2, -1.0, 1.0)))
-        return _region("region", normals, [], _ccw([axis, -axis], -(n1 + n2)), 2 * angle, -(n1 + n2), system,
-                       oracle)
+        return _region(
+            "region", normals, [], _ccw([axis, -axis], -(n1 + n2)), 2 * angle, -(n1 + n2), system, oracle
+        )
     # The sum of P's points is inside the pointed cone V: a direction to order the vertices around.
     inside = section.sum(axis=0)
     vertices = _vertices(normals, inside)
@@ -341,7 +378,7 @@ def _ccw(vertices: list[np.ndarray], around: np.ndarray) -> list[np.ndarray]:
 
 
 def _center(normals: list[np.ndarray], vertices: list[np.ndarray]) -> np.ndarray:
-    """argmax over unit g of min_i (-n_i . g): the point farthest in angle from every boundary great circle.
+    """Argmax over unit g of min_i (-n_i . g): the point farthest in angle from every boundary great circle.
 
     The optimum is equidistant from an active set of at most three great circles, so enumerating the
     candidate points of every set of one, two or three normals and keeping the best feasible one is exact.
@@ -370,19 +407,32 @@ def _center_slsqp(n: np.ndarray, start: np.ndarray) -> np.ndarray:
     from scipy.optimize import minimize
 
     x0 = np.concatenate([start / np.linalg.norm(start), [0.0]])
-    result = minimize(lambda x: -x[3], x0, jac=lambda x: np.array([0.0, 0.0, 0.0, -1.0]), method="SLSQP",
-                      constraints=[{"type": "ineq", "fun": lambda x: -(n @ x[:3]) - x[3],
-                                    "jac": lambda x: np.hstack([-n, -np.ones((len(n), 1))])},
-                                   {"type": "ineq", "fun": lambda x: 1.0 - x[:3] @ x[:3],
-                                    "jac": lambda x: np.concatenate([-2 * x[:3], [0.0]])[None, :]}],
-                      options={"ftol": 1e-12, "maxiter": 500})
+    result = minimize(
+        lambda x: -x[3],
+        x0,
+        jac=lambda x: np.array([0.0, 0.0, 0.0, -1.0]),
+        method="SLSQP",
+        constraints=[
+            {
+                "type": "ineq",
+                "fun": lambda x: -(n @ x[:3]) - x[3],
+                "jac": lambda x: np.hstack([-n, -np.ones((len(n), 1))]),
+            },
+            {
+                "type": "ineq",
+                "fun": lambda x: 1.0 - x[:3] @ x[:3],
+                "jac": lambda x: np.concatenate([-2 * x[:3], [0.0]])[None, :],
+            },
+        ],
+        options={"ftol": 1e-12, "maxiter": 500},
+    )
     g = result.x[:3]
     return g / np.linalg.norm(g)
 
 
 def _chunks(items: list, size: int):
     for start in range(0, len(items), size):
-        yield items[start:start + size]
+        yield items[start : start + size]
 
 
 def _polygon_area(vertices: list[np.ndarray], center: np.ndarray) -> float:

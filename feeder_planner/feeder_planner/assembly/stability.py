@@ -47,8 +47,12 @@ class StabilityChecker:
         self.system = system
         columns = system.columns
         A = sparse.hstack([sparse.csc_matrix(system.B), system.A], format="csc")
-        self.lp = WarmLP(A, np.zeros(system.A.shape[0]), np.concatenate([np.zeros(3), np.zeros(columns)]),
-                         np.concatenate([np.zeros(3), np.full(columns, np.inf)]))
+        self.lp = WarmLP(
+            A,
+            np.zeros(system.A.shape[0]),
+            np.concatenate([np.zeros(3), np.zeros(columns)]),
+            np.concatenate([np.zeros(3), np.full(columns, np.inf)]),
+        )
         # Minimise the total multiplier: a bounded objective that picks a small, well-scaled force distribution.
         self.lp.set_cost(np.arange(3, 3 + columns), np.ones(columns))
 
@@ -60,15 +64,18 @@ class StabilityChecker:
         if system.A.shape[0] == 0:
             return StabilityVerdict(True, np.zeros((len(system.contacts), 3)), (), 0.0)
         if system.columns == 0:
-            return StabilityVerdict(False, None, _bodies(system, np.abs(rhs) > RESIDUAL_TOLERANCE),
-                                    float(np.abs(rhs).max()))
+            return StabilityVerdict(
+                False, None, _bodies(system, np.abs(rhs) > RESIDUAL_TOLERANCE), float(np.abs(rhs).max())
+            )
         self.lp.set_bounds(np.arange(3), g, g)
         result = self.lp.solve()
         if result.status == "optimal":
             lam = np.maximum(result.x[3:], 0.0)
             residual = float(np.abs(system.A @ lam - rhs).max())
             if residual > RESIDUAL_TOLERANCE:
-                raise SolverError(f"stability LP returned forces with residual {residual:.3g} > {RESIDUAL_TOLERANCE}")
+                raise SolverError(
+                    f"stability LP returned forces with residual {residual:.3g} > {RESIDUAL_TOLERANCE}"
+                )
             return StabilityVerdict(True, contact_forces(system, lam), (), residual)
         if result.status == "infeasible":
             return _unbalanced(system, rhs) if explain else StabilityVerdict(False, None, (), float("nan"))
@@ -89,7 +96,7 @@ def _unbalanced(system: EquilibriumSystem, rhs: np.ndarray) -> StabilityVerdict:
     result = linprog(cost, A_eq=A, b_eq=rhs, bounds=(0, None), method="highs", options=LP_OPTIONS)
     if result.status != 0:
         raise SolverError(f"imbalance LP failed: {result.message}")
-    slack = result.x[system.columns:system.columns + rows] + result.x[system.columns + rows:]
+    slack = result.x[system.columns : system.columns + rows] + result.x[system.columns + rows :]
     moving = _bodies(system, slack > RESIDUAL_TOLERANCE)
     return StabilityVerdict(False, None, moving, float(result.fun))
 

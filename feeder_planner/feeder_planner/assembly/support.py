@@ -39,8 +39,12 @@ class SupportOracle:
         self.far_solves = 0
         columns = system.columns
         A = sparse.hstack([sparse.csc_matrix(system.B), system.A], format="csc")
-        self.lp = WarmLP(A, np.zeros(system.A.shape[0]), np.concatenate([-np.ones(3), np.zeros(columns)]),
-                         np.concatenate([np.ones(3), np.full(columns, np.inf)]))
+        self.lp = WarmLP(
+            A,
+            np.zeros(system.A.shape[0]),
+            np.concatenate([-np.ones(3), np.zeros(columns)]),
+            np.concatenate([np.ones(3), np.full(columns, np.inf)]),
+        )
         self._large = system.A.shape[0] >= INTERIOR_POINT_ROWS
         self._points: list[np.ndarray] = []
         self._bases: list = []
@@ -57,7 +61,9 @@ class SupportOracle:
             raise SolverError(f"support LP failed ({result.status}): {result.message}")
         g = np.clip(result.x[:3], -1.0, 1.0)
         lam = np.maximum(result.x[3:], 0.0)
-        residual = float(np.abs(self.system.A @ lam + self.system.B @ g).max()) if self.system.columns else 0.0
+        residual = (
+            float(np.abs(self.system.A @ lam + self.system.B @ g).max()) if self.system.columns else 0.0
+        )
         if residual > RESIDUAL_TOLERANCE:
             raise SolverError(f"support LP residual {residual:.3g} > {RESIDUAL_TOLERANCE}")
         basis = self.lp.basis()

@@ -51,11 +51,14 @@ def pyramid_directions(normal: np.ndarray, mu: float, facets: int, circumscribed
     u, v = tangent_basis(normal)
     angles = (2 * np.arange(facets) + 1) * np.pi / facets
     radius = mu / np.cos(np.pi / facets) if circumscribed else mu
-    return normal[None, :] + radius * (np.cos(angles)[:, None] * u[None, :] + np.sin(angles)[:, None] * v[None, :])
+    return normal[None, :] + radius * (
+        np.cos(angles)[:, None] * u[None, :] + np.sin(angles)[:, None] * v[None, :]
+    )
 
 
-def build_system(assembly: Assembly, contacts: list[Contact], facets: int = 4, circumscribed: bool = False
-                 ) -> EquilibriumSystem:
+def build_system(
+    assembly: Assembly, contacts: list[Contact], facets: int = 4, circumscribed: bool = False
+) -> EquilibriumSystem:
     """Assemble eq. (6)'s J^T f + G in scaled generator form for the free bodies."""
     if isinstance(facets, bool) or not isinstance(facets, (int, np.integer)) or facets < 3:
         raise InputError("facets", f"the friction pyramid needs K >= 3 facets, got {facets!r}")
@@ -63,10 +66,16 @@ def build_system(assembly: Assembly, contacts: list[Contact], facets: int = 4, c
     return wrench_system(assembly, contacts, generators_array, contact_array, facets)
 
 
-def wrench_system(assembly: Assembly, contacts: list[Contact], generators_array: np.ndarray,
-                  contact_array: np.ndarray, facets: int) -> EquilibriumSystem:
+def wrench_system(
+    assembly: Assembly,
+    contacts: list[Contact],
+    generators_array: np.ndarray,
+    contact_array: np.ndarray,
+    facets: int,
+) -> EquilibriumSystem:
     """The scaled system of eq. (6) for arbitrary force directions: column k is a unit multiple of force
-    ``generators_array[k]`` at contact ``contact_array[k]`` (pyramid edges, or the exact cone's n, u, v axes)."""
+    ``generators_array[k]`` at contact ``contact_array[k]`` (pyramid edges, or the exact cone's n, u, v axes).
+    """
     free = assembly.free_bodies
     slot = np.full(len(assembly.bodies), -1)
     slot[free] = np.arange(len(free))
@@ -96,14 +105,24 @@ def wrench_system(assembly: Assembly, contacts: list[Contact], generators_array:
         rows.append((6 * kk[:, None] + np.arange(6)[None, :]).ravel())
         cols.append(np.repeat(columns[on], 6))
         vals.append(block.ravel())
-    A = sparse.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                          shape=(6 * len(free), len(generators_array)))
+    A = sparse.csc_matrix(
+        (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+        shape=(6 * len(free), len(generators_array)),
+    )
     A.eliminate_zeros()
     B = np.zeros((6 * len(free), 3))
     for k in range(len(free)):
-        B[6 * k:6 * k + 3] = np.eye(3)
-    return EquilibriumSystem(A, B, generators_array, contact_array.astype(int), column_scale,
-                             np.repeat(np.asarray(free, dtype=int), 6), tuple(contacts), facets)
+        B[6 * k : 6 * k + 3] = np.eye(3)
+    return EquilibriumSystem(
+        A,
+        B,
+        generators_array,
+        contact_array.astype(int),
+        column_scale,
+        np.repeat(np.asarray(free, dtype=int), 6),
+        tuple(contacts),
+        facets,
+    )
 
 
 def _generators(contacts: list[Contact], facets: int, circumscribed: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -116,8 +135,9 @@ def _generators(contacts: list[Contact], facets: int, circumscribed: bool) -> tu
     v = np.cross(normals, u)
     angles = (2 * np.arange(facets) + 1) * np.pi / facets
     radius = mus / np.cos(np.pi / facets) if circumscribed else mus
-    edges = normals[:, None, :] + radius[:, None, None] * (np.cos(angles)[None, :, None] * u[:, None, :] +
-                                                           np.sin(angles)[None, :, None] * v[:, None, :])
+    edges = normals[:, None, :] + radius[:, None, None] * (
+        np.cos(angles)[None, :, None] * u[:, None, :] + np.sin(angles)[None, :, None] * v[:, None, :]
+    )
     frictional = mus > 0
     generators, owners = [], []
     # mu = 0 contacts have the single generator n (the pyramid collapses onto its axis).
@@ -131,7 +151,9 @@ def _generators(contacts: list[Contact], facets: int, circumscribed: bool) -> tu
     return np.vstack(generators), np.concatenate(owners)
 
 
-def contact_forces(system: EquilibriumSystem, lam: np.ndarray, gravity: float = STANDARD_GRAVITY) -> np.ndarray:
+def contact_forces(
+    system: EquilibriumSystem, lam: np.ndarray, gravity: float = STANDARD_GRAVITY
+) -> np.ndarray:
     """Force on body a at each contact (N), from the scaled multipliers, for |g| = ``gravity``."""
     forces = np.zeros((len(system.contacts), 3))
     weighted = system.generators * (lam * system.column_scale * gravity)[:, None]
@@ -151,8 +173,9 @@ def split_components(system: EquilibriumSystem) -> list[EquilibriumSystem]:
         return [system]
     pattern = (system.A != 0).astype(np.int8).tocsr()
     # Body-by-column incidence (sum of each body's six rows), then body adjacency through shared columns.
-    collapse = sparse.csr_matrix((np.ones(rows, dtype=np.int8), (np.arange(rows) // 6, np.arange(rows))),
-                                 shape=(bodies, rows))
+    collapse = sparse.csr_matrix(
+        (np.ones(rows, dtype=np.int8), (np.arange(rows) // 6, np.arange(rows))), shape=(bodies, rows)
+    )
     incidence = (collapse @ pattern) != 0
     count, labels = connected_components(incidence @ incidence.T, directed=False)
     if count == 1:
@@ -163,8 +186,16 @@ def split_components(system: EquilibriumSystem) -> list[EquilibriumSystem]:
         members = np.nonzero(labels == label)[0]
         row_index = (6 * members[:, None] + np.arange(6)[None, :]).ravel()
         columns = np.unique(incidence_csc[members].nonzero()[1])
-        parts.append(EquilibriumSystem(system.A[row_index][:, columns].tocsc(), system.B[row_index],
-                                       system.generators[columns], system.contact_of[columns],
-                                       system.column_scale[columns], system.body_of_row[row_index],
-                                       system.contacts, system.facets))
+        parts.append(
+            EquilibriumSystem(
+                system.A[row_index][:, columns].tocsc(),
+                system.B[row_index],
+                system.generators[columns],
+                system.contact_of[columns],
+                system.column_scale[columns],
+                system.body_of_row[row_index],
+                system.contacts,
+                system.facets,
+            )
+        )
     return parts

@@ -9,15 +9,24 @@ import numpy as np
 
 from feeder_planner.errors import SolverError
 from feeder_planner.mems.curve import pivot_translation
-from feeder_planner.mems.lifted import Edges, derivatives, gradient_noise, part_edges, taylor_factorials, value_gradient_hessian
+from feeder_planner.mems.lifted import (
+    Edges,
+    derivatives,
+    gradient_noise,
+    part_edges,
+    taylor_factorials,
+    value_gradient_hessian,
+)
 from feeder_planner.mems.result import EquilibriaResult, Equilibrium
 from feeder_planner.parts import Part
 
-MAX_ORDER = 9            # n up to 9 (Table 1's loop), plus EXTRA orders for the refinement of theta(delta)
+MAX_ORDER = 9  # n up to 9 (Table 1's loop), plus EXTRA orders for the refinement of theta(delta)
 EXTRA = 2
-PIVOT_TOL = 100.0        # |(X0, Y0)| below PIVOT_TOL times its rounding-error bound: pivot = centroid (Table 1's test)
-ZERO_TOL = 1e-9          # d^k x*/d delta^k is 'identically zero' below this fraction of max_{j<=k} |d^j (X*, Y*)|
-SAMPLES = 32             # theta samples: the trig polynomials have degree <= k + 1 <= 12 < 16, so the FFT is exact
+PIVOT_TOL = (
+    100.0  # |(X0, Y0)| below PIVOT_TOL times its rounding-error bound: pivot = centroid (Table 1's test)
+)
+ZERO_TOL = 1e-9  # d^k x*/d delta^k is 'identically zero' below this fraction of max_{j<=k} |d^j (X*, Y*)|
+SAMPLES = 32  # theta samples: the trig polynomials have degree <= k + 1 <= 12 < 16, so the FFT is exact
 
 
 @lru_cache(maxsize=16)
@@ -34,7 +43,9 @@ def _series_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("...i,...j,ijk->...k", a, b, _convolution(a.shape[-1]), optimize=False)
 
 
-def taylor_coefficients(v: dict[tuple[int, int], float], area: float, theta: np.ndarray, order: int) -> np.ndarray:
+def taylor_coefficients(
+    v: dict[tuple[int, int], float], area: float, theta: np.ndarray, order: int
+) -> np.ndarray:
     """c_k(theta), k = 0..order, with (X*, Y*)(theta, delta) = Z0 + sum_k c_k delta^k (c_0 = 0).
 
     Solves grad V(Z0 + W) + delta |S| (sin, cos) = 0 order by order (Prop. 8, eq. 25): at order k the
@@ -92,7 +103,7 @@ def _trig_roots(coef: np.ndarray) -> np.ndarray:
     exact = grid[:-1][values[:-1] == 0.0]
     change = np.flatnonzero((values[:-1] * values[1:] < 0))
     a, b, fa = grid[change], grid[change + 1], values[change]
-    for _ in range(12):                # bisection of every bracket at once, then safeguarded Newton
+    for _ in range(12):  # bisection of every bracket at once, then safeguarded Newton
         mid = 0.5 * (a + b)
         fm = _trig_eval(coef, mid)
         left = fa * fm > 0
@@ -122,13 +133,14 @@ def asymptotic_equilibria(part: Part, delta: float, edges: Edges | None = None) 
         n = 0
     else:
         n = None
-    first_guess = 3 + EXTRA          # enough for n <= 3 (every 4-fold symmetric part); raised when needed
+    first_guess = 3 + EXTRA  # enough for n <= 3 (every 4-fold symmetric part); raised when needed
     order = EXTRA if n == 0 else first_guess
     while True:
         v = derivatives(edges, z0, order + 1)
         c = taylor_coefficients(v, part.area, theta_grid, order)
-        x_k = [c_t * z0[0] - s_t * z0[1]] + [math.factorial(k) * (c_t * c[:, 0, k] - s_t * c[:, 1, k])
-                                              for k in range(1, order + 1)]
+        x_k = [c_t * z0[0] - s_t * z0[1]] + [
+            math.factorial(k) * (c_t * c[:, 0, k] - s_t * c[:, 1, k]) for k in range(1, order + 1)
+        ]
         if n == 0:
             break
         # Table 1, second branch: the first d^k x*/d delta^k (theta, 0) not identically zero.
@@ -142,8 +154,10 @@ def asymptotic_equilibria(part: Part, delta: float, edges: Edges | None = None) 
             order = n + EXTRA
             break
         if order >= MAX_ORDER + EXTRA:
-            raise SolverError(f"d^k x*/d delta^k (theta, 0) vanishes identically for k <= {MAX_ORDER}: "
-                              "the part is (nearly) rotation-invariant, orientation undetermined")
+            raise SolverError(
+                f"d^k x*/d delta^k (theta, 0) vanishes identically for k <= {MAX_ORDER}: "
+                "the part is (nearly) rotation-invariant, orientation undetermined"
+            )
         order = MAX_ORDER + EXTRA
     coefs = [_fourier(x) for x in x_k]
     coefs[n] = np.where(np.abs(coefs[n]) > ZERO_TOL * np.abs(coefs[n]).max(), coefs[n], 0.0)
@@ -151,7 +165,9 @@ def asymptotic_equilibria(part: Part, delta: float, edges: Edges | None = None) 
     slopes = _trig_eval(coefs[n], roots, 1)
     amplitude = np.abs(coefs[n]).max()
     if len(roots) == 0 or np.any(np.abs(slopes) <= 1e-7 * amplitude):
-        raise SolverError(f"d^{n} x*/d delta^{n} (theta, 0) has a multiple root: Theorem 7 (iii) does not apply")
+        raise SolverError(
+            f"d^{n} x*/d delta^{n} (theta, 0) has a multiple root: Theorem 7 (iii) does not apply"
+        )
     # theta(delta): root of sum_k x_k delta^(k-n)/k! near each Theorem-7 root (Newton on the truncated series).
     thetas = roots.copy()
     series = sum(coefs[k] * delta ** (k - n) / math.factorial(k) for k in range(n, order + 1))
@@ -166,22 +182,40 @@ def asymptotic_equilibria(part: Part, delta: float, edges: Edges | None = None) 
     # (X*, Y*)(theta, delta) at the roots: the c_k are trig polynomials of degree <= k, so the
     # samples' Fourier series interpolates them exactly.
     powers = np.arange(c.shape[-1])
-    z_series = c[:, :, : order + 1] @ (delta ** powers[: order + 1] * (powers[: order + 1] > 0))  # (SAMPLES, 2)
-    z_at = np.column_stack([_trig_eval(_fourier(z_series[:, 0]), thetas),
-                            _trig_eval(_fourier(z_series[:, 1]), thetas)])
+    z_series = c[:, :, : order + 1] @ (
+        delta ** powers[: order + 1] * (powers[: order + 1] > 0)
+    )  # (SAMPLES, 2)
+    z_at = np.column_stack(
+        [_trig_eval(_fourier(z_series[:, 0]), thetas), _trig_eval(_fourier(z_series[:, 1]), thetas)]
+    )
     for theta, slope, dz in zip(thetas, slopes, z_at):
         z = z0 + dz
         ct, st = math.cos(theta), math.sin(theta)
-        equilibria.append(Equilibrium(float(ct * z[0] - st * z[1]), float(st * z[0] + ct * z[1]),
-                                      float(theta % (2 * math.pi)), bool(slope > 0)))
+        equilibria.append(
+            Equilibrium(
+                float(ct * z[0] - st * z[1]),
+                float(st * z[0] + ct * z[1]),
+                float(theta % (2 * math.pi)),
+                bool(slope > 0),
+            )
+        )
     equilibria.sort(key=lambda e: e.theta)
     # Theorem 7 holds for delta below an unknown delta_0: alone, this result is not certified at delta.
-    details = {"n": n, "certified": False, "pivot_distance": rho, "theorem7_roots": [float(r) for r in roots],
-               "theorem7_slopes": [float(s) for s in slopes],
-               "dn_x_fourier": {str(k): float(2 * abs(a) if k else abs(a)) for k, a in enumerate(coefs[n])
-                                if abs(a) > 1e-9 * amplitude}}
+    details = {
+        "n": n,
+        "certified": False,
+        "pivot_distance": rho,
+        "theorem7_roots": [float(r) for r in roots],
+        "theorem7_slopes": [float(s) for s in slopes],
+        "dn_x_fourier": {
+            str(k): float(2 * abs(a) if k else abs(a))
+            for k, a in enumerate(coefs[n])
+            if abs(a) > 1e-9 * amplitude
+        },
+    }
     if n == 0:
         psi = math.atan2(z0[1], z0[0])
         details["stable_limit_theta"] = (1.5 * math.pi - psi) % (2 * math.pi)
-    return EquilibriaResult((float(-z0[0]), float(-z0[1])), part.area, delta, "asymptotic",
-                            tuple(equilibria), details)
+    return EquilibriaResult(
+        (float(-z0[0]), float(-z0[1])), part.area, delta, "asymptotic", tuple(equilibria), details
+    )

@@ -61,16 +61,18 @@ class CurvePoints:
     """The equilibrium curve sampled at angles theta for one delta."""
 
     theta: np.ndarray
-    z: np.ndarray       # (N, 2): (X*, Y*)
-    x: np.ndarray       # x*(theta, delta), eq. (13)
-    y: np.ndarray       # y*(theta, delta), eq. (14)
-    dx: np.ndarray      # d x* / d theta, by implicit differentiation of grad U = 0
-    hess: np.ndarray    # Hess V at (X*, Y*)
-    grad: np.ndarray    # grad V at (X*, Y*)
-    error: np.ndarray   # bound on the rounding error of (X*, Y*) (and so of x*, y*), metres
+    z: np.ndarray  # (N, 2): (X*, Y*)
+    x: np.ndarray  # x*(theta, delta), eq. (13)
+    y: np.ndarray  # y*(theta, delta), eq. (14)
+    dx: np.ndarray  # d x* / d theta, by implicit differentiation of grad U = 0
+    hess: np.ndarray  # Hess V at (X*, Y*)
+    grad: np.ndarray  # grad V at (X*, Y*)
+    error: np.ndarray  # bound on the rounding error of (X*, Y*) (and so of x*, y*), metres
 
 
-def curve(edges: Edges, area: float, delta: float, theta: np.ndarray, start: np.ndarray | None = None) -> CurvePoints:
+def curve(
+    edges: Edges, area: float, delta: float, theta: np.ndarray, start: np.ndarray | None = None
+) -> CurvePoints:
     """Solve grad V(Z) + delta |S| (sin theta, cos theta) = 0 (the system before eq. 22) for each theta."""
     theta = np.asarray(theta, float)
     b = np.column_stack([np.sin(theta), np.cos(theta)])
@@ -93,7 +95,7 @@ def hessian_xyt(grad: np.ndarray, hess: np.ndarray, z: np.ndarray, theta: float)
     c, s = np.cos(theta), np.sin(theta)
     r = np.array([[c, -s], [s, c]])
     dr = np.array([[-s, -c], [c, -s]])
-    w = np.array([z[1], -z[0]])          # dZ/dtheta
+    w = np.array([z[1], -z[0]])  # dZ/dtheta
     out = np.zeros((3, 3))
     out[:2, :2] = r @ hess @ r.T
     out[:2, 2] = out[2, :2] = dr @ grad + r @ hess @ w

@@ -17,7 +17,7 @@ METHODS = ("auto", "asymptotic", "numeric")
 # radii (delta^3: the truncation order of the expansion after its EXTRA = 2 refining orders).
 CERT_THETA = 1e-6
 CERT_POSITION = 1e-6
-CERT_DELTAS = (1e-4, 1e-3, 1e-2, 3e-2, 0.1)   # where to certify when delta is below the numeric resolution
+CERT_DELTAS = (1e-4, 1e-3, 1e-2, 3e-2, 0.1)  # where to certify when delta is below the numeric resolution
 
 
 def check_delta(delta: float, field: str = "delta") -> float:
@@ -31,15 +31,23 @@ def check_delta(delta: float, field: str = "delta") -> float:
 
 def agree(a: EquilibriaResult, b: EquilibriaResult, scale: float) -> bool:
     """Same count and stability, angles within CERT_THETA + delta^3 (+ b's theta resolution), positions
-    within (CERT_POSITION + the same slack) * scale."""
+    within (CERT_POSITION + the same slack) * scale.
+    """
     if len(a.equilibria) != len(b.equilibria):
         return False
     # the numeric side's own resolution (its rounding floor over the slope of x*) widens the window
-    slack = a.delta ** 3 + 2.0 * float(b.details.get("theta_uncertainty", 0.0))
+    slack = a.delta**3 + 2.0 * float(b.details.get("theta_uncertainty", 0.0))
     for ea in a.equilibria:
-        match = [eb for eb in b.equilibria if eb.stable == ea.stable
-                 and abs(math.remainder(ea.theta - eb.theta, 2 * math.pi)) <= CERT_THETA + slack]
-        if not match or min(math.hypot(ea.x - m.x, ea.y - m.y) for m in match) > (CERT_POSITION + slack) * scale:
+        match = [
+            eb
+            for eb in b.equilibria
+            if eb.stable == ea.stable
+            and abs(math.remainder(ea.theta - eb.theta, 2 * math.pi)) <= CERT_THETA + slack
+        ]
+        if (
+            not match
+            or min(math.hypot(ea.x - m.x, ea.y - m.y) for m in match) > (CERT_POSITION + slack) * scale
+        ):
             return False
     return True
 
@@ -51,8 +59,11 @@ def find_equilibria(part: Part, delta: float, method: str = "auto") -> Equilibri
         raise InputError("method", f"unknown method {method!r} (expected one of {', '.join(METHODS)})")
     edges = part_edges(part)
     if delta == 0.0:
-        raise InputError("delta", "delta = 0 leaves the orientation free (the pivot circle is a continuum of "
-                                  "equilibria, Prop. 3); use delta > 0")
+        raise InputError(
+            "delta",
+            "delta = 0 leaves the orientation free (the pivot circle is a continuum of "
+            "equilibria, Prop. 3); use delta > 0",
+        )
     if method == "asymptotic":
         return asymptotic_equilibria(part, delta, edges)
     if method == "numeric":
@@ -75,8 +86,11 @@ def find_equilibria(part: Part, delta: float, method: str = "auto") -> Equilibri
             except SolverError:
                 continue
             if agree(check_asym, check_num, edges.scale):
-                return _relabel(asym, "asymptotic", {"certified": True, "certified_at_delta": d_cert,
-                                                     "numeric_refused": str(error)})
+                return _relabel(
+                    asym,
+                    "asymptotic",
+                    {"certified": True, "certified_at_delta": d_cert, "numeric_refused": str(error)},
+                )
             break
         raise SolverError(f"asymptotic result could not be certified and numeric refused: {error}") from None
     if agree(asym, num, edges.scale):
@@ -85,5 +99,11 @@ def find_equilibria(part: Part, delta: float, method: str = "auto") -> Equilibri
 
 
 def _relabel(result: EquilibriaResult, method: str, extra: dict) -> EquilibriaResult:
-    return EquilibriaResult(result.pivot, result.area, result.delta, method, result.equilibria,
-                            {**result.details, **extra, "requested": "auto"})
+    return EquilibriaResult(
+        result.pivot,
+        result.area,
+        result.delta,
+        method,
+        result.equilibria,
+        {**result.details, **extra, "requested": "auto"},
+    )

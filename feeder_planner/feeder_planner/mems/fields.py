@@ -5,7 +5,6 @@ from __future__ import annotations
 # Every field is a force per unit area f(r) = -grad u(r). ``wrench`` returns the exact resultant force
 # (eq. 1) and torque about a reference point (eq. 2) on placed polygon loops, ``lifted`` the lifted
 # potential (Definition 1); no sampling of the area anywhere.
-
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -125,7 +124,12 @@ class CombinedField(Field):
         return a.lifted(loops) + self.strength * self.delta * float(m[2] - self.center[1] * m[0])
 
     def to_dict(self) -> dict[str, Any]:
-        return {"type": "combined", "delta": self.delta, "center": list(self.center), "strength": self.strength}
+        return {
+            "type": "combined",
+            "delta": self.delta,
+            "center": list(self.center),
+            "strength": self.strength,
+        }
 
 
 @dataclass(frozen=True)
@@ -163,10 +167,17 @@ class SqueezeField(Field):
     def lifted(self, loops: tuple[np.ndarray, ...]) -> float:
         n, c = self._normal(), np.array(self.center)
         plus, minus = self._sides(loops)
-        return float(self.strength * ((n @ plus[1:3] - n @ c * plus[0]) - (n @ minus[1:3] - n @ c * minus[0])))
+        return float(
+            self.strength * ((n @ plus[1:3] - n @ c * plus[0]) - (n @ minus[1:3] - n @ c * minus[0]))
+        )
 
     def to_dict(self) -> dict[str, Any]:
-        return {"type": "squeeze", "center": list(self.center), "angle": self.angle, "strength": self.strength}
+        return {
+            "type": "squeeze",
+            "center": list(self.center),
+            "angle": self.angle,
+            "strength": self.strength,
+        }
 
 
 @dataclass(frozen=True)
@@ -192,7 +203,7 @@ class QuadraticField(Field):
         # int (r - g) (r - c)^T dA from the second moments about the origin
         second = np.array([[m[3], m[5]], [m[5], m[4]]])
         outer = second - np.outer(s, c) - np.outer(g, s) + area * np.outer(g, c)
-        t = -(k @ outer.T)          # t[i, j] = int f_i (r - g)_j dA
+        t = -(k @ outer.T)  # t[i, j] = int f_i (r - g)_j dA
         return np.array([force[0], force[1], float(t[1, 0] - t[0, 1])])
 
     def lifted(self, loops: tuple[np.ndarray, ...]) -> float:
@@ -220,11 +231,17 @@ def field_from_mapping(spec: Any, field: str = "field", length_scale: float = 1.
     if not isinstance(spec, dict):
         raise InputError(field, f"expected a mapping with a 'type', got {type(spec).__name__}")
     kind = spec.get("type")
-    known = {"radial": {"type", "center", "strength"}, "constant": {"type", "force"},
-             "combined": {"type", "delta", "center", "strength"},
-             "squeeze": {"type", "center", "angle", "strength"}, "quadratic": {"type", "center", "k", "angle"}}
+    known = {
+        "radial": {"type", "center", "strength"},
+        "constant": {"type", "force"},
+        "combined": {"type", "delta", "center", "strength"},
+        "squeeze": {"type", "center", "angle", "strength"},
+        "quadratic": {"type", "center", "k", "angle"},
+    }
     if kind not in known:
-        raise InputError(f"{field}.type", f"unknown field {kind!r} (expected one of {', '.join(FIELD_TYPES)})")
+        raise InputError(
+            f"{field}.type", f"unknown field {kind!r} (expected one of {', '.join(FIELD_TYPES)})"
+        )
     extra = set(spec) - known[kind]
     if extra:
         raise InputError(f"{field}.{sorted(extra)[0]}", f"not a parameter of a {kind} field")
@@ -255,7 +272,9 @@ class ProgramStep:
     duration: float
 
 
-def program_from_mapping(document: Any, field: str = "program", length_scale: float = 1.0) -> tuple[ProgramStep, ...]:
+def program_from_mapping(
+    document: Any, field: str = "program", length_scale: float = 1.0
+) -> tuple[ProgramStep, ...]:
     """A field program {'steps': [{'field': {...}, 'duration': s}, ...]}; the last step may last forever."""
     steps = document.get("steps") if isinstance(document, dict) else document
     if not isinstance(steps, list) or not steps:
@@ -266,7 +285,14 @@ def program_from_mapping(document: Any, field: str = "program", length_scale: fl
         if not isinstance(step, dict) or "field" not in step:
             raise InputError(where, "expected a mapping with 'field' and 'duration'")
         duration = step.get("duration", math.inf)
-        if isinstance(duration, bool) or not isinstance(duration, (int, float)) or math.isnan(duration) or duration <= 0:
+        if (
+            isinstance(duration, bool)
+            or not isinstance(duration, (int, float))
+            or math.isnan(duration)
+            or duration <= 0
+        ):
             raise InputError(f"{where}.duration", f"must be a number > 0 (or .inf), got {duration!r}")
-        out.append(ProgramStep(field_from_mapping(step["field"], f"{where}.field", length_scale), float(duration)))
+        out.append(
+            ProgramStep(field_from_mapping(step["field"], f"{where}.field", length_scale), float(duration))
+        )
     return tuple(out)

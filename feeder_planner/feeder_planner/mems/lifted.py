@@ -9,7 +9,6 @@ from __future__ import annotations
 # Gauss-Legendre on pieces graded geometrically away from the foot of the origin on each edge line, so
 # that every piece sees the integrand's complex singularities (foot +- i h) at least one piece length
 # away: 24 nodes then leave only rounding (relative error < 1e-12, tested). Valid while the origin is not on the boundary.
-
 from dataclasses import dataclass
 from functools import lru_cache
 from math import comb, factorial
@@ -24,11 +23,11 @@ from feeder_planner.parts import Part
 class Edges:
     """All boundary edges of a part (outer counter-clockwise, holes clockwise) as arrays."""
 
-    start: np.ndarray    # (E, 2) in the part frame
+    start: np.ndarray  # (E, 2) in the part frame
     direction: np.ndarray  # (E, 2) unit tangent
-    normal: np.ndarray   # (E, 2) unit outward normal of the area
-    length: np.ndarray   # (E,)
-    scale: float         # part radius, the length scale of tolerances
+    normal: np.ndarray  # (E, 2) unit outward normal of the area
+    length: np.ndarray  # (E,)
+    scale: float  # part radius, the length scale of tolerances
 
 
 def part_edges(part: Part) -> Edges:
@@ -47,7 +46,7 @@ def part_edges(part: Part) -> Edges:
 
 def _edge_terms(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, ...]:
     """Per-edge (s0, s1, h, rho0, rho1, h*A, h^2*A) with A = int ds/|r| along the translated edge."""
-    a = edges.start + z[..., None, :]                       # (..., E, 2)
+    a = edges.start + z[..., None, :]  # (..., E, 2)
     s0 = np.einsum("...ek,ek->...e", a, edges.direction)
     h = np.einsum("...ek,ek->...e", a, edges.normal)
     s1 = s0 + edges.length
@@ -83,10 +82,16 @@ def value_gradient_hessian(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, np.
     return value_gradient_hessian_noise(edges, z)[:3]
 
 
-def value_gradient_hessian_noise(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def value_gradient_hessian_noise(
+    edges: Edges, z: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """value_gradient_hessian plus gradient_noise, from one evaluation of the edge terms."""
     s0, s1, h, rho0, rho1, h_a = _edge_terms(edges, np.asarray(z, float))
-    noise = 8.0 * np.finfo(float).eps * (0.5 * (np.abs(s1 * rho1) + np.abs(s0 * rho0) + np.abs(h * h_a))).sum(axis=-1)
+    noise = (
+        8.0
+        * np.finfo(float).eps
+        * (0.5 * (np.abs(s1 * rho1) + np.abs(s0 * rho0) + np.abs(h * h_a))).sum(axis=-1)
+    )
     i0 = 0.5 * (s1 * rho1 - s0 * rho0 + h * h_a)
     value = (h * i0).sum(axis=-1) / 3.0
     grad = np.einsum("...e,ek->...k", i0, edges.normal)
@@ -131,22 +136,25 @@ def _gauss(nodes: int) -> tuple[np.ndarray, np.ndarray]:
 def _pieces(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Breakpoints on every translated edge, graded geometrically about the foot of the origin."""
     a = edges.start + z
-    s0 = -(a * edges.direction).sum(axis=1)       # foot of the origin, arc length from the edge start
+    s0 = -(a * edges.direction).sum(axis=1)  # foot of the origin, arc length from the edge start
     h = np.abs((a * edges.normal).sum(axis=1))
     length = edges.length
-    outside = np.maximum(np.maximum(-s0, s0 - length), 0.0)   # distance from the foot to the segment
+    outside = np.maximum(np.maximum(-s0, s0 - length), 0.0)  # distance from the foot to the segment
     r0 = np.maximum(h, 0.5 * outside)
     if np.any(r0 <= 1e-15 * edges.scale):
         raise InputError("field centre", "lies on the part boundary: V is not differentiable there (Prop. 2)")
     levels = int(np.clip(np.ceil(np.log2((length.max() + np.abs(s0).max()) / r0.min())) + 2, 1, 80))
     k = r0[:, None] * 2.0 ** np.arange(levels)[None, :]
-    cuts = np.concatenate([np.zeros((len(s0), 1)), length[:, None], s0[:, None], s0[:, None] + k,
-                           s0[:, None] - k], axis=1)
+    cuts = np.concatenate(
+        [np.zeros((len(s0), 1)), length[:, None], s0[:, None], s0[:, None] + k, s0[:, None] - k], axis=1
+    )
     cuts = np.sort(np.clip(cuts, 0.0, length[:, None]), axis=1)
     return a, cuts[:, :-1], cuts[:, 1:]
 
 
-def derivatives(part_or_edges: Part | Edges, z: np.ndarray, order: int, nodes: int = 24) -> dict[tuple[int, int], float]:
+def derivatives(
+    part_or_edges: Part | Edges, z: np.ndarray, order: int, nodes: int = 24
+) -> dict[tuple[int, int], float]:
     """All partial derivatives V_{i,j} = d^{i+j}V / dX^i dY^j at z for 1 <= i + j <= order (Table 1 input).
 
     Orders <= 2 come from the closed forms; higher ones from the graded boundary quadrature.
@@ -155,17 +163,21 @@ def derivatives(part_or_edges: Part | Edges, z: np.ndarray, order: int, nodes: i
     edges = part_or_edges if isinstance(part_or_edges, Edges) else part_edges(part_or_edges)
     z = np.asarray(z, float)
     _, grad, hess = value_gradient_hessian(edges, z)
-    out: dict[tuple[int, int], float] = {(1, 0): float(grad[0]), (0, 1): float(grad[1]),
-                                         (2, 0): float(hess[0, 0]), (1, 1): float(hess[0, 1]),
-                                         (0, 2): float(hess[1, 1])}
+    out: dict[tuple[int, int], float] = {
+        (1, 0): float(grad[0]),
+        (0, 1): float(grad[1]),
+        (2, 0): float(hess[0, 0]),
+        (1, 1): float(hess[0, 1]),
+        (0, 2): float(hess[1, 1]),
+    }
     if order <= 2:
         return {key: value for key, value in out.items() if sum(key) <= order}
     a, lo, hi = _pieces(edges, z)
-    keep = hi > lo                                   # clipping leaves many empty pieces; drop them
+    keep = hi > lo  # clipping leaves many empty pieces; drop them
     edge_index = np.broadcast_to(np.arange(len(lo))[:, None], lo.shape)[keep]
     lo, hi = lo[keep], hi[keep]
     t, w = _gauss(nodes)
-    s = lo[:, None] + (hi - lo)[:, None] * t          # (pieces, G)
+    s = lo[:, None] + (hi - lo)[:, None] * t  # (pieces, G)
     weight = (hi - lo)[:, None] * w
     points = a[edge_index][:, None, :] + s[..., None] * edges.direction[edge_index][:, None, :]
     d = _rho_derivatives(points[..., 0], points[..., 1], order - 1)

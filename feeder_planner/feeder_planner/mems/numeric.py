@@ -12,10 +12,10 @@ from feeder_planner.mems.lifted import Edges, part_edges
 from feeder_planner.mems.result import EquilibriaResult, Equilibrium
 from feeder_planner.parts import Part
 
-SAMPLES = 64          # initial theta grid; intervals that might hide two crossings are subdivided
+SAMPLES = 64  # initial theta grid; intervals that might hide two crossings are subdivided
 MAX_DEPTH = 12
-THETA_TOL = 1e-12     # root refinement tolerance on theta (rad)
-RESOLUTION = 10.0     # x* within RESOLUTION times its rounding-error bound is indistinguishable from 0
+THETA_TOL = 1e-12  # root refinement tolerance on theta (rad)
+RESOLUTION = 10.0  # x* within RESOLUTION times its rounding-error bound is indistinguishable from 0
 
 
 def _suspicious(x0: float, x1: float, d0: float, d1: float, width: float, floor: float) -> bool:
@@ -45,39 +45,58 @@ def numeric_equilibria(part: Part, delta: float, edges: Edges | None = None) -> 
     pts = curve(edges, part.area, delta, theta, z0)
     floor = RESOLUTION * float(pts.error.max())
     if np.abs(pts.x).max() <= 100 * floor:
-        raise SolverError(f"x*(theta, delta={delta}) stays below {100 * floor:.3g} m for every theta: "
-                          "too small to resolve numerically (use the asymptotic method)")
+        raise SolverError(
+            f"x*(theta, delta={delta}) stays below {100 * floor:.3g} m for every theta: "
+            "too small to resolve numerically (use the asymptotic method)"
+        )
     # Subdivide intervals that might hide a pair of crossings, until none is left.
     th, xs, ds, zs = list(pts.theta), list(pts.x), list(pts.dx), list(pts.z)
     for _ in range(MAX_DEPTH):
         order = np.argsort(th)
-        th, xs, ds, zs = [th[i] for i in order], [xs[i] for i in order], [ds[i] for i in order], [zs[i] for i in order]
+        th, xs, ds, zs = (
+            [th[i] for i in order],
+            [xs[i] for i in order],
+            [ds[i] for i in order],
+            [zs[i] for i in order],
+        )
         mids, starts = [], []
         for i in range(len(th) - 1):
-            if _suspicious(xs[i], xs[i + 1], ds[i], ds[i + 1], th[i + 1] - th[i], floor) and th[i + 1] - th[i] > 1e-9:
+            if (
+                _suspicious(xs[i], xs[i + 1], ds[i], ds[i + 1], th[i + 1] - th[i], floor)
+                and th[i + 1] - th[i] > 1e-9
+            ):
                 mids.append(0.5 * (th[i] + th[i + 1]))
                 starts.append(zs[i])
         if not mids:
             break
         more = curve(edges, part.area, delta, np.array(mids), np.array(starts))
-        th += list(more.theta); xs += list(more.x); ds += list(more.dx); zs += list(more.z)
+        th += list(more.theta)
+        xs += list(more.x)
+        ds += list(more.dx)
+        zs += list(more.z)
     else:
         raise SolverError("could not separate the zero crossings of x*(theta) (tangential crossing?)")
     th_a, x_a = np.array(th), np.array(xs)
     z_a = np.array(zs)
     # Samples within the rounding floor count as zero; a crossing there is bracketed by its neighbours.
     sign = np.where(np.abs(x_a) <= floor, 0.0, np.sign(x_a))
-    brackets = [(th_a[i], th_a[i + 1], x_a[i], z_a[i]) for i in range(len(th_a) - 1) if sign[i] * sign[i + 1] < 0]
+    brackets = [
+        (th_a[i], th_a[i + 1], x_a[i], z_a[i]) for i in range(len(th_a) - 1) if sign[i] * sign[i + 1] < 0
+    ]
     for i in np.flatnonzero(sign == 0):
         j, k = (i - 1) % (len(th_a) - 1), (i + 1) % (len(th_a) - 1)
         if sign[j] * sign[k] >= 0:
-            raise SolverError(f"x*(theta) touches zero without crossing near theta = {th_a[i]:.6f} (degenerate)")
+            raise SolverError(
+                f"x*(theta) touches zero without crossing near theta = {th_a[i]:.6f} (degenerate)"
+            )
         lo_t = th_a[j] if j < i else th_a[j] - 2 * math.pi
         brackets.append((lo_t, th_a[i] + (th_a[k] - th_a[i]) % (2 * math.pi), x_a[j], z_a[j]))
     if not brackets:
         raise SolverError("x*(theta) never changes sign: no equilibrium found (contradicts Prop. 5)")
-    lo = np.array([b[0] for b in brackets]); hi = np.array([b[1] for b in brackets])
-    flo = np.array([b[2] for b in brackets]); zstart = np.array([b[3] for b in brackets])
+    lo = np.array([b[0] for b in brackets])
+    hi = np.array([b[1] for b in brackets])
+    flo = np.array([b[2] for b in brackets])
+    zstart = np.array([b[3] for b in brackets])
     guess = 0.5 * (lo + hi)
     # Safeguarded Newton on theta with the exact dx*/dtheta, all roots at once.
     for _ in range(100):
@@ -107,9 +126,13 @@ def numeric_equilibria(part: Part, delta: float, edges: Edges | None = None) -> 
         stable_hess = bool(eig.min() > 0)
         stable_prop6 = bool(final.dx[k] > 0)
         if stable_hess != stable_prop6 or abs(final.dx[k]) * scale <= floor:
-            raise SolverError(f"degenerate equilibrium near theta = {guess[k]:.6f}: Hessian and Prop. 6 disagree")
+            raise SolverError(
+                f"degenerate equilibrium near theta = {guess[k]:.6f}: Hessian and Prop. 6 disagree"
+            )
         eig_min.append(float(eig.min()))
-        equilibria.append(Equilibrium(float(final.x[k]), float(final.y[k]), float(guess[k] % (2 * math.pi)), stable_hess))
+        equilibria.append(
+            Equilibrium(float(final.x[k]), float(final.y[k]), float(guess[k] % (2 * math.pi)), stable_hess)
+        )
     order = np.argsort([e.theta for e in equilibria])
     equilibria = [equilibria[i] for i in order]
     # drop a duplicate produced by the 0 / 2 pi seam
@@ -119,6 +142,13 @@ def numeric_equilibria(part: Part, delta: float, edges: Edges | None = None) -> 
             unique.append(e)
     if len(unique) > 1 and abs(unique[-1].theta - unique[0].theta - 2 * math.pi) <= 1e-9:
         unique.pop()
-    details = {"certified": True, "samples": len(th_a), "x_resolution": floor, "hessian_min_eigenvalues": [eig_min[i] for i in order],
-               "theta_uncertainty": float(uncertainty.max())}
-    return EquilibriaResult((float(-z0[0]), float(-z0[1])), part.area, delta, "numeric", tuple(unique), details)
+    details = {
+        "certified": True,
+        "samples": len(th_a),
+        "x_resolution": floor,
+        "hessian_min_eigenvalues": [eig_min[i] for i in order],
+        "theta_uncertainty": float(uncertainty.max()),
+    }
+    return EquilibriaResult(
+        (float(-z0[0]), float(-z0[1])), part.area, delta, "numeric", tuple(unique), details
+    )

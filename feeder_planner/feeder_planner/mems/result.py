@@ -17,7 +17,12 @@ class Equilibrium:
     stable: bool
 
     def to_dict(self) -> dict[str, Any]:
-        return {"x": self.x + 0.0, "y": self.y + 0.0, "theta": self.theta % (2 * math.pi), "stable": self.stable}
+        return {
+            "x": self.x + 0.0,
+            "y": self.y + 0.0,
+            "theta": self.theta % (2 * math.pi),
+            "stable": self.stable,
+        }
 
 
 @dataclass(frozen=True)
@@ -36,5 +41,11 @@ class EquilibriaResult:
         return tuple(e for e in self.equilibria if e.stable)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"pivot": [self.pivot[0] + 0.0, self.pivot[1] + 0.0], "area": self.area, "delta": self.delta, "method": self.method,
-                "equilibria": [e.to_dict() for e in self.equilibria], "details": self.details}
+        return {
+            "pivot": [self.pivot[0] + 0.0, self.pivot[1] + 0.0],
+            "area": self.area,
+            "delta": self.delta,
+            "method": self.method,
+            "equilibria": [e.to_dict() for e in self.equilibria],
+            "details": self.details,
+        }

@@ -3,28 +3,38 @@
 from __future__ import annotations
 
 import math
-from typing import Any
 
-from geometry_msgs.msg import Pose
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from feeder_msgs.msg import EquilibriaPrediction, Equilibrium, FieldProgram, MemsPartStates, MemsParts
+from feeder_msgs.msg import EquilibriaPrediction, Equilibrium, FieldProgram, MemsParts, MemsPartStates
 from feeder_msgs.srv import EquilibriaCompute
 from feeder_planner.errors import FeederError, InputError
 from feeder_planner.mems.equilibria import METHODS, find_equilibria
-from feeder_planner.mems.fields import CombinedField
-from feeder_planner.mems.messages import program_from_msg
+from feeder_planner.mems.fields import CombinedField, ProgramStep
 from feeder_planner.mems.predict import final_equilibrium
-from feeder_planner.nodes.ros_common import (
-    ParameterSpec, declare_parameters, part_from_msg, positive, run_node, service_guard,
+from feeder_planner.mems.result import EquilibriaResult
+from feeder_planner.node_kit import (
+    LATCHED,
+    STREAM_DEPTH,
+    ParameterSpec,
+    declare_parameters,
+    one_of,
+    planar_pose,
+    positive,
+    run_node,
+    service_guard,
 )
-
-LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+from feeder_planner.node_kit.msg_fields import program_from_msg
+from feeder_planner.node_kit.msg_parts import part_from_msg
+from feeder_planner.parts import Part
 
 PARAMETERS = (
-    ParameterSpec("default_method", "auto", "method when a request leaves it empty: auto | asymptotic | numeric",
-                  lambda v: None if v in METHODS else f"must be one of {', '.join(METHODS)}, got {v!r}"),
+    ParameterSpec(
+        "default_method",
+        "auto",
+        "method when a request leaves it empty: auto | asymptotic | numeric",
+        one_of(METHODS),
+    ),
     ParameterSpec("prediction_rate", 2.0, "rate (Hz) at which predicted final poses are refreshed", positive),
 )
 
@@ -39,15 +49,17 @@ class FieldEquilibriaPlanner(Node):
         self.prediction_pub = self.create_publisher(EquilibriaPrediction, "/mems/predicted_poses", LATCHED)
         self.create_subscription(FieldProgram, "/mems/field_program", self.on_program, LATCHED)
         self.create_subscription(MemsParts, "/mems/parts", self.on_parts, LATCHED)
-        self.create_subscription(MemsPartStates, "/mems/part_states", self.on_states, 10)
-        self.program = None
-        self.parts: list = []
-        self.states = None
-        self.results: dict[int, Any] = {}
+        self.create_subscription(MemsPartStates, "/mems/part_states", self.on_states, STREAM_DEPTH)
+        self.program: tuple[ProgramStep, ...] | None = None
+        self.parts: list[Part] = []
+        self.states: MemsPartStates | None = None
+        self.results: dict[int, EquilibriaResult] = {}
         self.last_published: list[tuple[float, float, float]] | None = None
         self.create_timer(1.0 / self.p["prediction_rate"], self.predict)
 
-    def on_compute(self, request: Any, response: Any) -> Any:
+    def on_compute(
+        self, request: EquilibriaCompute.Request, response: EquilibriaCompute.Response
+    ) -> EquilibriaCompute.Response:
         part = part_from_msg(request.part, "part")
         method = request.method or self.p["default_method"]
         if method not in METHODS:
@@ -57,8 +69,10 @@ class FieldEquilibriaPlanner(Node):
         response.certified = bool(result.details.get("certified", True))
         response.pivot_x, response.pivot_y = result.pivot
         response.area = result.area
-        response.equilibria = [Equilibrium(x=e.x, y=e.y, theta=e.theta % (2 * math.pi), stable=e.stable)
-                               for e in result.equilibria]
+        response.equilibria = [
+            Equilibrium(x=e.x, y=e.y, theta=e.theta % (2 * math.pi), stable=e.stable)
+            for e in result.equilibria
+        ]
         return response
 
     def on_program(self, msg: FieldProgram) -> None:
@@ -85,7 +99,7 @@ class FieldEquilibriaPlanner(Node):
             return
         field = self.program[-1].field
         if not isinstance(field, CombinedField) or field.delta <= 0:
-            return   # only the radial + constant field has the planned equilibria (section 3)
+            return  # only the radial + constant field has the planned equilibria (section 3)
         out = EquilibriaPrediction(field_type="combined", delta=field.delta)
         out.header.stamp = self.get_clock().now().to_msg()
         out.header.frame_id = self.states.header.frame_id
@@ -100,9 +114,7 @@ class FieldEquilibriaPlanner(Node):
             # equilibria are computed for the field centred at the origin; the field's centre translates them
             e = final_equilibrium(self.results[i], state.theta)
             x, y = e.x + field.center[0], e.y + field.center[1]
-            pose = Pose()
-            pose.position.x, pose.position.y = x, y
-            pose.orientation.z, pose.orientation.w = math.sin(e.theta / 2), math.cos(e.theta / 2)
+            pose = planar_pose(x, y, e.theta)
             out.names.append(state.name)
             out.poses.append(pose)
             out.theta.append(e.theta)

@@ -26,9 +26,17 @@ class DesignRow:
         return 0.0 if self.trigger is None else self.trigger[1] - self.trigger[0]
 
 
-def search(part: ArmPart, goal_edge: int, offsets: np.ndarray, speeds: np.ndarray, gravity: float, mu: float,
-           sensing_height: float | None = None, starts_per_edge: int = 10, throws: int = 200
-           ) -> tuple[DesignRow | None, list[DesignRow]]:
+def search(
+    part: ArmPart,
+    goal_edge: int,
+    offsets: np.ndarray,
+    speeds: np.ndarray,
+    gravity: float,
+    mu: float,
+    sensing_height: float | None = None,
+    starts_per_edge: int = 10,
+    throws: int = 200,
+) -> tuple[DesignRow | None, list[DesignRow]]:
     """Try every (h, W) of the grid; the best design has a unique cycle through the goal edge and the widest range."""
     if goal_edge not in part.stable_edges:
         raise InputError("goal_edge", f"edge {goal_edge} is not a stable edge (stable: {part.stable_edges})")
@@ -46,8 +54,16 @@ def search(part: ArmPart, goal_edge: int, offsets: np.ndarray, speeds: np.ndarra
             note = "" if ls.unique else "starts reach different cycles (or none)"
             if ls.unique and goal_edge not in ls.cycle.edges:
                 note = "goal edge is not in the cycle"
-            rows.append(DesignRow(float(h), float(w), ls.unique, ls.cycle.edges if ls.cycle else None,
-                                  ls.trigger if ls.unique else None, note))
+            rows.append(
+                DesignRow(
+                    float(h),
+                    float(w),
+                    ls.unique,
+                    ls.cycle.edges if ls.cycle else None,
+                    ls.trigger if ls.unique else None,
+                    note,
+                )
+            )
     good = [r for r in rows if r.unique and r.trigger is not None]
     best = max(good, key=lambda r: r.width) if good else None
     return best, rows

@@ -11,34 +11,52 @@ from feeder_planner.throwing.geometry import ArmPart
 _BISECTIONS = 60  # halvings of a piece: 2^-60 of the flight time is below double resolution
 
 
-def release_state(part: ArmPart, edge: np.ndarray, radius: np.ndarray, offset: float, speed: float
-                  ) -> tuple[np.ndarray, ...]:
+def release_state(
+    part: ArmPart, edge: np.ndarray, radius: np.ndarray, offset: float, speed: float
+) -> tuple[np.ndarray, ...]:
     """(x, y, Theta, xdot, ydot, Thetadot) at release, eq. (5) at t = 0; Theta is the part's absolute angle."""
     a = offset + part.d[edge]
-    return (radius.astype(float), a, -part.edge_angle[edge], -a * speed, radius * speed,
-            np.full(radius.shape, float(speed)))
+    return (
+        radius.astype(float),
+        a,
+        -part.edge_angle[edge],
+        -a * speed,
+        radius * speed,
+        np.full(radius.shape, float(speed)),
+    )
 
 
-def flight_state(part: ArmPart, edge: int, radius: float, offset: float, speed: float, gravity: float,
-                 t: np.ndarray) -> np.ndarray:
+def flight_state(
+    part: ArmPart, edge: int, radius: float, offset: float, speed: float, gravity: float, t: np.ndarray
+) -> np.ndarray:
     """Rows (x, y, Theta, xdot, ydot, Thetadot) at times t, eq. (5) (Theta = -alpha_i + phi)."""
     t = np.asarray(t, dtype=float)
     a = offset + float(part.d[edge])
-    return np.stack([radius - a * speed * t, a + radius * speed * t + 0.5 * gravity * t * t,
-                     -float(part.edge_angle[edge]) + speed * t, np.full_like(t, -a * speed),
-                     radius * speed + gravity * t, np.full_like(t, speed)], axis=-1)
+    return np.stack(
+        [
+            radius - a * speed * t,
+            a + radius * speed * t + 0.5 * gravity * t * t,
+            -float(part.edge_angle[edge]) + speed * t,
+            np.full_like(t, -a * speed),
+            radius * speed + gravity * t,
+            np.full_like(t, speed),
+        ],
+        axis=-1,
+    )
 
 
-def vertex_positions(part: ArmPart, edge: int, radius: float, offset: float, speed: float, gravity: float,
-                     t: float) -> np.ndarray:
+def vertex_positions(
+    part: ArmPart, edge: int, radius: float, offset: float, speed: float, gravity: float, t: float
+) -> np.ndarray:
     """Hull vertices in the arm frame at time t of flight, eq. (6)."""
     x, y, theta = flight_state(part, edge, radius, offset, speed, gravity, np.array([t]))[0, :3]
     c, s = math.cos(theta), math.sin(theta)
     return part.hull @ np.array([[c, s], [-s, c]]) + np.array([x, y])
 
 
-def earliest_impact(part: ArmPart, edge: np.ndarray, radius: np.ndarray, offset: float, speed: float,
-                    gravity: float) -> tuple[np.ndarray, np.ndarray]:
+def earliest_impact(
+    part: ArmPart, edge: np.ndarray, radius: np.ndarray, offset: float, speed: float, gravity: float
+) -> tuple[np.ndarray, np.ndarray]:
     """(t*, k*): the first time t > 0 a hull vertex reaches the arm surface y = h, and which vertex.
 
     Vertex k's height above the arm is f(t) = d + R W t + g t^2/2 + s_k sin(W t + c_k), with
@@ -53,12 +71,12 @@ def earliest_impact(part: ArmPart, edge: np.ndarray, radius: np.ndarray, offset:
     edge = np.asarray(edge)
     radius = np.asarray(radius, dtype=float)
     w, g = float(speed), float(gravity)
-    d = part.d[edge][:, None]                                      # (B, 1)
+    d = part.d[edge][:, None]  # (B, 1)
     b1 = (radius * w)[:, None]
     q = part.hull
-    s = np.hypot(q[:, 0], q[:, 1])[None, :]                        # (1, n)
-    c = (np.arctan2(q[:, 1], q[:, 0])[None, :] - part.edge_angle[edge][:, None])  # (B, n)
-    t_end = (b1 + np.sqrt(b1 * b1 - 2.0 * g * d)) / (-g)           # (B, 1)
+    s = np.hypot(q[:, 0], q[:, 1])[None, :]  # (1, n)
+    c = np.arctan2(q[:, 1], q[:, 0])[None, :] - part.edge_angle[edge][:, None]  # (B, n)
+    t_end = (b1 + np.sqrt(b1 * b1 - 2.0 * g * d)) / (-g)  # (B, 1)
 
     def f(t: np.ndarray, d_: np.ndarray, b_: np.ndarray, s_: np.ndarray, c_: np.ndarray) -> np.ndarray:
         return d_ + t * (b_ + 0.5 * g * t) + s_ * np.sin(w * t + c_)
@@ -68,19 +86,19 @@ def earliest_impact(part: ArmPart, edge: np.ndarray, radius: np.ndarray, offset:
 
     # Inflection times: sin(W t + c) = g / (W^2 s); none when W^2 s <= |g| (f concave throughout).
     sigma = np.clip(g / (w * w * s), -1.0, 1.0)
-    has_inflection = (w * w * s > -g)[0]                           # (n,)
+    has_inflection = (w * w * s > -g)[0]  # (n,)
     batch, n = len(radius), len(q)
     edges_ = [np.zeros((batch, n, 1)), np.broadcast_to(t_end[..., None], (batch, n, 1))]
     if has_inflection.any():
         turns = int(math.ceil(w * float(t_end.max()) / (2 * math.pi))) + 1
         phases = np.concatenate([np.arcsin(sigma), math.pi - np.arcsin(sigma)], axis=0)  # (2, n)
-        first = np.mod(phases[:, None, :] - c[None, :, :], 2 * math.pi) / w              # (2, B, n)
-        cuts = first[..., None] + (2 * math.pi / w) * np.arange(turns)                  # (2, B, n, J)
+        first = np.mod(phases[:, None, :] - c[None, :, :], 2 * math.pi) / w  # (2, B, n)
+        cuts = first[..., None] + (2 * math.pi / w) * np.arange(turns)  # (2, B, n, J)
         cuts = np.moveaxis(cuts, 0, -2).reshape(batch, n, -1)
         cuts = np.where(has_inflection[None, :, None], cuts, np.inf)
         edges_.insert(1, np.minimum(cuts, t_end[..., None]))
     bounds = np.sort(np.concatenate(edges_, axis=-1), axis=-1)
-    a_, b_ = bounds[..., :-1], bounds[..., 1:]                     # pieces (B, n, P)
+    a_, b_ = bounds[..., :-1], bounds[..., 1:]  # pieces (B, n, P)
     bi, ki, pi = np.nonzero(b_ > a_)
     a_, b_ = a_[bi, ki, pi], b_[bi, ki, pi]
     dd, bb, ss, cc = d[bi, 0], b1[bi, 0], s[0, ki], c[bi, ki]

@@ -20,15 +20,15 @@ class ArmPart:
     """
 
     part: Part
-    hull: np.ndarray          # (n, 2) hull vertices, part frame
+    hull: np.ndarray  # (n, 2) hull vertices, part frame
     file_index: tuple[int, ...]  # index in the file's vertex list of each hull vertex
-    edge_angle: np.ndarray    # alpha_i: direction angle of edge i in the part frame
-    exterior: np.ndarray      # exterior angle at vertex k (turn from edge k-1 to edge k), in (0, pi)
-    d: np.ndarray             # d^i: distance from the centre of mass to the line of edge i
-    u_left: np.ndarray        # u_l^i, in frame F^i
-    u_right: np.ndarray       # u_r^i, in frame F^i
-    stable: np.ndarray        # bool, E^i stable (u_l < 0 < u_r)
-    rho: float                # radius of gyration about the centre of mass
+    edge_angle: np.ndarray  # alpha_i: direction angle of edge i in the part frame
+    exterior: np.ndarray  # exterior angle at vertex k (turn from edge k-1 to edge k), in (0, pi)
+    d: np.ndarray  # d^i: distance from the centre of mass to the line of edge i
+    u_left: np.ndarray  # u_l^i, in frame F^i
+    u_right: np.ndarray  # u_r^i, in frame F^i
+    stable: np.ndarray  # bool, E^i stable (u_l < 0 < u_r)
+    rho: float  # radius of gyration about the centre of mass
     mass: float
 
     @property
@@ -55,7 +55,10 @@ class ArmPart:
 
     def contact_vertices(self, edge: int) -> tuple[tuple[float, float], tuple[float, float]]:
         """((u_l, v_l), (u_r, v_r)) of edge i in F^i; v_l = v_r = -d^i."""
-        return ((float(self.u_left[edge]), -float(self.d[edge])), (float(self.u_right[edge]), -float(self.d[edge])))
+        return (
+            (float(self.u_left[edge]), -float(self.d[edge])),
+            (float(self.u_right[edge]), -float(self.d[edge])),
+        )
 
 
 def rotate(points: np.ndarray, angle: float) -> np.ndarray:
@@ -83,6 +86,16 @@ def arm_part(part: Part) -> ArmPart:
         d[i] = -local[0, 1]
         ul[i], ur[i] = local[0, 0], local[1, 0]
     rho = math.sqrt(part.polar_moment / part.area)
-    return ArmPart(part=part, hull=hull, file_index=tuple(int(i) for i in hull_idx), edge_angle=alpha,
-                   exterior=exterior, d=d, u_left=ul, u_right=ur, stable=(ul < 0) & (ur > 0), rho=rho,
-                   mass=part.mass)
+    return ArmPart(
+        part=part,
+        hull=hull,
+        file_index=tuple(int(i) for i in hull_idx),
+        edge_angle=alpha,
+        exterior=exterior,
+        d=d,
+        u_left=ul,
+        u_right=ur,
+        stable=(ul < 0) & (ur > 0),
+        rho=rho,
+        mass=part.mass,
+    )

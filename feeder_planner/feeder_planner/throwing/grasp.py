@@ -13,21 +13,32 @@ from feeder_planner.throwing.geometry import ArmPart
 def cone_edges(part: ArmPart, edge: int, mu: float) -> np.ndarray:
     """The four contact wrenches w_1..w_4 of edge i in F^i (rows), as in section III-A.1."""
     (ul, vl), (ur, vr) = part.contact_vertices(edge)
-    return np.array([[-mu, 1.0, ul + mu * vl], [mu, 1.0, ul - mu * vl],
-                     [mu, 1.0, ur - mu * vr], [-mu, 1.0, ur + mu * vr]])
+    return np.array(
+        [[-mu, 1.0, ul + mu * vl], [mu, 1.0, ul - mu * vl], [mu, 1.0, ur - mu * vr], [-mu, 1.0, ur + mu * vr]]
+    )
 
 
-def required_wrench(part: ArmPart, edge: int, radius: float, offset: float, gravity: float,
-                    theta: float, theta_dot: float, theta_ddot: float) -> np.ndarray:
+def required_wrench(
+    part: ArmPart,
+    edge: int,
+    radius: float,
+    offset: float,
+    gravity: float,
+    theta: float,
+    theta_dot: float,
+    theta_ddot: float,
+) -> np.ndarray:
     """The wrench (f_u, f_v, tau) the arm must apply to carry the part rigidly (section III-A.1), per unit mass."""
     a = offset + float(part.d[edge])
-    return (theta_ddot * np.array([-a, radius, part.rho ** 2])
-            + theta_dot ** 2 * np.array([-radius, -a, 0.0])
-            + np.array([-gravity * math.sin(theta), -gravity * math.cos(theta), 0.0]))
+    return (
+        theta_ddot * np.array([-a, radius, part.rho**2])
+        + theta_dot**2 * np.array([-radius, -a, 0.0])
+        + np.array([-gravity * math.sin(theta), -gravity * math.cos(theta), 0.0])
+    )
 
 
 def in_cone(wrench: np.ndarray, cone: np.ndarray, tol: float = 0.0) -> bool:
-    """w in W^i iff w . (w_j x w_k) <= 0 for (j, k) = (1,2), (2,3), (3,4), (4,1)."""
+    """W in W^i iff w . (w_j x w_k) <= 0 for (j, k) = (1,2), (2,3), (3,4), (4,1)."""
     scale = float(np.abs(wrench).max()) or 1.0
     for j in range(4):
         normal = np.cross(cone[j], cone[(j + 1) % 4])
@@ -36,17 +47,28 @@ def in_cone(wrench: np.ndarray, cone: np.ndarray, tol: float = 0.0) -> bool:
     return True
 
 
-def carry_in_grasp(part: ArmPart, edge: int, radius: float, offset: float, gravity: float, mu: float,
-                   theta: float, theta_dot: float, theta_ddot: float) -> bool:
+def carry_in_grasp(
+    part: ArmPart,
+    edge: int,
+    radius: float,
+    offset: float,
+    gravity: float,
+    mu: float,
+    theta: float,
+    theta_dot: float,
+    theta_ddot: float,
+) -> bool:
     """Necessary condition for a dynamic grasp at one arm state of a carry (wrench-cone test)."""
-    return in_cone(required_wrench(part, edge, radius, offset, gravity, theta, theta_dot, theta_ddot),
-                   cone_edges(part, edge, mu))
+    return in_cone(
+        required_wrench(part, edge, radius, offset, gravity, theta, theta_dot, theta_ddot),
+        cone_edges(part, edge, mu),
+    )
 
 
 def impulse_in_grasp(part: ArmPart, edge: int, radius: float, offset: float, mu: float) -> bool:
     """Whether the impulse p = W (-(h+d), R, rho^2) lies in the impulse cone (independent of W > 0)."""
     a = offset + float(part.d[edge])
-    return in_cone(np.array([-a, radius, part.rho ** 2]), cone_edges(part, edge, mu))
+    return in_cone(np.array([-a, radius, part.rho**2]), cone_edges(part, edge, mu))
 
 
 def grasp_bounds(part: ArmPart, edge: int, offset: float, mu: float) -> tuple[float, float, float, float]:
@@ -55,7 +77,7 @@ def grasp_bounds(part: ArmPart, edge: int, offset: float, mu: float) -> tuple[fl
         raise InputError("edge", f"edge {edge} is not a stable edge (stable edges: {part.stable_edges})")
     (ul, vl), (ur, vr) = part.contact_vertices(edge)
     a = offset + float(part.d[edge])
-    rho2 = part.rho ** 2
+    rho2 = part.rho**2
     return ((rho2 - vl * a) / ul, -a / mu, (rho2 - vr * a) / ur, a / mu)
 
 

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 
-def sticking_impact(rx: np.ndarray, ry: np.ndarray, xdot: np.ndarray, ydot: np.ndarray, phidot: np.ndarray,
-                    rho: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def sticking_impact(
+    rx: np.ndarray, ry: np.ndarray, xdot: np.ndarray, ydot: np.ndarray, phidot: np.ndarray, rho: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Post-impact (xdot+, ydot+, phidot+) from eqs. (7)-(9); (rx, ry) runs from the centre of mass to the vertex.
 
     Substituting (7) xdot+ = ry phidot+ and (8) ydot+ = -rx phidot+ into (9) gives

@@ -13,7 +13,7 @@ from feeder_planner.throwing.grasp import grasp_radii
 from feeder_planner.throwing.sensor import trigger_range
 from feeder_planner.throwing.throw_map import GRASP_TOL, ThrowParams, lowest_radius, throw_batch
 
-SCAN_POINTS = 400      # resolution of the R_flip scan and of the invariant-set check, per edge
+SCAN_POINTS = 400  # resolution of the R_flip scan and of the invariant-set check, per edge
 MAX_SCAN_RADII = 1000  # give up looking for a flip beyond this many part radii past R_grasp
 
 
@@ -27,7 +27,9 @@ class Trajectories:
     escaped: np.ndarray
 
 
-def iterate(part: ArmPart, params: ThrowParams, edges: np.ndarray, radii: np.ndarray, throws: int) -> Trajectories:
+def iterate(
+    part: ArmPart, params: ThrowParams, edges: np.ndarray, radii: np.ndarray, throws: int
+) -> Trajectories:
     """f^N from every start at once; a state outside the domain (unstable edge, R < R_grasp) stops its row."""
     low = np.full(part.n, np.inf)
     for i in part.stable_edges:
@@ -60,7 +62,7 @@ class EdgeBounds:
     flip: dict[int, float]
     max: dict[int, float]
     jogs_outward: dict[int, bool]
-    invariant: bool   # f maps Z = U_i (i, [low_i, R_max_i]) into itself on the sampled grid
+    invariant: bool  # f maps Z = U_i (i, [low_i, R_max_i]) into itself on the sampled grid
 
 
 def edge_bounds(part: ArmPart, params: ThrowParams, points: int = SCAN_POINTS) -> EdgeBounds:
@@ -82,7 +84,11 @@ def edge_bounds(part: ArmPart, params: ThrowParams, points: int = SCAN_POINTS) -
             flips = np.flatnonzero(~out.is_jog(np.full(points, i)))
             if flips.size:
                 first = int(flips[0])
-                flip[i] = _refine_flip(part, params, i, float(r[first - 1]), float(r[first])) if first else float(r[0])
+                flip[i] = (
+                    _refine_flip(part, params, i, float(r[first - 1]), float(r[first]))
+                    if first
+                    else float(r[0])
+                )
                 outward[i] = bool(np.all(out.radius[:first] > r[:first]))
                 top[i] = max(float(r[first]), float(out.radius[:first].max()) if first else float(r[first]))
                 break
@@ -155,7 +161,7 @@ def find_cycle(edge_row: np.ndarray, jog_row: np.ndarray) -> Cycle | None:
     # Start the cycle at the visit with the longest stay (ties: smallest edge), as the paper tells its cycles.
     start = max(range(p), key=lambda j: (sum(n for v, n in zip(visits[j::p], lengths[j::p])), -period[j]))
     canonical = period[start:] + period[:start]
-    per_cycle = [sum(lengths[c:c + p]) for c in range(0, total - p + 1, p)]
+    per_cycle = [sum(lengths[c : c + p]) for c in range(0, total - p + 1, p)]
     return Cycle(canonical, float(np.mean(per_cycle)), (min(per_cycle), max(per_cycle)))
 
 
@@ -174,9 +180,16 @@ class LimitSet:
     trajectories: Trajectories | None = None
 
 
-def limit_set(part: ArmPart, params: ThrowParams, goal_edge: int | None = None, starts_per_edge: int = 25,
-              throws: int = 300, burn_in: int = 100, sensing_height: float | None = None,
-              keep_trajectories: bool = False) -> LimitSet:
+def limit_set(
+    part: ArmPart,
+    params: ThrowParams,
+    goal_edge: int | None = None,
+    starts_per_edge: int = 25,
+    throws: int = 300,
+    burn_in: int = 100,
+    sensing_height: float | None = None,
+    keep_trajectories: bool = False,
+) -> LimitSet:
     """Forward limit set from a grid of starts over Z (as Figs. 7, 8), its cycle and the sensor trigger range.
 
     Every start of the grid (``starts_per_edge`` radii in [low_i, R_max_i] on each stable edge) is thrown
@@ -195,9 +208,11 @@ def limit_set(part: ArmPart, params: ThrowParams, goal_edge: int | None = None, 
     traj = iterate(part, params, np.array(edges), np.array(radii), throws)
     if traj.escaped.any():
         bad = int(np.flatnonzero(traj.escaped)[0])
-        raise SolverError(f"{int(traj.escaped.sum())} start(s) leave the throw map's domain (a throw lands below "
-                          f"R_grasp or on no stable edge), e.g. from edge {edges[bad]} at R = {radii[bad]:.4g} m: "
-                          "this design has no invariant set (Prop. IV.4)")
+        raise SolverError(
+            f"{int(traj.escaped.sum())} start(s) leave the throw map's domain (a throw lands below "
+            f"R_grasp or on no stable edge), e.g. from edge {edges[bad]} at R = {radii[bad]:.4g} m: "
+            "this design has no invariant set (Prop. IV.4)"
+        )
     tail_e, tail_r, tail_j = traj.edge[:, burn_in:], traj.radius[:, burn_in:], traj.jog[:, burn_in:]
     cycles = [find_cycle(e, j) for e, j in zip(tail_e, tail_j)]
     names = [c.edges if c else None for c in cycles]
@@ -217,5 +232,16 @@ def limit_set(part: ArmPart, params: ThrowParams, goal_edge: int | None = None, 
         height = 0.01 * part.radius if sensing_height is None else sensing_height
         runs = [list(zip((int(v) for v in e), (float(r) for r in rr))) for e, rr in zip(tail_e, tail_r)]
         trigger = trigger_range(part, goal_edge, height, runs)
-    return LimitSet(bounds, cycle, unique, ranges, trigger, goal_edge, len(edges), throws, 0, names,
-                    traj if keep_trajectories else None)
+    return LimitSet(
+        bounds,
+        cycle,
+        unique,
+        ranges,
+        trigger,
+        goal_edge,
+        len(edges),
+        throws,
+        0,
+        names,
+        traj if keep_trajectories else None,
+    )

@@ -32,13 +32,13 @@ class _Geometry:
         q = part.hull
         self.n = part.n
         self.qx, self.qy = q[:, 0], q[:, 1]
-        self.s2 = self.qx ** 2 + self.qy ** 2
+        self.s2 = self.qx**2 + self.qy**2
         self.gamma = np.arctan2(self.qy, self.qx)
         self.alpha = part.edge_angle
         self.ext = part.exterior
         self.stable = part.stable
         self.rho = part.rho
-        self.inertia = part.rho ** 2 + self.s2   # about a vertex, per unit mass
+        self.inertia = part.rho**2 + self.s2  # about a vertex, per unit mass
 
 
 def _offset(geo: _Geometry, k: np.ndarray, theta: np.ndarray) -> np.ndarray:
@@ -67,8 +67,9 @@ def _path_peak(geo: _Geometry, k: np.ndarray, start: np.ndarray, end: np.ndarray
     return np.where(top, np.sqrt(geo.s2[k]), peak)
 
 
-def settle(part: ArmPart, gravity: float, k: np.ndarray, theta: np.ndarray, omega: np.ndarray,
-           pivot_x: np.ndarray) -> Settled:
+def settle(
+    part: ArmPart, gravity: float, k: np.ndarray, theta: np.ndarray, omega: np.ndarray, pivot_x: np.ndarray
+) -> Settled:
     """Roll each part about its pivot vertex until it settles on an edge it can no longer escape.
 
     Rolling about vertex k conserves energy E = I_k omega^2 / 2 - g c_y (per unit mass, I_k = rho^2 + |q_k|^2).
@@ -80,9 +81,16 @@ def settle(part: ArmPart, gravity: float, k: np.ndarray, theta: np.ndarray, omeg
     """
     geo = _Geometry(part)
     g = float(gravity)
-    k, theta, omega, px = k.copy(), theta.astype(float).copy(), omega.astype(float).copy(), pivot_x.astype(float).copy()
+    k, theta, omega, px = (
+        k.copy(),
+        theta.astype(float).copy(),
+        omega.astype(float).copy(),
+        pivot_x.astype(float).copy(),
+    )
     batch = len(k)
-    out = Settled(np.full(batch, -1), np.full(batch, np.nan), np.full(batch, np.nan), np.zeros(batch, dtype=int))
+    out = Settled(
+        np.full(batch, -1), np.full(batch, np.nan), np.full(batch, np.nan), np.zeros(batch, dtype=int)
+    )
     active = np.arange(batch)
     for _ in range(MAX_IMPACTS):
         if active.size == 0:
@@ -149,4 +157,6 @@ def settle(part: ArmPart, gravity: float, k: np.ndarray, theta: np.ndarray, omeg
         k[active[go]], theta[active[go]] = j[go], target[go]
         omega[active[go]], px[active[go]] = om_new[go], p_new[go]
         active = active[go]
-    raise SolverError(f"{active.size} part(s) still rolling after {MAX_IMPACTS} sticking impacts; not settled")
+    raise SolverError(
+        f"{active.size} part(s) still rolling after {MAX_IMPACTS} sticking impacts; not settled"
+    )

@@ -35,7 +35,7 @@ def intersect(a: Intervals, b: Intervals) -> Intervals:
 
 
 def subtract(a: Intervals, b: Intervals) -> Intervals:
-    """a minus the open interiors of b (a sensor exactly on a forbidden state's border is refused too)."""
+    """A minus the open interiors of b (a sensor exactly on a forbidden state's border is refused too)."""
     out: Intervals = []
     for lo, hi in a:
         pieces = [(lo, hi)]
@@ -101,15 +101,17 @@ def reads(part: ArmPart, edge: int, radius: float, sensor_radius: float, height:
     return any(lo <= sensor_radius - radius <= hi for lo, hi in resting_cover(part, edge, height))
 
 
-def reads_pose(part: ArmPart, x: float, y: float, theta: float, arm_y: float, sensor_radius: float,
-               height: float) -> bool:
+def reads_pose(
+    part: ArmPart, x: float, y: float, theta: float, arm_y: float, sensor_radius: float, height: float
+) -> bool:
     """Sensor value for a part at any pose (x, y, theta) in the arm frame, arm surface at y = arm_y."""
     loops = part.part.placed(x, y, theta)
     return any(lo <= sensor_radius <= hi for lo, hi in covered(loops, arm_y, height))
 
 
-def trigger_range(part: ArmPart, goal: int, height: float, states: list[list[tuple[int, float]]]
-                  ) -> tuple[float, float] | None:
+def trigger_range(
+    part: ArmPart, goal: int, height: float, states: list[list[tuple[int, float]]]
+) -> tuple[float, float] | None:
     """Widest sensor radius interval that reads true at rest in every visit to ``goal`` and never elsewhere.
 
     ``states`` holds, per start, the resting states (edge, R) of its trajectory inside the limit set.
@@ -146,4 +148,3 @@ def _starts_inside(run: list[tuple[int, float]], end: int, goal: int) -> bool:
     while start > 0 and run[start - 1][0] == goal:
         start -= 1
     return start > 0
-

@@ -27,8 +27,12 @@ class ThrowParams:
     mu: float
 
     def __post_init__(self) -> None:
-        for name, value in (("offset", self.offset), ("release_speed", self.speed), ("gravity", self.gravity),
-                            ("mu", self.mu)):
+        for name, value in (
+            ("offset", self.offset),
+            ("release_speed", self.speed),
+            ("gravity", self.gravity),
+            ("mu", self.mu),
+        ):
             if not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise InputError(name, f"must be a finite number, got {value!r}")
         if self.gravity >= 0:
@@ -43,9 +47,9 @@ class ThrowParams:
 class ThrowBatch:
     """Results of a batch of throws."""
 
-    edge: np.ndarray       # i1
-    radius: np.ndarray     # R1 (m)
-    rotation: np.ndarray   # net rotation of the part over flight and settling (rad, counter-clockwise +)
+    edge: np.ndarray  # i1
+    radius: np.ndarray  # R1 (m)
+    rotation: np.ndarray  # net rotation of the part over flight and settling (rad, counter-clockwise +)
     flight_time: np.ndarray
     impacts: np.ndarray
 
@@ -72,11 +76,17 @@ def check_start(part: ArmPart, edge: int, radius: float, params: ThrowParams) ->
         raise InputError("radius", f"must be finite, got {radius!r}")
     r_grasp = grasp_radius(part, edge, params.offset, params.mu)  # raises for an unstable edge
     if radius < r_grasp - GRASP_TOL * max(1.0, abs(r_grasp)):
-        raise InputError("radius", f"R = {radius:.6g} m is below R_grasp = {r_grasp:.6g} m of edge {edge}: "
-                                   "the impulsive throw is not in a dynamic grasp (eqs. 1-4)")
+        raise InputError(
+            "radius",
+            f"R = {radius:.6g} m is below R_grasp = {r_grasp:.6g} m of edge {edge}: "
+            "the impulsive throw is not in a dynamic grasp (eqs. 1-4)",
+        )
     if radius + float(part.u_left[edge]) <= 0:
-        raise InputError("radius", f"R = {radius:.6g} m puts the left contact vertex left of the pivot: it would "
-                                   "move into the arm at release (the paper assumes the part right of the pivot)")
+        raise InputError(
+            "radius",
+            f"R = {radius:.6g} m puts the left contact vertex left of the pivot: it would "
+            "move into the arm at release (the paper assumes the part right of the pivot)",
+        )
 
 
 def throw_batch(part: ArmPart, edge: np.ndarray, radius: np.ndarray, params: ThrowParams) -> ThrowBatch:
@@ -86,7 +96,9 @@ def throw_batch(part: ArmPart, edge: np.ndarray, radius: np.ndarray, params: Thr
     w, g, h = params.speed, params.gravity, params.offset
     t, k = earliest_impact(part, edge, radius, h, w, g)
     if (k < 0).any():
-        raise RuntimeError("flight ended without an impact: the flight bound is wrong")  # cannot happen: CM at arm level
+        raise RuntimeError(
+            "flight ended without an impact: the flight bound is wrong"
+        )  # cannot happen: CM at arm level
     a = h + part.d[edge]
     theta0 = -part.edge_angle[edge]
     theta = theta0 + w * t
@@ -97,8 +109,9 @@ def throw_batch(part: ArmPart, edge: np.ndarray, radius: np.ndarray, params: Thr
     ry = s * part.hull[k, 0] + c * part.hull[k, 1]
     _, _, omega = sticking_impact(rx, ry, xdot, ydot, np.full_like(t, w), part.rho)
     rest = settle(part, g, k, theta, omega, x + rx)
-    return ThrowBatch(edge=rest.edge, radius=rest.x, rotation=rest.theta - theta0, flight_time=t,
-                      impacts=rest.impacts + 1)
+    return ThrowBatch(
+        edge=rest.edge, radius=rest.x, rotation=rest.theta - theta0, flight_time=t, impacts=rest.impacts + 1
+    )
 
 
 @dataclass(frozen=True)
@@ -117,6 +130,12 @@ def throw(part: ArmPart, edge: int, radius: float, params: ThrowParams) -> Throw
     check_start(part, edge, radius, params)
     out = throw_batch(part, np.array([edge]), np.array([radius]), params)
     kind = "jog" if bool(out.is_jog(np.array([edge]))[0]) else "flip"
-    return ThrowResult(edge=int(out.edge[0]), radius=float(out.radius[0]), kind=kind,
-                       rotation=float(out.rotation[0]), turns=int(out.turns[0]),
-                       flight_time=float(out.flight_time[0]), impacts=int(out.impacts[0]))
+    return ThrowResult(
+        edge=int(out.edge[0]),
+        radius=float(out.radius[0]),
+        kind=kind,
+        rotation=float(out.rotation[0]),
+        turns=int(out.turns[0]),
+        flight_time=float(out.flight_time[0]),
+        impacts=int(out.impacts[0]),
+    )

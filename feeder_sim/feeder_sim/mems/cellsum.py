@@ -13,13 +13,13 @@ from __future__ import annotations
 # the column sums over fully covered cells come from prefix sums precomputed once per field.
 # Terms depending on x only (a column offset) integrate to zero around a closed loop, so the prefix
 # sums are taken relative to the row below the part, which keeps the cancellation small.
-
 import numpy as np
 
 
 class CellForceSums:
     """Prefix sums of the cell forces ``forces[i, j]`` of one field on the grid with node coordinates
-    ``x_nodes``, ``y_nodes``; ``wrench`` integrates them along a polygon's edges."""
+    ``x_nodes``, ``y_nodes``; ``wrench`` integrates them along a polygon's edges.
+    """
 
     def __init__(self, forces: np.ndarray, x_nodes: np.ndarray, y_nodes: np.ndarray) -> None:
         nx, ny = forces.shape[:2]
@@ -37,8 +37,9 @@ class CellForceSums:
         h = np.concatenate([np.zeros((nx + 2, 1, 2)), np.cumsum(f * height, axis=1)[:, :-1]], axis=1)
         k = np.concatenate([np.zeros((nx + 2, 1, 2)), np.cumsum(f * first, axis=1)[:, :-1]], axis=1)
         # per padded cell (flat index i * (ny + 2) + j): fx, fy, Hx, Hy, Kx at its bottom, its bottom y
-        table = np.concatenate([f, h, k[..., :1], np.broadcast_to(bottom[None, :, None], (nx + 2, ny + 2, 1))],
-                               axis=2)
+        table = np.concatenate(
+            [f, h, k[..., :1], np.broadcast_to(bottom[None, :, None], (nx + 2, ny + 2, 1))], axis=2
+        )
         self._fields_by_column = np.ascontiguousarray(np.moveaxis(table, 2, 0))
         self._fields = self._fields_by_column.reshape(6, -1)
         self._simpson = np.array([1.0, 4.0, 1.0])[:, None] / 6.0
@@ -57,13 +58,14 @@ class CellForceSums:
 
     def wrench(self, loops: tuple[np.ndarray, ...], about: np.ndarray) -> np.ndarray:
         """(Fx, Fy, torque about ``about``) = sum over cells of f_ij times the exact covered area and
-        first moments of the region bounded by ``loops`` (outer counter-clockwise, holes clockwise)."""
+        first moments of the region bounded by ``loops`` (outer counter-clockwise, holes clockwise).
+        """
         xn, yn = self.x_nodes, self.y_nodes
         start = np.concatenate(loops) if len(loops) > 1 else loops[0]
         d = start[self._successors(tuple(len(loop) for loop in loops))] - start
         lo = start.min(axis=0)
         hi = start.max(axis=0)
-        keep = d[:, 0] != 0.0                             # vertical edges add nothing to oint ... dx
+        keep = d[:, 0] != 0.0  # vertical edges add nothing to oint ... dx
         start, d = start[keep], d[keep]
         # grid lines strictly inside the part's bounding box
         i0, i1 = xn.searchsorted((lo[0], hi[0]), side="right")
@@ -73,9 +75,15 @@ class CellForceSums:
         dy = d[:, 1].copy()
         dy[dy == 0.0] = np.inf
         n_edges = len(d)
-        t = np.concatenate([np.zeros((n_edges, 1)), np.ones((n_edges, 1)),
-                            (xn[i0:i1] - start[:, :1]) / d[:, :1],
-                            (yn[j0:j1] - start[:, 1:]) / dy[:, None]], axis=1)
+        t = np.concatenate(
+            [
+                np.zeros((n_edges, 1)),
+                np.ones((n_edges, 1)),
+                (xn[i0:i1] - start[:, :1]) / d[:, :1],
+                (yn[j0:j1] - start[:, 1:]) / dy[:, None],
+            ],
+            axis=1,
+        )
         np.maximum(t, 0.0, out=t)
         np.minimum(t, 1.0, out=t)
         t.sort(axis=1)
@@ -98,9 +106,9 @@ class CellForceSums:
         fx, fy, bottom = cell[0], cell[1], cell[5]
         hx, hy = cell[2] - ref[2], cell[3] - ref[3]
         ax, ay = float(about[0]), float(about[1])
-        u = y - bottom                                    # y above the cell bottom at the Simpson nodes
-        w = (self._simpson * ((tb - ta) * ex)).ravel()    # signed dx times Simpson weights
-        gx = hx + fx * u                                  # H at the nodes
+        u = y - bottom  # y above the cell bottom at the Simpson nodes
+        w = (self._simpson * ((tb - ta) * ex)).ravel()  # signed dx times Simpson weights
+        gx = hx + fx * u  # H at the nodes
         gy = hy + fy * u
         # K - ay H = (Kb - ay Hb) + fx u (u/2 + bottom - ay): only its x component is needed
         kk = (cell[4] - ref[4] - ay * hx) + fx * u * (0.5 * u + (bottom - ay))

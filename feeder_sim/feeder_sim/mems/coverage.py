@@ -6,25 +6,28 @@ from __future__ import annotations
 # -oint 1[x < X] G(x, y) dx with dG/dy = (1, x, y) clipped at Y; on each edge piece where
 # min(y, Y) is one polynomial the integrand has degree <= 2, integrated in closed form from its end values. Cell
 # moments are second differences of Q at the grid nodes (only nodes around the part are evaluated).
-
 import numpy as np
 
 
-def _piece(x0: np.ndarray, y0: np.ndarray, slope: np.ndarray, a: np.ndarray, b: np.ndarray,
-           cap: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _piece(
+    x0: np.ndarray, y0: np.ndarray, slope: np.ndarray, a: np.ndarray, b: np.ndarray, cap: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Exact int_a^b (m, x m, m^2/2) dx with m = min(y(x), cap), y linear; min is one line on [a, b]."""
     ma = np.minimum(y0 + slope * (a - x0), cap)
     mb = np.minimum(y0 + slope * (b - x0), cap)
     w = b - a
-    return (0.5 * w * (ma + mb), w * (2 * a * ma + a * mb + b * ma + 2 * b * mb) / 6.0,
-            w * (ma * ma + ma * mb + mb * mb) / 6.0)
+    return (
+        0.5 * w * (ma + mb),
+        w * (2 * a * ma + a * mb + b * ma + 2 * b * mb) / 6.0,
+        w * (ma * ma + ma * mb + mb * mb) / 6.0,
+    )
 
 
 def quadrant_moments(loops: tuple[np.ndarray, ...], xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     """(3, len(xs), len(ys)): area, Sx, Sy of the loops' region within {x < X_i, y < Y_j}."""
     start = np.vstack(loops)
     end = np.vstack([np.roll(loop, -1, axis=0) for loop in loops])
-    keep = start[:, 0] != end[:, 0]              # vertical edges contribute nothing to oint ... dx
+    keep = start[:, 0] != end[:, 0]  # vertical edges contribute nothing to oint ... dx
     start, end = start[keep], end[keep]
     x0, y0, x1, y1 = start[:, 0], start[:, 1], end[:, 0], end[:, 1]
     slope = (y1 - y0) / (x1 - x0)
@@ -39,8 +42,11 @@ def quadrant_moments(loops: tuple[np.ndarray, ...], xs: np.ndarray, ys: np.ndarr
     cap = ys[None, None, :]
     # Rows above the clipped segment see min(y, Y) = y, rows below see Y: both in closed form.
     above = cap >= np.maximum(ya, yb)[..., None]
-    whole = (0.5 * w * (ya + yb), w * (2 * a * ya + a * yb + b * ya + 2 * b * yb) / 6.0,
-             w * (ya * ya + ya * yb + yb * yb) / 6.0)
+    whole = (
+        0.5 * w * (ya + yb),
+        w * (2 * a * ya + a * yb + b * ya + 2 * b * yb) / 6.0,
+        w * (ya * ya + ya * yb + yb * yb) / 6.0,
+    )
     flat = (cap * w[..., None], cap * (0.5 * (b * b - a * a))[..., None], 0.5 * cap * cap * w[..., None])
     out = np.stack([np.where(above, u[..., None], v) for u, v in zip(whole, flat)])
     # Rows the segment crosses: split at the crossing, each side one line (only these cells pay).
@@ -80,6 +86,6 @@ class Grid:
         j1 = int(np.clip(np.ceil((pts[:, 1].max() - self.y_nodes[0]) / self.pitch), 0, self.ny))
         if i1 <= i0 or j1 <= j0:
             return slice(0, 0), slice(0, 0), np.zeros((3, 0, 0))
-        q = quadrant_moments(loops, self.x_nodes[i0:i1 + 1], self.y_nodes[j0:j1 + 1])
+        q = quadrant_moments(loops, self.x_nodes[i0 : i1 + 1], self.y_nodes[j0 : j1 + 1])
         cells = q[:, 1:, 1:] - q[:, :-1, 1:] - q[:, 1:, :-1] + q[:, :-1, :-1]
         return slice(i0, i1), slice(j0, j1), cells

@@ -5,7 +5,6 @@ from __future__ import annotations
 # One part alone has no contacts, so it is integrated directly (semi-implicit Euler, the same
 # scheme pymunk uses) and pymunk is not even imported; several parts share a pymunk space whose
 # shapes are ear-clipped triangles of each outer boundary (holes do not take part in collisions).
-
 import math
 from typing import TYPE_CHECKING
 
@@ -59,6 +58,7 @@ class DynamicWorld:
         self.space = None
         if len(scene.bodies) > 1:
             import pymunk
+
             self.space = pymunk.Space()
             self.handles = []
             for body in scene.bodies:
@@ -66,7 +66,9 @@ class DynamicWorld:
                 handle = pymunk.Body(part.mass, part.density * part.polar_moment)
                 handle.position = (float(body.pose[0]), float(body.pose[1]))
                 handle.angle = float(body.pose[2])
-                shapes = [pymunk.Poly(handle, [tuple(map(float, p)) for p in tri]) for tri in ear_clip(part.outer)]
+                shapes = [
+                    pymunk.Poly(handle, [tuple(map(float, p)) for p in tri]) for tri in ear_clip(part.outer)
+                ]
                 for shape in shapes:
                     shape.friction = 0.5
                 self.space.add(handle, *shapes)

@@ -26,7 +26,8 @@ class IdealForces:
 class ArrayForces:
     """A MEMS actuator array: each cell pushes with the field's force at its centre, optionally
     quantised to ``directions`` actuator directions; force on a part = sum of exact covered area
-    times cell force, torque = sum of cell force times the exact first moment of the covered area."""
+    times cell force, torque = sum of cell force times the exact first moment of the covered area.
+    """
 
     name = "array"
 
@@ -52,7 +53,8 @@ class ArrayForces:
 
     def wrench(self, field: Field, loops: tuple[np.ndarray, ...], about: np.ndarray) -> np.ndarray:
         """Sum over cells of cell force times exact covered area (and first moments for the torque),
-        from edge integrals over the cells the boundary crosses (``CellForceSums``)."""
+        from edge integrals over the cells the boundary crosses (``CellForceSums``).
+        """
         self.cell_forces(field)
         return self._sums.wrench(loops, about)
 

@@ -32,13 +32,24 @@ class Body:
 class Scene:
     """Parts driven by a field program. ``ideal`` and ``array`` are quasi-static: a uniform viscous
     surface drag ``damping`` (N s/m^3) per unit area gives v = F / (damping A), omega = M / (damping J)
-    with J the polar moment of area; ``dynamic`` adds inertia, Coulomb friction and collisions."""
+    with J the polar moment of area; ``dynamic`` adds inertia, Coulomb friction and collisions.
+    """
 
-    def __init__(self, bodies: list[Body], program: tuple[ProgramStep, ...], fidelity: str = "ideal",
-                 array: tuple[int, int, float] = (100, 100, 1e-4), directions: int = 0, damping: float = 1.0,
-                 friction: float = 0.0, gravity: float = 9.81) -> None:
+    def __init__(
+        self,
+        bodies: list[Body],
+        program: tuple[ProgramStep, ...],
+        fidelity: str = "ideal",
+        array: tuple[int, int, float] = (100, 100, 1e-4),
+        directions: int = 0,
+        damping: float = 1.0,
+        friction: float = 0.0,
+        gravity: float = 9.81,
+    ) -> None:
         if fidelity not in FIDELITIES:
-            raise InputError("fidelity", f"unknown fidelity {fidelity!r} (expected one of {', '.join(FIDELITIES)})")
+            raise InputError(
+                "fidelity", f"unknown fidelity {fidelity!r} (expected one of {', '.join(FIDELITIES)})"
+            )
         if not program:
             raise InputError("program", "a field program needs at least one step")
         self.bodies = bodies
@@ -49,7 +60,8 @@ class Scene:
         self.forces = ArrayForces(*array, directions=directions) if fidelity == "array" else IdealForces()
         self._dynamic = None
         if fidelity == "dynamic":
-            from feeder_sim.mems.dynamic import DynamicWorld   # pymunk only when it is asked for
+            from feeder_sim.mems.dynamic import DynamicWorld  # pymunk only when it is asked for
+
             self._dynamic = DynamicWorld(self, friction, gravity)
 
     def set_program(self, program: tuple[ProgramStep, ...]) -> None:
@@ -71,12 +83,18 @@ class Scene:
     def _rate(self, body: Body, pose: np.ndarray, field_now: Field) -> tuple[np.ndarray, np.ndarray]:
         w = self.wrench(body, pose, field_now)
         part = body.part
-        return np.array([w[0] / (self.damping * part.area), w[1] / (self.damping * part.area),
-                         w[2] / (self.damping * part.polar_moment)]), w
+        return np.array(
+            [
+                w[0] / (self.damping * part.area),
+                w[1] / (self.damping * part.area),
+                w[2] / (self.damping * part.polar_moment),
+            ]
+        ), w
 
     def step(self, dt: float) -> None:
         """Advance by dt seconds: Heun's method for 'ideal'; forward Euler for 'array', whose cell
-        discretisation error dominates the step error (one force evaluation per step)."""
+        discretisation error dominates the step error (one force evaluation per step).
+        """
         field_now = self.active_field()
         if self._dynamic is not None:
             self._dynamic.step(dt, field_now)

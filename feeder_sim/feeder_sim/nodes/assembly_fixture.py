@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
+from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -15,26 +15,47 @@ from feeder_msgs.msg import StabilityStatus
 from feeder_msgs.srv import FixtureMove
 from feeder_planner.assembly.planner import prepare
 from feeder_planner.errors import FeederError, InputError
-from feeder_planner.nodes.ros_common import (
-    ParameterSpec, declare_parameters, positive, run_node, service_guard,
+from feeder_planner.node_kit import (
+    STREAM_DEPTH,
+    Check,
+    ParameterSpec,
+    declare_parameters,
+    from_vec,
+    in_range,
+    positive,
+    run_node,
+    service_guard,
+    vec,
 )
-from feeder_planner.nodes.stable_region_planner import PARAMETERS as PLANNER_PARAMETERS
-from feeder_planner.nodes.stable_region_planner import StableRegionPlanner, force_msgs, from_vec, vec
+from feeder_planner.node_kit.msg_assembly import (
+    ASSEMBLY_PARAMETERS,
+    contact_force_msgs,
+    load_assembly_parameter,
+)
 from feeder_sim.fixture.interlock import DEFAULT_STEP, certify, sample_waypoints
 from feeder_sim.fixture.kinematics import JOINT_NAMES, TableLimits, TimedPath, gravity_of, plan_joint_path
 
 
-def _angle(low: float, high: float):
-    return lambda v: None if isinstance(v, float) and math.isfinite(v) and low <= v <= high \
-        else f"must be a finite angle in [{low:.6g}, {high:.6g}] rad, got {v!r}"
+def _angle(low: float, high: float) -> Check:
+    return in_range(low, high, unit="rad")
 
 
-PARAMETERS = PLANNER_PARAMETERS + (
-    ParameterSpec("tilt_x_min", -math.pi / 2, "lower limit of joint tilt_x (rad, about the world x axis)",
-                  _angle(-math.pi / 2, math.pi / 2)),
-    ParameterSpec("tilt_x_max", math.pi / 2, "upper limit of joint tilt_x (rad)", _angle(-math.pi / 2, math.pi / 2)),
-    ParameterSpec("tilt_y_min", -math.pi, "lower limit of joint tilt_y (rad, about the cradle's y axis)",
-                  _angle(-math.pi, math.pi)),
+PARAMETERS = ASSEMBLY_PARAMETERS + (
+    ParameterSpec(
+        "tilt_x_min",
+        -math.pi / 2,
+        "lower limit of joint tilt_x (rad, about the world x axis)",
+        _angle(-math.pi / 2, math.pi / 2),
+    ),
+    ParameterSpec(
+        "tilt_x_max", math.pi / 2, "upper limit of joint tilt_x (rad)", _angle(-math.pi / 2, math.pi / 2)
+    ),
+    ParameterSpec(
+        "tilt_y_min",
+        -math.pi,
+        "lower limit of joint tilt_y (rad, about the cradle's y axis)",
+        _angle(-math.pi, math.pi),
+    ),
     ParameterSpec("tilt_y_max", math.pi, "upper limit of joint tilt_y (rad)", _angle(-math.pi, math.pi)),
     ParameterSpec("max_rate_x", 1.0, "maximum speed of joint tilt_x (rad/s)", positive),
     ParameterSpec("max_rate_y", 1.0, "maximum speed of joint tilt_y (rad/s)", positive),
@@ -56,37 +77,51 @@ class AssemblyFixture(Node):
     def __init__(self) -> None:
         super().__init__("assembly_fixture")
         self.p = declare_parameters(self, PARAMETERS)
-        self.limits = TableLimits(self.p["tilt_x_min"], self.p["tilt_x_max"], self.p["tilt_y_min"],
-                                  self.p["tilt_y_max"], self.p["max_rate_x"], self.p["max_rate_y"]).validate()
-        assembly = StableRegionPlanner._load(self.p["assembly_file"])
+        self.limits = TableLimits(
+            self.p["tilt_x_min"],
+            self.p["tilt_x_max"],
+            self.p["tilt_y_min"],
+            self.p["tilt_y_max"],
+            self.p["max_rate_x"],
+            self.p["max_rate_y"],
+        ).validate()
+        assembly = load_assembly_parameter(self.p["assembly_file"])
         self.prepared = prepare(assembly, self.p["mu"] if self.p["override_mu"] else None, self.p["facets"])
         self.region = self.prepared.region
         self.joints = np.array([self.p["initial_tilt_x"], self.p["initial_tilt_y"]])
-        for name, value in zip(JOINT_NAMES, self.joints):
-            low, high = (self.limits.x_min, self.limits.x_max) if name == "tilt_x" else (self.limits.y_min, self.limits.y_max)
+        for name, value in zip(JOINT_NAMES, self.joints, strict=True):
+            low, high = (
+                (self.limits.x_min, self.limits.x_max)
+                if name == "tilt_x"
+                else (self.limits.y_min, self.limits.y_max)
+            )
             if not low <= value <= high:
                 raise InputError(f"parameter initial_{name}", f"{value} is outside [{low}, {high}]")
         self.velocity = np.zeros(2)
         self.path: TimedPath | None = None
         self.path_start = 0.0
-        self.joint_pub = self.create_publisher(JointState, "~/joint_states", 10)
-        self.gravity_pub = self.create_publisher(Vector3Stamped, "~/gravity", 10)
-        self.status_pub = self.create_publisher(StabilityStatus, "~/stability", 10)
+        self.joint_pub = self.create_publisher(JointState, "~/joint_states", STREAM_DEPTH)
+        self.gravity_pub = self.create_publisher(Vector3Stamped, "~/gravity", STREAM_DEPTH)
+        self.status_pub = self.create_publisher(StabilityStatus, "~/stability", STREAM_DEPTH)
         self.create_service(FixtureMove, "~/move", service_guard(self)(self.on_move))
         self.create_timer(1.0 / self.p["publish_rate"], self.tick)
-        self.get_logger().info(f"holding {assembly.name}: stable region {self.region.kind}, "
-                               f"interlock {'on' if self.p['interlock'] else 'OFF'}")
+        self.get_logger().info(
+            f"holding {assembly.name}: stable region {self.region.kind}, "
+            f"interlock {'on' if self.p['interlock'] else 'OFF'}"
+        )
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
-    def on_move(self, request: Any, response: Any) -> Any:
+    def on_move(self, request: FixtureMove.Request, response: FixtureMove.Response) -> FixtureMove.Response:
         if not request.waypoints:
             raise InputError("waypoints", "needs at least one gravity direction")
         waypoints = [from_vec(w, f"waypoints[{i}]") for i, w in enumerate(request.waypoints)]
         self._advance()
         samples = sample_waypoints(gravity_of(self.joints), waypoints, self.p["path_step"])
-        path = plan_joint_path(samples[1:], self.joints, self.limits)  # joint limits checked before anything moves
+        path = plan_joint_path(
+            samples[1:], self.joints, self.limits
+        )  # joint limits checked before anything moves
         verdict = certify(self.prepared, samples)
         response.samples = len(samples)
         response.first_unstable_sample = verdict.first_unstable
@@ -94,8 +129,10 @@ class AssemblyFixture(Node):
         response.duration = path.duration
         if not verdict.stable:
             g = np.round(samples[verdict.first_unstable], 6).tolist()
-            what = (f"path sample {verdict.first_unstable} of {len(samples)} (g = {g}) is not stable: "
-                    f"{', '.join(verdict.unbalanced_bodies) or 'the assembly'} would lose equilibrium")
+            what = (
+                f"path sample {verdict.first_unstable} of {len(samples)} (g = {g}) is not stable: "
+                f"{', '.join(verdict.unbalanced_bodies) or 'the assembly'} would lose equilibrium"
+            )
             if self.p["interlock"]:
                 raise InterlockRefusal(f"refused by the interlock: {what}")
             response.warning = f"interlock off, moving anyway: {what}"
@@ -115,8 +152,14 @@ class AssemblyFixture(Node):
         self._advance()
         stamp = self.get_clock().now().to_msg()
         g = gravity_of(self.joints)
-        self.joint_pub.publish(JointState(name=list(JOINT_NAMES), position=self.joints.tolist(),
-                                          velocity=self.velocity.tolist(), header=_header(stamp)))
+        self.joint_pub.publish(
+            JointState(
+                name=list(JOINT_NAMES),
+                position=self.joints.tolist(),
+                velocity=self.velocity.tolist(),
+                header=_header(stamp),
+            )
+        )
         self.gravity_pub.publish(Vector3Stamped(header=_header(stamp), vector=vec(g)))
         status = StabilityStatus(header=_header(stamp), gravity=vec(g), moving=self.path is not None)
         try:
@@ -125,10 +168,7 @@ class AssemblyFixture(Node):
             status.margin = self.region.margin(g)
             status.unbalanced_bodies = self.prepared.body_names(verdict.unbalanced)
             if verdict.forces is not None:
-                status.forces = force_msgs({"forces": [
-                    {"a": self.prepared.assembly.bodies[c.a].name, "b": self.prepared.assembly.bodies[c.b].name,
-                     "point": c.point.tolist(), "normal": c.normal.tolist(), "force": f.tolist()}
-                    for c, f in zip(self.prepared.contacts, verdict.forces)]})
+                status.forces = contact_force_msgs(self.prepared, verdict.forces)
         except FeederError as error:  # an uncertified LP is reported, never published as stable
             status.stable = False
             status.margin = math.nan
@@ -136,7 +176,7 @@ class AssemblyFixture(Node):
         self.status_pub.publish(status)
 
 
-def _header(stamp: Any) -> Header:
+def _header(stamp: Time) -> Header:
     return Header(stamp=stamp, frame_id="assembly")
 
 

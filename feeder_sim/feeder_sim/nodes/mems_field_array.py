@@ -9,22 +9,39 @@ import numpy as np
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Pose, PoseArray
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 
-from feeder_msgs.msg import FieldProgram, FieldSpec, MemsCellForces, MemsPartState, MemsPartStates, MemsParts, Part, Polygon2D
+from feeder_msgs.msg import (
+    FieldProgram,
+    FieldSpec,
+    MemsCellForces,
+    MemsParts,
+    MemsPartState,
+    MemsPartStates,
+)
 from feeder_msgs.srv import FieldSetProgram, MemsPlaceParts
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import load_yaml_mapping
 from feeder_planner.mems.fields import CombinedField, ProgramStep, program_from_mapping
-from feeder_planner.mems.messages import fill_field_spec, program_from_msg
-from feeder_planner.nodes.ros_common import (
-    ParameterSpec, declare_parameters, non_negative, part_to_msg, positive, run_node, service_guard,
+from feeder_planner.node_kit import (
+    LATCHED,
+    STREAM_DEPTH,
+    ParameterSpec,
+    declare_parameters,
+    in_range,
+    integer,
+    integer_at_least,
+    non_negative,
+    one_of,
+    planar_pose,
+    positive,
+    run_node,
+    service_guard,
 )
+from feeder_planner.node_kit.msg_fields import fill_field_spec, program_from_msg
+from feeder_planner.node_kit.msg_parts import part_to_msg
 from feeder_planner.parts import load_part
 from feeder_sim.mems.scene import FIDELITIES, Body, Scene
-
-LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
 
 
 def _array_size(value: Any) -> str | None:
@@ -32,33 +49,66 @@ def _array_size(value: Any) -> str | None:
     return None if ok else f"must be two integers > 0 [nx, ny], got {list(value)!r}"
 
 
-def _fidelity(value: Any) -> str | None:
-    return None if value in FIDELITIES else f"must be one of {', '.join(FIDELITIES)}, got {value!r}"
-
-
 PARAMETERS = (
     ParameterSpec("array_size", [100, 100], "number of actuator cells [nx, ny] of the array", _array_size),
-    ParameterSpec("pitch", 1e-4, "side of one square actuator cell (m); the array is centred on the plane origin",
-                  positive),
-    ParameterSpec("fidelity", "ideal", "force model: ideal (exact field integrals, quasi-static), array (cells at "
-                  "the pitch, exact covered areas), dynamic (inertia, friction, collisions)", _fidelity),
-    ParameterSpec("directions", 0, "quantise cell forces to this many actuator directions (0: exact directions)",
-                  lambda v: None if isinstance(v, int) and v >= 0 else f"must be an integer >= 0, got {v!r}"),
+    ParameterSpec(
+        "pitch",
+        1e-4,
+        "side of one square actuator cell (m); the array is centred on the plane origin",
+        positive,
+    ),
+    ParameterSpec(
+        "fidelity",
+        "ideal",
+        "force model: ideal (exact field integrals, quasi-static), array (cells at "
+        "the pitch, exact covered areas), dynamic (inertia, friction, collisions)",
+        one_of(FIDELITIES),
+    ),
+    ParameterSpec(
+        "directions",
+        0,
+        "quantise cell forces to this many actuator directions (0: exact directions)",
+        integer_at_least(0),
+    ),
     ParameterSpec("part_files", [""], "part files (YAML, contract section 2); empty entries are ignored"),
-    ParameterSpec("initial_poses", [0.0], "x, y, theta (m, m, rad) per part, flattened; [] or [0.0]: random poses "
-                  "within placement_radius drawn with the seed"),
-    ParameterSpec("placement_radius", 1e-3, "radius (m) of the disc random initial positions are drawn in", positive),
-    ParameterSpec("program_file", "", "field program YAML ({steps: [{field: {...}, duration: s}]}, metres); "
-                  "empty: combined field delta = default_delta forever"),
-    ParameterSpec("default_delta", 0.2, "delta of the default combined field (0 <= delta < 1)",
-                  lambda v: None if isinstance(v, float) and 0 <= v < 1 else f"must satisfy 0 <= delta < 1, got {v!r}"),
+    ParameterSpec(
+        "initial_poses",
+        [0.0],
+        "x, y, theta (m, m, rad) per part, flattened; [] or [0.0]: random poses "
+        "within placement_radius drawn with the seed",
+    ),
+    ParameterSpec(
+        "placement_radius", 1e-3, "radius (m) of the disc random initial positions are drawn in", positive
+    ),
+    ParameterSpec(
+        "program_file",
+        "",
+        "field program YAML ({steps: [{field: {...}, duration: s}]}, metres); "
+        "empty: combined field delta = default_delta forever",
+    ),
+    ParameterSpec(
+        "default_delta",
+        0.2,
+        "delta of the default combined field (0 <= delta < 1)",
+        in_range(0.0, 1.0, include_high=False),
+    ),
     ParameterSpec("publish_rate", 20.0, "rate (Hz, wall clock) of part state messages", positive),
-    ParameterSpec("real_time_factor", 1.0, "simulated seconds per wall second; > 1 also publishes /clock", positive),
+    ParameterSpec(
+        "real_time_factor", 1.0, "simulated seconds per wall second; > 1 also publishes /clock", positive
+    ),
     ParameterSpec("time_step", 2e-4, "integration step (s of simulated time)", positive),
-    ParameterSpec("damping", 1.0, "viscous surface drag per unit area (N s/m^3): v = F/(damping A)", positive),
-    ParameterSpec("friction", 0.0, "Coulomb friction coefficient with the surface (dynamic fidelity)", non_negative),
-    ParameterSpec("seed", 0, "seed of the random initial poses (the simulation itself is deterministic)",
-                  lambda v: None if isinstance(v, int) else f"must be an integer, got {v!r}"),
+    ParameterSpec(
+        "damping", 1.0, "viscous surface drag per unit area (N s/m^3): v = F/(damping A)", positive
+    ),
+    ParameterSpec(
+        "friction", 0.0, "Coulomb friction coefficient with the surface (dynamic fidelity)", non_negative
+    ),
+    ParameterSpec(
+        "seed",
+        0,
+        "seed of the random initial poses (the simulation itself is deterministic)",
+        integer,
+    ),
     ParameterSpec("frame_id", "mems_array", "frame of the published poses (the plane frame)"),
 )
 
@@ -80,14 +130,27 @@ class MemsFieldArray(Node):
             rng = np.random.default_rng(p["seed"])
             radius = p["placement_radius"] * np.sqrt(rng.uniform(size=len(parts)))
             angle = rng.uniform(0, 2 * math.pi, size=len(parts))
-            poses = np.column_stack([radius * np.cos(angle), radius * np.sin(angle),
-                                     rng.uniform(0, 2 * math.pi, size=len(parts))]).ravel().tolist()
+            poses = (
+                np.column_stack(
+                    [
+                        radius * np.cos(angle),
+                        radius * np.sin(angle),
+                        rng.uniform(0, 2 * math.pi, size=len(parts)),
+                    ]
+                )
+                .ravel()
+                .tolist()
+            )
         if len(poses) != 3 * len(parts) or not all(math.isfinite(v) for v in poses):
-            raise InputError("parameter initial_poses", f"needs 3 finite numbers per part ({3 * len(parts)}), "
-                             f"got {len(poses)}")
+            raise InputError(
+                "parameter initial_poses",
+                f"needs 3 finite numbers per part ({3 * len(parts)}), got {len(poses)}",
+            )
         self.initial = np.array(poses, float).reshape(-1, 3)
-        self.names = [doc.get("name", f"part{i}") if isinstance(doc.get("name"), str) else f"part{i}"
-                      for i, doc in enumerate(documents)]
+        self.names = [
+            doc.get("name", f"part{i}") if isinstance(doc.get("name"), str) else f"part{i}"
+            for i, doc in enumerate(documents)
+        ]
         if p["program_file"]:
             try:
                 program = program_from_mapping(load_yaml_mapping(p["program_file"]))
@@ -96,18 +159,24 @@ class MemsFieldArray(Node):
         else:
             program = (ProgramStep(CombinedField(p["default_delta"]), math.inf),)
         nx, ny = p["array_size"]
-        self.scene = Scene([Body(part, pose.copy()) for part, pose in zip(parts, self.initial)], program,
-                           p["fidelity"], array=(nx, ny, p["pitch"]), directions=p["directions"],
-                           damping=p["damping"], friction=p["friction"])
-        self.state_pub = self.create_publisher(MemsPartStates, "/mems/part_states", 10)
-        self.pose_pub = self.create_publisher(PoseArray, "/mems/part_poses", 10)
+        self.scene = Scene(
+            [Body(part, pose.copy()) for part, pose in zip(parts, self.initial)],
+            program,
+            p["fidelity"],
+            array=(nx, ny, p["pitch"]),
+            directions=p["directions"],
+            damping=p["damping"],
+            friction=p["friction"],
+        )
+        self.state_pub = self.create_publisher(MemsPartStates, "/mems/part_states", STREAM_DEPTH)
+        self.pose_pub = self.create_publisher(PoseArray, "/mems/part_poses", STREAM_DEPTH)
         self.program_pub = self.create_publisher(FieldProgram, "/mems/field_program", LATCHED)
         self.cells_pub = self.create_publisher(MemsCellForces, "/mems/cell_forces", LATCHED)
         self.parts_pub = self.create_publisher(MemsParts, "/mems/parts", LATCHED)
         self.clock_pub = self.create_publisher(Clock, "/clock", 10) if p["real_time_factor"] > 1 else None
         self.create_service(FieldSetProgram, "/mems/set_program", service_guard(self)(self.on_set_program))
         self.create_service(MemsPlaceParts, "/mems/place_parts", service_guard(self)(self.on_place_parts))
-        self.parts_pub.publish(MemsParts(parts=[part_to_msg(d, Part, Polygon2D) for d in documents]))
+        self.parts_pub.publish(MemsParts(parts=[part_to_msg(d) for d in documents]))
         self.last_field = None
         self.publish_program()
         self.create_timer(1.0 / p["publish_rate"], self.tick)
@@ -117,7 +186,9 @@ class MemsFieldArray(Node):
         return Time(sec=int(t), nanosec=int(round((t - int(t)) * 1e9)) % 1_000_000_000)
 
     def publish_program(self) -> None:
-        msg = FieldProgram(name="program", steps=[fill_field_spec(FieldSpec(), s) for s in self.scene.program])
+        msg = FieldProgram(
+            name="program", steps=[fill_field_spec(FieldSpec(), s) for s in self.scene.program]
+        )
         msg.header.frame_id = self.p["frame_id"]
         t = self.scene.program_start
         msg.header.stamp = Time(sec=int(t), nanosec=int(round((t - int(t)) * 1e9)) % 1_000_000_000)
@@ -130,12 +201,18 @@ class MemsFieldArray(Node):
         self.last_field = field
         nx, ny = self.p["array_size"]
         pitch = self.p["pitch"]
-        grid_forces = getattr(self.scene.forces, "cell_forces")(field)
-        if grid_forces is None:      # ideal / dynamic: the ideal field sampled at the cell centres
+        grid_forces = self.scene.forces.cell_forces(field)
+        if grid_forces is None:  # ideal / dynamic: the ideal field sampled at the cell centres
             from feeder_sim.mems.coverage import Grid
+
             grid_forces = field.force_density(Grid(nx, ny, pitch).centers())
-        msg = MemsCellForces(nx=nx, ny=ny, pitch=pitch, fx=grid_forces[..., 0].ravel().tolist(),
-                             fy=grid_forces[..., 1].ravel().tolist())
+        msg = MemsCellForces(
+            nx=nx,
+            ny=ny,
+            pitch=pitch,
+            fx=grid_forces[..., 0].ravel().tolist(),
+            fy=grid_forces[..., 1].ravel().tolist(),
+        )
         msg.header.stamp = self.stamp()
         msg.header.frame_id = self.p["frame_id"]
         self.cells_pub.publish(msg)
@@ -167,19 +244,20 @@ class MemsFieldArray(Node):
 
     @staticmethod
     def _pose(pose: np.ndarray) -> Pose:
-        msg = Pose()
-        msg.position.x, msg.position.y = float(pose[0]), float(pose[1])
-        msg.orientation.z, msg.orientation.w = math.sin(pose[2] / 2), math.cos(pose[2] / 2)
-        return msg
+        return planar_pose(pose[0], pose[1], pose[2])
 
-    def on_set_program(self, request: Any, response: Any) -> Any:
+    def on_set_program(
+        self, request: FieldSetProgram.Request, response: FieldSetProgram.Response
+    ) -> FieldSetProgram.Response:
         program = program_from_msg(request.program)
         self.scene.set_program(program)
         self.publish_program()
         self.publish_cells()
         return response
 
-    def on_place_parts(self, request: Any, response: Any) -> Any:
+    def on_place_parts(
+        self, request: MemsPlaceParts.Request, response: MemsPlaceParts.Response
+    ) -> MemsPlaceParts.Response:
         if request.reset:
             for body, pose in zip(self.scene.bodies, self.initial):
                 body.pose, body.velocity = pose.copy(), np.zeros(3)

@@ -14,40 +14,88 @@ from std_msgs.msg import Bool
 from feeder_msgs.msg import ThrowEvent
 from feeder_msgs.srv import ArmCommand, ArmPlacePart
 from feeder_planner.errors import InputError
-from feeder_planner.nodes.ros_common import (
-    ParameterSpec, declare_parameters, finite, non_negative, positive, run_node, service_guard,
+from feeder_planner.node_kit import (
+    EVENT_DEPTH,
+    STREAM_DEPTH,
+    ParameterSpec,
+    declare_parameters,
+    finite,
+    in_range,
+    integer,
+    negative,
+    non_empty_string,
+    non_negative,
+    one_of,
+    positive,
+    run_node,
+    service_guard,
+    yaw_quaternion,
 )
 from feeder_planner.parts import load_part
 from feeder_planner.throwing.geometry import arm_part
 from feeder_planner.throwing.throw_map import ThrowParams, lowest_radius
 from feeder_sim.throwing.arm import FIDELITIES, ThrowingArm
 
-
 PARAMETERS = (
-    ParameterSpec("part_file", "", "part file (YAML, contract section 2); required",
-                  lambda v: None if isinstance(v, str) and v else "must name a part file"),
+    ParameterSpec(
+        "part_file",
+        "",
+        "part file (YAML, contract section 2); required",
+        non_empty_string("a part file"),
+    ),
     ParameterSpec("offset", -0.005, "h: height of the arm surface above the pivot (m)", finite),
     ParameterSpec("release_speed", math.radians(320), "W: release angular speed (rad/s, > 0)", positive),
-    ParameterSpec("gravity", -9.66, "g: gravity along y (m/s^2, < 0)",
-                  lambda v: None if isinstance(v, float) and v < 0 and math.isfinite(v) else f"must be < 0, got {v!r}"),
+    ParameterSpec(
+        "gravity",
+        -9.66,
+        "g: gravity along y (m/s^2, < 0)",
+        negative,
+    ),
     ParameterSpec("mu", 0.5, "friction coefficient between arm and part (> 0)", positive),
-    ParameterSpec("fidelity", "analytic", "analytic (the paper's model) or dynamic (pymunk, restitution and friction)",
-                  lambda v: None if v in FIDELITIES else f"must be one of {', '.join(FIDELITIES)}, got {v!r}"),
+    ParameterSpec(
+        "fidelity",
+        "analytic",
+        "analytic (the paper's model) or dynamic (pymunk, restitution and friction)",
+        one_of(FIDELITIES),
+    ),
     ParameterSpec("dynamic_step", 1e-4, "pymunk step (s) of the dynamic fidelity", positive),
     ParameterSpec("period", 0.5, "time between throws (s, wall clock)", positive),
-    ParameterSpec("motion_fraction", 0.3, "fraction of the period spent showing the throw; the rest is at rest",
-                  lambda v: None if isinstance(v, float) and 0 < v < 1 else f"must be in (0, 1), got {v!r}"),
-    ParameterSpec("sensor_radius", 0.2, "x of the proximity sensor on the arm (m); may change at runtime", finite),
-    ParameterSpec("sensing_height", 0.001, "sensing height above the arm surface (m, >= 0); may change at runtime",
-                  non_negative),
-    ParameterSpec("sensor_rate", 100.0, "rate of the sensor, joint state and part pose topics (Hz)", positive),
-    ParameterSpec("initial_edge", -1, "stable hull edge the part starts on (-1: the first stable edge)",
-                  lambda v: None if isinstance(v, int) else f"must be an integer, got {v!r}"),
-    ParameterSpec("initial_radius", 0.0, "R at start (m); 0: 1.5 x the lowest throwable radius of the edge",
-                  non_negative),
-    ParameterSpec("arm_length", 0.4, "length of the arm from the pivot (m); a part beyond it has left the arm",
-                  positive),
-    ParameterSpec("autostart", False, "throw every period from the start (else wait for a start/throw command)"),
+    ParameterSpec(
+        "motion_fraction",
+        0.3,
+        "fraction of the period spent showing the throw; the rest is at rest",
+        in_range(0.0, 1.0, include_low=False, include_high=False),
+    ),
+    ParameterSpec(
+        "sensor_radius", 0.2, "x of the proximity sensor on the arm (m); may change at runtime", finite
+    ),
+    ParameterSpec(
+        "sensing_height",
+        0.001,
+        "sensing height above the arm surface (m, >= 0); may change at runtime",
+        non_negative,
+    ),
+    ParameterSpec(
+        "sensor_rate", 100.0, "rate of the sensor, joint state and part pose topics (Hz)", positive
+    ),
+    ParameterSpec(
+        "initial_edge",
+        -1,
+        "stable hull edge the part starts on (-1: the first stable edge)",
+        integer,
+    ),
+    ParameterSpec(
+        "initial_radius",
+        0.0,
+        "R at start (m); 0: 1.5 x the lowest throwable radius of the edge",
+        non_negative,
+    ),
+    ParameterSpec(
+        "arm_length", 0.4, "length of the arm from the pivot (m); a part beyond it has left the arm", positive
+    ),
+    ParameterSpec(
+        "autostart", False, "throw every period from the start (else wait for a start/throw command)"
+    ),
     ParameterSpec("frame_id", "arm_pivot", "frame of the part pose (at the arm pivot, gravity along -y)"),
 )
 
@@ -63,22 +111,26 @@ class ThrowingArmNode(Node):
         params = ThrowParams(p["offset"], p["release_speed"], p["gravity"], p["mu"])
         edge = p["initial_edge"] if p["initial_edge"] >= 0 else self.part.stable_edges[0]
         if not (0 <= edge < self.part.n) or not self.part.stable[edge]:
-            raise InputError("parameter initial_edge", f"must be a stable edge {self.part.stable_edges}, got {edge}")
+            raise InputError(
+                "parameter initial_edge", f"must be a stable edge {self.part.stable_edges}, got {edge}"
+            )
         radius = p["initial_radius"] or 1.5 * lowest_radius(self.part, edge, params)
         try:
-            self.arm = ThrowingArm(self.part, params, edge, radius, p["fidelity"], p["arm_length"], p["dynamic_step"])
+            self.arm = ThrowingArm(
+                self.part, params, edge, radius, p["fidelity"], p["arm_length"], p["dynamic_step"]
+            )
         except InputError as error:
             raise InputError(f"parameter initial_{error.field}", error.problem) from None
         self.sensor_radius, self.sensing_height = p["sensor_radius"], p["sensing_height"]
         self.add_on_set_parameters_callback(self._on_parameters)
-        self.pub_joint = self.create_publisher(JointState, "/throwing_arm/joint_states", 10)
-        self.pub_pose = self.create_publisher(PoseStamped, "/throwing_arm/part_pose", 10)
-        self.pub_event = self.create_publisher(ThrowEvent, "/throwing_arm/throw_events", 50)
-        self.pub_sensor = self.create_publisher(Bool, "/throwing_arm/sensor", 50)
+        self.pub_joint = self.create_publisher(JointState, "/throwing_arm/joint_states", STREAM_DEPTH)
+        self.pub_pose = self.create_publisher(PoseStamped, "/throwing_arm/part_pose", STREAM_DEPTH)
+        self.pub_event = self.create_publisher(ThrowEvent, "/throwing_arm/throw_events", EVENT_DEPTH)
+        self.pub_sensor = self.create_publisher(Bool, "/throwing_arm/sensor", EVENT_DEPTH)
         self.create_service(ArmCommand, "/throwing_arm/command", service_guard(self)(self._command))
         self.create_service(ArmPlacePart, "/throwing_arm/place_part", service_guard(self)(self._place))
         self.running, self.pending, self.count = p["autostart"], 0, 0
-        self.motion: Any = None           # (start time, outcome) while a throw is shown
+        self.motion: Any = None  # (start time, outcome) while a throw is shown
         self.last_throw = -math.inf
         self.create_timer(1.0 / p["sensor_rate"], self._tick)
 
@@ -95,7 +147,7 @@ class ThrowingArmNode(Node):
             setattr(self, change.name, float(change.value))
         return SetParametersResult(successful=True)
 
-    def _command(self, request: Any, response: Any) -> Any:
+    def _command(self, request: ArmCommand.Request, response: ArmCommand.Response) -> ArmCommand.Response:
         command = request.command.strip().lower()
         if command == "throw":
             if request.count < 1:
@@ -110,7 +162,7 @@ class ThrowingArmNode(Node):
         response.pending = self.pending
         return response
 
-    def _place(self, request: Any, response: Any) -> Any:
+    def _place(self, request: ArmPlacePart.Request, response: ArmPlacePart.Response) -> ArmPlacePart.Response:
         if not math.isfinite(request.radius):
             raise InputError("radius", f"must be finite, got {request.radius!r}")
         self.arm.place(request.edge, request.radius)
@@ -141,7 +193,9 @@ class ThrowingArmNode(Node):
                 self._publish_event(now, outcome)
             else:
                 self.motion = (t, outcome)
-        sensor = self.arm.sensor(self.sensor_radius, self.sensing_height, None if self.motion is None else pose)
+        sensor = self.arm.sensor(
+            self.sensor_radius, self.sensing_height, None if self.motion is None else pose
+        )
         self.pub_sensor.publish(Bool(data=bool(sensor)))
         stamp = now.to_msg()
         joint = JointState()
@@ -151,7 +205,7 @@ class ThrowingArmNode(Node):
         msg = PoseStamped()
         msg.header.stamp, msg.header.frame_id = stamp, self.p["frame_id"]
         msg.pose.position.x, msg.pose.position.y = pose[0], pose[1]
-        msg.pose.orientation.z, msg.pose.orientation.w = math.sin(pose[2] / 2), math.cos(pose[2] / 2)
+        msg.pose.orientation = yaw_quaternion(pose[2])
         self.pub_pose.publish(msg)
 
     def _animate(self, outcome: Any, fraction: float) -> tuple[tuple[float, float, float], float]:

@@ -24,7 +24,7 @@ class ThrowOutcome:
     radius_before: float
     edge_after: int
     radius_after: float
-    kind: str                 # jog | flip | fault
+    kind: str  # jog | flip | fault
     turns: int
     rotation: float
     fault: str = ""
@@ -34,8 +34,16 @@ class ThrowOutcome:
 class ThrowingArm:
     """State (edge, R) of the part on the arm and the throw-catch cycle."""
 
-    def __init__(self, part: ArmPart, params: ThrowParams, edge: int, radius: float, fidelity: str = "analytic",
-                 arm_length: float = math.inf, dynamic_step: float = 1e-4) -> None:
+    def __init__(
+        self,
+        part: ArmPart,
+        params: ThrowParams,
+        edge: int,
+        radius: float,
+        fidelity: str = "analytic",
+        arm_length: float = math.inf,
+        dynamic_step: float = 1e-4,
+    ) -> None:
         if fidelity not in FIDELITIES:
             raise InputError("fidelity", f"must be one of {', '.join(FIDELITIES)}, got {fidelity!r}")
         if not (arm_length > 0):
@@ -53,7 +61,11 @@ class ThrowingArm:
 
     def rest_pose(self) -> tuple[float, float, float]:
         """(x, y, theta) of the centre of mass at rest."""
-        return (self.radius, self.params.offset + float(self.part.d[self.edge]), -float(self.part.edge_angle[self.edge]))
+        return (
+            self.radius,
+            self.params.offset + float(self.part.d[self.edge]),
+            -float(self.part.edge_angle[self.edge]),
+        )
 
     def throw(self) -> ThrowOutcome:
         """One throw and catch; outside the dynamic grasp, or off the arm, it is a fault and the part stays put."""
@@ -72,6 +84,7 @@ class ThrowingArm:
                 out.path = self._flight_path(e0, r0, res.flight_time)
             else:
                 from feeder_sim.throwing.dynamic import dynamic_throw
+
                 out = dynamic_throw(self.part, self.params, e0, r0, step=self.dynamic_step)
         except FeederError as error:
             self.faulted = f"simulation failed: {error}"
@@ -82,13 +95,21 @@ class ThrowingArm:
             if not self.part.stable[out.edge_after]:
                 out.kind, out.fault = "fault", f"part came to rest on unstable edge {out.edge_after}"
             elif lo_x < 0 or hi_x > self.arm_length:
-                out.kind, out.fault = "fault", (f"part left the arm: it spans x in [{lo_x:.4g}, {hi_x:.4g}] m, "
-                                                f"the arm [0, {self.arm_length:.4g}] m")
+                out.kind, out.fault = (
+                    "fault",
+                    (
+                        f"part left the arm: it spans x in [{lo_x:.4g}, {hi_x:.4g}] m, "
+                        f"the arm [0, {self.arm_length:.4g}] m"
+                    ),
+                )
             else:
                 try:
                     check_start(self.part, out.edge_after, out.radius_after, self.params)
                 except InputError as error:
-                    out.kind, out.fault = "fault", f"the next throw would leave the dynamic grasp: {error.problem}"
+                    out.kind, out.fault = (
+                        "fault",
+                        f"the next throw would leave the dynamic grasp: {error.problem}",
+                    )
         if out.kind == "fault":
             self.faulted = out.fault
             if out.edge_after >= 0 and self.part.stable[out.edge_after]:
@@ -97,13 +118,18 @@ class ThrowingArm:
             self.edge, self.radius = out.edge_after, out.radius_after
         return out
 
-    def _flight_path(self, edge: int, radius: float, flight_time: float, samples: int = 20
-                     ) -> list[tuple[float, float, float, float]]:
+    def _flight_path(
+        self, edge: int, radius: float, flight_time: float, samples: int = 20
+    ) -> list[tuple[float, float, float, float]]:
         t = np.linspace(0.0, flight_time, samples)
-        s = flight_state(self.part, edge, radius, self.params.offset, self.params.speed, self.params.gravity, t)
+        s = flight_state(
+            self.part, edge, radius, self.params.offset, self.params.speed, self.params.gravity, t
+        )
         return [(float(tt), float(row[0]), float(row[1]), float(row[2])) for tt, row in zip(t, s)]
 
-    def sensor(self, sensor_radius: float, height: float, pose: tuple[float, float, float] | None = None) -> bool:
+    def sensor(
+        self, sensor_radius: float, height: float, pose: tuple[float, float, float] | None = None
+    ) -> bool:
         """The one-bit proximity sensor: at rest, or for a pose in flight."""
         if pose is None:
             return reads(self.part, self.edge, self.radius, sensor_radius, height)

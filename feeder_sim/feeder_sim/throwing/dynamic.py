@@ -19,9 +19,17 @@ if TYPE_CHECKING:  # arm.py imports this module, so only the type checker may im
 CARRY_ANGLE = 0.02  # rad: the arm turns this far while accelerating to W (a short but real carry)
 
 
-def dynamic_throw(part: ArmPart, params: ThrowParams, edge: int, radius: float, step: float = 1e-4,
-                  elasticity: float = 0.05, friction: float | None = None, carry_angle: float = CARRY_ANGLE,
-                  arm_length: float = math.inf) -> ThrowOutcome:
+def dynamic_throw(
+    part: ArmPart,
+    params: ThrowParams,
+    edge: int,
+    radius: float,
+    step: float = 1e-4,
+    elasticity: float = 0.05,
+    friction: float | None = None,
+    carry_angle: float = CARRY_ANGLE,
+    arm_length: float = math.inf,
+) -> ThrowOutcome:
     """One throw in pymunk: the arm (kinematic) accelerates uniformly through ``carry_angle`` to W, stops dead
     (the part flies off), swings back to horizontal, and the part bounces, slides and settles under gravity.
 
@@ -31,13 +39,30 @@ def dynamic_throw(part: ArmPart, params: ThrowParams, edge: int, radius: float, 
     """
     from feeder_sim.throwing.arm import ThrowOutcome
 
-    alpha = params.speed ** 2 / (2 * carry_angle)   # uniform angular acceleration over the carry
+    alpha = params.speed**2 / (2 * carry_angle)  # uniform angular acceleration over the carry
     for theta in np.linspace(0.0, carry_angle, 9):
         # Wrench-cone test of section III-A.1 along the real carry (theta, theta_dot, theta_ddot).
-        if not carry_in_grasp(part, edge, radius, params.offset, params.gravity, params.mu, float(theta),
-                              math.sqrt(2 * alpha * theta), alpha):
-            return ThrowOutcome(edge, radius, -1, math.nan, "fault", 0, 0.0,
-                                f"the carry leaves the dynamic grasp at arm angle {theta:.3g} rad")
+        if not carry_in_grasp(
+            part,
+            edge,
+            radius,
+            params.offset,
+            params.gravity,
+            params.mu,
+            float(theta),
+            math.sqrt(2 * alpha * theta),
+            alpha,
+        ):
+            return ThrowOutcome(
+                edge,
+                radius,
+                -1,
+                math.nan,
+                "fault",
+                0,
+                0.0,
+                f"the carry leaves the dynamic grasp at arm angle {theta:.3g} rad",
+            )
     scale = 1.0 / part.radius
     w, g, h = params.speed, params.gravity * scale, params.offset * scale
     mu = params.mu if friction is None else friction
@@ -76,7 +101,9 @@ def dynamic_throw(part: ArmPart, params: ThrowParams, edge: int, radius: float, 
         if t < carry_time:
             arm.angular_velocity = alpha * (t + 0.5 * step)
         elif angle > 0:
-            arm.angular_velocity = -min(w, angle / step)  # back down, faster than the part falls near the pivot
+            arm.angular_velocity = -min(
+                w, angle / step
+            )  # back down, faster than the part falls near the pivot
         else:
             arm.angular_velocity = 0.0
         space.step(step)
@@ -93,13 +120,24 @@ def dynamic_throw(part: ArmPart, params: ThrowParams, edge: int, radius: float, 
             if still > 0.05:
                 break
     else:
-        raise SolverError(f"dynamic throw from edge {edge} at R = {radius:.4g} m did not settle in {t_end:.3g} s")
+        raise SolverError(
+            f"dynamic throw from edge {edge} at R = {radius:.4g} m did not settle in {t_end:.3g} s"
+        )
     theta = body.angle
-    flat = np.mod(theta + part.edge_angle + math.pi, 2 * math.pi) - math.pi   # 0 when edge i faces down
+    flat = np.mod(theta + part.edge_angle + math.pi, 2 * math.pi) - math.pi  # 0 when edge i faces down
     e1 = int(np.argmin(np.abs(flat)))
     if abs(flat[e1]) > 0.05:
-        return ThrowOutcome(edge, radius, -1, math.nan, "fault", 0, 0.0,
-                            f"part came to rest tilted by {flat[e1]:.3g} rad from every hull edge", path)
+        return ThrowOutcome(
+            edge,
+            radius,
+            -1,
+            math.nan,
+            "fault",
+            0,
+            0.0,
+            f"part came to rest tilted by {flat[e1]:.3g} rad from every hull edge",
+            path,
+        )
     rotation = theta - theta0
     kind = "jog" if e1 == edge and abs(rotation) < math.pi else "flip"
     turns = int(math.trunc(rotation / (2 * math.pi)))

@@ -10,7 +10,9 @@ count, period = int(sys.argv[1]), float(sys.argv[2])
 rclpy.init()
 node = rclpy.create_node("feeder_test_talker")
 talk = node.create_publisher(String, "/talk", 10)
-latched = node.create_publisher(String, "/latched", QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+latched = node.create_publisher(
+    String, "/latched", QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+)
 latched.publish(String(data="latched-hello"))
 # Volatile messages reach only subscribers already matched: wait (bounded) for the recorder.
 waited = 0.0

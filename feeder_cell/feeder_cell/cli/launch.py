@@ -8,11 +8,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from feeder_planner.cli.bag import _summary as bag_summary
-from feeder_planner.cli.bag import _with_node
-from feeder_planner.cli.common import add_json_flag, emit, finite_float
+from feeder_cell.cli.bag import _summary as bag_summary
+from feeder_cell.cli.bag import _with_node
+from feeder_cell.cli.common import add_json_flag, emit, finite_float
+from feeder_cell.launcher import NodeProcess, load_scene, start_node
 from feeder_planner.errors import FeederError, InputError
-from feeder_planner.launcher import NodeProcess, load_scene, start_node
 
 STARTUP_TIMEOUT_S = 30.0
 
@@ -25,8 +25,10 @@ def _wait_until_in_graph(node: Any, executor: Any, processes: list[NodeProcess])
         dead = [p for p in processes if not p.alive()]
         if dead:
             p = dead[0]
-            raise FeederError(f"{p.package}/{p.executable} exited with code {p.process.returncode} at start-up; "
-                              f"last log line: {(p.output().strip().splitlines() or ['(none)'])[-1]}")
+            raise FeederError(
+                f"{p.package}/{p.executable} exited with code {p.process.returncode} at start-up; "
+                f"last log line: {(p.output().strip().splitlines() or ['(none)'])[-1]}"
+            )
         missing = sorted(set(names) - set(node.get_node_names()))
         if not missing:
             return
@@ -41,7 +43,7 @@ def _launch(args: argparse.Namespace) -> int:
     log_dir = Path(args.log_dir) if args.log_dir else Path(tempfile.mkdtemp(prefix=f"feeder-{scene.name}-"))
 
     def work(node: Any, executor: Any, keep_going: Any) -> dict[str, Any]:
-        from feeder_planner.bag.recorder import Recorder
+        from feeder_cell.bag.recorder import Recorder
 
         processes: list[NodeProcess] = []
         recorder = Recorder(node, Path(args.record)) if args.record else None
@@ -62,12 +64,24 @@ def _launch(args: argparse.Namespace) -> int:
             stats = recorder.close() if recorder else {}
             codes = [(p, p.alive(), p.stop()) for p in processes]
         result: dict[str, Any] = {
-            "scene": scene.name, "log_dir": str(log_dir),
-            "nodes": [{"package": p.package, "executable": p.executable, "pid": p.pid,
-                       "died_early": not alive, "exit_code": code} for p, alive, code in codes]}
+            "scene": scene.name,
+            "log_dir": str(log_dir),
+            "nodes": [
+                {
+                    "package": p.package,
+                    "executable": p.executable,
+                    "pid": p.pid,
+                    "died_early": not alive,
+                    "exit_code": code,
+                }
+                for p, alive, code in codes
+            ],
+        }
         if recorder:
-            result["bag"] = {"path": str(Path(args.record).resolve()),
-                             "topics": {n: {"type": s.type_name, "count": s.count} for n, s in sorted(stats.items())}}
+            result["bag"] = {
+                "path": str(Path(args.record).resolve()),
+                "topics": {n: {"type": s.type_name, "count": s.count} for n, s in sorted(stats.items())},
+            }
         return result
 
     result = _with_node("feeder_launch", work)
@@ -79,7 +93,9 @@ def _summary(result: dict[str, Any]) -> str:
     lines = [f"scene {result['scene']}: logs in {result['log_dir']}"]
     for n in result["nodes"]:
         state = "DIED EARLY" if n["died_early"] else "stopped"
-        lines.append(f"  {n['package']}/{n['executable']} pid {n['pid']}: {state}, exit code {n['exit_code']}")
+        lines.append(
+            f"  {n['package']}/{n['executable']} pid {n['pid']}: {state}, exit code {n['exit_code']}"
+        )
     if "bag" in result:
         lines.append(bag_summary(result["bag"]))
     return "\n".join(lines)
@@ -87,12 +103,14 @@ def _summary(result: dict[str, Any]) -> str:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
-        "launch", help="run the nodes of a scene file together (optionally recording a bag)",
+        "launch",
+        help="run the nodes of a scene file together (optionally recording a bag)",
         description="Start every node a scene file names (YAML: name, nodes: [{package, executable, name, "
-                    "parameters}]; parameters ending in _file/_files are paths relative to the scene file), "
-                    "wait until all are in the ROS graph, run for --duration seconds or until Ctrl-C, then end "
-                    "each by pid (SIGINT, then SIGKILL). A scene runs only the models it names.")
-    parser.add_argument("scene", help="scene file, e.g. examples/scenes/demo.yaml")
+        "parameters}]; parameters ending in _file/_files are paths relative to the scene file), "
+        "wait until all are in the ROS graph, run for --duration seconds or until Ctrl-C, then end "
+        "each by pid (SIGINT, then SIGKILL). A scene runs only the models it names.",
+    )
+    parser.add_argument("scene", help="scene file, e.g. feeder_cell/scenes/demo.yaml")
     parser.add_argument("--duration", type=finite_float, help="seconds to run (default: until Ctrl-C)")
     parser.add_argument("--record", help="record every topic into this new bag directory (rosbag2, MCAP)")
     parser.add_argument("--log-dir", help="where node logs go (default: a new temporary folder)")

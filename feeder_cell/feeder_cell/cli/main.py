@@ -11,13 +11,13 @@ from feeder_planner.errors import InputError, SolverError
 
 # Each module defines register(subparsers); a subparser sets ``handler`` via set_defaults.
 SUBCOMMAND_MODULES = (
-    "feeder_planner.cli.doctor",
-    "feeder_planner.cli.run",
-    "feeder_planner.cli.bag",
-    "feeder_planner.cli.launch",
-    "feeder_planner.cli.equilibria",
-    "feeder_planner.cli.throwing",
-    "feeder_planner.cli.assembly",
+    "feeder_cell.cli.doctor",
+    "feeder_cell.cli.run",
+    "feeder_cell.cli.bag",
+    "feeder_cell.cli.launch",
+    "feeder_cell.cli.equilibria",
+    "feeder_cell.cli.throwing",
+    "feeder_cell.cli.assembly",
 )
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_NOT_CERTIFIED = 0, 1, 2, 3
@@ -37,11 +37,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser = FeederArgumentParser(
         prog="feeder",
         description="Plan for and run emulated sensorless parts feeders (ROS 2 Jazzy). "
-                    "Units are SI in JSON output; lengths on the command line are in the part file's unit; "
-                    "angles are radians unless suffixed 'deg'.",
+        "Units are SI in JSON output; lengths on the command line are in the part file's unit; "
+        "angles are radians unless suffixed 'deg'.",
     )
-    subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
-                                       parser_class=FeederArgumentParser)
+    subparsers = parser.add_subparsers(
+        dest="command", required=True, metavar="COMMAND", parser_class=FeederArgumentParser
+    )
     for module_name in SUBCOMMAND_MODULES:
         importlib.import_module(module_name).register(subparsers)
     return parser

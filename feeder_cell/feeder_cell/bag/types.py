@@ -6,7 +6,7 @@ from functools import lru_cache
 from pathlib import Path
 
 from rosbags.interfaces import Typestore
-from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 OWN_INTERFACE_PACKAGES = ("feeder_msgs",)
 

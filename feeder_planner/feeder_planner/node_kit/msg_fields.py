@@ -1,4 +1,4 @@
-"""Duck-typed conversions between feeder_msgs MEMS messages and the mechanics (no rclpy import)."""
+"""Conversions between feeder_msgs field programs (FieldProgram, FieldSpec) and the mechanics."""
 
 from __future__ import annotations
 
@@ -6,8 +6,16 @@ import math
 from typing import Any
 
 from feeder_planner.errors import InputError
-from feeder_planner.mems.fields import (CombinedField, ConstantField, Field, ProgramStep, QuadraticField, RadialField,
-                                        SqueezeField, field_from_mapping)
+from feeder_planner.mems.fields import (
+    CombinedField,
+    ConstantField,
+    Field,
+    ProgramStep,
+    QuadraticField,
+    RadialField,
+    SqueezeField,
+    field_from_mapping,
+)
 
 
 def field_spec_to_mapping(spec: Any) -> dict[str, Any]:

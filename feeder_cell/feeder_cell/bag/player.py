@@ -9,8 +9,8 @@ from typing import Callable
 from rclpy.node import Node
 from rosbags.rosbag2 import Reader
 
-from feeder_planner.bag.qos import from_bag_qos
-from feeder_planner.bag.types import message_class
+from feeder_cell.bag.qos import from_bag_qos
+from feeder_cell.bag.types import message_class
 from feeder_planner.errors import InputError
 
 
@@ -23,8 +23,14 @@ def open_bag(path: Path) -> Reader:
     return reader
 
 
-def play(node: Node, path: Path, rate: float = 1.0, topics: tuple[str, ...] = (),
-         keep_going: Callable[[], bool] = lambda: True, wait_for_subscribers: float = 0.0) -> dict[str, int]:
+def play(
+    node: Node,
+    path: Path,
+    rate: float = 1.0,
+    topics: tuple[str, ...] = (),
+    keep_going: Callable[[], bool] = lambda: True,
+    wait_for_subscribers: float = 0.0,
+) -> dict[str, int]:
     """Publish every message of the bag; returns messages published per topic.
 
     ``wait_for_subscribers`` > 0: before the first message, wait up to that many seconds until every
@@ -38,11 +44,16 @@ def play(node: Node, path: Path, rate: float = 1.0, topics: tuple[str, ...] = ()
         publishers = {}
         for connection in connections:
             qos = from_bag_qos(getattr(connection.ext, "offered_qos_profiles", ()))
-            publishers[connection.id] = node.create_publisher(message_class(connection.msgtype), connection.topic, qos)
+            publishers[connection.id] = node.create_publisher(
+                message_class(connection.msgtype), connection.topic, qos
+            )
         if wait_for_subscribers > 0:
             deadline = time.monotonic() + wait_for_subscribers
-            while keep_going() and time.monotonic() < deadline and any(
-                    p.get_subscription_count() == 0 for p in publishers.values()):
+            while (
+                keep_going()
+                and time.monotonic() < deadline
+                and any(p.get_subscription_count() == 0 for p in publishers.values())
+            ):
                 time.sleep(0.05)
         else:
             time.sleep(0.5)  # DDS discovery is not instant; give existing subscribers a moment to match

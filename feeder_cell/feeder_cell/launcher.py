@@ -46,7 +46,10 @@ def scene_from_mapping(document: dict[str, Any], base_dir: Path) -> Scene:
         where = f"nodes[{index}]"
         if not isinstance(entry, dict):
             raise InputError(where, "expected a mapping with package, executable and parameters")
-        package, executable = required(entry, "package", f"{where}.package"), required(entry, "executable", f"{where}.executable")
+        package, executable = (
+            required(entry, "package", f"{where}.package"),
+            required(entry, "executable", f"{where}.executable"),
+        )
         parameters = optional(entry, "parameters", {})
         if not isinstance(parameters, dict):
             raise InputError(f"{where}.parameters", "expected a mapping of parameter names to values")
@@ -57,7 +60,11 @@ def scene_from_mapping(document: dict[str, Any], base_dir: Path) -> Scene:
 
 def _resolve_path(key: str, value: Any, base_dir: Path) -> Any:
     def resolve(item: Any) -> Any:
-        return str((base_dir / item).resolve()) if isinstance(item, str) and item and not os.path.isabs(item) else item
+        return (
+            str((base_dir / item).resolve())
+            if isinstance(item, str) and item and not os.path.isabs(item)
+            else item
+        )
 
     if key.endswith("_file"):
         return resolve(value)
@@ -80,15 +87,24 @@ def resolve_executable(package: str, executable: str) -> Path:
     try:
         prefix = Path(get_package_prefix(package))
     except (PackageNotFoundError, ValueError):
-        raise InputError("package", f"package {package!r} not found in the ament index "
-                                    "(did you run 'make setup' and 'source env.sh'?)") from None
+        raise InputError(
+            "package",
+            f"package {package!r} not found in the ament index "
+            "(did you run 'make setup' and 'source env.sh'?)",
+        ) from None
     lib_dir = prefix / "lib" / package
     candidate = lib_dir / executable
     if not (candidate.is_file() and os.access(candidate, os.X_OK)):
-        available = sorted(p.name for p in lib_dir.iterdir() if p.is_file() and os.access(p, os.X_OK)) \
-            if lib_dir.is_dir() else []
-        raise InputError("executable", f"no executable {executable!r} in package {package!r} "
-                                       f"(available: {', '.join(available) or 'none'})")
+        available = (
+            sorted(p.name for p in lib_dir.iterdir() if p.is_file() and os.access(p, os.X_OK))
+            if lib_dir.is_dir()
+            else []
+        )
+        raise InputError(
+            "executable",
+            f"no executable {executable!r} in package {package!r} "
+            f"(available: {', '.join(available) or 'none'})",
+        )
     return candidate
 
 
@@ -148,6 +164,11 @@ def start_node(spec: NodeSpec, log_dir: Path, extra_args: tuple[str, ...] = ()) 
     command += list(extra_args)
     log_path = log_dir / f"{stem}.log"
     with open(log_path, "w") as log:
-        process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                   env=dict(os.environ, PYTHONUNBUFFERED="1"))
+        process = subprocess.Popen(
+            command,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL,
+            env=dict(os.environ, PYTHONUNBUFFERED="1"),
+        )
     return NodeProcess(spec, process, log_path)

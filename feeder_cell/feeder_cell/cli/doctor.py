@@ -30,7 +30,9 @@ class Check:
 def _probe(code: str, timeout_s: float = 60.0) -> tuple[bool, str]:
     """Run ``code`` in a child Python: rcl exits the whole process on some failures (a wrong RMW)."""
     try:
-        child = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=timeout_s)
+        child = subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, timeout=timeout_s
+        )
     except subprocess.TimeoutExpired:
         return False, f"no answer within {timeout_s:.0f} s"
     if child.returncode != 0:
@@ -40,25 +42,35 @@ def _probe(code: str, timeout_s: float = 60.0) -> tuple[bool, str]:
 
 
 def check_rclpy() -> Check:
-    ok, detail = _probe("import os, rclpy\nfrom importlib.metadata import version\n"
-                        "print(f\"rclpy {version('ros-rclpy')} from {os.path.dirname(rclpy.__file__)}\")")
+    ok, detail = _probe(
+        "import os, rclpy\nfrom importlib.metadata import version\n"
+        "print(f\"rclpy {version('ros-rclpy')} from {os.path.dirname(rclpy.__file__)}\")"
+    )
     return Check("rclpy import", ok, detail, FIX_SETUP)
 
 
 def check_rmw() -> Check:
     wanted = os.environ.get("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
-    ok, detail = _probe("import rclpy\nfrom rclpy.utilities import get_rmw_implementation_identifier\n"
-                        "print(get_rmw_implementation_identifier())")
+    ok, detail = _probe(
+        "import rclpy\nfrom rclpy.utilities import get_rmw_implementation_identifier\n"
+        "print(get_rmw_implementation_identifier())"
+    )
     if ok and detail != wanted:
         ok, detail = False, f"{detail} in use, {wanted} requested"
-    return Check("RMW implementation", ok, detail,
-                 "unset RMW_IMPLEMENTATION (rmw_fastrtps_cpp is the one installed) or install the RMW you named")
+    return Check(
+        "RMW implementation",
+        ok,
+        detail,
+        "unset RMW_IMPLEMENTATION (rmw_fastrtps_cpp is the one installed) or install the RMW you named",
+    )
 
 
 def check_interfaces() -> Check:
-    ok, detail = _probe("import feeder_msgs.msg as m\nnames = sorted(n for n in dir(m) if n[:1].isupper())\n"
-                        "assert names, 'feeder_msgs defines no message'\ngetattr(m, names[0])()\n"
-                        "print(f\"{len(names)} messages import ({', '.join(names[:4])}...), {names[0]} instantiates\")")
+    ok, detail = _probe(
+        "import feeder_msgs.msg as m\nnames = sorted(n for n in dir(m) if n[:1].isupper())\n"
+        "assert names, 'feeder_msgs defines no message'\ngetattr(m, names[0])()\n"
+        "print(f\"{len(names)} messages import ({', '.join(names[:4])}...), {names[0]} instantiates\")"
+    )
     return Check("feeder_msgs types", ok, detail, FIX_SETUP)
 
 
@@ -75,8 +87,13 @@ def check_dds_round_trip(timeout_s: float = 20.0) -> Check:
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     token = f"feeder-doctor-{os.getpid()}-{random.getrandbits(32):08x}"
     request, reply = f"/feeder_doctor/request_{domain}", f"/feeder_doctor/reply_{domain}"
-    echo = subprocess.Popen([sys.executable, "-m", "feeder_planner.cli.dds_echo", request, reply, str(timeout_s + 5)],
-                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    echo = subprocess.Popen(
+        [sys.executable, "-m", "feeder_cell.cli.dds_echo", request, reply, str(timeout_s + 5)],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     context = rclpy.Context()
     try:
         rclpy.init(context=context, domain_id=domain)
@@ -89,14 +106,20 @@ def check_dds_round_trip(timeout_s: float = 20.0) -> Check:
         started = time.monotonic()
         while time.monotonic() - started < timeout_s and token not in received:
             if echo.poll() is not None:
-                return Check(name, False, f"echo process exited early: {echo.stderr.read().strip()[-300:]}", FIX_SETUP)
+                return Check(
+                    name, False, f"echo process exited early: {echo.stderr.read().strip()[-300:]}", FIX_SETUP
+                )
             publisher.publish(String(data=token))
             executor.spin_once(timeout_sec=0.2)
         elapsed = time.monotonic() - started
         if token in received:
             return Check(name, True, f"two processes on domain {domain}, echo after {elapsed:.2f} s")
-        return Check(name, False, f"no echo within {timeout_s:.0f} s on domain {domain}",
-                     "check that loopback multicast/shared memory is allowed and no firewall blocks UDP on lo")
+        return Check(
+            name,
+            False,
+            f"no echo within {timeout_s:.0f} s on domain {domain}",
+            "check that loopback multicast/shared memory is allowed and no firewall blocks UDP on lo",
+        )
     finally:
         echo.terminate()
         try:
@@ -115,7 +138,9 @@ def _doctor(args: argparse.Namespace) -> int:
     for check in CHECKS:
         if check is check_dds_round_trip and not all(r.ok for r in results):
             # rclpy in this process would abort it on the same fault the earlier checks found.
-            result = Check("DDS round trip", False, "not attempted: an earlier check failed", "fix that first")
+            result = Check(
+                "DDS round trip", False, "not attempted: an earlier check failed", "fix that first"
+            )
         else:
             result = check()
         results.append(result)
@@ -125,7 +150,9 @@ def _doctor(args: argparse.Namespace) -> int:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
-        "doctor", help="check the ROS 2 environment (rclpy, RMW, feeder_msgs, a DDS round trip)",
+        "doctor",
+        help="check the ROS 2 environment (rclpy, RMW, feeder_msgs, a DDS round trip)",
         description="Run each check and print one line per check with OK or FAIL and a fix hint. "
-                    "Exit status 1 if any check fails.")
+        "Exit status 1 if any check fails.",
+    )
     parser.set_defaults(handler=_doctor)

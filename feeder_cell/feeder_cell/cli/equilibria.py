@@ -6,7 +6,7 @@ import argparse
 import math
 from typing import Any
 
-from feeder_planner.cli.common import add_json_flag, emit, finite_float
+from feeder_cell.cli.common import add_json_flag, emit, finite_float
 from feeder_planner.mems.equilibria import METHODS, find_equilibria
 from feeder_planner.parts import load_part
 
@@ -23,26 +23,40 @@ Exit 2 on bad input, 3 when no method can certify a result."""
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add this module's subcommands to the feeder parser."""
-    parser = subparsers.add_parser("equilibria", help="equilibria of a part in radial + constant fields",
-                                   description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = subparsers.add_parser(
+        "equilibria",
+        help="equilibria of a part in radial + constant fields",
+        description=HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("part", metavar="PART", help="part file (YAML, contract section 2)")
-    parser.add_argument("--delta", type=finite_float, required=True,
-                        help="strength of the constant field relative to the radial one, 0 <= D < 1")
+    parser.add_argument(
+        "--delta",
+        type=finite_float,
+        required=True,
+        help="strength of the constant field relative to the radial one, 0 <= D < 1",
+    )
     parser.add_argument("--method", choices=METHODS, default="auto", help="default: auto")
     add_json_flag(parser)
     parser.set_defaults(handler=run)
 
 
 def _summary(result: dict[str, Any]) -> str:
-    lines = [f"pivot (part frame): ({result['pivot'][0]:.6g}, {result['pivot'][1]:.6g}) m, "
-             f"area {result['area']:.6g} m^2, delta {result['delta']:g}, method {result['method']}"]
+    lines = [
+        f"pivot (part frame): ({result['pivot'][0]:.6g}, {result['pivot'][1]:.6g}) m, "
+        f"area {result['area']:.6g} m^2, delta {result['delta']:g}, method {result['method']}"
+    ]
     if not result["details"].get("certified", True):
-        lines.append("  note: asymptotic result (limit delta -> 0, Theorem 7), not certified at this delta; "
-                     "use --method auto or numeric for a certified answer")
+        lines.append(
+            "  note: asymptotic result (limit delta -> 0, Theorem 7), not certified at this delta; "
+            "use --method auto or numeric for a certified answer"
+        )
     for e in result["equilibria"]:
         kind = "stable  " if e["stable"] else "unstable"
-        lines.append(f"  {kind} x={e['x']:+.6e} m  y={e['y']:+.6e} m  theta={e['theta']:.9f} rad "
-                     f"({math.degrees(e['theta']):.4f} deg)")
+        lines.append(
+            f"  {kind} x={e['x']:+.6e} m  y={e['y']:+.6e} m  theta={e['theta']:.9f} rad "
+            f"({math.degrees(e['theta']):.4f} deg)"
+        )
     return "\n".join(lines)
 
 

@@ -12,8 +12,8 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.rosbag2 import StoragePlugin, Writer
 
-from feeder_planner.bag.qos import to_bag_qos
-from feeder_planner.bag.types import message_class, typestore
+from feeder_cell.bag.qos import to_bag_qos
+from feeder_cell.bag.types import message_class, typestore
 from feeder_planner.errors import InputError
 
 # Infrastructure topics every node has; recording them by default only adds noise.
@@ -32,7 +32,7 @@ class Recorder:
 
     node: Node
     path: Path
-    topics: tuple[str, ...] = ()          # empty: every topic except DEFAULT_EXCLUDED
+    topics: tuple[str, ...] = ()  # empty: every topic except DEFAULT_EXCLUDED
     stats: dict[str, TopicStats] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -64,17 +64,26 @@ class Recorder:
 
     def _subscribe(self, name: str, type_name: str) -> None:
         publishers = self.node.get_publishers_info_by_topic(name)
-        reliable = all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE for p in publishers) if publishers else True
+        reliable = (
+            all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE for p in publishers)
+            if publishers
+            else True
+        )
         latched = any(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publishers)
-        qos = QoSProfile(depth=100,
-                         reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-                         durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
+        qos = QoSProfile(
+            depth=100,
+            reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+        )
         with self._lock:
             self._connections[name] = self._writer.add_connection(
-                name, type_name, typestore=typestore(), offered_qos_profiles=[to_bag_qos(reliable, latched)])
+                name, type_name, typestore=typestore(), offered_qos_profiles=[to_bag_qos(reliable, latched)]
+            )
             self.stats[name] = TopicStats(type_name)
         callback = lambda data, topic=name: self._write(topic, data)  # noqa: E731
-        self._subscriptions.append(self.node.create_subscription(message_class(type_name), name, callback, qos, raw=True))
+        self._subscriptions.append(
+            self.node.create_subscription(message_class(type_name), name, callback, qos, raw=True)
+        )
 
     def _write(self, topic: str, data: bytes) -> None:
         with self._lock:

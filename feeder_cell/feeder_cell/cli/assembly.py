@@ -7,49 +7,81 @@ import math
 
 import numpy as np
 
+from feeder_cell.cli.common import add_json_flag, emit, finite_float
 from feeder_planner.assembly.model import load_assembly
-from feeder_planner.assembly.planner import DEFAULT_FACETS, PreparedAssembly, check_result, prepare, region_result
-from feeder_planner.cli.common import add_json_flag, emit, finite_float
+from feeder_planner.assembly.planner import (
+    DEFAULT_FACETS,
+    PreparedAssembly,
+    check_result,
+    prepare,
+    region_result,
+)
 from feeder_planner.errors import InputError
 
-CONVENTIONS = ("Frames and signs: g is the direction gravity pulls, a unit vector in the assembly file's frame "
-               "(it is normalised if not unit). A direction g is stable when contact forces at the contact "
-               "points balance every free body (potential stability, paper eq. 9), friction linearised by a "
-               "K-facet pyramid inscribed in the Coulomb cone (K=4 is the paper's). The stable set is "
-               "{unit g : n.g <= 0 for n in normals, e.g = 0 for e in equalities}. JSON is SI: metres, "
-               "newtons (for |g| = 9.80665 m/s^2), radians, steradians. Exit 2: bad input; 3: not certified.")
+CONVENTIONS = (
+    "Frames and signs: g is the direction gravity pulls, a unit vector in the assembly file's frame "
+    "(it is normalised if not unit). A direction g is stable when contact forces at the contact "
+    "points balance every free body (potential stability, paper eq. 9), friction linearised by a "
+    "K-facet pyramid inscribed in the Coulomb cone (K=4 is the paper's). The stable set is "
+    "{unit g : n.g <= 0 for n in normals, e.g = 0 for e in equalities}. JSON is SI: metres, "
+    "newtons (for |g| = 9.80665 m/s^2), radians, steradians. Exit 2: bad input; 3: not certified."
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add stable-region and check-stability to the feeder parser."""
     region = subparsers.add_parser(
-        "stable-region", help="the whole set of gravity directions for which an assembly is potentially stable",
+        "stable-region",
+        help="the whole set of gravity directions for which an assembly is potentially stable",
         description="Compute the exact region of stable gravity directions of an assembly (a convex spherical "
-                    "polygon or a degenerate kind: empty, point, antipodal_pair, arc, great_circle, region, "
-                    "hemisphere, sphere). " + CONVENTIONS)
+        "polygon or a degenerate kind: empty, point, antipodal_pair, arc, great_circle, region, "
+        "hemisphere, sphere). " + CONVENTIONS,
+    )
     _common(region)
-    region.add_argument("--exact-cone", action="store_true",
-                        help="also measure K = 4, 8, 16, 32 pyramids against the exact circular cone "
-                             "(area in sr and Hausdorff angle in rad)")
+    region.add_argument(
+        "--exact-cone",
+        action="store_true",
+        help="also measure K = 4, 8, 16, 32 pyramids against the exact circular cone "
+        "(area in sr and Hausdorff angle in rad)",
+    )
     region.set_defaults(handler=_stable_region)
     check = subparsers.add_parser(
-        "check-stability", help="whether one gravity direction is stable, with contact forces",
-        description="Solve the stability LP (paper eq. 9) for one gravity direction. " + CONVENTIONS)
+        "check-stability",
+        help="whether one gravity direction is stable, with contact forces",
+        description="Solve the stability LP (paper eq. 9) for one gravity direction. " + CONVENTIONS,
+    )
     _common(check)
-    check.add_argument("--g", nargs=3, type=finite_float, required=True, metavar=("GX", "GY", "GZ"),
-                       help="gravity direction in the assembly frame (any non-zero length)")
-    check.add_argument("--exact-cone", action="store_true",
-                       help="also decide the direction under the exact circular friction cone (a second-order "
-                            "cone program); undecided only on the boundary, to tolerance")
+    check.add_argument(
+        "--g",
+        nargs=3,
+        type=finite_float,
+        required=True,
+        metavar=("GX", "GY", "GZ"),
+        help="gravity direction in the assembly frame (any non-zero length)",
+    )
+    check.add_argument(
+        "--exact-cone",
+        action="store_true",
+        help="also decide the direction under the exact circular friction cone (a second-order "
+        "cone program); undecided only on the boundary, to tolerance",
+    )
     check.set_defaults(handler=_check_stability)
 
 
 def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("assembly", metavar="ASSEMBLY", help="assembly YAML file (contract section 2)")
-    parser.add_argument("--mu", type=finite_float, default=None,
-                        help="Coulomb friction coefficient for every contact (>= 0; default: the file's)")
-    parser.add_argument("--facets", type=int, default=DEFAULT_FACETS,
-                        help=f"facets K >= 3 of the friction pyramid (default {DEFAULT_FACETS})")
+    parser.add_argument(
+        "--mu",
+        type=finite_float,
+        default=None,
+        help="Coulomb friction coefficient for every contact (>= 0; default: the file's)",
+    )
+    parser.add_argument(
+        "--facets",
+        type=int,
+        default=DEFAULT_FACETS,
+        help=f"facets K >= 3 of the friction pyramid (default {DEFAULT_FACETS})",
+    )
     add_json_flag(parser)
 
 
@@ -66,15 +98,18 @@ def _stable_region(args: argparse.Namespace) -> int:
     result = region_result(prepared)
     if args.exact_cone:
         from feeder_planner.assembly.exact_cone import compare_pyramids
+
         result["exact_cone"] = compare_pyramids(prepared.assembly, prepared.contacts)
     emit(args, result, _region_summary)
     return 0
 
 
 def _region_summary(result: dict) -> str:
-    lines = [f"{result['assembly']}: stable region is {result['kind']} ({result['contacts']} contact points, "
-             f"K = {result['facets']}, {result['lp_count']} LPs)",
-             f"  area {result['area_sr']:.6g} sr ({result['area_sr'] / (4 * math.pi):.4%} of the sphere)"]
+    lines = [
+        f"{result['assembly']}: stable region is {result['kind']} ({result['contacts']} contact points, "
+        f"K = {result['facets']}, {result['lp_count']} LPs)",
+        f"  area {result['area_sr']:.6g} sr ({result['area_sr'] / (4 * math.pi):.4%} of the sphere)",
+    ]
     if result["center"] is not None:
         lines.append(f"  centre g = {_vec(result['center'])}")
     for v in result["vertices"]:
@@ -94,6 +129,7 @@ def _check_stability(args: argparse.Namespace) -> int:
     result = check_result(prepared, g)
     if args.exact_cone:
         from feeder_planner.assembly.exact_cone import check_exact
+
         verdict = check_exact(prepared.assembly, prepared.contacts, g)
         result["exact_cone"] = {"stable": verdict.stable, "method": verdict.method}
     emit(args, result, _check_summary)
@@ -111,11 +147,16 @@ def _check_summary(result: dict) -> str:
 def _pyramid_summary(result: dict) -> str:
     if result["stable"]:
         text = f"stable for g = {_vec(result['g'])} (angular margin {result['margin_rad']:.6g} rad)"
-        loads = [f"  {f['a']} on {f['b']} at {_vec(f['point'])}: force {_vec(f['force'])} N"
-                 for f in result.get("forces", []) if np.linalg.norm(f["force"]) > 0]
+        loads = [
+            f"  {f['a']} on {f['b']} at {_vec(f['point'])}: force {_vec(f['force'])} N"
+            for f in result.get("forces", [])
+            if np.linalg.norm(f["force"]) > 0
+        ]
         return "\n".join([text] + loads)
-    return (f"NOT stable for g = {_vec(result['g'])}; bodies that cannot be balanced: "
-            f"{', '.join(result['unbalanced_bodies']) or '(none identified)'}")
+    return (
+        f"NOT stable for g = {_vec(result['g'])}; bodies that cannot be balanced: "
+        f"{', '.join(result['unbalanced_bodies']) or '(none identified)'}"
+    )
 
 
 def _vec(v: list[float]) -> str:

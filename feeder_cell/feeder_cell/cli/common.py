@@ -13,7 +13,7 @@ from feeder_planner.units import parse_angle
 
 
 def finite_float(text: str) -> float:
-    """argparse type: a finite float (NaN and inf are refused)."""
+    """Argparse type: a finite float (NaN and inf are refused)."""
     try:
         value = float(text)
     except ValueError:
@@ -24,7 +24,7 @@ def finite_float(text: str) -> float:
 
 
 def angle(text: str) -> float:
-    """argparse type: radians, or degrees with a 'deg' suffix."""
+    """Argparse type: radians, or degrees with a 'deg' suffix."""
     try:
         return parse_angle(text, "angle")
     except InputError as error:
@@ -32,7 +32,9 @@ def angle(text: str) -> float:
 
 
 def add_json_flag(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout (SI units)")
+    parser.add_argument(
+        "--json", action="store_true", help="print exactly one JSON object on stdout (SI units)"
+    )
 
 
 def emit(args: argparse.Namespace, result: dict[str, Any], summary: Callable[[dict[str, Any]], str]) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 
-from feeder_planner.launcher import resolve_executable
+from feeder_cell.launcher import resolve_executable
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -17,11 +17,15 @@ def _run(args: argparse.Namespace) -> int:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
-        "run", help="run a node executable of a package (like 'ros2 run')",
+        "run",
+        help="run a node executable of a package (like 'ros2 run')",
         description="Resolve PACKAGE's EXECUTABLE through the ament index (PREFIX/lib/PACKAGE/EXECUTABLE, "
-                    "as 'ros2 run' does) and replace this process with it. Everything after EXECUTABLE, "
-                    "including --ros-args, is passed to the node.")
+        "as 'ros2 run' does) and replace this process with it. Everything after EXECUTABLE, "
+        "including --ros-args, is passed to the node.",
+    )
     parser.add_argument("package")
     parser.add_argument("executable")
-    parser.add_argument("node_args", nargs=argparse.REMAINDER, help="arguments for the node, e.g. --ros-args -p rate:=50.0")
+    parser.add_argument(
+        "node_args", nargs=argparse.REMAINDER, help="arguments for the node, e.g. --ros-args -p rate:=50.0"
+    )
     parser.set_defaults(handler=_run)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any, Callable
 
-from feeder_planner.cli.common import add_json_flag, angle, emit, finite_float
+from feeder_cell.cli.common import add_json_flag, angle, emit, finite_float
 from feeder_planner.errors import InputError
 from feeder_planner.parts import Part, load_part
 from feeder_planner.throwing import api
@@ -22,13 +22,23 @@ Lengths on the command line (R, H, G in length/s^2, sensing height) are in the p
 length_unit; W is rad/s, or deg/s with a 'deg' suffix (320deg). JSON output is SI (m, rad, s).
 Exit 2 on bad input, 3 when a result cannot be certified (e.g. no invariant set)."""
 
-FLAGS = {"radius": "--radius", "offset": "--offset", "release_speed": "--release-speed", "gravity": "--gravity",
-         "mu": "--mu", "edge": "--edge", "goal_edge": "--goal-edge", "sensing_height": "--sensing-height"}
+FLAGS = {
+    "radius": "--radius",
+    "offset": "--offset",
+    "release_speed": "--release-speed",
+    "gravity": "--gravity",
+    "mu": "--mu",
+    "edge": "--edge",
+    "goal_edge": "--goal-edge",
+    "sensing_height": "--sensing-height",
+}
 
 
 def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("part", metavar="PART", help="part file (YAML, contract section 2)")
-    parser.add_argument("--offset", type=finite_float, required=True, help="H: arm surface height at the pivot")
+    parser.add_argument(
+        "--offset", type=finite_float, required=True, help="H: arm surface height at the pivot"
+    )
     parser.add_argument("--release-speed", type=angle, required=True, help="W > 0: release angular speed")
     parser.add_argument("--gravity", type=finite_float, required=True, help="G < 0: gravity, length/s^2")
     parser.add_argument("--mu", type=finite_float, required=True, help="friction coefficient arm-part, > 0")
@@ -38,28 +48,44 @@ def _common(parser: argparse.ArgumentParser) -> None:
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add this module's subcommands to the feeder parser."""
     fmt = argparse.RawDescriptionHelpFormatter
-    p = subparsers.add_parser("throw", help="one application of the throw map",
-                              description="One throw and catch (i0, R0) -> (i1, R1), jog or flip.\n" + CONVENTIONS,
-                              formatter_class=fmt)
+    p = subparsers.add_parser(
+        "throw",
+        help="one application of the throw map",
+        description="One throw and catch (i0, R0) -> (i1, R1), jog or flip.\n" + CONVENTIONS,
+        formatter_class=fmt,
+    )
     _common(p)
     p.add_argument("--edge", type=int, required=True, help="I: stable hull edge the part rests on")
-    p.add_argument("--radius", type=finite_float, required=True, help="R: throwing radius (>= R_grasp of the edge)")
+    p.add_argument(
+        "--radius", type=finite_float, required=True, help="R: throwing radius (>= R_grasp of the edge)"
+    )
     p.set_defaults(handler=_guard(run_throw))
-    q = subparsers.add_parser("limit-set", help="grasp radii, forward limit set and sensor trigger range",
-                              description="Grasp radii (eqs. 1-4), R_flip and R_max (Prop. IV.4), the forward limit "
-                                          "set from a grid of starts (Figs. 7, 8) and the sensor trigger radius range "
-                                          "for the goal edge.\n" + CONVENTIONS, formatter_class=fmt)
+    q = subparsers.add_parser(
+        "limit-set",
+        help="grasp radii, forward limit set and sensor trigger range",
+        description="Grasp radii (eqs. 1-4), R_flip and R_max (Prop. IV.4), the forward limit "
+        "set from a grid of starts (Figs. 7, 8) and the sensor trigger radius range "
+        "for the goal edge.\n" + CONVENTIONS,
+        formatter_class=fmt,
+    )
     _common(q)
     q.add_argument("--goal-edge", type=int, default=None, help="E: edge the sensor must single out")
-    q.add_argument("--sensing-height", type=finite_float, default=None,
-                   help="sensor sensing height (default 1%% of the part radius)")
+    q.add_argument(
+        "--sensing-height",
+        type=finite_float,
+        default=None,
+        help="sensor sensing height (default 1%% of the part radius)",
+    )
     q.add_argument("--starts-per-edge", type=int, default=25, help="grid starts per stable edge (default 25)")
     q.add_argument("--throws", type=int, default=300, help="throws from each start (default 300)")
     q.set_defaults(handler=_guard(run_limit_set))
-    d = subparsers.add_parser("throw-design", help="search offset and release speed for a sensor-based feeder",
-                              description="Try every (H, W) of the given lists; report each design's cycle and trigger "
-                                          "range and the unique-cycle design with the widest range.\n" + CONVENTIONS,
-                              formatter_class=fmt)
+    d = subparsers.add_parser(
+        "throw-design",
+        help="search offset and release speed for a sensor-based feeder",
+        description="Try every (H, W) of the given lists; report each design's cycle and trigger "
+        "range and the unique-cycle design with the widest range.\n" + CONVENTIONS,
+        formatter_class=fmt,
+    )
     d.add_argument("part", metavar="PART")
     d.add_argument("--offsets", type=finite_float, nargs="+", required=True, help="H values to try")
     d.add_argument("--release-speeds", type=angle, nargs="+", required=True, help="W values to try")
@@ -73,6 +99,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _guard(handler: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
     """Name command-line flags (not internal names) in input errors."""
+
     def run(args: argparse.Namespace) -> int:
         try:
             return handler(args)
@@ -80,6 +107,7 @@ def _guard(handler: Callable[[argparse.Namespace], int]) -> Callable[[argparse.N
             if error.source is None and error.field in FLAGS:
                 raise InputError(FLAGS[error.field], error.problem) from None
             raise
+
     return run
 
 
@@ -101,31 +129,48 @@ def run_throw(args: argparse.Namespace) -> int:
         r_grasp = grasp_radius(arm, args.edge, params.offset, params.mu) / part.unit_scale
         if args.radius < r_grasp * (1 - 1e-12) - 1e-300:
             unit = _unit_name(part)
-            raise InputError("--radius", f"R = {args.radius:.6g} {unit} is below R_grasp = {r_grasp:.6g} {unit} of "
-                                         f"edge {args.edge}: the throw is not in a dynamic grasp (eqs. 1-4)")
+            raise InputError(
+                "--radius",
+                f"R = {args.radius:.6g} {unit} is below R_grasp = {r_grasp:.6g} {unit} of "
+                f"edge {args.edge}: the throw is not in a dynamic grasp (eqs. 1-4)",
+            )
     result = api.throw_dict(part, args.edge, args.radius * part.unit_scale, params)
     unit = part.unit_scale
-    emit(args, result, lambda r: f"edge {r['start_edge']} at R={r['start_radius'] / unit:.6g} -> edge {r['edge']} at "
-                                 f"R={r['radius'] / unit:.6g} (file units): {r['kind']}, {r['turns']} whole turn(s), "
-                                 f"{r['impacts']} impact(s), flight {r['flight_time']:.4g} s")
+    emit(
+        args,
+        result,
+        lambda r: (
+            f"edge {r['start_edge']} at R={r['start_radius'] / unit:.6g} -> edge {r['edge']} at "
+            f"R={r['radius'] / unit:.6g} (file units): {r['kind']}, {r['turns']} whole turn(s), "
+            f"{r['impacts']} impact(s), flight {r['flight_time']:.4g} s"
+        ),
+    )
     return 0
 
 
 def _summary_limit(result: dict[str, Any], unit: float) -> str:
     lines = [f"stable edges {result['stable_edges']}; invariant set (Prop. IV.4): {result['invariant']}"]
     for i in result["grasp_radius"]:
-        lines.append(f"  edge {i}: R_grasp {result['grasp_radius'][i] / unit:.6g}  R_flip {result['flip_radius'][i] / unit:.6g}"
-                     f"  R_max {result['max_radius'][i] / unit:.6g}")
+        lines.append(
+            f"  edge {i}: R_grasp {result['grasp_radius'][i] / unit:.6g}  R_flip {result['flip_radius'][i] / unit:.6g}"
+            f"  R_max {result['max_radius'][i] / unit:.6g}"
+        )
     c = result["cycle"]
-    lines.append("cycle: none common to all starts" if c is None else
-                 f"cycle: edges {c['edges']}, {c['throws_per_cycle']:.1f} throws per cycle ({c['throws_range'][0]}-"
-                 f"{c['throws_range'][1]}), unique from all {result['starts']} starts")
+    lines.append(
+        "cycle: none common to all starts"
+        if c is None
+        else f"cycle: edges {c['edges']}, {c['throws_per_cycle']:.1f} throws per cycle ({c['throws_range'][0]}-"
+        f"{c['throws_range'][1]}), unique from all {result['starts']} starts"
+    )
     for e, (lo, hi) in result["edge_radius_ranges"].items():
         lines.append(f"  edge {e} in the limit set: R in [{lo / unit:.6g}, {hi / unit:.6g}]")
     t = result["trigger"]
-    lines.append("trigger: none" if t is None else
-                 f"trigger for edge {t['goal_edge']}: sensor radius in [{t['radius_range'][0] / unit:.6g}, "
-                 f"{t['radius_range'][1] / unit:.6g}] (file units)")
+    lines.append(
+        "trigger: none"
+        if t is None
+        else f"trigger for edge {t['goal_edge']}: sensor radius in [{t['radius_range'][0] / unit:.6g}, "
+        f"{t['radius_range'][1] / unit:.6g}] (file units)"
+    )
     return "\n".join(lines)
 
 
@@ -143,9 +188,14 @@ def run_limit_set(args: argparse.Namespace) -> int:
         if args.sensing_height < 0:
             raise InputError("--sensing-height", f"must be >= 0, got {args.sensing_height}")
         height = args.sensing_height * part.unit_scale
-    result = api.limit_set_dict(part, params, args.goal_edge, height,
-                                _positive_int(args.starts_per_edge, "--starts-per-edge"),
-                                _positive_int(args.throws, "--throws"))
+    result = api.limit_set_dict(
+        part,
+        params,
+        args.goal_edge,
+        height,
+        _positive_int(args.starts_per_edge, "--starts-per-edge"),
+        _positive_int(args.throws, "--throws"),
+    )
     emit(args, result, lambda r: _summary_limit(r, part.unit_scale))
     return 0
 
@@ -154,18 +204,29 @@ def run_design(args: argparse.Namespace) -> int:
     part = load_part(args.part)
     s = part.unit_scale
     height = None if args.sensing_height is None else args.sensing_height * s
-    result = api.design_dict(part, args.goal_edge, [h * s for h in args.offsets], args.release_speeds,
-                             args.gravity * s, args.mu, height)
+    result = api.design_dict(
+        part,
+        args.goal_edge,
+        [h * s for h in args.offsets],
+        args.release_speeds,
+        args.gravity * s,
+        args.mu,
+        height,
+    )
 
     def summary(r: dict[str, Any]) -> str:
         lines = [f"{'H':>10} {'W rad/s':>9} unique cycle / trigger range (file units)"]
         for row in r["designs"]:
             tr = row["trigger_range"]
             text = f"[{tr[0] / s:.4g}, {tr[1] / s:.4g}]" if tr else row["note"]
-            lines.append(f"{row['offset'] / s:>10.4g} {row['release_speed']:>9.4g} {str(row['unique']):6} "
-                         f"{row['cycle']} {text}")
+            lines.append(
+                f"{row['offset'] / s:>10.4g} {row['release_speed']:>9.4g} {str(row['unique']):6} "
+                f"{row['cycle']} {text}"
+            )
         b = r["best"]
-        lines.append("best: none" if b is None else f"best: H={b['offset'] / s:.4g}, W={b['release_speed']:.4g} rad/s")
+        lines.append(
+            "best: none" if b is None else f"best: H={b['offset'] / s:.4g}, W={b['release_speed']:.4g} rad/s"
+        )
         return "\n".join(lines)
 
     emit(args, result, summary)

@@ -1,0 +1,49 @@
+"""Conversions between numpy vectors and planar poses and the geometry_msgs types."""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+from geometry_msgs.msg import Point, Pose, Quaternion, Vector3
+
+from feeder_planner.errors import InputError
+
+__all__ = ["vec", "from_vec", "point", "yaw_quaternion", "planar_pose"]
+
+# A direction shorter than this (in the message's own unit) has no meaningful orientation.
+MIN_DIRECTION_NORM = 1e-12
+
+
+def vec(v: Sequence[float] | np.ndarray) -> Vector3:
+    """A geometry_msgs/Vector3 from the first three components of ``v``."""
+    return Vector3(x=float(v[0]), y=float(v[1]), z=float(v[2]))
+
+
+def point(v: Sequence[float] | np.ndarray) -> Point:
+    """A geometry_msgs/Point from the first three components of ``v``."""
+    return Point(x=float(v[0]), y=float(v[1]), z=float(v[2]))
+
+
+def from_vec(msg: Vector3, field: str) -> np.ndarray:
+    """A finite, non-zero direction from a request's Vector3; errors name ``field``."""
+    g = np.array([msg.x, msg.y, msg.z], dtype=float)
+    if not np.all(np.isfinite(g)):
+        raise InputError(field, f"must be finite, got {g.tolist()}")
+    if np.linalg.norm(g) < MIN_DIRECTION_NORM:
+        raise InputError(field, "must be a non-zero direction")
+    return g
+
+
+def yaw_quaternion(theta: float) -> Quaternion:
+    """The unit quaternion of a rotation by ``theta`` (rad) about +z."""
+    return Quaternion(x=0.0, y=0.0, z=math.sin(theta / 2), w=math.cos(theta / 2))
+
+
+def planar_pose(x: float, y: float, theta: float) -> Pose:
+    """A geometry_msgs/Pose in the z = 0 plane, rotated by ``theta`` about +z."""
+    pose = Pose()
+    pose.position.x, pose.position.y = float(x), float(y)
+    pose.orientation = yaw_quaternion(float(theta))
+    return pose

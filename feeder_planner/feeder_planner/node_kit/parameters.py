@@ -1,0 +1,144 @@
+"""Documented node parameters: declared with a description, validated once, each check naming the value."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Callable, Sequence
+
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.node import Node
+
+from feeder_planner.errors import InputError
+
+__all__ = [
+    "Check",
+    "ParameterSpec",
+    "declare_parameters",
+    "check_value",
+    "finite",
+    "positive",
+    "non_negative",
+    "negative",
+    "integer",
+    "integer_at_least",
+    "one_of",
+    "in_range",
+    "non_empty_string",
+]
+
+Check = Callable[[Any], "str | None"]  # returns a problem description, or None if the value is fine
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """A node parameter: name, default (its type is the parameter's type), meaning, a check, and mutability."""
+
+    name: str
+    default: Any
+    description: str
+    check: Check | None = None
+    read_only: bool = False
+
+
+def check_value(spec: ParameterSpec, value: Any) -> None:
+    """Raise InputError naming the parameter when ``value`` fails the spec's check."""
+    problem = spec.check(value) if spec.check else None
+    if problem:
+        raise InputError(f"parameter {spec.name}", problem)
+
+
+def declare_parameters(node: Node, specs: Sequence[ParameterSpec]) -> dict[str, Any]:
+    """Declare documented parameters and return their validated values; a bad value raises InputError."""
+    values: dict[str, Any] = {}
+    for spec in specs:
+        descriptor = ParameterDescriptor(description=spec.description, read_only=spec.read_only)
+        node.declare_parameter(spec.name, spec.default, descriptor)
+        value = node.get_parameter(spec.name).value
+        check_value(spec, value)
+        values[spec.name] = value
+    return values
+
+
+def _is_number(value: Any) -> bool:
+    # bool is an int subclass, but a parameter given as true is not a number.
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def finite(value: Any) -> str | None:
+    """Any finite number."""
+    return None if _is_number(value) else f"must be a finite number, got {value!r}"
+
+
+def positive(value: Any) -> str | None:
+    """A finite number > 0."""
+    return None if _is_number(value) and value > 0 else f"must be a finite number > 0, got {value!r}"
+
+
+def non_negative(value: Any) -> str | None:
+    """A finite number >= 0."""
+    return None if _is_number(value) and value >= 0 else f"must be a finite number >= 0, got {value!r}"
+
+
+def negative(value: Any) -> str | None:
+    """A finite number < 0."""
+    return None if _is_number(value) and value < 0 else f"must be a finite number < 0, got {value!r}"
+
+
+def integer(value: Any) -> str | None:
+    """Any integer (not a bool)."""
+    return (
+        None
+        if isinstance(value, int) and not isinstance(value, bool)
+        else f"must be an integer, got {value!r}"
+    )
+
+
+def integer_at_least(low: int) -> Check:
+    """A check for an integer >= ``low``."""
+
+    def check(value: Any) -> str | None:
+        ok = isinstance(value, int) and not isinstance(value, bool) and value >= low
+        return None if ok else f"must be an integer >= {low}, got {value!r}"
+
+    return check
+
+
+def one_of(choices: Sequence[str]) -> Check:
+    """A check for one of a closed set of words."""
+
+    def check(value: Any) -> str | None:
+        return None if value in choices else f"must be one of {', '.join(choices)}, got {value!r}"
+
+    return check
+
+
+def in_range(
+    low: float, high: float, *, include_low: bool = True, include_high: bool = True, unit: str = ""
+) -> Check:
+    """A check for a finite number in an interval; the bounds' openness is stated in the message."""
+    left, right = "[" if include_low else "(", "]" if include_high else ")"
+    suffix = f" {unit}" if unit else ""
+
+    def check(value: Any) -> str | None:
+        ok = (
+            _is_number(value)
+            and (value >= low if include_low else value > low)
+            and (value <= high if include_high else value < high)
+        )
+        return (
+            None
+            if ok
+            else f"must be a finite number in {left}{low:.6g}, {high:.6g}{right}{suffix}, got {value!r}"
+        )
+
+    return check
+
+
+def non_empty_string(what: str) -> Check:
+    """A check for a non-empty string; ``what`` says what it must name."""
+
+    def check(value: Any) -> str | None:
+        return None if isinstance(value, str) and value else f"must name {what}"
+
+    return check
