@@ -8,7 +8,10 @@ from typing import Any, Callable
 
 
 def median_time_and_result(function: Callable[[], Any], repeats: int) -> tuple[float, Any]:
-    """Median wall time of ``repeats`` calls (s), robust to the odd slow call on a shared machine, and the last result."""
+    """Return the median wall time of ``repeats`` calls (s) and the last result.
+
+    The median is robust to the odd slow call on a shared machine.
+    """
     times, result = [], None
     for _ in range(repeats):
         start = time.perf_counter()

@@ -41,7 +41,10 @@ def table(rows: list[dict]) -> str:
         for row in rows
     ]
     widths = [max(len(c), *(len(r[i]) for r in cells)) if cells else len(c) for i, c in enumerate(COLUMNS)]
-    line = lambda values: "| " + " | ".join(v.ljust(w) for v, w in zip(values, widths)) + " |"
+
+    def line(values: list[str]) -> str:
+        return "| " + " | ".join(v.ljust(w) for v, w in zip(values, widths, strict=True)) + " |"
+
     return "\n".join([line(COLUMNS), line(["-" * w for w in widths]), *(line(r) for r in cells)])
 
 

@@ -1,4 +1,4 @@
-"""Real-process ROS 2 test harness: domain allocation, node processes, and a client node in the test process."""
+"""Real-process ROS 2 test harness: domain allocation, node processes, a client node in the test process."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import time
 from pathlib import Path
 from typing import Any, Iterable
 
-from feeder_cell.launcher import NodeProcess
 from feeder_cell import launcher
+from feeder_cell.launcher import NodeProcess
 
 DOMAIN_RANGE = range(1, 102)  # Fast DDS ports for domains above ~101 can collide with ephemeral ports
 

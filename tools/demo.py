@@ -1,4 +1,4 @@
-"""`make demo`: check the environment, run each planner on the papers' examples, then run the cell and record it."""
+"""`make demo`: check the environment, run each planner on the papers' examples, run the cell, record it."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Start node executables as processes from a scene file, and end them by pid (launch_ros is not available)."""
+"""Start the node processes of a scene file and end them by pid (launch_ros is not available here)."""
 
 from __future__ import annotations
 
@@ -74,6 +74,7 @@ def _resolve_path(key: str, value: Any, base_dir: Path) -> Any:
 
 
 def load_scene(path: str | Path) -> Scene:
+    """Read and validate a scene file; errors name the file and field."""
     try:
         return scene_from_mapping(load_yaml_mapping(path), Path(path).resolve().parent)
     except InputError as error:
@@ -119,20 +120,25 @@ class NodeProcess:
 
     @property
     def pid(self) -> int:
+        """Process id of the node."""
         return self.process.pid
 
     @property
     def package(self) -> str:
+        """Package of the node's executable."""
         return self.spec.package
 
     @property
     def executable(self) -> str:
+        """Name of the node's executable."""
         return self.spec.executable
 
     def alive(self) -> bool:
+        """Return whether the process is still running."""
         return self.process.poll() is None
 
     def output(self) -> str:
+        """Return what the node has written to its log so far."""
         return self.log_path.read_text(errors="replace") if self.log_path.exists() else ""
 
     def stop(self) -> int | None:

@@ -31,7 +31,7 @@ def load_yaml_mapping(path: str | Path) -> dict[str, Any]:
 
 
 def finite_number(value: Any, field: str) -> float:
-    """A finite real number (bools are refused: YAML 'yes' is not a number)."""
+    """Return ``value`` as a finite float; bools are refused (YAML 'yes' is not a number)."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise InputError(field, f"expected a number, got {type(value).__name__} {value!r}")
     number = float(value)
@@ -41,6 +41,7 @@ def finite_number(value: Any, field: str) -> float:
 
 
 def positive_number(value: Any, field: str) -> float:
+    """Return ``value`` as a finite float > 0; errors name ``field``."""
     number = finite_number(value, field)
     if number <= 0.0:
         raise InputError(field, f"must be > 0, got {value!r}")
@@ -48,6 +49,7 @@ def positive_number(value: Any, field: str) -> float:
 
 
 def non_negative_number(value: Any, field: str) -> float:
+    """Return ``value`` as a finite float >= 0; errors name ``field``."""
     number = finite_number(value, field)
     if number < 0.0:
         raise InputError(field, f"must be >= 0, got {value!r}")
@@ -55,7 +57,7 @@ def non_negative_number(value: Any, field: str) -> float:
 
 
 def point_array(value: Any, field: str, dimension: int, min_points: int = 1) -> np.ndarray:
-    """A list of points, each a list of ``dimension`` finite numbers, as an (n, dimension) array."""
+    """Return a list of points, each ``dimension`` finite numbers, as an (n, dimension) array."""
     if not isinstance(value, (list, tuple)):
         raise InputError(field, f"expected a list of {dimension}-D points, got {type(value).__name__}")
     if len(value) < min_points:
@@ -70,11 +72,13 @@ def point_array(value: Any, field: str, dimension: int, min_points: int = 1) -> 
 
 
 def optional(document: dict[str, Any], key: str, default: Any) -> Any:
+    """Return ``document[key]``, or ``default`` when the key is absent or null."""
     value = document.get(key, default)
     return default if value is None else value
 
 
 def required(document: dict[str, Any], key: str, field: str | None = None) -> Any:
+    """Return ``document[key]``; a missing key is an InputError naming ``field`` (default: the key)."""
     if key not in document or document[key] is None:
         raise InputError(field or key, "is required but missing")
     return document[key]

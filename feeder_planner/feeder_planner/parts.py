@@ -39,6 +39,7 @@ class Part:
 
     @property
     def mass(self) -> float:
+        """Mass (kg): areal density times area."""
         return self.density * self.area
 
     @property
@@ -56,7 +57,7 @@ class Part:
         return (self.outer, *self.holes)
 
     def placed(self, x: float, y: float, theta: float) -> tuple[np.ndarray, ...]:
-        """The part's loops in the plane frame at configuration (x, y, theta)."""
+        """Return the part's loops in the plane frame at configuration (x, y, theta)."""
         c, s = np.cos(theta), np.sin(theta)
         rotation = np.array([[c, -s], [s, c]])
         return tuple(loop @ rotation.T + np.array([x, y]) for loop in self.loops())
@@ -76,7 +77,7 @@ def make_part(
     polygon.check_simple(outer, outer_field)
     if not isinstance(holes, (list, tuple)):
         raise InputError(f"{field_prefix}holes", f"expected a list of polygons, got {type(holes).__name__}")
-    hole_loops = []
+    hole_loops: list[np.ndarray] = []
     for index, hole in enumerate(holes):
         hole_field = f"{field_prefix}holes[{index}]"
         loop = point_array(hole, hole_field, 2, min_points=3) * unit_scale

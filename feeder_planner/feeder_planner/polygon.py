@@ -6,6 +6,12 @@ import numpy as np
 
 from feeder_planner.errors import InputError
 
+# Relative tolerance of every planar predicate here (orientation, coincidence, collinearity, zero area),
+# as a fraction of the polygon's extent (lengths) or its square (areas, cross products). 1e-12 is about
+# 4500 ulps of a double: far above the rounding of one cross product of coordinates of that extent, far
+# below any feature a part file can mean (a part 1 m wide resolves 1 pm).
+RELATIVE_TOLERANCE = 1e-12
+
 
 def signed_area(vertices: np.ndarray) -> float:
     """Shoelace area; positive for counter-clockwise vertex order."""
@@ -14,7 +20,7 @@ def signed_area(vertices: np.ndarray) -> float:
 
 
 def first_moments(vertices: np.ndarray) -> tuple[float, float, float]:
-    """(A, Sx, Sy): signed area and integrals of x and y over the polygon (Green's theorem)."""
+    """Return (A, Sx, Sy): the signed area and the integrals of x and y over the polygon (Green's theorem)."""
     x0, y0 = vertices[:, 0], vertices[:, 1]
     x1, y1 = np.roll(x0, -1), np.roll(y0, -1)
     cross = x0 * y1 - x1 * y0
@@ -37,7 +43,7 @@ def second_moments(vertices: np.ndarray) -> tuple[float, float, float]:
 
 def _segments_cross(p: np.ndarray, q: np.ndarray, r: np.ndarray, s: np.ndarray, scale: float) -> np.ndarray:
     """Whether closed segments p-q and r-s intersect (vectorised over rows), with a relative tolerance."""
-    eps = 1e-12 * scale * scale
+    eps = RELATIVE_TOLERANCE * scale * scale
 
     def orient(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
         value = (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) - (b[..., 1] - a[..., 1]) * (
@@ -47,10 +53,10 @@ def _segments_cross(p: np.ndarray, q: np.ndarray, r: np.ndarray, s: np.ndarray, 
 
     def on_segment(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
         return (
-            (np.minimum(a[..., 0], b[..., 0]) <= c[..., 0] + 1e-12 * scale)
-            & (c[..., 0] <= np.maximum(a[..., 0], b[..., 0]) + 1e-12 * scale)
-            & (np.minimum(a[..., 1], b[..., 1]) <= c[..., 1] + 1e-12 * scale)
-            & (c[..., 1] <= np.maximum(a[..., 1], b[..., 1]) + 1e-12 * scale)
+            (np.minimum(a[..., 0], b[..., 0]) <= c[..., 0] + RELATIVE_TOLERANCE * scale)
+            & (c[..., 0] <= np.maximum(a[..., 0], b[..., 0]) + RELATIVE_TOLERANCE * scale)
+            & (np.minimum(a[..., 1], b[..., 1]) <= c[..., 1] + RELATIVE_TOLERANCE * scale)
+            & (c[..., 1] <= np.maximum(a[..., 1], b[..., 1]) + RELATIVE_TOLERANCE * scale)
         )
 
     o1, o2, o3, o4 = orient(p, q, r), orient(p, q, s), orient(r, s, p), orient(r, s, q)
@@ -74,7 +80,7 @@ def check_simple(vertices: np.ndarray, field: str) -> None:
         raise InputError(field, "degenerate polygon: all vertices coincide")
     edges = np.roll(vertices, -1, axis=0) - vertices
     lengths = np.hypot(edges[:, 0], edges[:, 1])
-    short = np.flatnonzero(lengths <= 1e-12 * scale)
+    short = np.flatnonzero(lengths <= RELATIVE_TOLERANCE * scale)
     if short.size:
         raise InputError(field, f"degenerate polygon: vertices {short[0]} and {(short[0] + 1) % n} coincide")
     # Every pair of non-adjacent edges must be disjoint; adjacent edges may only share their vertex.
@@ -91,10 +97,10 @@ def check_simple(vertices: np.ndarray, field: str) -> None:
     prev_edge, next_edge = edges, np.roll(edges, -1, axis=0)
     cross = prev_edge[:, 0] * next_edge[:, 1] - prev_edge[:, 1] * next_edge[:, 0]
     dot = (prev_edge * next_edge).sum(axis=1)
-    folded = np.flatnonzero((np.abs(cross) <= 1e-12 * scale * scale) & (dot < 0))
+    folded = np.flatnonzero((np.abs(cross) <= RELATIVE_TOLERANCE * scale * scale) & (dot < 0))
     if folded.size:
         raise InputError(field, f"self-intersecting polygon: edges fold back at vertex {(folded[0] + 1) % n}")
-    if abs(signed_area(vertices)) <= 1e-12 * scale * scale:
+    if abs(signed_area(vertices)) <= RELATIVE_TOLERANCE * scale * scale:
         raise InputError(field, "degenerate polygon: zero area")
 
 
@@ -110,20 +116,23 @@ def point_in_polygon(point: np.ndarray, vertices: np.ndarray) -> bool:
 
 
 def polygons_intersect(a: np.ndarray, b: np.ndarray) -> bool:
-    """Whether the boundaries of two polygons touch or cross."""
+    """Return whether the boundaries of two polygons touch or cross."""
     scale = float(max(np.ptp(a, axis=0).max(), np.ptp(b, axis=0).max()))
-    i, j = np.meshgrid(np.arange(len(a)), np.arange(len(b)), indexing="ij")
-    i, j = i.ravel(), j.ravel()
+    grid_i, grid_j = np.meshgrid(np.arange(len(a)), np.arange(len(b)), indexing="ij")
+    i, j = grid_i.ravel(), grid_j.ravel()
     return bool(
         _segments_cross(a[i], np.roll(a, -1, axis=0)[i], b[j], np.roll(b, -1, axis=0)[j], scale).any()
     )
 
 
 def convex_hull_indices(points: np.ndarray) -> list[int]:
-    """Indices of the convex hull vertices, counter-clockwise, collinear points dropped (monotone chain)."""
+    """Return the convex hull's vertex indices, counter-clockwise, collinear points dropped.
+
+    Andrew's monotone chain.
+    """
     order = sorted(range(len(points)), key=lambda k: (points[k, 0], points[k, 1]))
     scale = float(np.ptp(points, axis=0).max()) or 1.0
-    eps = 1e-12 * scale * scale
+    eps = RELATIVE_TOLERANCE * scale * scale
 
     def cross(o: int, a: int, b: int) -> float:
         return float(

@@ -1,6 +1,6 @@
 """The layers and their one-way dependencies, checked by walking every import of the three packages.
 
-    feeder_msgs  <-  feeder_planner (core, node kit, planner nodes)  <-  feeder_sim (core, nodes)  <-  feeder_cell
+    feeder_msgs <- feeder_planner (core, node kit, planner nodes) <- feeder_sim (core, nodes) <- feeder_cell
 
 The core (mechanics and fidelity models) never imports rclpy or a message package; only the node kit,
 the node modules and feeder_cell do. No node module imports another node module.
@@ -93,28 +93,56 @@ def violations(rule) -> list[str]:
 
 def test_the_walk_sees_every_layer() -> None:
     # Guards the walk itself: an empty walk would pass every rule below.
-    assert {"feeder_planner.parts", "feeder_planner.node_kit", "feeder_sim.nodes.throwing_arm",
-            "feeder_cell.cli.main", "feeder_cell.launcher"} <= MODULES
+    assert {
+        "feeder_planner.parts",
+        "feeder_planner.node_kit",
+        "feeder_sim.nodes.throwing_arm",
+        "feeder_cell.cli.main",
+        "feeder_cell.launcher",
+    } <= MODULES
     assert any(i.imported == "rclpy" for i in ALL_IMPORTS)
 
 
 def test_planner_never_imports_sim_or_cell() -> None:
-    assert violations(lambda i: i.importer.startswith("feeder_planner")
-                      and i.imported.split(".")[0] in ("feeder_sim", "feeder_cell")) == []
+    assert (
+        violations(
+            lambda i: (
+                i.importer.startswith("feeder_planner")
+                and i.imported.split(".")[0] in ("feeder_sim", "feeder_cell")
+            )
+        )
+        == []
+    )
 
 
 def test_sim_never_imports_cell() -> None:
-    assert violations(lambda i: i.importer.startswith("feeder_sim") and i.imported.startswith("feeder_cell")) == []
+    assert (
+        violations(lambda i: i.importer.startswith("feeder_sim") and i.imported.startswith("feeder_cell"))
+        == []
+    )
 
 
 def test_no_node_imports_another_node() -> None:
-    assert violations(lambda i: is_node_module(i.imported) and i.importer != i.imported
-                      and not i.imported.endswith(".nodes")) == []
+    assert (
+        violations(
+            lambda i: (
+                is_node_module(i.imported) and i.importer != i.imported and not i.imported.endswith(".nodes")
+            )
+        )
+        == []
+    )
 
 
 def test_core_imports_neither_ros_nor_the_node_kit() -> None:
-    assert violations(lambda i: is_core(i.importer) and (is_ros(i.imported) or ".node_kit" in i.imported
-                                                         or ".nodes" in i.imported)) == []
+    assert (
+        violations(
+            lambda i: (
+                is_core(i.importer)
+                and (is_ros(i.imported) or ".node_kit" in i.imported or ".nodes" in i.imported)
+            )
+        )
+        == []
+    )
 
 
 def test_only_nodes_kit_and_cell_import_rclpy() -> None:
@@ -183,7 +211,8 @@ def strongly_connected(graph: dict[str, set[str]]) -> list[set[str]]:
 
 def test_cycle_finder_finds_a_cycle() -> None:
     assert [sorted(c) for c in strongly_connected({"a": {"b"}, "b": {"a"}, "c": {"a"}}) if len(c) > 1] == [
-        ["a", "b"]]
+        ["a", "b"]
+    ]
 
 
 CORE_MODULES = sorted(m for m in MODULES if is_core(m))
@@ -210,7 +239,12 @@ def test_every_core_module_imports_with_ros_blocked(blocked: tuple[str, ...]) ->
         print(len({CORE_MODULES!r}))
     """)
     paths = [str(ROOT / package) for package in PACKAGES]
-    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300,
-                            env={"PYTHONPATH": ":".join(paths), "PATH": "/usr/bin:/bin"})
+    result = subprocess.run(
+        [sys.executable, "-c", script],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={"PYTHONPATH": ":".join(paths), "PATH": "/usr/bin:/bin"},
+    )
     assert result.returncode == 0, result.stderr
     assert int(result.stdout.strip()) == len(CORE_MODULES) > 40

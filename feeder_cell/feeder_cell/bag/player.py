@@ -15,6 +15,7 @@ from feeder_planner.errors import InputError
 
 
 def open_bag(path: Path) -> Reader:
+    """Open a rosbag2 MCAP bag for reading; errors name the bag."""
     try:
         reader = Reader(path)
         reader.open()

@@ -9,6 +9,7 @@ _ZERO = QosTime(0, 0)
 
 
 def to_bag_qos(reliable: bool, transient_local: bool, depth: int = 10) -> Qos:
+    """Return the bag's QoS record of a publisher with these policies."""
     return Qos(
         QosHistory.KEEP_LAST,
         depth,
@@ -23,7 +24,7 @@ def to_bag_qos(reliable: bool, transient_local: bool, depth: int = 10) -> Qos:
 
 
 def from_bag_qos(profiles: list[Qos] | tuple[Qos, ...], depth: int = 10) -> QoSProfile:
-    """A publisher profile that offers what the recorded publishers offered (latched stays latched)."""
+    """Return a publisher profile that offers what the recorded publishers offered (latched stays latched)."""
     reliable = not profiles or all(p.reliability != QosReliability.BEST_EFFORT for p in profiles)
     latched = any(p.durability == QosDurability.TRANSIENT_LOCAL for p in profiles)
     return QoSProfile(

@@ -22,6 +22,8 @@ DEFAULT_EXCLUDED = ("/rosout", "/parameter_events")
 
 @dataclass
 class TopicStats:
+    """Messages and bytes recorded on one topic."""
+
     type_name: str
     count: int = 0
 
@@ -93,6 +95,7 @@ class Recorder:
             self.stats[topic].count += 1
 
     def close(self) -> dict[str, TopicStats]:
+        """Stop recording, finish the bag and return what was recorded per topic."""
         for subscription in self._subscriptions:
             self.node.destroy_subscription(subscription)
         with self._lock:
@@ -103,4 +106,5 @@ class Recorder:
 
 
 def missing_topics(stats: dict[str, TopicStats], wanted: Iterable[str]) -> list[str]:
+    """Return the wanted topics of which no message was recorded."""
     return sorted(set(wanted) - set(stats))

@@ -36,7 +36,7 @@ def typestore() -> Typestore:
 
 
 def message_class(type_name: str) -> type:
-    """The rclpy message class of ``pkg/msg/Type``."""
+    """Return the rclpy message class of ``pkg/msg/Type``."""
     import importlib
 
     package, kind, name = type_name.split("/")

@@ -117,6 +117,7 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add this module's subcommands to the ``feeder`` parser."""
     record = subparsers.add_parser(
         "record",
         help="record live topics into a rosbag2 MCAP bag",

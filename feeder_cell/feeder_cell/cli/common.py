@@ -32,6 +32,7 @@ def angle(text: str) -> float:
 
 
 def add_json_flag(parser: argparse.ArgumentParser) -> None:
+    """Add the contract's ``--json`` flag (one JSON object on stdout)."""
     parser.add_argument(
         "--json", action="store_true", help="print exactly one JSON object on stdout (SI units)"
     )

@@ -6,6 +6,7 @@ import sys
 
 
 def main() -> int:
+    """Echo one message over DDS (the doctor's round-trip probe); return the exit status."""
     import rclpy
     from rclpy.node import Node
     from std_msgs.msg import String

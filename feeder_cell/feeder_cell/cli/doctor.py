@@ -16,12 +16,15 @@ FIX_SETUP = "run 'make setup', then 'source env.sh'"
 
 @dataclass
 class Check:
+    """One doctor check: what was checked, whether it passed, and the detail."""
+
     name: str
     ok: bool
     detail: str
     hint: str = ""
 
     def line(self) -> str:
+        """Return the check's report line."""
         status = "OK  " if self.ok else "FAIL"
         hint = f" -- fix: {self.hint}" if not self.ok and self.hint else ""
         return f"{status} {self.name}: {self.detail}{hint}"
@@ -42,6 +45,7 @@ def _probe(code: str, timeout_s: float = 60.0) -> tuple[bool, str]:
 
 
 def check_rclpy() -> Check:
+    """Check that rclpy imports and initialises."""
     ok, detail = _probe(
         "import os, rclpy\nfrom importlib.metadata import version\n"
         "print(f\"rclpy {version('ros-rclpy')} from {os.path.dirname(rclpy.__file__)}\")"
@@ -50,6 +54,7 @@ def check_rclpy() -> Check:
 
 
 def check_rmw() -> Check:
+    """Check which RMW implementation is in use."""
     wanted = os.environ.get("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
     ok, detail = _probe(
         "import rclpy\nfrom rclpy.utilities import get_rmw_implementation_identifier\n"
@@ -66,6 +71,7 @@ def check_rmw() -> Check:
 
 
 def check_interfaces() -> Check:
+    """Check that the feeder_msgs types import and build."""
     ok, detail = _probe(
         "import feeder_msgs.msg as m\nnames = sorted(n for n in dir(m) if n[:1].isupper())\n"
         "assert names, 'feeder_msgs defines no message'\ngetattr(m, names[0])()\n"
@@ -149,6 +155,7 @@ def _doctor(args: argparse.Namespace) -> int:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add this module's subcommands to the ``feeder`` parser."""
     parser = subparsers.add_parser(
         "doctor",
         help="check the ROS 2 environment (rclpy, RMW, feeder_msgs, a DDS round trip)",

@@ -102,6 +102,7 @@ def _summary(result: dict[str, Any]) -> str:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add this module's subcommands to the ``feeder`` parser."""
     parser = subparsers.add_parser(
         "launch",
         help="run the nodes of a scene file together (optionally recording a bag)",

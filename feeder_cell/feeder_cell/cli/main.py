@@ -24,9 +24,10 @@ EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_NOT_CERTIFIED = 0, 1, 2, 3
 
 
 class FeederArgumentParser(argparse.ArgumentParser):
-    """argparse with the contract's error shape: exit 2, one line for a bad value, usage for an unknown word."""
+    """Parse ``feeder`` arguments with the contract's error shape: exit 2, one line for a bad value."""
 
     def error(self, message: str) -> NoReturn:
+        """Print the error in the contract's shape and exit with status 2."""
         if "invalid choice" in message or "unrecognized arguments" in message or "required" in message:
             self.print_usage(sys.stderr)
         sys.stderr.write(f"{self.prog}: error: {message}\n")
@@ -34,6 +35,7 @@ class FeederArgumentParser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """Build the ``feeder`` parser with every subcommand."""
     parser = FeederArgumentParser(
         prog="feeder",
         description="Plan for and run emulated sensorless parts feeders (ROS 2 Jazzy). "
@@ -49,6 +51,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one ``feeder`` subcommand; return its exit status (2 bad input, 3 not certified)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

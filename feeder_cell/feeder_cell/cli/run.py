@@ -16,6 +16,7 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add this module's subcommands to the ``feeder`` parser."""
     parser = subparsers.add_parser(
         "run",
         help="run a node executable of a package (like 'ros2 run')",

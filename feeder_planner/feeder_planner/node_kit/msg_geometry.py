@@ -17,17 +17,17 @@ MIN_DIRECTION_NORM = 1e-12
 
 
 def vec(v: Sequence[float] | np.ndarray) -> Vector3:
-    """A geometry_msgs/Vector3 from the first three components of ``v``."""
+    """Build a geometry_msgs/Vector3 from the first three components of ``v``."""
     return Vector3(x=float(v[0]), y=float(v[1]), z=float(v[2]))
 
 
 def point(v: Sequence[float] | np.ndarray) -> Point:
-    """A geometry_msgs/Point from the first three components of ``v``."""
+    """Build a geometry_msgs/Point from the first three components of ``v``."""
     return Point(x=float(v[0]), y=float(v[1]), z=float(v[2]))
 
 
 def from_vec(msg: Vector3, field: str) -> np.ndarray:
-    """A finite, non-zero direction from a request's Vector3; errors name ``field``."""
+    """Return a finite, non-zero direction from a request's Vector3; errors name ``field``."""
     g = np.array([msg.x, msg.y, msg.z], dtype=float)
     if not np.all(np.isfinite(g)):
         raise InputError(field, f"must be finite, got {g.tolist()}")
@@ -37,12 +37,12 @@ def from_vec(msg: Vector3, field: str) -> np.ndarray:
 
 
 def yaw_quaternion(theta: float) -> Quaternion:
-    """The unit quaternion of a rotation by ``theta`` (rad) about +z."""
+    """Return the unit quaternion of a rotation by ``theta`` (rad) about +z."""
     return Quaternion(x=0.0, y=0.0, z=math.sin(theta / 2), w=math.cos(theta / 2))
 
 
 def planar_pose(x: float, y: float, theta: float) -> Pose:
-    """A geometry_msgs/Pose in the z = 0 plane, rotated by ``theta`` about +z."""
+    """Build a geometry_msgs/Pose in the z = 0 plane, rotated by ``theta`` about +z."""
     pose = Pose()
     pose.position.x, pose.position.y = float(x), float(y)
     pose.orientation = yaw_quaternion(float(theta))

@@ -22,7 +22,7 @@ def _loop_points(loop: _Loop, field: str) -> list[list[float]]:
     xs, ys = list(loop.x), list(loop.y)
     if len(xs) != len(ys):
         raise InputError(field, f"x has {len(xs)} values but y has {len(ys)}")
-    return [[x, y] for x, y in zip(xs, ys)]
+    return [[x, y] for x, y in zip(xs, ys, strict=True)]
 
 
 def part_from_msg(msg: PartMsg, field: str = "part") -> Part:

@@ -32,7 +32,7 @@ Check = Callable[[Any], "str | None"]  # returns a problem description, or None 
 
 @dataclass(frozen=True)
 class ParameterSpec:
-    """A node parameter: name, default (its type is the parameter's type), meaning, a check, and mutability."""
+    """A node parameter: name, default (whose type is the parameter's), meaning, check, mutability."""
 
     name: str
     default: Any
@@ -66,27 +66,27 @@ def _is_number(value: Any) -> bool:
 
 
 def finite(value: Any) -> str | None:
-    """Any finite number."""
+    """Accept any finite number."""
     return None if _is_number(value) else f"must be a finite number, got {value!r}"
 
 
 def positive(value: Any) -> str | None:
-    """A finite number > 0."""
+    """Accept a finite number > 0."""
     return None if _is_number(value) and value > 0 else f"must be a finite number > 0, got {value!r}"
 
 
 def non_negative(value: Any) -> str | None:
-    """A finite number >= 0."""
+    """Accept a finite number >= 0."""
     return None if _is_number(value) and value >= 0 else f"must be a finite number >= 0, got {value!r}"
 
 
 def negative(value: Any) -> str | None:
-    """A finite number < 0."""
+    """Accept a finite number < 0."""
     return None if _is_number(value) and value < 0 else f"must be a finite number < 0, got {value!r}"
 
 
 def integer(value: Any) -> str | None:
-    """Any integer (not a bool)."""
+    """Accept any integer (not a bool)."""
     return (
         None
         if isinstance(value, int) and not isinstance(value, bool)
@@ -95,7 +95,7 @@ def integer(value: Any) -> str | None:
 
 
 def integer_at_least(low: int) -> Check:
-    """A check for an integer >= ``low``."""
+    """Return a check for an integer >= ``low``."""
 
     def check(value: Any) -> str | None:
         ok = isinstance(value, int) and not isinstance(value, bool) and value >= low
@@ -105,7 +105,7 @@ def integer_at_least(low: int) -> Check:
 
 
 def one_of(choices: Sequence[str]) -> Check:
-    """A check for one of a closed set of words."""
+    """Return a check for one of a closed set of words."""
 
     def check(value: Any) -> str | None:
         return None if value in choices else f"must be one of {', '.join(choices)}, got {value!r}"
@@ -116,7 +116,7 @@ def one_of(choices: Sequence[str]) -> Check:
 def in_range(
     low: float, high: float, *, include_low: bool = True, include_high: bool = True, unit: str = ""
 ) -> Check:
-    """A check for a finite number in an interval; the bounds' openness is stated in the message."""
+    """Return a check for a finite number in an interval; the message states which bounds are open."""
     left, right = "[" if include_low else "(", "]" if include_high else ")"
     suffix = f" {unit}" if unit else ""
 
@@ -136,7 +136,7 @@ def in_range(
 
 
 def non_empty_string(what: str) -> Check:
-    """A check for a non-empty string; ``what`` says what it must name."""
+    """Return a check for a non-empty string; ``what`` says what it must name."""
 
     def check(value: Any) -> str | None:
         return None if isinstance(value, str) and value else f"must name {what}"
