@@ -23,6 +23,7 @@ setup(
     entry_points={
         "console_scripts": [
             "feeder = feeder_cell.cli.main:main",
+            "cell_clock = feeder_cell.nodes.cell_clock:main",
         ],
     },
 )

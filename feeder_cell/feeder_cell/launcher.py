@@ -8,7 +8,7 @@ import subprocess
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, cast
 
 import yaml
 
@@ -18,14 +18,32 @@ from feeder_planner.fields_io import load_yaml_mapping, optional, required
 STOP_GRACE_S = 5.0
 
 
+LifecycleTarget = Literal["active", "inactive", "unconfigured"]
+LIFECYCLE_TARGETS: tuple[str, ...] = ("active", "inactive", "unconfigured")
+
+
 @dataclass(frozen=True)
 class NodeSpec:
-    """One node of a scene: which executable, and the parameters it starts with."""
+    """One node of a scene: which executable, under which name and namespace, with what it starts with."""
 
     package: str
     executable: str
     parameters: dict[str, Any] = field(default_factory=dict)
     name: str = ""  # node name remap; empty keeps the executable's own name
+    namespace: str = ""  # e.g. /cell/feeder_a; empty: the root namespace
+    remappings: tuple[tuple[str, str], ...] = ()  # (from, to) name remappings, as -r from:=to
+    lifecycle: LifecycleTarget = "active"  # where `feeder launch` brings a managed node
+
+    @property
+    def node_name(self) -> str:
+        """The node's name in the graph (the executable's name unless remapped)."""
+        return self.name or self.executable
+
+    @property
+    def fully_qualified_name(self) -> str:
+        """Namespace and name, e.g. ``/cell/feeder_a/throwing_arm``."""
+        namespace = self.namespace.rstrip("/")
+        return f"{namespace}/{self.node_name}" if namespace else f"/{self.node_name}"
 
 
 @dataclass(frozen=True)
@@ -54,8 +72,41 @@ def scene_from_mapping(document: dict[str, Any], base_dir: Path) -> Scene:
         if not isinstance(parameters, dict):
             raise InputError(f"{where}.parameters", "expected a mapping of parameter names to values")
         resolved = {key: _resolve_path(key, value, base_dir) for key, value in parameters.items()}
-        nodes.append(NodeSpec(str(package), str(executable), resolved, str(optional(entry, "name", ""))))
+        nodes.append(
+            NodeSpec(
+                str(package),
+                str(executable),
+                resolved,
+                str(optional(entry, "name", "")),
+                _namespace(optional(entry, "namespace", ""), f"{where}.namespace"),
+                _remappings(optional(entry, "remappings", {}), f"{where}.remappings"),
+                _lifecycle(optional(entry, "lifecycle", "active"), f"{where}.lifecycle"),
+            )
+        )
     return Scene(str(optional(document, "name", "scene")), tuple(nodes))
+
+
+def _namespace(value: Any, field: str) -> str:
+    if not isinstance(value, str):
+        raise InputError(field, f"expected a namespace such as /cell/feeder_a, got {value!r}")
+    if value and not value.startswith("/"):
+        value = "/" + value
+    return value.rstrip("/") if value != "/" else ""
+
+
+def _remappings(value: Any, field: str) -> tuple[tuple[str, str], ...]:
+    names_only = isinstance(value, dict) and all(
+        isinstance(k, str) and isinstance(v, str) for k, v in value.items()
+    )
+    if not names_only:
+        raise InputError(field, "expected a mapping of names to names, e.g. {sensor: proximity}")
+    return tuple(sorted(value.items()))
+
+
+def _lifecycle(value: Any, field: str) -> LifecycleTarget:
+    if value not in LIFECYCLE_TARGETS:
+        raise InputError(field, f"must be one of {', '.join(LIFECYCLE_TARGETS)}, got {value!r}")
+    return cast(LifecycleTarget, value)
 
 
 def _resolve_path(key: str, value: Any, base_dir: Path) -> Any:
@@ -155,17 +206,27 @@ class NodeProcess:
         return self.process.returncode
 
 
-def start_node(spec: NodeSpec, log_dir: Path, extra_args: tuple[str, ...] = ()) -> NodeProcess:
+def start_node(
+    spec: NodeSpec,
+    log_dir: Path,
+    extra_args: tuple[str, ...] = (),
+    extra_parameters: dict[str, Any] | None = None,
+) -> NodeProcess:
     """Start one node with its parameters passed through a params file (types survive, unlike -p)."""
     path = resolve_executable(spec.package, spec.executable)
     log_dir.mkdir(parents=True, exist_ok=True)
-    stem = f"{spec.name or spec.executable}-{time.monotonic_ns()}"
+    stem = f"{spec.fully_qualified_name.strip('/').replace('/', '.')}-{time.monotonic_ns()}"
     command = [str(path), "--ros-args"]
     if spec.name:
         command += ["-r", f"__node:={spec.name}"]
-    if spec.parameters:
+    if spec.namespace:
+        command += ["-r", f"__ns:={spec.namespace}"]
+    for source, target in spec.remappings:
+        command += ["-r", f"{source}:={target}"]
+    parameters = {**spec.parameters, **(extra_parameters or {})}
+    if parameters:
         params_path = log_dir / f"{stem}-params.yaml"
-        params_path.write_text(yaml.safe_dump({"/**": {"ros__parameters": spec.parameters}}))
+        params_path.write_text(yaml.safe_dump({"/**": {"ros__parameters": parameters}}))
         command += ["--params-file", str(params_path)]
     command += list(extra_args)
     log_path = log_dir / f"{stem}.log"

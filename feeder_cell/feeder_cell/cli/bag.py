@@ -3,34 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import signal
 import time
 from pathlib import Path
 from typing import Any
 
 from feeder_cell.cli.common import add_json_flag, emit, finite_float
+from feeder_cell.ros_session import with_node
 from feeder_planner.errors import InputError
-
-
-def _with_node(name: str, work: Any) -> Any:
-    """Run ``work(node, executor, keep_going)`` with a node on its own context; Ctrl-C ends ``keep_going``."""
-    import rclpy
-    from rclpy.executors import SingleThreadedExecutor
-
-    stop = {"requested": False}
-    previous = signal.signal(signal.SIGINT, lambda *_: stop.__setitem__("requested", True))
-    context = rclpy.Context()
-    rclpy.init(context=context)
-    node = rclpy.create_node(name, context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
-    try:
-        return work(node, executor, lambda: not stop["requested"])
-    finally:
-        signal.signal(signal.SIGINT, previous)
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown(context=context)
 
 
 def _record(args: argparse.Namespace) -> int:
@@ -59,7 +38,7 @@ def _record(args: argparse.Namespace) -> int:
             "missing": missing_topics(stats, args.topics or ()),
         }
 
-    result = _with_node("feeder_recorder", work)
+    result = with_node("feeder_recorder", work)
     emit(args, result, _summary)
     return 0
 
@@ -94,7 +73,7 @@ def _play(args: argparse.Namespace) -> int:
             "topics": {t: {"type": "", "count": n} for t, n in counts.items()},
         }
 
-    emit(args, _with_node("feeder_player", work), _summary)
+    emit(args, with_node("feeder_player", work), _summary)
     return 0
 
 

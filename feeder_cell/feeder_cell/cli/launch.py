@@ -9,17 +9,25 @@ from pathlib import Path
 from typing import Any
 
 from feeder_cell.cli.bag import _summary as bag_summary
-from feeder_cell.cli.bag import _with_node
 from feeder_cell.cli.common import add_json_flag, emit, finite_float
-from feeder_cell.launcher import NodeProcess, load_scene, start_node
+from feeder_cell.launcher import NodeProcess, NodeSpec, load_scene, start_node
+from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError
+from feeder_cell.ros_session import with_node
 from feeder_planner.errors import FeederError, InputError
 
 STARTUP_TIMEOUT_S = 30.0
 
+# The cell clock `--real-time-factor` starts; every node of the scene then runs on sim time.
+CLOCK_NODE = NodeSpec("feeder_cell", "cell_clock")
+
+
+def _graph_names(node: Any) -> set[str]:
+    return {f"{ns.rstrip('/')}/{name}" for name, ns in node.get_node_names_and_namespaces()}
+
 
 def _wait_until_in_graph(node: Any, executor: Any, processes: list[NodeProcess]) -> None:
     deadline = time.monotonic() + STARTUP_TIMEOUT_S
-    names = {p.spec.name or p.spec.executable: p for p in processes}
+    wanted = {p.spec.fully_qualified_name for p in processes}
     while True:
         executor.spin_once(timeout_sec=0.1)
         dead = [p for p in processes if not p.alive()]
@@ -29,28 +37,75 @@ def _wait_until_in_graph(node: Any, executor: Any, processes: list[NodeProcess])
                 f"{p.package}/{p.executable} exited with code {p.process.returncode} at start-up; "
                 f"last log line: {(p.output().strip().splitlines() or ['(none)'])[-1]}"
             )
-        missing = sorted(set(names) - set(node.get_node_names()))
+        missing = sorted(wanted - _graph_names(node))
         if not missing:
             return
         if time.monotonic() > deadline:
             raise FeederError(f"nodes not in the graph after {STARTUP_TIMEOUT_S:.0f} s: {', '.join(missing)}")
 
 
+def _configuration_error(node: Any, executor: Any, target: str) -> str:
+    """Return the fault text a device published on its latched status (why configure failed), if any."""
+    from feeder_msgs.msg import DeviceStatus
+    from feeder_planner.node_kit import LATCHED
+
+    seen: list[Any] = []
+    subscription = node.create_subscription(DeviceStatus, f"{target}/status", seen.append, LATCHED)
+    deadline = time.monotonic() + 2.0
+    while not seen and time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.05)
+    node.destroy_subscription(subscription)
+    return seen[-1].fault_text if seen else ""
+
+
+def bring_up(node: Any, executor: Any, processes: list[NodeProcess]) -> dict[str, str]:
+    """Bring every managed node to its scene's lifecycle target, in scene order; return the states.
+
+    A node without lifecycle services is left as it is ("unmanaged"). A refused transition stops the
+    launch with the node's own reason.
+    """
+    states: dict[str, str] = {}
+    for process in processes:
+        target = process.spec.fully_qualified_name
+        client = LifecycleClient(node, executor, target)
+        if not client.is_managed():
+            states[target] = "unmanaged"
+            continue
+        try:
+            states[target] = client.bring_to(process.spec.lifecycle)
+        except LifecycleError as error:
+            reason = _configuration_error(node, executor, target)
+            raise FeederError(f"{error}{': ' + reason if reason else ''}") from None
+    return states
+
+
 def _launch(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene)
     if args.duration is not None and args.duration <= 0:
         raise InputError("--duration", f"must be > 0 seconds, got {args.duration}")
+    if args.real_time_factor is not None and args.real_time_factor <= 0:
+        raise InputError("--real-time-factor", f"must be > 0, got {args.real_time_factor}")
     log_dir = Path(args.log_dir) if args.log_dir else Path(tempfile.mkdtemp(prefix=f"feeder-{scene.name}-"))
+    sim_time = args.real_time_factor is not None
+    specs = list(scene.nodes)
+    if sim_time:
+        clock = NodeSpec(
+            CLOCK_NODE.package, CLOCK_NODE.executable, {"real_time_factor": args.real_time_factor}
+        )
+        specs.insert(0, clock)
 
     def work(node: Any, executor: Any, keep_going: Any) -> dict[str, Any]:
         from feeder_cell.bag.recorder import Recorder
 
         processes: list[NodeProcess] = []
         recorder = Recorder(node, Path(args.record)) if args.record else None
+        states: dict[str, str] = {}
         try:
-            for spec in scene.nodes:
-                processes.append(start_node(spec, log_dir))
+            for spec in specs:
+                extra = {"use_sim_time": True} if sim_time and spec is not specs[0] else {}
+                processes.append(start_node(spec, log_dir, extra_parameters=extra))
             _wait_until_in_graph(node, executor, processes)
+            states = bring_up(node, executor, processes)
             started = time.monotonic()
             next_discovery = 0.0
             while keep_going() and (args.duration is None or time.monotonic() - started < args.duration):
@@ -66,11 +121,14 @@ def _launch(args: argparse.Namespace) -> int:
         result: dict[str, Any] = {
             "scene": scene.name,
             "log_dir": str(log_dir),
+            "real_time_factor": args.real_time_factor,
             "nodes": [
                 {
                     "package": p.package,
                     "executable": p.executable,
+                    "name": p.spec.fully_qualified_name,
                     "pid": p.pid,
+                    "lifecycle": states.get(p.spec.fully_qualified_name, "unmanaged"),
                     "died_early": not alive,
                     "exit_code": code,
                 }
@@ -84,7 +142,7 @@ def _launch(args: argparse.Namespace) -> int:
             }
         return result
 
-    result = _with_node("feeder_launch", work)
+    result = with_node("feeder_launch", work)
     emit(args, result, _summary)
     return 1 if any(n["died_early"] for n in result["nodes"]) else 0
 
@@ -94,7 +152,8 @@ def _summary(result: dict[str, Any]) -> str:
     for n in result["nodes"]:
         state = "DIED EARLY" if n["died_early"] else "stopped"
         lines.append(
-            f"  {n['package']}/{n['executable']} pid {n['pid']}: {state}, exit code {n['exit_code']}"
+            f"  {n['name']} ({n['package']}/{n['executable']}) pid {n['pid']}: {n['lifecycle']}, "
+            f"then {state}, exit code {n['exit_code']}"
         )
     if "bag" in result:
         lines.append(bag_summary(result["bag"]))
@@ -107,13 +166,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "launch",
         help="run the nodes of a scene file together (optionally recording a bag)",
         description="Start every node a scene file names (YAML: name, nodes: [{package, executable, name, "
-        "parameters}]; parameters ending in _file/_files are paths relative to the scene file), "
-        "wait until all are in the ROS graph, run for --duration seconds or until Ctrl-C, then end "
-        "each by pid (SIGINT, then SIGKILL). A scene runs only the models it names.",
+        "namespace, remappings, parameters, lifecycle}]; parameters ending in _file/_files are paths "
+        "relative to the scene file), wait until all are in the ROS graph, bring each managed node to its "
+        "lifecycle target (active by default; inactive or unconfigured on request), run for --duration "
+        "seconds or until Ctrl-C, then end each by pid (SIGINT, then SIGKILL). A scene runs only the models "
+        "it names.",
     )
     parser.add_argument("scene", help="scene file, e.g. feeder_cell/scenes/demo.yaml")
     parser.add_argument("--duration", type=finite_float, help="seconds to run (default: until Ctrl-C)")
     parser.add_argument("--record", help="record every topic into this new bag directory (rosbag2, MCAP)")
+    parser.add_argument(
+        "--real-time-factor",
+        type=finite_float,
+        metavar="F",
+        help="run one cell clock (/clock at F simulated seconds per wall second, F > 0) and set "
+        "use_sim_time on every node; without it every node runs on wall time",
+    )
     parser.add_argument("--log-dir", help="where node logs go (default: a new temporary folder)")
     add_json_flag(parser)
     parser.set_defaults(handler=_launch)

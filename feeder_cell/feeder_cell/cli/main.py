@@ -15,6 +15,7 @@ SUBCOMMAND_MODULES = (
     "feeder_cell.cli.run",
     "feeder_cell.cli.bag",
     "feeder_cell.cli.launch",
+    "feeder_cell.cli.lifecycle",
     "feeder_cell.cli.equilibria",
     "feeder_cell.cli.throwing",
     "feeder_cell.cli.assembly",

@@ -48,14 +48,19 @@ def check_value(spec: ParameterSpec, value: Any) -> None:
         raise InputError(f"parameter {spec.name}", problem)
 
 
-def declare_parameters(node: Node, specs: Sequence[ParameterSpec]) -> dict[str, Any]:
-    """Declare documented parameters and return their validated values; a bad value raises InputError."""
+def declare_parameters(node: Node, specs: Sequence[ParameterSpec], validate: bool = True) -> dict[str, Any]:
+    """Declare documented parameters and return their values, validated unless ``validate`` is False.
+
+    A managed device declares without validating and validates at configure, so that a bad value fails
+    the configure transition (naming the parameter) instead of the process.
+    """
     values: dict[str, Any] = {}
     for spec in specs:
         descriptor = ParameterDescriptor(description=spec.description, read_only=spec.read_only)
         node.declare_parameter(spec.name, spec.default, descriptor)
         value = node.get_parameter(spec.name).value
-        check_value(spec, value)
+        if validate:
+            check_value(spec, value)
         values[spec.name] = value
     return values
 

@@ -1,0 +1,123 @@
+"""Drive a managed node through its lifecycle over the standard lifecycle_msgs services.
+
+What `ros2 lifecycle` does on a full install, for `feeder lifecycle` and `feeder launch`: every call is
+bounded in time, and a refused transition says which node refused it and why (the node's own status
+text when it publishes one).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any, Literal
+
+from lifecycle_msgs.msg import Transition
+from lifecycle_msgs.srv import ChangeState, GetState
+
+from feeder_planner.errors import FeederError, InputError
+
+__all__ = ["TRANSITIONS", "TransitionName", "LifecycleClient", "LifecycleError", "path_to"]
+
+TransitionName = Literal["configure", "activate", "deactivate", "cleanup", "shutdown"]
+
+TRANSITIONS: dict[str, int] = {
+    "configure": Transition.TRANSITION_CONFIGURE,
+    "activate": Transition.TRANSITION_ACTIVATE,
+    "deactivate": Transition.TRANSITION_DEACTIVATE,
+    "cleanup": Transition.TRANSITION_CLEANUP,
+    # shutdown has one transition id per primary state; the node picks by its state
+    "shutdown": Transition.TRANSITION_UNCONFIGURED_SHUTDOWN,
+}
+SHUTDOWN_FROM = {
+    "unconfigured": Transition.TRANSITION_UNCONFIGURED_SHUTDOWN,
+    "inactive": Transition.TRANSITION_INACTIVE_SHUTDOWN,
+    "active": Transition.TRANSITION_ACTIVE_SHUTDOWN,
+}
+
+# A lifecycle service call: configure may load and check files (an assembly region takes about a second
+# on this machine); anything slower than this is a node that does not answer.
+CALL_TIMEOUT_S = 30.0
+
+# Transitions from each primary state towards a target primary state, as `feeder launch` walks them.
+_FORWARD = {
+    ("unconfigured", "inactive"): ["configure"],
+    ("unconfigured", "active"): ["configure", "activate"],
+    ("inactive", "active"): ["activate"],
+    ("active", "inactive"): ["deactivate"],
+    ("inactive", "unconfigured"): ["cleanup"],
+    ("active", "unconfigured"): ["deactivate", "cleanup"],
+}
+
+
+class LifecycleError(FeederError):
+    """A node refused a transition or did not answer in time."""
+
+
+def path_to(current: str, target: str) -> list[str]:
+    """Return the transitions that take a node from primary state ``current`` to ``target``."""
+    if current == target:
+        return []
+    try:
+        return list(_FORWARD[(current, target)])
+    except KeyError:
+        raise InputError("lifecycle", f"no transition path from {current} to {target}") from None
+
+
+@dataclass
+class LifecycleClient:
+    """Lifecycle services of one node, by its fully qualified name (e.g. ``/cell/feeder_a/throwing_arm``)."""
+
+    node: Any  # the rclpy node the clients live on
+    executor: Any
+    target: str
+
+    def __post_init__(self) -> None:
+        self._get = self.node.create_client(GetState, f"{self.target}/get_state")
+        self._change = self.node.create_client(ChangeState, f"{self.target}/change_state")
+
+    def is_managed(self, timeout: float = 2.0) -> bool:
+        """Whether the node serves the lifecycle services (waits up to ``timeout`` for discovery)."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if self._get.service_is_ready():
+                return True
+            self.executor.spin_once(timeout_sec=0.05)
+        return self._get.service_is_ready()
+
+    def _call(self, client: Any, request: Any, what: str) -> Any:
+        if not client.wait_for_service(timeout_sec=CALL_TIMEOUT_S):
+            raise LifecycleError(f"{self.target}: no lifecycle service ({what}) after {CALL_TIMEOUT_S:.0f} s")
+        future = client.call_async(request)
+        deadline = time.monotonic() + CALL_TIMEOUT_S
+        while not future.done():
+            if time.monotonic() > deadline:
+                raise LifecycleError(f"{self.target}: {what} not answered within {CALL_TIMEOUT_S:.0f} s")
+            self.executor.spin_once(timeout_sec=0.05)
+        return future.result()
+
+    def get_state(self) -> str:
+        """Return the node's primary state label (unconfigured, inactive, active, finalized)."""
+        return str(self._call(self._get, GetState.Request(), "get_state").current_state.label)
+
+    def change(self, transition: str) -> str:
+        """Run one transition; return the new state, or raise LifecycleError saying why it was refused."""
+        if transition not in TRANSITIONS:
+            raise InputError("transition", f"must be one of {', '.join(TRANSITIONS)}, got {transition!r}")
+        request = ChangeState.Request()
+        if transition == "shutdown":
+            state = self.get_state()
+            request.transition.id = SHUTDOWN_FROM.get(state, Transition.TRANSITION_UNCONFIGURED_SHUTDOWN)
+        else:
+            request.transition.id = TRANSITIONS[transition]
+        response = self._call(self._change, request, transition)
+        state = self.get_state()
+        if not response.success:
+            raise LifecycleError(f"{self.target}: {transition} refused (state {state})")
+        return state
+
+    def bring_to(self, target: str) -> str:
+        """Walk the transitions from the present state to ``target``; return the state reached."""
+        state = self.get_state()
+        for transition in path_to(state, target):
+            state = self.change(transition)
+        return state

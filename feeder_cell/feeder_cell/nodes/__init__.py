@@ -1,0 +1,1 @@
+"""Nodes that serve the whole cell rather than one device (the cell clock)."""

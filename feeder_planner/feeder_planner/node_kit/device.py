@@ -1,0 +1,517 @@
+"""Managed devices: what makes a simulator node indistinguishable from hardware by its interfaces.
+
+Every simulator node is a ``ManagedDevice``: a lifecycle node (``rclpy.lifecycle``, the standard
+``lifecycle_msgs`` services and transition events) that publishes a latched ``~/status``
+(feeder_msgs/DeviceStatus) on every change and as a 1 Hz heartbeat, a ``diagnostic_msgs/DiagnosticArray``
+on ``/diagnostics`` at 1 Hz (diagnostic_updater conventions), serves ``~/stop``, ``~/reset``
+(std_srvs/Trigger) and ``~/inject_fault`` (feeder_msgs/InjectFault), and applies or refuses every
+parameter change (read-only parameters are declared read-only; the others are validated and applied).
+
+A device subclass supplies the hooks below; this class owns the lifecycle bookkeeping, so the three
+devices cannot drift apart in how they report. The sequence a controller follows is in docs/cell.md.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from enum import IntEnum
+from typing import Any, Mapping, Sequence
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.clock import Clock, ClockType
+from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
+from rclpy.parameter import Parameter
+from std_srvs.srv import Trigger
+
+from feeder_msgs.msg import DeviceStatus
+from feeder_msgs.srv import InjectFault
+from feeder_planner.errors import FeederError, InputError
+from feeder_planner.node_kit.parameters import ParameterSpec, check_value, declare_parameters
+from feeder_planner.node_kit.qos import LATCHED
+from feeder_planner.node_kit.rate import RateMonitor, RateReport
+
+__all__ = ["DeviceState", "FaultSpec", "ActiveFault", "DeviceError", "ManagedDevice", "parse_fault_parameter"]
+
+# Heartbeat of ~/status and /diagnostics (Hz), on the steady clock so that a paused sim clock does not
+# silence a device: a controller must still see that the device is there and why it is not moving.
+HEARTBEAT_RATE = 1.0
+
+
+class DeviceState(IntEnum):
+    """The device as a controller sees it (values of feeder_msgs/DeviceStatus.state)."""
+
+    UNCONFIGURED = DeviceStatus.UNCONFIGURED
+    IDLE = DeviceStatus.IDLE
+    RUNNING = DeviceStatus.RUNNING
+    PAUSED = DeviceStatus.PAUSED
+    FAULT = DeviceStatus.FAULT
+    STOPPED = DeviceStatus.STOPPED
+
+
+@dataclass(frozen=True)
+class FaultSpec:
+    """A fault a device can have injected: what it does, what its value means, and whether it stops it."""
+
+    name: str
+    description: str
+    value_meaning: str = ""  # e.g. "probability in [0, 1]"; empty when the fault takes no value
+    stops_device: bool = False  # the device goes to FAULT and refuses commands until ~/reset
+    code: int = DeviceStatus.FAULT_NONE  # DeviceStatus fault code reported while it is active
+
+
+@dataclass(frozen=True)
+class ActiveFault:
+    """A fault in force: its spec and the request's magnitudes."""
+
+    spec: FaultSpec
+    value: float = 0.0
+    state: bool = False
+    indices: tuple[int, ...] = ()
+    angle: float = 0.0
+    seed: int = 0
+
+    @property
+    def label(self) -> str:
+        """Name with the magnitude that matters, as status and diagnostics list it."""
+        if not self.spec.value_meaning:
+            return self.spec.name
+        detail = f"{len(self.indices)} cells" if self.indices else f"{self.value:g}"
+        return f"{self.spec.name}({detail})"
+
+
+class DeviceError(FeederError):
+    """A command the device refuses in its present state (not active, stopped, in fault)."""
+
+
+def parse_fault_parameter(entry: str, index: int) -> tuple[str, float]:
+    """Parse one ``inject_faults`` parameter entry: ``NAME`` or ``NAME=VALUE``."""
+    name, _, value = entry.partition("=")
+    name = name.strip()
+    if not name:
+        raise InputError(f"parameter inject_faults[{index}]", f"needs a fault name, got {entry!r}")
+    if not value.strip():
+        return name, 0.0
+    text = value.strip().lower()
+    if text in ("true", "false"):
+        return name, 1.0 if text == "true" else 0.0
+    try:
+        return name, float(text)
+    except ValueError:
+        raise InputError(
+            f"parameter inject_faults[{index}]", f"value must be a number, got {value!r}"
+        ) from None
+
+
+DEVICE_PARAMETERS = (
+    ParameterSpec(
+        "inject_faults",
+        [""],
+        "faults injected at configure, each NAME or NAME=VALUE (docs/cell.md lists each device's faults)",
+        read_only=True,
+    ),
+    ParameterSpec("fault_seed", 0, "seed of the injected faults' random draws", read_only=True),
+    ParameterSpec(
+        "hardware_id",
+        "",
+        "hardware_id in /diagnostics (empty: sim:<fully qualified node name>)",
+        read_only=True,
+    ),
+)
+
+
+class ManagedDevice(LifecycleNode):
+    """Lifecycle, status, diagnostics, stop/reset and fault plumbing shared by the simulator nodes.
+
+    Subclasses implement ``configure_device`` (load and validate; raise InputError naming the field),
+    ``activate_device``/``deactivate_device`` (start/freeze the simulation), ``cleanup_device``, and may
+    override ``apply_parameter`` (runtime parameters), ``busy``, ``counters``, ``stop_device``,
+    ``reset_device``, ``apply_fault``/``clear_fault`` and ``device_fault`` (a fault of the model itself,
+    such as the part leaving the arm).
+    """
+
+    FAULTS: Mapping[str, FaultSpec] = {}
+
+    def __init__(self, node_name: str, parameters: Sequence[ParameterSpec], *, rate: float = 1.0) -> None:
+        super().__init__(node_name)
+        self.specs = {spec.name: spec for spec in (*parameters, *DEVICE_PARAMETERS)}
+        # Declared now, validated at configure: a bad value fails the transition, not the process.
+        self.p: dict[str, Any] = declare_parameters(self, list(self.specs.values()), validate=False)
+        self.lifecycle = "unconfigured"
+        self.stopped = False
+        self.faults: dict[str, ActiveFault] = {}
+        self.model_fault: tuple[int, str] | None = None  # (code, text) of a fault the model raised
+        self.configuration_error = ""
+        self.monitor = RateMonitor(rate)
+        self._last_status: tuple[Any, ...] | None = None
+        self._status_pub = self.create_publisher(DeviceStatus, "~/status", LATCHED)
+        self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.create_service(Trigger, "~/stop", self._on_stop)
+        self.create_service(Trigger, "~/reset", self._on_reset)
+        self.create_service(InjectFault, "~/inject_fault", self._on_inject_fault)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.create_timer(1.0 / HEARTBEAT_RATE, self._heartbeat, clock=steady)
+        self.publish_status(force=True)
+
+    # --- hooks for the device -------------------------------------------------------------------
+    def configure_device(self, p: dict[str, Any]) -> None:
+        """Load files and build the model from validated parameters; raise InputError naming the field."""
+
+    def activate_device(self) -> None:
+        """Start the simulation and its timers."""
+
+    def deactivate_device(self) -> None:
+        """Freeze the simulation where it is (timers cancelled, state kept)."""
+
+    def cleanup_device(self) -> None:
+        """Release the model and every resource configure made."""
+
+    def apply_parameter(self, name: str, value: Any) -> None:
+        """Apply a validated runtime parameter; raise InputError to refuse it."""
+
+    def busy(self) -> bool:
+        """Whether the device is executing a command."""
+        return False
+
+    def counters(self) -> dict[str, int]:
+        """Counters reported in status and diagnostics (throws, parts presented, moves...)."""
+        return {}
+
+    def stop_device(self) -> None:
+        """Halt now: cancel queued and running commands, keep the model where it is."""
+
+    def reset_device(self) -> None:
+        """Return to a commandable state after a stop or a fault (faults are cleared by the caller)."""
+
+    def apply_fault(self, fault: ActiveFault) -> None:
+        """Put an injected fault into effect (the model reads ``self.faults`` or is told here)."""
+
+    def clear_fault(self, name: str) -> None:
+        """Take an injected fault out of effect."""
+
+    # --- what the device calls -------------------------------------------------------------------
+    @property
+    def active(self) -> bool:
+        """Whether the lifecycle state is active."""
+        return self.lifecycle == "active"
+
+    def state(self) -> DeviceState:
+        """Return the controller-facing state, derived from lifecycle, stop, faults and business."""
+        if self.lifecycle != "active" and self.lifecycle != "inactive":
+            return DeviceState.UNCONFIGURED
+        if self.stopping_fault() is not None:
+            return DeviceState.FAULT
+        if self.lifecycle == "inactive":
+            return DeviceState.PAUSED
+        if self.stopped:
+            return DeviceState.STOPPED
+        return DeviceState.RUNNING if self.busy() else DeviceState.IDLE
+
+    def stopping_fault(self) -> tuple[int, str] | None:
+        """(code, text) of the fault that stops the device, or None."""
+        if self.model_fault is not None:
+            return self.model_fault
+        for fault in self.faults.values():
+            if fault.spec.stops_device:
+                return fault.spec.code, f"injected fault {fault.label}: {fault.spec.description}"
+        return None
+
+    def raise_model_fault(self, code: int, text: str) -> None:
+        """Enter FAULT because of the model itself (not an injection); ~/reset clears it."""
+        self.model_fault = (code, text)
+        self.get_logger().error(f"FAULT {code}: {text}")
+        self.publish_status()
+
+    def require_ready(self, what: str) -> None:
+        """Raise DeviceError naming the state unless the device accepts commands."""
+        state = self.state()
+        if state not in (DeviceState.IDLE, DeviceState.RUNNING):
+            why = ""
+            fault = self.stopping_fault()
+            if fault is not None:
+                why = f" ({fault[1]}; ~/reset clears it)"
+            elif state is DeviceState.STOPPED:
+                why = " (~/reset returns it to IDLE)"
+            raise DeviceError(f"{what} refused: device is {state.name}{why}")
+
+    def sim_seconds(self) -> float:
+        """Node clock (simulated time under use_sim_time) in seconds."""
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def record_tick(self, simulated: float | None = None) -> None:
+        """Count one tick of the device's main stream for the rate and real-time-factor figures."""
+        self.monitor.tick(time.monotonic(), self.sim_seconds() if simulated is None else simulated)
+
+    def rate_report(self) -> RateReport:
+        """Return the achieved figures over the monitor's window."""
+        return self.monitor.report(time.monotonic())
+
+    def publish_status(self, force: bool = False) -> None:
+        """Publish ~/status when anything a controller sees changed (or when forced: the heartbeat)."""
+        state = self.state()
+        report = self.rate_report()
+        behind = self.active and report.behind
+        fault = self.stopping_fault()
+        code, text = fault if fault is not None else (0, "")
+        if not fault and self.configuration_error:
+            code, text = DeviceStatus.FAULT_CONFIGURATION, self.configuration_error
+        elif not fault and behind:
+            code, text = DeviceStatus.FAULT_BEHIND_REAL_TIME, self._behind_text(report)
+        configured = self.lifecycle in ("inactive", "active")
+        # The device's own hooks run only once it is configured: before that it has no model to ask.
+        counters = self.counters() if configured else {}
+        busy = self.active and self.busy()
+        labels = [f.label for f in self.faults.values()]
+        key = (state, busy, code, text, tuple(labels), tuple(counters.items()), behind)
+        if not force and key == self._last_status:
+            return
+        self._last_status = key
+        msg = DeviceStatus(
+            state=int(state),
+            state_name=state.name,
+            ready=state in (DeviceState.IDLE, DeviceState.RUNNING),
+            busy=busy,
+            fault_code=code,
+            fault_text=text,
+            active_faults=labels,
+            counter_names=list(counters),
+            counter_values=[int(v) for v in counters.values()],
+            configured_rate=report.configured_rate,
+            achieved_rate=report.achieved_rate,
+            configured_real_time_factor=report.configured_real_time_factor,
+            achieved_real_time_factor=report.achieved_real_time_factor,
+            behind_real_time=behind,
+        )
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.header.frame_id = self.get_fully_qualified_name()
+        self._status_pub.publish(msg)
+
+    @staticmethod
+    def _behind_text(report: RateReport) -> str:
+        return (
+            f"behind real time: rate {report.achieved_rate:.3g} of {report.configured_rate:.3g} Hz, "
+            f"real-time factor {report.achieved_real_time_factor:.3g} of "
+            f"{report.configured_real_time_factor:.3g}"
+        )
+
+    # --- lifecycle transitions -------------------------------------------------------------------
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Validate every parameter and build the model; a bad one fails the transition, naming it."""
+        try:
+            values = {name: self.get_parameter(name).value for name in self.specs}
+            for name, spec in self.specs.items():
+                check_value(spec, values[name])
+            self.p = values
+            self.configure_device(values)
+            self._inject_configured_faults(values)
+        except FeederError as error:
+            self.configuration_error = f"configure failed: {error}"
+            self.get_logger().error(self.configuration_error)
+            self.faults.clear()
+            self.cleanup_device()
+            self.publish_status()
+            return TransitionCallbackReturn.FAILURE
+        self.configuration_error = ""
+        self.lifecycle = "inactive"
+        self.publish_status()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Start the simulation and the lifecycle publishers."""
+        result = super().on_activate(state)
+        self.monitor.reset()
+        self.activate_device()
+        self.lifecycle = "active"
+        self.publish_status()
+        return result
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Freeze the physics where it is; latched descriptions stay with their late-joining subscribers."""
+        self.deactivate_device()
+        self.lifecycle = "inactive"
+        result = super().on_deactivate(state)
+        self.publish_status()
+        return result
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Release the model; the node is unconfigured again."""
+        self.cleanup_device()
+        self.faults.clear()
+        self.model_fault = None
+        self.stopped = False
+        self.lifecycle = "unconfigured"
+        self.publish_status()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Release everything before the node is finalized."""
+        if self.lifecycle == "active":
+            self.deactivate_device()
+        if self.lifecycle in ("active", "inactive"):
+            self.cleanup_device()
+        self.lifecycle = "finalized"
+        self.publish_status()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Recover from a transition that raised: log, release, back to unconfigured (the node lives on)."""
+        self.get_logger().error(f"error in lifecycle state {state.label}; cleaning up")
+        try:
+            self.cleanup_device()
+        finally:
+            self.lifecycle = "unconfigured"
+            self.publish_status()
+        return TransitionCallbackReturn.SUCCESS
+
+    # --- services --------------------------------------------------------------------------------
+    def _on_stop(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        if self.lifecycle != "active":
+            response.success, response.message = False, f"stop refused: device is {self.state().name}"
+            return response
+        self.stop_device()
+        self.stopped = True
+        self.publish_status()
+        response.success, response.message = True, "stopped"
+        return response
+
+    def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        if self.lifecycle not in ("active", "inactive"):
+            response.success, response.message = False, f"reset refused: device is {self.state().name}"
+            return response
+        for name in list(self.faults):
+            self.clear_fault(name)
+        self.faults.clear()
+        self.model_fault = None
+        self.stopped = False
+        self.reset_device()
+        self.publish_status()
+        response.success, response.message = True, f"reset: {self.state().name}"
+        return response
+
+    def _on_inject_fault(
+        self, request: InjectFault.Request, response: InjectFault.Response
+    ) -> InjectFault.Response:
+        try:
+            self._inject(request)
+            response.ok, response.error = True, ""
+        except FeederError as error:
+            response.ok, response.error = False, f"bad request: {error}"
+            self.get_logger().warning(f"inject_fault: {response.error}")
+        response.active_faults = [f.label for f in self.faults.values()]
+        self.publish_status()
+        return response
+
+    def _inject(self, request: InjectFault.Request) -> None:
+        name = request.fault.strip()
+        if request.clear:
+            names = [name] if name else list(self.faults)
+            if name and name not in self.FAULTS:
+                raise InputError("fault", self._unknown_fault(name))
+            for each in names:
+                if each in self.faults:
+                    self.clear_fault(each)
+                    del self.faults[each]
+            return
+        if name not in self.FAULTS:
+            raise InputError("fault", self._unknown_fault(name))
+        if self.lifecycle not in ("active", "inactive"):
+            raise DeviceError(f"inject_fault refused: device is {self.state().name} (configure it first)")
+        fault = ActiveFault(
+            self.FAULTS[name],
+            float(request.value),
+            bool(request.state),
+            tuple(int(i) for i in request.indices),
+            float(request.angle),
+            int(request.seed) or int(self.p.get("fault_seed", 0)),
+        )
+        self.apply_fault(fault)  # validates the magnitudes (InputError naming value/indices/angle)
+        self.faults[name] = fault
+
+    def _unknown_fault(self, name: str) -> str:
+        return f"unknown fault {name!r} (this device knows: {', '.join(self.FAULTS) or 'none'})"
+
+    def _inject_configured_faults(self, values: dict[str, Any]) -> None:
+        self.faults.clear()
+        for index, entry in enumerate(e for e in values.get("inject_faults", []) if e):
+            name, value = parse_fault_parameter(entry, index)
+            if name not in self.FAULTS:
+                raise InputError(f"parameter inject_faults[{index}]", self._unknown_fault(name))
+            spec = self.FAULTS[name]
+            fault = ActiveFault(spec, value, bool(value), (), value, int(values.get("fault_seed", 0)))
+            try:
+                self.apply_fault(fault)
+            except InputError as error:
+                raise InputError(f"parameter inject_faults[{index}] ({error.field})", error.problem) from None
+            self.faults[name] = fault
+
+    # --- parameters ------------------------------------------------------------------------------
+    def _on_set_parameters(self, changes: list[Parameter]) -> SetParametersResult:
+        # Read-only parameters never reach here (rclpy refuses them by their descriptor). A runtime
+        # parameter is validated, then applied at once when the device is configured; never ignored.
+        for change in changes:
+            spec = self.specs.get(change.name)
+            if spec is None:
+                continue  # rclpy's own (use_sim_time) and anything undeclared: rclpy decides
+            try:
+                check_value(spec, change.value)
+            except InputError as error:
+                return SetParametersResult(successful=False, reason=str(error))
+        if self.lifecycle in ("active", "inactive"):
+            for change in changes:
+                if change.name in self.specs:
+                    try:
+                        self.apply_parameter(change.name, change.value)
+                    except FeederError as error:
+                        return SetParametersResult(successful=False, reason=str(error))
+                    self.p[change.name] = change.value
+        return SetParametersResult(successful=True)
+
+    # --- heartbeat -------------------------------------------------------------------------------
+    def _heartbeat(self) -> None:
+        self.publish_status(force=True)
+        self._diagnostics_pub.publish(self._diagnostics())
+
+    def _diagnostics(self) -> DiagnosticArray:
+        state = self.state()
+        report = self.rate_report()
+        fault = self.stopping_fault()
+        behind = self.active and report.behind
+        if fault is not None or self.configuration_error:
+            level, message = DiagnosticStatus.ERROR, fault[1] if fault else self.configuration_error
+        elif behind:
+            level, message = DiagnosticStatus.WARN, self._behind_text(report)
+        elif state in (DeviceState.UNCONFIGURED, DeviceState.PAUSED):
+            level, message = DiagnosticStatus.STALE, f"{state.name.lower()}: not simulating"
+        elif state is DeviceState.STOPPED:
+            level, message = DiagnosticStatus.WARN, "stopped (~/reset returns it to IDLE)"
+        else:
+            level, message = DiagnosticStatus.OK, state.name.lower()
+        values = {
+            "state": state.name,
+            "configured_rate_hz": f"{report.configured_rate:.6g}",
+            "achieved_rate_hz": f"{report.achieved_rate:.6g}",
+            "configured_real_time_factor": f"{report.configured_real_time_factor:.6g}",
+            "achieved_real_time_factor": f"{report.achieved_real_time_factor:.6g}",
+            "behind_real_time": str(behind).lower(),
+            "active_faults": ", ".join(f.label for f in self.faults.values()),
+            **{
+                name: str(value)
+                for name, value in (
+                    self.counters() if self.lifecycle in ("inactive", "active") else {}
+                ).items()
+            },
+        }
+        name = self.get_fully_qualified_name()
+        hardware_id = str(self.p.get("hardware_id") or f"sim:{name}")
+        status = DiagnosticStatus(
+            level=level,
+            name=name,
+            message=message,
+            hardware_id=hardware_id,
+            values=[KeyValue(key=k, value=v) for k, v in values.items()],
+        )
+        array = DiagnosticArray(status=[status])
+        array.header.stamp = self.get_clock().now().to_msg()
+        return array
