@@ -58,10 +58,16 @@ def _launcher(
         wait_services: tuple[str, ...] = (),
         timeout: float = 30.0,
         extra_args: tuple[str, ...] = (),
+        namespace: str = "",
+        name: str = "",
+        lifecycle: str = "active",
     ) -> ros_harness.NodeProcess:
-        node = ros_harness.start_node(package, executable, parameters, log_dir, extra_args)
+        """Start a node; a managed one is brought to ``lifecycle`` (as `feeder launch` does), then wait."""
+        node = ros_harness.start_node(package, executable, parameters, log_dir, extra_args, namespace, name)
         started.append(node)
         mine.append(node)
+        ros_harness.wait_for_graph_node(ros_client, node, node.spec.node_name, timeout)
+        ros_harness.bring_to(ros_client, node, lifecycle)
         ros_harness.wait_for_graph(ros_client, node, wait_topics, wait_services, timeout)
         return node
 

@@ -12,6 +12,7 @@ from typing import Any, Iterable
 
 from feeder_cell import launcher
 from feeder_cell.launcher import NodeProcess
+from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError
 
 DOMAIN_RANGE = range(1, 102)  # Fast DDS ports for domains above ~101 can collide with ephemeral ports
 
@@ -44,10 +45,26 @@ def start_node(
     parameters: dict[str, Any] | None,
     log_dir: Path,
     extra_args: Iterable[str] = (),
+    namespace: str = "",
+    name: str = "",
 ) -> NodeProcess:
-    return launcher.start_node(
-        launcher.NodeSpec(package, executable, parameters or {}), log_dir, tuple(extra_args)
-    )
+    spec = launcher.NodeSpec(package, executable, parameters or {}, name=name, namespace=namespace)
+    return launcher.start_node(spec, log_dir, tuple(extra_args))
+
+
+def bring_to(client: Any, node: NodeProcess, target: str) -> str:
+    """Bring a managed node to a lifecycle state; an unmanaged node is left as it is ("unmanaged")."""
+    target = node.spec.fully_qualified_name
+    lifecycle = LifecycleClient(client, None, target)
+    # Every node serves its parameter services; once they are discovered, a managed node's lifecycle
+    # services follow within a moment, so an unmanaged node costs a second here rather than a timeout.
+    wait_for_graph(client, node, services=[f"{target}/list_parameters"])
+    if not lifecycle.is_managed(timeout=1.0):
+        return "unmanaged"
+    try:
+        return lifecycle.bring_to(target)
+    except LifecycleError as error:
+        raise AssertionError(f"{error}. Node log:\n{node.output()[-4000:]}") from None
 
 
 def wait_for_graph(

@@ -68,7 +68,7 @@ class LifecycleClient:
     """Lifecycle services of one node, by its fully qualified name (e.g. ``/cell/feeder_a/throwing_arm``)."""
 
     node: Any  # the rclpy node the clients live on
-    executor: Any
+    executor: Any  # spun here while waiting; None when another thread already spins the node
     target: str
 
     def __post_init__(self) -> None:
@@ -81,8 +81,14 @@ class LifecycleClient:
         while time.monotonic() < deadline:
             if self._get.service_is_ready():
                 return True
-            self.executor.spin_once(timeout_sec=0.05)
+            self._wait(0.05)
         return self._get.service_is_ready()
+
+    def _wait(self, seconds: float) -> None:
+        if self.executor is None:
+            time.sleep(seconds)
+        else:
+            self.executor.spin_once(timeout_sec=seconds)
 
     def _call(self, client: Any, request: Any, what: str) -> Any:
         if not client.wait_for_service(timeout_sec=CALL_TIMEOUT_S):
@@ -92,7 +98,7 @@ class LifecycleClient:
         while not future.done():
             if time.monotonic() > deadline:
                 raise LifecycleError(f"{self.target}: {what} not answered within {CALL_TIMEOUT_S:.0f} s")
-            self.executor.spin_once(timeout_sec=0.05)
+            self._wait(0.02)
         return future.result()
 
     def get_state(self) -> str:

@@ -28,7 +28,7 @@ from std_srvs.srv import Trigger
 from feeder_msgs.msg import DeviceStatus
 from feeder_msgs.srv import InjectFault
 from feeder_planner.errors import FeederError, InputError
-from feeder_planner.node_kit.parameters import ParameterSpec, check_value, declare_parameters
+from feeder_planner.node_kit.parameters import ParameterSpec, check_value, declare_parameters, positive
 from feeder_planner.node_kit.qos import LATCHED
 from feeder_planner.node_kit.rate import RateMonitor, RateReport
 
@@ -112,6 +112,14 @@ DEVICE_PARAMETERS = (
         read_only=True,
     ),
     ParameterSpec("fault_seed", 0, "seed of the injected faults' random draws", read_only=True),
+    ParameterSpec(
+        "real_time_factor",
+        1.0,
+        "real-time factor of the cell clock this device must keep up with (feeder launch --real-time-factor "
+        "sets it with use_sim_time); the configured figure in status and diagnostics",
+        positive,
+        read_only=True,
+    ),
     ParameterSpec(
         "hardware_id",
         "",
@@ -239,6 +247,20 @@ class ManagedDevice(LifecycleNode):
     def sim_seconds(self) -> float:
         """Node clock (simulated time under use_sim_time) in seconds."""
         return self.get_clock().now().nanoseconds * 1e-9
+
+    def expect_rate(self, rate: float) -> None:
+        """Set the main stream's rate (Hz of the node clock) that status and diagnostics measure against.
+
+        Under a cell clock at real-time factor F a timer of ``rate`` Hz on the node clock fires F * rate
+        times per wall second, and simulated time should advance F seconds per wall second.
+        """
+        factor = float(self.p.get("real_time_factor", 1.0))
+        self.monitor.configure(rate * factor, factor)
+
+    def frame(self, base: str) -> str:
+        """Return a per-instance frame id: ``base`` under the node's namespace (``cell/feeder_a/base``)."""
+        namespace = self.get_namespace().strip("/")
+        return f"{namespace}/{base}" if namespace else base
 
     def record_tick(self, simulated: float | None = None) -> None:
         """Count one tick of the device's main stream for the rate and real-time-factor figures."""
