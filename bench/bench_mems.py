@@ -1,4 +1,4 @@
-"""Benchmarks of the MEMS field array: exact integrals vs sampling, equilibria timing, array speed, fidelity trade."""
+"""MEMS field array benchmarks: exact integrals vs sampling, equilibria timing, array speed, fidelity."""
 
 from __future__ import annotations
 
@@ -102,7 +102,7 @@ def equilibria_timing(quick: bool) -> list[dict]:
     ):
         for method, target in (("numeric", 0.050), ("asymptotic", 0.010)):
             find_equilibria(part, 1e-3, method)
-            t = median_time(lambda: find_equilibria(part, 1e-3, method), repeats)
+            t = median_time(lambda part=part, method=method: find_equilibria(part, 1e-3, method), repeats)
             rows.append(
                 row(
                     f"all equilibria, {label}",
@@ -138,7 +138,9 @@ def array_speed(quick: bool) -> list[dict]:
                 scene.forces.wrench = scene.forces.wrench_by_cells
             steps = (200 if quick else 1000) // (1 if method == "edges" else 4)
             scene.run(steps * 1e-4 / 10, 1e-4)
-            t = median_time(lambda: [scene.step(1e-4) for _ in range(steps)], 3 if quick else 5)
+            t = median_time(
+                lambda scene=scene, steps=steps: [scene.step(1e-4) for _ in range(steps)], 3 if quick else 5
+            )
             rates[method] = steps / t
         rate = rates["edges"]
         rows.append(

@@ -1,4 +1,4 @@
-"""The equilibria planner against the paper: Table 1, Theorem 7, Propositions 5 and 6, and the example of section 4."""
+"""The equilibria planner against the paper: Table 1, Theorem 7, Props. 5 and 6, the example of section 4."""
 
 from __future__ import annotations
 
@@ -41,12 +41,13 @@ def test_plus_shape_has_n3_with_only_frequency_4() -> None:
     assert np.argmax(coef) == 4
     assert np.delete(coef, 4).max() <= 1e-12 * coef[4]
     # The paper's example, for any pi/2-symmetric part with V_11 = V_31 = 0:
-    # d^3 x*/d delta^3 = |S|^3 (3 V_22 - V_40) / (4 lambda^4) sin 4 theta  (S = 16 gives the paper's 1024(3+sqrt 2)).
+    # d^3 x*/d delta^3 = |S|^3 (3 V_22 - V_40) / (4 lambda^4) sin 4 theta
+    # (S = 16 gives the paper's 1024(3+sqrt 2)).
     lam = v[(2, 0)]
     predicted = part.area**3 * (3 * v[(2, 2)] - v[(4, 0)]) / (4 * lam**4)
     assert abs(2 * coef[4] - abs(predicted)) <= 1e-10 * abs(predicted)
     result = asymptotic.asymptotic_equilibria(part, 1e-3)
-    assert result.details["n"] == 3
+    assert result.asymptotic.n == 3
 
 
 def test_plus_shape_four_stable_equilibria_at_multiples_of_half_pi() -> None:
@@ -68,8 +69,8 @@ def test_square_stable_at_quarter_pi_offsets() -> None:
 def test_octagon_needs_n_7_with_frequency_8() -> None:
     part = regular(8)
     result = asymptotic.asymptotic_equilibria(part, 1e-3)
-    assert result.details["n"] == 7
-    assert set(result.details["dn_x_fourier"]) == {"8"}
+    assert result.asymptotic.n == 7
+    assert {k for k, _ in result.asymptotic.dn_x_fourier} == {8}
     assert len(result.stable) == 8
 
 
@@ -97,7 +98,7 @@ def test_non_symmetric_part_one_stable_tending_to_three_half_pi_minus_psi() -> N
 
 @pytest.mark.parametrize("make", [bracket, plus, square, washer, lambda: blob(40)])
 def test_asymptotic_and_numeric_agree_at_delta_1e3(make) -> None:
-    """Stated tolerance: same count and stability; angles within 1e-6 rad; positions within 1e-6 part radii."""
+    """Stated tolerance: same count and stability; angles within 1e-6 rad; positions within 1e-6 radii."""
     part = make()
     a = find_equilibria(part, 1e-3, "asymptotic")
     b = find_equilibria(part, 1e-3, "numeric")
@@ -174,14 +175,14 @@ def test_extremes_of_delta_and_size(delta: float, scale: float) -> None:
         assert len(result.stable) == 1
     reference = find_equilibria(bracket(), delta, "auto")
     assert [e.stable for e in result.equilibria] == [e.stable for e in reference.equilibria]
-    for a, b in zip(result.equilibria, reference.equilibria):
+    for a, b in zip(result.equilibria, reference.equilibria, strict=True):
         assert angle_gap(a.theta, b.theta) <= 1e-8
         assert abs(a.y / scale - b.y) <= 1e-8
 
 
 def test_symmetric_part_at_tiny_delta_certified_elsewhere() -> None:
     result = find_equilibria(plus(), 1e-9, "auto")
-    assert result.method == "asymptotic" and result.details["certified_at_delta"] > 1e-9
+    assert result.method == "asymptotic" and result.auto.certified_at_delta > 1e-9
     assert len(result.stable) == 4
 
 
@@ -214,7 +215,7 @@ def test_nearly_symmetric_part_is_not_misclassified() -> None:
     auto = find_equilibria(part, 1e-3, "auto")
     numeric = find_equilibria(part, 1e-3, "numeric")
     # agreement within the numeric method's own stated resolution (its x* floor over the slope)
-    window = 1e-6 + 2 * numeric.details["theta_uncertainty"]
+    window = 1e-6 + 2 * numeric.numeric.theta_uncertainty
     assert len(auto.equilibria) == len(numeric.equilibria) == 8
     for a in auto.equilibria:
         assert min(angle_gap(a.theta, b.theta) for b in numeric.equilibria if b.stable == a.stable) <= window
@@ -260,6 +261,6 @@ def test_unknown_method_named() -> None:
 
 
 def test_certification_flags() -> None:
-    assert find_equilibria(bracket(), 0.2, "numeric").details["certified"] is True
-    assert find_equilibria(bracket(), 0.2, "asymptotic").details["certified"] is False
-    assert find_equilibria(plus(), 1e-3, "auto").details["certified"] is True
+    assert find_equilibria(bracket(), 0.2, "numeric").certified is True
+    assert find_equilibria(bracket(), 0.2, "asymptotic").certified is False
+    assert find_equilibria(plus(), 1e-3, "auto").certified is True

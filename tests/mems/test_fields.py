@@ -1,4 +1,4 @@
-"""Fields of the array: exact wrench = -grad of the lifted potential, against sampling, and program parsing."""
+"""Fields of the array: exact wrench = -grad of the lifted potential, against sampling; program parsing."""
 
 from __future__ import annotations
 

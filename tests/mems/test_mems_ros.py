@@ -67,7 +67,7 @@ def test_service_matches_mechanics(nodes, ros_client) -> None:
     assert response.certified and response.method in ("asymptotic", "numeric")
     expected = find_equilibria(load_part(PART), DELTA)
     assert len(response.equilibria) == len(expected.equilibria)
-    for got, want in zip(response.equilibria, expected.equilibria):
+    for got, want in zip(response.equilibria, expected.equilibria, strict=True):
         assert got.stable == want.stable and abs(got.theta - want.theta % (2 * math.pi)) <= 1e-9
     assert (response.pivot_x, response.pivot_y) == pytest.approx(expected.pivot, abs=1e-15)
 
@@ -166,8 +166,9 @@ def test_clock_and_latched_cell_forces(nodes, ros_client) -> None:
     )
     cells = ros_harness.collect(ros_client, MemsCellForces, "/mems/cell_forces", count=1, qos=latched)[-1]
     assert cells.nx == 100 and len(cells.fx) == 100 * 100
-    # the default combined field: every cell force has magnitude |(-r/|r|) - delta (0, 1)| in [1 - delta, 1 + delta]
-    magnitude = [math.hypot(x, y) for x, y in zip(cells.fx, cells.fy)]
+    # the default combined field: every cell force has magnitude |(-r/|r|) - delta (0, 1)|,
+    # in [1 - delta, 1 + delta]
+    magnitude = [math.hypot(x, y) for x, y in zip(cells.fx, cells.fy, strict=True)]
     assert 1 - DELTA - 1e-12 <= min(magnitude) and max(magnitude) <= 1 + DELTA + 1e-12
 
 

@@ -1,4 +1,4 @@
-"""Simulator fidelity models: exact cell coverage, array -> ideal as the pitch shrinks, settling at planned equilibria."""
+"""Fidelity models: exact cell coverage, array -> ideal as the pitch shrinks, settling at equilibria."""
 
 from __future__ import annotations
 
@@ -121,8 +121,8 @@ def test_dynamic_single_part_does_not_import_pymunk() -> None:
         "from shapes import bracket\n"
         "from feeder_planner.mems.fields import CombinedField, ProgramStep\n"
         "from feeder_sim.mems.scene import Body, Scene\n"
-        "s = Scene([Body(bracket(1e-3), np.zeros(3))], (ProgramStep(CombinedField(0.3), math.inf),), 'dynamic',"
-        " damping=1e3)\n"
+        "s = Scene([Body(bracket(1e-3), np.zeros(3))], (ProgramStep(CombinedField(0.3), math.inf),),"
+        " 'dynamic', damping=1e3)\n"
         "s.run(0.01, 1e-4)\n"
         "print('pymunk' in sys.modules, np.all(np.isfinite(s.bodies[0].pose)))\n"
     )

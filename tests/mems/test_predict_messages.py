@@ -12,8 +12,8 @@ from shapes import bracket
 from feeder_planner.errors import InputError
 from feeder_planner.mems.equilibria import find_equilibria
 from feeder_planner.mems.fields import CombinedField, ProgramStep, QuadraticField, SqueezeField
-from feeder_planner.node_kit.msg_fields import fill_field_spec, program_from_msg
 from feeder_planner.mems.predict import final_equilibrium
+from feeder_planner.node_kit.msg_fields import fill_field_spec, program_from_msg
 from feeder_sim.mems.scene import Body, Scene
 
 

@@ -1,4 +1,4 @@
-"""`feeder equilibria`: all equilibria of a part in the unit radial field plus a constant field (contract 3)."""
+"""`feeder equilibria`: all equilibria of a part in the unit radial plus a constant field (contract 3)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,10 @@ import math
 from typing import Any
 
 from feeder_cell.cli.common import add_json_flag, emit, finite_float
-from feeder_planner.mems.equilibria import METHODS, find_equilibria
+from feeder_planner.mems import METHODS, find_equilibria
 from feeder_planner.parts import load_part
+
+__all__ = ["HELP", "register", "run"]
 
 HELP = """All equilibria (stable and unstable) of a planar part in the unit radial field f(r) = -r/|r|
 centred at the plane origin plus the constant field -delta*(0, 1), 0 <= delta < 1 (force per unit
@@ -42,6 +44,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _summary(result: dict[str, Any]) -> str:
+    """Return the human summary of the ``--json`` object (EquilibriaResult.to_json())."""
     lines = [
         f"pivot (part frame): ({result['pivot'][0]:.6g}, {result['pivot'][1]:.6g}) m, "
         f"area {result['area']:.6g} m^2, delta {result['delta']:g}, method {result['method']}"
@@ -61,7 +64,8 @@ def _summary(result: dict[str, Any]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Print the equilibria of the part file for --delta and --method; return the exit status."""
     part = load_part(args.part)
-    result = find_equilibria(part, args.delta, args.method).to_dict()
-    emit(args, result, _summary)
+    result = find_equilibria(part, args.delta, args.method)
+    emit(args, result.to_json(), _summary)
     return 0

@@ -1,1 +1,72 @@
-"""MEMS field array mechanics: exact lifted radial potential, fields, equilibria (Lamiroux & Kavraki)."""
+"""MEMS field array mechanics (Lamiroux & Kavraki): exact lifted radial potential, fields, equilibria.
+
+The public surface the CLI, the nodes and the simulator use: fields and field programs (``fields``),
+the equilibria planner (``find_equilibria`` with its methods and results), and the final-pose
+prediction (``final_equilibrium``). Numerical tolerances are in ``tolerances``.
+"""
+
+from feeder_planner.mems.equilibria import find_equilibria
+from feeder_planner.mems.fields import (
+    DELTA_MAX,
+    DELTA_MIN,
+    FIELD_TYPES,
+    CombinedField,
+    ConstantField,
+    Field,
+    FieldType,
+    ProgramStep,
+    QuadraticField,
+    RadialField,
+    SqueezeField,
+    check_delta,
+    check_field_type,
+    field_from_mapping,
+    field_parameters,
+    program_from_mapping,
+)
+from feeder_planner.mems.lifted import Edges, loop_edges, part_edges
+from feeder_planner.mems.predict import final_equilibrium
+from feeder_planner.mems.result import (
+    METHODS,
+    AsymptoticDetails,
+    AutoChoice,
+    EquilibriaResult,
+    Equilibrium,
+    Method,
+    NumericDetails,
+    SolvingMethod,
+    check_method,
+)
+
+__all__ = [
+    "find_equilibria",
+    "METHODS",
+    "Method",
+    "SolvingMethod",
+    "check_method",
+    "check_delta",
+    "DELTA_MIN",
+    "DELTA_MAX",
+    "EquilibriaResult",
+    "Equilibrium",
+    "NumericDetails",
+    "AsymptoticDetails",
+    "AutoChoice",
+    "final_equilibrium",
+    "Field",
+    "FieldType",
+    "FIELD_TYPES",
+    "check_field_type",
+    "field_parameters",
+    "RadialField",
+    "ConstantField",
+    "CombinedField",
+    "SqueezeField",
+    "QuadraticField",
+    "ProgramStep",
+    "field_from_mapping",
+    "program_from_mapping",
+    "Edges",
+    "loop_edges",
+    "part_edges",
+]

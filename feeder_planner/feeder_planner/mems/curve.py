@@ -1,4 +1,8 @@
-"""Pivot point (Prop. 3) and the equilibrium curve (X*, Y*)(theta, delta), eqs. (12-14), by Newton on convex U."""
+"""Pivot point (Prop. 3) and the equilibrium curve (X*, Y*)(theta, delta), eqs. (12-14), by Newton.
+
+U_{theta,delta}(X, Y) = V(X, Y) + delta |S| (sin theta X + cos theta Y) (eq. 12) has Hess U = Hess V,
+positive definite (Prop. 3), so damped Newton converges from anywhere to its unique minimum.
+"""
 
 from __future__ import annotations
 
@@ -8,11 +12,47 @@ import numpy as np
 
 from feeder_planner.errors import SolverError
 from feeder_planner.mems.lifted import Edges, potential, value_gradient_hessian_noise
+from feeder_planner.mems.tolerances import (
+    CURVE_ERROR_FACTOR,
+    NEWTON_DECREASE_FLOOR,
+    NEWTON_DECREASE_SLACK,
+    NEWTON_LONG_STEP,
+    NEWTON_MAX_BACKTRACKS,
+    NEWTON_MAX_ITER,
+    NEWTON_NOISE_FACTOR,
+    NEWTON_STEP_TOL,
+    ROUNDING_BOUND,
+)
 
-# Newton stops when the step is below this fraction of the part radius; V is strictly convex
-# (Prop. 3 (i)) so damped Newton converges from anywhere, and quadratically near the minimum.
-STEP_TOL = 1e-14
-MAX_ITER = 200
+__all__ = ["CurvePoints", "pivot_translation", "curve", "hessian_xyt"]
+
+
+def _rounding_floor(gnoise: np.ndarray, tilt: np.ndarray, hess: np.ndarray) -> np.ndarray:
+    """Return the rounding floor of grad U = grad V + tilt mapped through Hess^-1 (a length per row)."""
+    return (gnoise + ROUNDING_BOUND * np.abs(tilt).sum(-1)) / np.linalg.eigvalsh(hess)[:, 0]
+
+
+def _backtrack(
+    edges: Edges, z: np.ndarray, tilt: np.ndarray, value: np.ndarray, step: np.ndarray
+) -> np.ndarray:
+    """Return the step fraction per row: 1, halved while a long step would increase U = V + tilt . z.
+
+    Only steps longer than NEWTON_LONG_STEP part radii are checked; near the minimum Newton is safe.
+    """
+    f0 = value + (tilt * z).sum(-1)
+    t = np.ones(len(z))
+    long = np.hypot(step[:, 0], step[:, 1]) > NEWTON_LONG_STEP * edges.scale
+    for _ in range(NEWTON_MAX_BACKTRACKS):
+        if not long.any():
+            break
+        trial = z[long] + t[long, None] * step[long]
+        f1 = potential(edges, trial) + (tilt[long] * trial).sum(-1)
+        bad = np.zeros(len(z), bool)
+        bad[long] = f1 > f0[long] + NEWTON_DECREASE_SLACK * np.abs(f0[long]) + NEWTON_DECREASE_FLOOR
+        if not bad.any():
+            break
+        t = np.where(bad, 0.5 * t, t)
+    return t
 
 
 def _newton(edges: Edges, z: np.ndarray, tilt: np.ndarray) -> np.ndarray:
@@ -20,39 +60,28 @@ def _newton(edges: Edges, z: np.ndarray, tilt: np.ndarray) -> np.ndarray:
     z = np.array(z, float, copy=True)
     active = np.ones(z.shape[:-1], bool)
     scale = edges.scale
-    for _ in range(MAX_ITER):
+    for _ in range(NEWTON_MAX_ITER):
         if not active.any():
             return z
         za, ta = z[active], tilt[active]
         value, grad, hess, gnoise = value_gradient_hessian_noise(edges, za)
         g = grad + ta
         step = -np.linalg.solve(hess, g[..., None])[..., 0]
-        # Backtrack only where a long step might not decrease U; near the minimum Newton is safe.
-        f0 = value + (ta * za).sum(-1)
-        t = np.ones(len(za))
-        long = np.hypot(step[:, 0], step[:, 1]) > 1e-3 * scale
-        for _ in range(40):
-            if not long.any():
-                break
-            trial = za[long] + t[long, None] * step[long]
-            f1 = potential(edges, trial) + (ta[long] * trial).sum(-1)
-            bad = np.zeros(len(za), bool)
-            bad[long] = f1 > f0[long] + 1e-13 * np.abs(f0[long]) + 1e-300
-            if not bad.any():
-                break
-            t = np.where(bad, 0.5 * t, t)
+        t = _backtrack(edges, za, ta, value, step)
         za = za + t[:, None] * step
         z[active] = za
-        # Stop at STEP_TOL, or at the rounding floor of the gradient mapped through Hess^-1.
-        noise = (gnoise + 8 * np.finfo(float).eps * np.abs(ta).sum(-1)) / np.linalg.eigvalsh(hess)[:, 0]
-        done = np.hypot(step[:, 0], step[:, 1]) * t <= np.maximum(STEP_TOL * scale, 4.0 * noise)
+        # Stop at NEWTON_STEP_TOL, or at the rounding floor of the gradient mapped through Hess^-1.
+        noise = _rounding_floor(gnoise, ta, hess)
+        done = np.hypot(step[:, 0], step[:, 1]) * t <= np.maximum(
+            NEWTON_STEP_TOL * scale, NEWTON_NOISE_FACTOR * noise
+        )
         idx = np.flatnonzero(active)
         active[idx[done]] = False
     raise SolverError("Newton on the lifted potential did not converge (equilibrium curve)")
 
 
 def pivot_translation(edges: Edges) -> np.ndarray:
-    """(X0, Y0), the unique minimum of V (Prop. 3 (ii)); the pivot point is (-X0, -Y0) in the part frame."""
+    """Return (X0, Y0), the unique minimum of V (Prop. 3 (ii)); the pivot point is (-X0, -Y0), part frame."""
     return _newton(edges, np.zeros((1, 2)), np.zeros((1, 2)))[0]
 
 
@@ -73,7 +102,11 @@ class CurvePoints:
 def curve(
     edges: Edges, area: float, delta: float, theta: np.ndarray, start: np.ndarray | None = None
 ) -> CurvePoints:
-    """Solve grad V(Z) + delta |S| (sin theta, cos theta) = 0 (the system before eq. 22) for each theta."""
+    """Solve grad V(Z) + delta |S| (sin theta, cos theta) = 0 (the system before eq. 22) for each theta.
+
+    The minimum of U_{theta,delta} (eq. 12) in the part's (X, Y) coordinates, with x*, y* by eqs.
+    (13-14) and dx*/dtheta by implicit differentiation of grad U = 0.
+    """
     theta = np.asarray(theta, float)
     b = np.column_stack([np.sin(theta), np.cos(theta)])
     tilt = delta * area * b
@@ -86,12 +119,12 @@ def curve(
     # Hess V dZ/dtheta = -delta |S| (cos theta, -sin theta)
     dz = -np.linalg.solve(hess, (delta * area * np.column_stack([c, -s]))[..., None])[..., 0]
     dx = -s * z[:, 0] - c * z[:, 1] + c * dz[:, 0] - s * dz[:, 1]
-    error = 2.0 * (gnoise + 8 * np.finfo(float).eps * np.abs(tilt).sum(-1)) / np.linalg.eigvalsh(hess)[:, 0]
-    return CurvePoints(theta, z, x, y, dx, hess, grad, error + STEP_TOL * edges.scale)
+    error = CURVE_ERROR_FACTOR * _rounding_floor(gnoise, tilt, hess)
+    return CurvePoints(theta, z, x, y, dx, hess, grad, error + NEWTON_STEP_TOL * edges.scale)
 
 
 def hessian_xyt(grad: np.ndarray, hess: np.ndarray, z: np.ndarray, theta: float) -> np.ndarray:
-    """Hessian of U(x, y, theta) = V(R(theta)^T (x, y)) + delta |S| y at a configuration (chain rule)."""
+    """Return the Hessian of U(x, y, theta) = V(R(theta)^T (x, y)) + delta |S| y (chain rule on eq. 12)."""
     c, s = np.cos(theta), np.sin(theta)
     r = np.array([[c, -s], [s, c]])
     dr = np.array([[-s, -c], [c, -s]])

@@ -3,40 +3,30 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from feeder_planner.errors import InputError, SolverError
 from feeder_planner.mems.asymptotic import asymptotic_equilibria
-from feeder_planner.mems.lifted import part_edges
+from feeder_planner.mems.fields import check_delta
+from feeder_planner.mems.lifted import Edges, part_edges
 from feeder_planner.mems.numeric import numeric_equilibria
-from feeder_planner.mems.result import EquilibriaResult
+from feeder_planner.mems.result import METHODS, AutoChoice, EquilibriaResult, Method, check_method
+from feeder_planner.mems.tolerances import CERT_DELTAS, CERT_POSITION, CERT_THETA
 from feeder_planner.parts import Part
 
-METHODS = ("auto", "asymptotic", "numeric")
-# 'auto' accepts the asymptotic prediction when it matches the numeric one in count and stability,
-# every angle within CERT_THETA + delta^3 rad and every position within (CERT_POSITION + delta^3) part
-# radii (delta^3: the truncation order of the expansion after its EXTRA = 2 refining orders).
-CERT_THETA = 1e-6
-CERT_POSITION = 1e-6
-CERT_DELTAS = (1e-4, 1e-3, 1e-2, 3e-2, 0.1)  # where to certify when delta is below the numeric resolution
-
-
-def check_delta(delta: float, field: str = "delta") -> float:
-    """0 <= delta < 1 (contract section 3); NaN and inf refused."""
-    if isinstance(delta, bool) or not isinstance(delta, (int, float)) or not math.isfinite(delta):
-        raise InputError(field, f"must be a finite number, got {delta!r}")
-    if not 0.0 <= delta < 1.0:
-        raise InputError(field, f"must satisfy 0 <= delta < 1, got {delta!r}")
-    return float(delta)
+__all__ = ["METHODS", "Method", "check_delta", "check_method", "agree", "find_equilibria"]
 
 
 def agree(a: EquilibriaResult, b: EquilibriaResult, scale: float) -> bool:
-    """Same count and stability, angles within CERT_THETA + delta^3 (+ b's theta resolution), positions
-    within (CERT_POSITION + the same slack) * scale.
+    """Return whether a matches b: same count and stability, angles and positions within the window.
+
+    Angles within CERT_THETA + delta^3 (+ twice b's theta uncertainty, the numeric side's own
+    resolution) rad, positions within (CERT_POSITION + the same slack) * scale.
     """
     if len(a.equilibria) != len(b.equilibria):
         return False
     # the numeric side's own resolution (its rounding floor over the slope of x*) widens the window
-    slack = a.delta**3 + 2.0 * float(b.details.get("theta_uncertainty", 0.0))
+    slack = a.delta**3 + 2.0 * (b.numeric.theta_uncertainty if b.numeric is not None else 0.0)
     for ea in a.equilibria:
         match = [
             eb
@@ -52,11 +42,51 @@ def agree(a: EquilibriaResult, b: EquilibriaResult, scale: float) -> bool:
     return True
 
 
-def find_equilibria(part: Part, delta: float, method: str = "auto") -> EquilibriaResult:
-    """All equilibria of ``part`` in the unit radial field plus the constant field -delta (0, 1)."""
+def _certify_elsewhere(
+    part: Part, delta: float, edges: Edges, asym: EquilibriaResult, refusal: SolverError
+) -> EquilibriaResult:
+    """Return the asymptotic result certified at the smallest CERT_DELTAS above delta where both work.
+
+    For a delta below what the numeric curve resolves: the expansion is checked against the numeric
+    method at the first larger delta where both methods succeed; a disagreement there, or no such
+    delta, is a refusal.
+    """
+    for d_cert in CERT_DELTAS:
+        if d_cert <= delta:
+            continue
+        try:
+            check_num = numeric_equilibria(part, d_cert, edges)
+            check_asym = asymptotic_equilibria(part, d_cert, edges)
+        except SolverError:
+            continue
+        if agree(check_asym, check_num, edges.scale):
+            return _chosen(asym, AutoChoice(certified_at_delta=d_cert, numeric_refused=str(refusal)))
+        break
+    raise SolverError(f"asymptotic result could not be certified and numeric refused: {refusal}") from None
+
+
+def _auto(part: Part, delta: float, edges: Edges) -> EquilibriaResult:
+    """Return the asymptotic result where the numeric method certifies it, else the numeric one."""
+    try:
+        asym = asymptotic_equilibria(part, delta, edges)
+    except SolverError as error:
+        return _chosen(numeric_equilibria(part, delta, edges), AutoChoice(asymptotic_refused=str(error)))
+    try:
+        num = numeric_equilibria(part, delta, edges)
+    except SolverError as error:
+        return _certify_elsewhere(part, delta, edges, asym, error)
+    if agree(asym, num, edges.scale):
+        return _chosen(asym, AutoChoice(certified_at_delta=delta))
+    return _chosen(num, AutoChoice(asymptotic_disagreed=True))
+
+
+def find_equilibria(part: Part, delta: float, method: Method | str = "auto") -> EquilibriaResult:
+    """Return all equilibria of ``part`` in the unit radial field plus the constant field -delta (0, 1).
+
+    That is u = |r| + delta eta (section 3.2), 0 < delta < 1; ``method`` is one of METHODS.
+    """
     delta = check_delta(delta)
-    if method not in METHODS:
-        raise InputError("method", f"unknown method {method!r} (expected one of {', '.join(METHODS)})")
+    chosen = check_method(method)
     edges = part_edges(part)
     if delta == 0.0:
         raise InputError(
@@ -64,46 +94,13 @@ def find_equilibria(part: Part, delta: float, method: str = "auto") -> Equilibri
             "delta = 0 leaves the orientation free (the pivot circle is a continuum of "
             "equilibria, Prop. 3); use delta > 0",
         )
-    if method == "asymptotic":
+    if chosen == "asymptotic":
         return asymptotic_equilibria(part, delta, edges)
-    if method == "numeric":
+    if chosen == "numeric":
         return numeric_equilibria(part, delta, edges)
-    try:
-        asym = asymptotic_equilibria(part, delta, edges)
-    except SolverError as error:
-        result = numeric_equilibria(part, delta, edges)
-        return _relabel(result, "numeric", {"asymptotic_refused": str(error)})
-    try:
-        num = numeric_equilibria(part, delta, edges)
-    except SolverError as error:
-        # delta below what the numeric curve resolves: certify the expansion where both work.
-        for d_cert in CERT_DELTAS:
-            if d_cert <= delta:
-                continue
-            try:
-                check_num = numeric_equilibria(part, d_cert, edges)
-                check_asym = asymptotic_equilibria(part, d_cert, edges)
-            except SolverError:
-                continue
-            if agree(check_asym, check_num, edges.scale):
-                return _relabel(
-                    asym,
-                    "asymptotic",
-                    {"certified": True, "certified_at_delta": d_cert, "numeric_refused": str(error)},
-                )
-            break
-        raise SolverError(f"asymptotic result could not be certified and numeric refused: {error}") from None
-    if agree(asym, num, edges.scale):
-        return _relabel(asym, "asymptotic", {"certified": True, "certified_at_delta": delta})
-    return _relabel(num, "numeric", {"asymptotic_disagreed": True})
+    return _auto(part, delta, edges)
 
 
-def _relabel(result: EquilibriaResult, method: str, extra: dict) -> EquilibriaResult:
-    return EquilibriaResult(
-        result.pivot,
-        result.area,
-        result.delta,
-        method,
-        result.equilibria,
-        {**result.details, **extra, "requested": "auto"},
-    )
+def _chosen(result: EquilibriaResult, why: AutoChoice) -> EquilibriaResult:
+    """Return ``result`` as the answer of 'auto' (certified: 'auto' returns nothing uncertified)."""
+    return replace(result, certified=True, auto=why)

@@ -1,22 +1,45 @@
-"""Exact lifted unit-radial potential V(X, Y) = int_S |(X, Y) + r| dA (eq. 4) and its derivatives of any order."""
+"""Exact lifted unit-radial potential V(X, Y) = int_S |(X, Y) + r| dA (eq. 4) and its derivatives.
+
+Orders 0-2 are closed forms of boundary integrals (divergence theorem: V = 1/3 oint |r| (r.n) ds,
+grad V = oint |r| n ds (eqs. 5-6), Hess V = oint (r/|r|) n^T ds (eqs. 7-9)); every edge integral is
+elementary (sqrt and asinh). Orders >= 3 use d^{k}V = oint d^{k-1}|r| n ds, the (k-1)-th derivatives
+of |r| obtained exactly by the Leibniz recursion of |r|*|r| = xi^2 + eta^2 and integrated by
+Gauss-Legendre on pieces graded geometrically away from the foot of the origin on each edge line, so
+that every piece sees the integrand's complex singularities (foot +- i h) at least one piece length
+away: 24 nodes then leave only rounding (relative error < 1e-12, tested). Valid while the origin is
+not on the boundary (Prop. 2).
+"""
 
 from __future__ import annotations
 
-# Orders 0-2 are closed forms of boundary integrals (divergence theorem: V = 1/3 oint |r| (r.n) ds,
-# grad V = oint |r| n ds (eqs. 5-6), Hess V = oint (r/|r|) n^T ds (eqs. 7-9)); every edge integral is
-# elementary (sqrt and asinh). Orders >= 3 use d^{k}V = oint d^{k-1}|r| n ds, the (k-1)-th derivatives
-# of |r| obtained exactly by the Leibniz recursion of |r|*|r| = xi^2 + eta^2 and integrated by
-# Gauss-Legendre on pieces graded geometrically away from the foot of the origin on each edge line, so
-# that every piece sees the integrand's complex singularities (foot +- i h) at least one piece length
-# away: 24 nodes then leave only rounding (relative error < 1e-12, tested). Valid while the origin is not on the boundary.
 from dataclasses import dataclass
 from functools import lru_cache
-from math import comb, factorial
+from math import comb
 
 import numpy as np
 
 from feeder_planner.errors import InputError
+from feeder_planner.mems.tolerances import (
+    GAUSS_NODES,
+    GRADING_EXTRA_LEVELS,
+    GRADING_MAX_LEVELS,
+    ON_BOUNDARY,
+    ROUNDING_BOUND,
+)
 from feeder_planner.parts import Part
+
+__all__ = [
+    "Edges",
+    "edge_endpoints",
+    "loop_edges",
+    "part_edges",
+    "potential",
+    "gradient",
+    "gradient_noise",
+    "value_gradient_hessian",
+    "value_gradient_hessian_noise",
+    "derivatives",
+]
 
 
 @dataclass(frozen=True)
@@ -30,22 +53,37 @@ class Edges:
     scale: float  # part radius, the length scale of tolerances
 
 
-def part_edges(part: Part) -> Edges:
-    """Edges of the part's loops, oriented so the area lies on their left."""
-    starts, ends = [], []
-    for loop in part.loops():
-        starts.append(loop)
-        ends.append(np.roll(loop, -1, axis=0))
-    a, b = np.vstack(starts), np.vstack(ends)
+def edge_endpoints(loops: tuple[np.ndarray, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Return the start and end points (E, 2) of every edge of the loops, stacked loop after loop.
+
+    Edge i of a loop joins its vertex i to vertex i + 1, the last one closing the loop.
+    """
+    start = np.vstack(loops)
+    end = np.vstack([np.roll(loop, -1, axis=0) for loop in loops])
+    return start, end
+
+
+def loop_edges(loops: tuple[np.ndarray, ...], scale: float | None = None) -> Edges:
+    """Return the Edges of loops oriented so the area lies on their left (outer ccw, holes cw).
+
+    ``scale`` is the length scale of the tolerances (the part radius); by default the largest
+    coordinate of the loops, which is what placed loops in the plane frame offer.
+    """
+    a, b = edge_endpoints(loops)
     d = b - a
     length = np.hypot(d[:, 0], d[:, 1])
     u = d / length[:, None]
     n = np.column_stack([u[:, 1], -u[:, 0]])
-    return Edges(a, u, n, length, part.radius)
+    return Edges(a, u, n, length, float(np.abs(a).max()) if scale is None else scale)
+
+
+def part_edges(part: Part) -> Edges:
+    """Return the Edges of the part's loops in the part frame, with the part radius as scale."""
+    return loop_edges(part.loops(), part.radius)
 
 
 def _edge_terms(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Per-edge (s0, s1, h, rho0, rho1, h*A, h^2*A) with A = int ds/|r| along the translated edge."""
+    """Return per-edge (s0, s1, h, rho0, rho1, h*A) with A = int ds/|r| along the translated edge."""
     a = edges.start + z[..., None, :]  # (..., E, 2)
     s0 = np.einsum("...ek,ek->...e", a, edges.direction)
     h = np.einsum("...ek,ek->...e", a, edges.normal)
@@ -63,39 +101,48 @@ def _edge_terms(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, ...]:
     return s0, s1, h, rho0, rho1, h_a
 
 
+def _abs_r_integrals(terms: tuple[np.ndarray, ...]) -> np.ndarray:
+    """Return int |r| ds along every edge: [s rho + h^2 asinh(s/|h|)]/2 between the edge's ends."""
+    s0, s1, h, rho0, rho1, h_a = terms
+    return 0.5 * (s1 * rho1 - s0 * rho0 + h * h_a)
+
+
+def _noise_of(terms: tuple[np.ndarray, ...]) -> np.ndarray:
+    """Return the rounding bound of the gradient's sum: ROUNDING_BOUND times the sum of |its terms|."""
+    s0, s1, h, rho0, rho1, h_a = terms
+    magnitudes = 0.5 * (np.abs(s1 * rho1) + np.abs(s0 * rho0) + np.abs(h * h_a))
+    return ROUNDING_BOUND * magnitudes.sum(axis=-1)
+
+
 def potential(edges: Edges, z: np.ndarray) -> np.ndarray:
-    """V at translations z (..., 2): 1/3 sum_e h_e int |r| ds, int |r| ds = [s rho + h^2 asinh(s/|h|)]/2."""
-    s0, s1, h, rho0, rho1, h_a = _edge_terms(edges, np.asarray(z, float))
-    i0 = 0.5 * (s1 * rho1 - s0 * rho0 + h * h_a)
-    return (h * i0).sum(axis=-1) / 3.0
+    """Return V at translations z (..., 2), eq. (4) as 1/3 sum_e h_e int |r| ds."""
+    terms = _edge_terms(edges, np.asarray(z, float))
+    return (terms[2] * _abs_r_integrals(terms)).sum(axis=-1) / 3.0
 
 
 def gradient(edges: Edges, z: np.ndarray) -> np.ndarray:
-    """(dV/dX, dV/dY) at translations z (..., 2), eqs. (5-6) as oint |r| n ds."""
-    s0, s1, h, rho0, rho1, h_a = _edge_terms(edges, np.asarray(z, float))
-    i0 = 0.5 * (s1 * rho1 - s0 * rho0 + h * h_a)
-    return np.einsum("...e,ek->...k", i0, edges.normal)
+    """Return (dV/dX, dV/dY) at translations z (..., 2), eqs. (5-6) as oint |r| n ds."""
+    terms = _edge_terms(edges, np.asarray(z, float))
+    return np.einsum("...e,ek->...k", _abs_r_integrals(terms), edges.normal)
 
 
 def value_gradient_hessian(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """V, grad V and Hess V (eqs. 4-9) at translations z (..., 2), all closed forms."""
+    """Return V, grad V and Hess V (eqs. 4-9) at translations z (..., 2), all closed forms."""
     return value_gradient_hessian_noise(edges, z)[:3]
 
 
 def value_gradient_hessian_noise(
     edges: Edges, z: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """value_gradient_hessian plus gradient_noise, from one evaluation of the edge terms."""
-    s0, s1, h, rho0, rho1, h_a = _edge_terms(edges, np.asarray(z, float))
-    noise = (
-        8.0
-        * np.finfo(float).eps
-        * (0.5 * (np.abs(s1 * rho1) + np.abs(s0 * rho0) + np.abs(h * h_a))).sum(axis=-1)
-    )
-    i0 = 0.5 * (s1 * rho1 - s0 * rho0 + h * h_a)
+    """Return value_gradient_hessian plus gradient_noise, from one evaluation of the edge terms."""
+    terms = _edge_terms(edges, np.asarray(z, float))
+    s0, s1, h, rho0, rho1, h_a = terms
+    noise = _noise_of(terms)
+    i0 = _abs_r_integrals(terms)
     value = (h * i0).sum(axis=-1) / 3.0
     grad = np.einsum("...e,ek->...k", i0, edges.normal)
-    # int r/|r| ds = u [rho] + n h A; Hess_ij = sum_e (int r_i/|r| ds) n_j, symmetric in exact arithmetic.
+    # int r/|r| ds = u [rho] + n h A; Hess_ij = sum_e (int r_i/|r| ds) n_j (eqs. 7-9), symmetric in
+    # exact arithmetic.
     w = (rho1 - rho0)[..., None] * edges.direction + h_a[..., None] * edges.normal
     hess = np.einsum("...ei,ej->...ij", w, edges.normal)
     hess = 0.5 * (hess + np.swapaxes(hess, -1, -2))
@@ -103,14 +150,12 @@ def value_gradient_hessian_noise(
 
 
 def gradient_noise(edges: Edges, z: np.ndarray) -> np.ndarray:
-    """A bound on the rounding error of ``gradient`` at z (..., ): 8 eps times the sum of its terms."""
-    s0, s1, h, rho0, rho1, h_a = _edge_terms(edges, np.asarray(z, float))
-    terms = 0.5 * (np.abs(s1 * rho1) + np.abs(s0 * rho0) + np.abs(h * h_a))
-    return 8.0 * np.finfo(float).eps * terms.sum(axis=-1)
+    """Return a bound on the rounding error of ``gradient`` at z (...,): ROUNDING_BOUND x its terms."""
+    return _noise_of(_edge_terms(edges, np.asarray(z, float)))
 
 
 def _rho_derivatives(xi: np.ndarray, eta: np.ndarray, order: int) -> dict[tuple[int, int], np.ndarray]:
-    """All d^{i+j}|r| / dxi^i deta^j for i + j <= order, by Leibniz on |r|^2 = xi^2 + eta^2."""
+    """Return every d^{i+j}|r| / dxi^i deta^j for i + j <= order, by Leibniz on |r|^2 = xi^2 + eta^2."""
     rho = np.hypot(xi, eta)
     d: dict[tuple[int, int], np.ndarray] = {(0, 0): rho}
     square = {(1, 0): 2 * xi, (0, 1): 2 * eta, (2, 0): 2.0, (0, 2): 2.0}
@@ -129,21 +174,23 @@ def _rho_derivatives(xi: np.ndarray, eta: np.ndarray, order: int) -> dict[tuple[
 
 @lru_cache(maxsize=8)
 def _gauss(nodes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Return Gauss-Legendre nodes and weights on [0, 1]."""
     x, w = np.polynomial.legendre.leggauss(nodes)
     return 0.5 * (x + 1.0), 0.5 * w
 
 
 def _pieces(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Breakpoints on every translated edge, graded geometrically about the foot of the origin."""
+    """Return breakpoints on every translated edge, graded geometrically about the foot of the origin."""
     a = edges.start + z
     s0 = -(a * edges.direction).sum(axis=1)  # foot of the origin, arc length from the edge start
     h = np.abs((a * edges.normal).sum(axis=1))
     length = edges.length
     outside = np.maximum(np.maximum(-s0, s0 - length), 0.0)  # distance from the foot to the segment
     r0 = np.maximum(h, 0.5 * outside)
-    if np.any(r0 <= 1e-15 * edges.scale):
+    if np.any(r0 <= ON_BOUNDARY * edges.scale):
         raise InputError("field centre", "lies on the part boundary: V is not differentiable there (Prop. 2)")
-    levels = int(np.clip(np.ceil(np.log2((length.max() + np.abs(s0).max()) / r0.min())) + 2, 1, 80))
+    reach = np.ceil(np.log2((length.max() + np.abs(s0).max()) / r0.min()))
+    levels = int(np.clip(reach + GRADING_EXTRA_LEVELS, 1, GRADING_MAX_LEVELS))
     k = r0[:, None] * 2.0 ** np.arange(levels)[None, :]
     cuts = np.concatenate(
         [np.zeros((len(s0), 1)), length[:, None], s0[:, None], s0[:, None] + k, s0[:, None] - k], axis=1
@@ -153,12 +200,13 @@ def _pieces(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nda
 
 
 def derivatives(
-    part_or_edges: Part | Edges, z: np.ndarray, order: int, nodes: int = 24
+    part_or_edges: Part | Edges, z: np.ndarray, order: int, nodes: int = GAUSS_NODES
 ) -> dict[tuple[int, int], float]:
-    """All partial derivatives V_{i,j} = d^{i+j}V / dX^i dY^j at z for 1 <= i + j <= order (Table 1 input).
+    """Return every V_{i,j} = d^{i+j}V / dX^i dY^j at z for 1 <= i + j <= order (Table 1's input).
 
-    Orders <= 2 come from the closed forms; higher ones from the graded boundary quadrature.
-    Raises InputError when the field centre lies on the part boundary (V is only C^2 there).
+    Orders <= 2 come from the closed forms (eqs. 5-9); higher ones from the graded boundary
+    quadrature. Raises InputError when the field centre lies on the part boundary (V is only C^2
+    there, Prop. 2).
     """
     edges = part_or_edges if isinstance(part_or_edges, Edges) else part_edges(part_or_edges)
     z = np.asarray(z, float)
@@ -190,12 +238,3 @@ def derivatives(
             integrand = d[(i - 1, j)] * nx if i > 0 else d[(i, j - 1)] * ny
             out[(i, j)] = float((integrand * weight).sum())
     return out
-
-
-def taylor_factorials(order: int) -> np.ndarray:
-    """1 / (i! j!) for i + j <= order, as a square array (a helper of the Taylor expansions)."""
-    f = np.zeros((order + 1, order + 1))
-    for i in range(order + 1):
-        for j in range(order + 1 - i):
-            f[i, j] = 1.0 / (factorial(i) * factorial(j))
-    return f

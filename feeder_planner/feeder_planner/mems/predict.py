@@ -6,9 +6,11 @@ import math
 
 from feeder_planner.mems.result import EquilibriaResult, Equilibrium
 
+__all__ = ["final_equilibrium"]
+
 
 def final_equilibrium(result: EquilibriaResult, theta: float) -> Equilibrium:
-    """The stable equilibrium at the end of theta's arc between consecutive equilibria.
+    """Return the stable equilibrium at the end of theta's arc between consecutive equilibria.
 
     Once the part sits on the equilibrium curve, dU*/dtheta = delta |S| x* (Prop. 5) makes theta
     run downhill; equilibria alternate stable/unstable around the circle (Prop. 6), so the arc that

@@ -6,9 +6,11 @@ import numpy as np
 
 from feeder_planner import polygon
 
+__all__ = ["moments", "clip_half_plane", "half_plane_moments"]
+
 
 def moments(loops: tuple[np.ndarray, ...]) -> np.ndarray:
-    """(A, Sx, Sy, Ixx, Iyy, Ixy): area, first and second moments about the plane origin (signed loops)."""
+    """Return (A, Sx, Sy, Ixx, Iyy, Ixy): area, first and second moments about the origin (signed loops)."""
     out = np.zeros(6)
     for loop in loops:
         if len(loop) < 3:
@@ -19,7 +21,7 @@ def moments(loops: tuple[np.ndarray, ...]) -> np.ndarray:
 
 
 def clip_half_plane(loop: np.ndarray, normal: np.ndarray, offset: float) -> np.ndarray:
-    """The part of a loop with normal . r >= offset (Sutherland-Hodgman).
+    """Return the part of a loop with normal . r >= offset (Sutherland-Hodgman).
 
     For a non-convex loop the output may contain zero-width bridges along the cut line; they carry
     no area, so every Green's-theorem moment of the result is exact.
@@ -38,5 +40,5 @@ def clip_half_plane(loop: np.ndarray, normal: np.ndarray, offset: float) -> np.n
 
 
 def half_plane_moments(loops: tuple[np.ndarray, ...], normal: np.ndarray, offset: float) -> np.ndarray:
-    """moments() of the region normal . r >= offset."""
+    """Return moments() of the loops' region with normal . r >= offset."""
     return moments(tuple(clip_half_plane(loop, normal, offset) for loop in loops))

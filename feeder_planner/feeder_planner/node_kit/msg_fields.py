@@ -1,43 +1,108 @@
-"""Conversions between feeder_msgs field programs (FieldProgram, FieldSpec) and the mechanics."""
+"""Conversions between feeder_msgs field programs (FieldProgram, FieldSpec) and the mechanics.
+
+A FieldSpec message carries every parameter of every field type; which ones a type reads is the
+mechanics' one definition (``field_parameters``), and each parameter maps to its message fields
+below, in both directions.
+"""
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import Any, Protocol, TypeVar
 
 from feeder_planner.errors import InputError
-from feeder_planner.mems.fields import (
-    CombinedField,
-    ConstantField,
-    Field,
-    ProgramStep,
-    QuadraticField,
-    RadialField,
-    SqueezeField,
-    field_from_mapping,
-)
+from feeder_planner.mems.fields import ProgramStep, check_field_type, field_from_mapping, field_parameters
+
+__all__ = [
+    "FieldSpecLike",
+    "FieldProgramLike",
+    "field_spec_to_mapping",
+    "program_from_msg",
+    "fill_field_spec",
+]
 
 
-def field_spec_to_mapping(spec: Any) -> dict[str, Any]:
-    """The parameters a FieldSpec message carries for its type, as a field mapping."""
-    kind = spec.type
-    center = [spec.center_x, spec.center_y]
-    strength = spec.strength if spec.strength != 0.0 else 1.0
-    if kind == "radial":
-        return {"type": kind, "center": center, "strength": strength}
-    if kind == "constant":
-        return {"type": kind, "force": [spec.force_x, spec.force_y]}
-    if kind == "combined":
-        return {"type": kind, "delta": spec.delta, "center": center, "strength": strength}
-    if kind == "squeeze":
-        return {"type": kind, "center": center, "angle": spec.angle, "strength": strength}
-    if kind == "quadratic":
-        return {"type": kind, "center": center, "k": [spec.k1, spec.k2], "angle": spec.angle}
-    return {"type": kind}
+class FieldSpecLike(Protocol):
+    """The fields of feeder_msgs/FieldSpec this module reads and writes (lengths in m, angles in rad)."""
+
+    type: str
+    delta: float
+    center_x: float
+    center_y: float
+    strength: float
+    angle: float
+    k1: float
+    k2: float
+    force_x: float
+    force_y: float
+    duration: float  # s; 0 or inf: forever
 
 
-def program_from_msg(msg: Any, field: str = "program") -> tuple[ProgramStep, ...]:
-    """Validate a FieldProgram message; errors name e.g. ``program.steps[1].delta``."""
+class FieldProgramLike(Protocol):
+    """The field of feeder_msgs/FieldProgram this module reads."""
+
+    @property
+    def steps(self) -> Sequence[FieldSpecLike]:
+        """Return the program's steps in order."""
+        ...
+
+
+Spec = TypeVar("Spec", bound=FieldSpecLike)
+
+
+def _pair(value: Any) -> tuple[float, float]:
+    """Return a two-element parameter as two floats."""
+    return float(value[0]), float(value[1])
+
+
+# Parameter name (as in the field mapping) -> its value read from a message.
+_READ: dict[str, Callable[[FieldSpecLike], Any]] = {
+    "center": lambda s: [s.center_x, s.center_y],
+    # a message leaves strength 0 when it does not set it: the default strength 1
+    "strength": lambda s: s.strength if s.strength != 0.0 else 1.0,
+    "force": lambda s: [s.force_x, s.force_y],
+    "delta": lambda s: s.delta,
+    "angle": lambda s: s.angle,
+    "k": lambda s: [s.k1, s.k2],
+}
+
+
+def _write(spec: FieldSpecLike, name: str, value: Any) -> None:
+    """Write one field parameter into its message fields."""
+    if name == "center":
+        spec.center_x, spec.center_y = _pair(value)
+    elif name == "force":
+        spec.force_x, spec.force_y = _pair(value)
+    elif name == "k":
+        spec.k1, spec.k2 = _pair(value)
+    elif name == "strength":
+        spec.strength = float(value)
+    elif name == "delta":
+        spec.delta = float(value)
+    elif name == "angle":
+        spec.angle = float(value)
+    else:  # pragma: no cover - a field parameter without message fields is a programming error
+        raise KeyError(name)
+
+
+def field_spec_to_mapping(spec: FieldSpecLike) -> dict[str, Any]:
+    """Return the parameters a FieldSpec message carries for its type, as a field mapping.
+
+    An unknown type gives just {'type': ...}, which ``field_from_mapping`` refuses naming the type.
+    """
+    try:
+        kind = check_field_type(spec.type)
+    except InputError:
+        return {"type": spec.type}
+    return {"type": kind, **{name: _READ[name](spec) for name in field_parameters(kind)}}
+
+
+def program_from_msg(msg: FieldProgramLike, field: str = "program") -> tuple[ProgramStep, ...]:
+    """Return the program of a FieldProgram message, validated.
+
+    Errors name the step and parameter, e.g. ``program.steps[1].delta``.
+    """
     if len(msg.steps) == 0:
         raise InputError(f"{field}.steps", "a field program needs at least one step")
     steps = []
@@ -46,29 +111,16 @@ def program_from_msg(msg: Any, field: str = "program") -> tuple[ProgramStep, ...
         duration = spec.duration
         if math.isnan(duration) or duration < 0:
             raise InputError(f"{where}.duration", f"must be >= 0 (0 or inf: forever), got {duration!r}")
-        try:
-            built = field_from_mapping(field_spec_to_mapping(spec), where)
-        except InputError as error:
-            raise InputError(error.field, error.problem) from None
+        built = field_from_mapping(field_spec_to_mapping(spec), where)
         steps.append(ProgramStep(built, math.inf if duration == 0 else float(duration)))
     return tuple(steps)
 
 
-def fill_field_spec(spec: Any, step: ProgramStep) -> Any:
-    """Write a ProgramStep into a FieldSpec message (inverse of program_from_msg)."""
-    f: Field = step.field
-    spec.type = f.to_dict()["type"]
-    if isinstance(f, (RadialField, CombinedField, SqueezeField, QuadraticField)):
-        spec.center_x, spec.center_y = float(f.center[0]), float(f.center[1])
-    if isinstance(f, (RadialField, CombinedField, SqueezeField)):
-        spec.strength = float(f.strength)
-    if isinstance(f, CombinedField):
-        spec.delta = float(f.delta)
-    if isinstance(f, (SqueezeField, QuadraticField)):
-        spec.angle = float(f.angle)
-    if isinstance(f, QuadraticField):
-        spec.k1, spec.k2 = float(f.k[0]), float(f.k[1])
-    if isinstance(f, ConstantField):
-        spec.force_x, spec.force_y = float(f.force[0]), float(f.force[1])
+def fill_field_spec(spec: Spec, step: ProgramStep) -> Spec:
+    """Write a ProgramStep into a FieldSpec message and return it (inverse of program_from_msg)."""
+    f = step.field
+    spec.type = f.kind
+    for name in field_parameters(f.kind):
+        _write(spec, name, getattr(f, name))
     spec.duration = 0.0 if math.isinf(step.duration) else float(step.duration)
     return spec

@@ -9,10 +9,15 @@ from rclpy.node import Node
 from feeder_msgs.msg import EquilibriaPrediction, Equilibrium, FieldProgram, MemsParts, MemsPartStates
 from feeder_msgs.srv import EquilibriaCompute
 from feeder_planner.errors import FeederError, InputError
-from feeder_planner.mems.equilibria import METHODS, find_equilibria
-from feeder_planner.mems.fields import CombinedField, ProgramStep
-from feeder_planner.mems.predict import final_equilibrium
-from feeder_planner.mems.result import EquilibriaResult
+from feeder_planner.mems import (
+    METHODS,
+    CombinedField,
+    EquilibriaResult,
+    ProgramStep,
+    check_method,
+    final_equilibrium,
+    find_equilibria,
+)
 from feeder_planner.node_kit import (
     LATCHED,
     STREAM_DEPTH,
@@ -28,11 +33,13 @@ from feeder_planner.node_kit.msg_fields import program_from_msg
 from feeder_planner.node_kit.msg_parts import part_from_msg
 from feeder_planner.parts import Part
 
+__all__ = ["PARAMETERS", "FieldEquilibriaPlanner", "main"]
+
 PARAMETERS = (
     ParameterSpec(
         "default_method",
         "auto",
-        "method when a request leaves it empty: auto | asymptotic | numeric",
+        f"method when a request leaves it empty: {' | '.join(METHODS)}",
         one_of(METHODS),
     ),
     ParameterSpec("prediction_rate", 2.0, "rate (Hz) at which predicted final poses are refreshed", positive),
@@ -60,13 +67,12 @@ class FieldEquilibriaPlanner(Node):
     def on_compute(
         self, request: EquilibriaCompute.Request, response: EquilibriaCompute.Response
     ) -> EquilibriaCompute.Response:
+        """Answer an equilibria request with the mechanics' result (method, certified, pivot, area, all)."""
         part = part_from_msg(request.part, "part")
-        method = request.method or self.p["default_method"]
-        if method not in METHODS:
-            raise InputError("method", f"unknown method {method!r} (expected one of {', '.join(METHODS)})")
+        method = check_method(request.method or self.p["default_method"])
         result = find_equilibria(part, request.delta, method)
         response.method = result.method
-        response.certified = bool(result.details.get("certified", True))
+        response.certified = result.certified
         response.pivot_x, response.pivot_y = result.pivot
         response.area = result.area
         response.equilibria = [
@@ -76,6 +82,7 @@ class FieldEquilibriaPlanner(Node):
         return response
 
     def on_program(self, msg: FieldProgram) -> None:
+        """Keep the array's latest field program (a bad one is logged and ignored)."""
         try:
             self.program = program_from_msg(msg)
         except InputError as error:
@@ -84,6 +91,7 @@ class FieldEquilibriaPlanner(Node):
         self.results.clear()
 
     def on_parts(self, msg: MemsParts) -> None:
+        """Keep the array's parts (a bad one is logged and ignored)."""
         try:
             self.parts = [part_from_msg(p, f"parts[{i}]") for i, p in enumerate(msg.parts)]
         except InputError as error:
@@ -92,19 +100,22 @@ class FieldEquilibriaPlanner(Node):
         self.results.clear()
 
     def on_states(self, msg: MemsPartStates) -> None:
+        """Keep the latest part states."""
         self.states = msg
 
     def predict(self) -> None:
+        """Publish each part's predicted final pose in the last program step's field, when it changed."""
         if self.program is None or not self.parts or self.states is None:
             return
         field = self.program[-1].field
         if not isinstance(field, CombinedField) or field.delta <= 0:
             return  # only the radial + constant field has the planned equilibria (section 3)
-        out = EquilibriaPrediction(field_type="combined", delta=field.delta)
+        out = EquilibriaPrediction(field_type=CombinedField.kind, delta=field.delta)
         out.header.stamp = self.get_clock().now().to_msg()
         out.header.frame_id = self.states.header.frame_id
         summary = []
-        for i, (part, state) in enumerate(zip(self.parts, self.states.parts)):
+        # zip stops at the shorter: states may arrive before or after a change of the parts
+        for i, (part, state) in enumerate(zip(self.parts, self.states.parts, strict=False)):
             try:
                 if i not in self.results:
                     self.results[i] = find_equilibria(part, field.delta, self.p["default_method"])
@@ -125,6 +136,7 @@ class FieldEquilibriaPlanner(Node):
 
 
 def main(args: list[str] | None = None) -> None:
+    """Run the node until shut down."""
     run_node(FieldEquilibriaPlanner, "field_equilibria_planner", args)
 
 

@@ -1,24 +1,30 @@
-"""Exact force and torque of a cellwise-constant force field on a polygon from integrals along its edges."""
+"""Exact force and torque of a cellwise-constant force field on a polygon from integrals along its edges.
+
+Let F(x, y) = f_ij on cell (i, j) of the grid and 0 outside it. With H(x, y) = int_{-inf}^y F(x, t) dt
+and K(x, y) = int_{-inf}^y t F(x, t) dt, Green's theorem gives
+    int_P F dA = -oint H dx,   int_P x F dA = -oint x H dx,   int_P y F dA = -oint K dx,
+which equal sum_ij f_ij * (area, Sx, Sy) of P within cell ij exactly (the sums of issue 3's model).
+Inside one cell H is linear and K quadratic in y, so on each piece of an edge between two grid-line
+crossings the integrands are polynomials of degree <= 2 along the edge: Simpson's rule is exact.
+H and K are continuous in y, so a piece assigned to a neighbouring row by rounding costs only
+rounding. The work is proportional to the cells the boundary crosses, not to the cells covered:
+the column sums over fully covered cells come from prefix sums precomputed once per field.
+Terms depending on x only (a column offset) integrate to zero around a closed loop, so the prefix
+sums are taken relative to the row below the part, which keeps the cancellation small.
+"""
 
 from __future__ import annotations
 
-# Let F(x, y) = f_ij on cell (i, j) of the grid and 0 outside it. With H(x, y) = int_{-inf}^y F(x, t) dt
-# and K(x, y) = int_{-inf}^y t F(x, t) dt, Green's theorem gives
-#     int_P F dA = -oint H dx,   int_P x F dA = -oint x H dx,   int_P y F dA = -oint K dx,
-# which equal sum_ij f_ij * (area, Sx, Sy) of P within cell ij exactly (the sums of issue 3's model).
-# Inside one cell H is linear and K quadratic in y, so on each piece of an edge between two grid-line
-# crossings the integrands are polynomials of degree <= 2 along the edge: Simpson's rule is exact.
-# H and K are continuous in y, so a piece assigned to a neighbouring row by rounding costs only
-# rounding. The work is proportional to the cells the boundary crosses, not to the cells covered:
-# the column sums over fully covered cells come from prefix sums precomputed once per field.
-# Terms depending on x only (a column offset) integrate to zero around a closed loop, so the prefix
-# sums are taken relative to the row below the part, which keeps the cancellation small.
 import numpy as np
+
+__all__ = ["CellForceSums"]
 
 
 class CellForceSums:
-    """Prefix sums of the cell forces ``forces[i, j]`` of one field on the grid with node coordinates
-    ``x_nodes``, ``y_nodes``; ``wrench`` integrates them along a polygon's edges.
+    """Prefix sums of the cell forces ``forces[i, j]`` of one field on a grid.
+
+    The grid has node coordinates ``x_nodes``, ``y_nodes``; ``wrench`` integrates the sums along a
+    polygon's edges.
     """
 
     def __init__(self, forces: np.ndarray, x_nodes: np.ndarray, y_nodes: np.ndarray) -> None:
@@ -26,6 +32,8 @@ class CellForceSums:
         self.nx, self.ny = nx, ny
         self.x_nodes = np.asarray(x_nodes, float)
         self.y_nodes = np.asarray(y_nodes, float)
+        # Simpson's rule on [0, 1]: exact for the quadratics each edge piece integrates (see above)
+        self._simpson = np.array([1.0, 4.0, 1.0])[:, None] / 6.0
         # padded cells: index 0 lies left of / below the grid, n + 1 right of / above it (no force)
         f = np.zeros((nx + 2, ny + 2, 2))
         f[1:-1, 1:-1] = forces
@@ -42,11 +50,10 @@ class CellForceSums:
         )
         self._fields_by_column = np.ascontiguousarray(np.moveaxis(table, 2, 0))
         self._fields = self._fields_by_column.reshape(6, -1)
-        self._simpson = np.array([1.0, 4.0, 1.0])[:, None] / 6.0
         self._next: dict[tuple[int, ...], np.ndarray] = {}
 
     def _successors(self, sizes: tuple[int, ...]) -> np.ndarray:
-        """Index of the end vertex of every edge of loops of these sizes stacked (cached)."""
+        """Return the index of the end vertex of every edge of stacked loops of these sizes (cached)."""
         nxt = self._next.get(sizes)
         if nxt is None:
             parts, offset = [], 0
@@ -57,8 +64,10 @@ class CellForceSums:
         return nxt
 
     def wrench(self, loops: tuple[np.ndarray, ...], about: np.ndarray) -> np.ndarray:
-        """(Fx, Fy, torque about ``about``) = sum over cells of f_ij times the exact covered area and
-        first moments of the region bounded by ``loops`` (outer counter-clockwise, holes clockwise).
+        """Return (Fx, Fy, torque about ``about``): sum over cells of f_ij times the exact covered moments.
+
+        The covered area and first moments are those of the region bounded by ``loops`` (outer
+        counter-clockwise, holes clockwise) within each cell.
         """
         xn, yn = self.x_nodes, self.y_nodes
         start = np.concatenate(loops) if len(loops) > 1 else loops[0]

@@ -1,18 +1,24 @@
-"""Exact area and first moments of a polygon inside every cell of an axis-aligned grid."""
+"""Exact area and first moments of a polygon inside every cell of an axis-aligned grid.
+
+Q(X, Y) = integrals of (1, x, y) over P and {x < X, y < Y} follow from Green's theorem as
+-oint 1[x < X] G(x, y) dx with dG/dy = (1, x, y) clipped at Y; on each edge piece where min(y, Y) is
+one polynomial the integrand has degree <= 2, integrated in closed form from its end values. Cell
+moments are second differences of Q at the grid nodes (only nodes around the part are evaluated).
+"""
 
 from __future__ import annotations
 
-# Q(X, Y) = integrals of (1, x, y) over P and {x < X, y < Y} follow from Green's theorem as
-# -oint 1[x < X] G(x, y) dx with dG/dy = (1, x, y) clipped at Y; on each edge piece where
-# min(y, Y) is one polynomial the integrand has degree <= 2, integrated in closed form from its end values. Cell
-# moments are second differences of Q at the grid nodes (only nodes around the part are evaluated).
 import numpy as np
+
+from feeder_planner.mems.lifted import edge_endpoints
+
+__all__ = ["quadrant_moments", "Grid"]
 
 
 def _piece(
     x0: np.ndarray, y0: np.ndarray, slope: np.ndarray, a: np.ndarray, b: np.ndarray, cap: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Exact int_a^b (m, x m, m^2/2) dx with m = min(y(x), cap), y linear; min is one line on [a, b]."""
+    """Return int_a^b (m, x m, m^2/2) dx exactly, m = min(y(x), cap), y linear; min is one line on [a, b]."""
     ma = np.minimum(y0 + slope * (a - x0), cap)
     mb = np.minimum(y0 + slope * (b - x0), cap)
     w = b - a
@@ -24,9 +30,8 @@ def _piece(
 
 
 def quadrant_moments(loops: tuple[np.ndarray, ...], xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-    """(3, len(xs), len(ys)): area, Sx, Sy of the loops' region within {x < X_i, y < Y_j}."""
-    start = np.vstack(loops)
-    end = np.vstack([np.roll(loop, -1, axis=0) for loop in loops])
+    """Return (3, len(xs), len(ys)): area, Sx, Sy of the loops' region within {x < X_i, y < Y_j}."""
+    start, end = edge_endpoints(loops)
     keep = start[:, 0] != end[:, 0]  # vertical edges contribute nothing to oint ... dx
     start, end = start[keep], end[keep]
     x0, y0, x1, y1 = start[:, 0], start[:, 1], end[:, 0], end[:, 1]
@@ -48,7 +53,7 @@ def quadrant_moments(loops: tuple[np.ndarray, ...], xs: np.ndarray, ys: np.ndarr
         w * (ya * ya + ya * yb + yb * yb) / 6.0,
     )
     flat = (cap * w[..., None], cap * (0.5 * (b * b - a * a))[..., None], 0.5 * cap * cap * w[..., None])
-    out = np.stack([np.where(above, u[..., None], v) for u, v in zip(whole, flat)])
+    out = np.stack([np.where(above, u[..., None], v) for u, v in zip(whole, flat, strict=True)])
     # Rows the segment crosses: split at the crossing, each side one line (only these cells pay).
     mid = ~above & (cap > np.minimum(ya, yb)[..., None])
     e, i, j = np.nonzero(mid)
@@ -72,13 +77,13 @@ class Grid:
         self.y_nodes = (np.arange(self.ny + 1) - 0.5 * self.ny) * self.pitch
 
     def centers(self) -> np.ndarray:
-        """(nx, ny, 2) cell centres."""
+        """Return the (nx, ny, 2) cell centres."""
         cx = 0.5 * (self.x_nodes[:-1] + self.x_nodes[1:])
         cy = 0.5 * (self.y_nodes[:-1] + self.y_nodes[1:])
         return np.stack(np.meshgrid(cx, cy, indexing="ij"), axis=-1)
 
     def cell_moments(self, loops: tuple[np.ndarray, ...]) -> tuple[slice, slice, np.ndarray]:
-        """Cells around the part (index slices) and their (3, ni, nj) area, Sx, Sy, exact."""
+        """Return the cells around the part (index slices) and their (3, ni, nj) area, Sx, Sy, exact."""
         pts = np.vstack(loops)
         i0 = int(np.clip(np.floor((pts[:, 0].min() - self.x_nodes[0]) / self.pitch), 0, self.nx))
         i1 = int(np.clip(np.ceil((pts[:, 0].max() - self.x_nodes[0]) / self.pitch), 0, self.nx))

@@ -1,47 +1,55 @@
-"""The 'dynamic' fidelity: rigid bodies with inertia, surface friction and collisions (pymunk)."""
+"""The 'dynamic' fidelity: rigid bodies with inertia, surface friction and collisions (pymunk).
+
+One part alone has no contacts, so it is integrated directly (semi-implicit Euler, the same scheme
+pymunk uses) and pymunk is not even imported; several parts share a pymunk space whose shapes are
+ear-clipped triangles of each outer boundary (holes do not take part in collisions). The world sees
+the bodies and a force model only, never the scene that owns it.
+"""
 
 from __future__ import annotations
 
-# One part alone has no contacts, so it is integrated directly (semi-implicit Euler, the same
-# scheme pymunk uses) and pymunk is not even imported; several parts share a pymunk space whose
-# shapes are ear-clipped triangles of each outer boundary (holes do not take part in collisions).
 import math
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 
 from feeder_planner.mems.fields import Field
+from feeder_sim.mems.bodies import Body, ForceModel, drag_coefficients, inertia
+from feeder_sim.mems.tolerances import COLLISION_FRICTION, EAR_CLIP_PASSES
 
-if TYPE_CHECKING:
-    from feeder_sim.mems.scene import Body, Scene
+__all__ = ["ear_clip", "DynamicWorld"]
+
+
+def _cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Return (a - o) x (b - o): > 0 when o, a, b turn counter-clockwise."""
+    return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
+
+
+def _is_ear(loop: np.ndarray, idx: list[int], k: int) -> bool:
+    """Return whether vertex idx[k] is an ear: convex, and no other remaining vertex in its triangle."""
+    i, j, m = idx[k - 1], idx[k], idx[(k + 1) % len(idx)]
+    a, b, c = loop[i], loop[j], loop[m]
+    if _cross(a, b, c) <= 0:
+        return False
+    for other in idx:
+        if other in (i, j, m):
+            continue
+        p = loop[other]
+        if _cross(a, b, p) >= 0 and _cross(b, c, p) >= 0 and _cross(c, a, p) >= 0:
+            return False
+    return True
 
 
 def ear_clip(loop: np.ndarray) -> list[np.ndarray]:
-    """Triangles of a simple counter-clockwise polygon."""
+    """Return triangles covering a simple counter-clockwise polygon (the last one what remains)."""
     idx = list(range(len(loop)))
     triangles = []
-
-    def cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
-        return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
-
-    guard = 0
-    while len(idx) > 3 and guard < 10 * len(loop) ** 2:
-        guard += 1
+    passes = 0
+    while len(idx) > 3 and passes < EAR_CLIP_PASSES * len(loop) ** 2:
+        passes += 1
         for k in range(len(idx)):
-            i, j, m = idx[k - 1], idx[k], idx[(k + 1) % len(idx)]
-            a, b, c = loop[i], loop[j], loop[m]
-            if cross(a, b, c) <= 0:
-                continue
-            inside = False
-            for other in idx:
-                if other in (i, j, m):
-                    continue
-                p = loop[other]
-                if cross(a, b, p) >= 0 and cross(b, c, p) >= 0 and cross(c, a, p) >= 0:
-                    inside = True
-                    break
-            if not inside:
-                triangles.append(np.array([a, b, c]))
+            if _is_ear(loop, idx, k):
+                triangles.append(loop[[idx[k - 1], idx[k], idx[(k + 1) % len(idx)]]])
                 idx.pop(k)
                 break
     triangles.append(loop[idx])
@@ -51,34 +59,44 @@ def ear_clip(loop: np.ndarray) -> list[np.ndarray]:
 class DynamicWorld:
     """Newtonian motion: m dv/dt = F_field - damping A v - Coulomb, with collisions when several parts."""
 
-    def __init__(self, scene: Scene, friction: float, gravity: float) -> None:
-        self.scene = scene
+    def __init__(
+        self, bodies: list[Body], forces: ForceModel, damping: float, friction: float, gravity: float
+    ) -> None:
+        self.bodies = bodies
+        self.forces = forces
+        self.damping = float(damping)
         self.friction = float(friction)
         self.gravity = float(gravity)
-        self.space = None
-        if len(scene.bodies) > 1:
-            import pymunk
+        self.space: Any = None  # a pymunk.Space with several parts (pymunk ships no types)
+        self.handles: list[Any] = []
+        if len(bodies) > 1:
+            self._build_space()
 
-            self.space = pymunk.Space()
-            self.handles = []
-            for body in scene.bodies:
-                part = body.part
-                handle = pymunk.Body(part.mass, part.density * part.polar_moment)
-                handle.position = (float(body.pose[0]), float(body.pose[1]))
-                handle.angle = float(body.pose[2])
-                shapes = [
-                    pymunk.Poly(handle, [tuple(map(float, p)) for p in tri]) for tri in ear_clip(part.outer)
-                ]
-                for shape in shapes:
-                    shape.friction = 0.5
-                self.space.add(handle, *shapes)
-                self.handles.append(handle)
+    def _build_space(self) -> None:
+        """Put every body into a pymunk space (imported only here: several parts can collide)."""
+        import pymunk
+
+        self.space = pymunk.Space()
+        for body in self.bodies:
+            part = body.part
+            mass = inertia(part)
+            handle = pymunk.Body(mass[0], mass[2])
+            handle.position = (float(body.pose[0]), float(body.pose[1]))
+            handle.angle = float(body.pose[2])
+            shapes = [
+                pymunk.Poly(handle, [tuple(map(float, p)) for p in tri]) for tri in ear_clip(part.outer)
+            ]
+            for shape in shapes:
+                shape.friction = COLLISION_FRICTION
+            self.space.add(handle, *shapes)
+            self.handles.append(handle)
 
     def _external(self, body: Body, field: Field) -> np.ndarray:
+        """Return the field's wrench plus viscous drag and Coulomb surface friction on the body."""
         part = body.part
-        w = self.scene.wrench(body, body.pose, field)
+        w = self.forces.wrench(field, body.loops(body.pose), body.pose[:2])
         body.wrench = w
-        drag = -self.scene.damping * np.array([part.area, part.area, part.polar_moment]) * body.velocity
+        drag = -drag_coefficients(part, self.damping) * body.velocity
         total = w + drag
         # Coulomb friction with the surface: opposes sliding, never reverses it within a step.
         speed = math.hypot(body.velocity[0], body.velocity[1])
@@ -87,21 +105,19 @@ class DynamicWorld:
         return total
 
     def step(self, dt: float, field: Field) -> None:
-        bodies = self.scene.bodies
+        """Advance every body by dt seconds in ``field``."""
         if self.space is None:
-            for body in bodies:
-                part = body.part
+            for body in self.bodies:
                 total = self._external(body, field)
-                inertia = np.array([part.mass, part.mass, part.density * part.polar_moment])
-                body.velocity = body.velocity + dt * total / inertia
+                body.velocity = body.velocity + dt * total / inertia(body.part)
                 body.pose = body.pose + dt * body.velocity
                 body.pose[2] %= 2 * math.pi
             return
-        for body, handle in zip(bodies, self.handles):
+        for body, handle in zip(self.bodies, self.handles, strict=True):
             total = self._external(body, field)
             handle.force = (float(total[0]), float(total[1]))
             handle.torque = float(total[2])
         self.space.step(dt)
-        for body, handle in zip(bodies, self.handles):
+        for body, handle in zip(self.bodies, self.handles, strict=True):
             body.pose = np.array([handle.position.x, handle.position.y, handle.angle % (2 * math.pi)])
             body.velocity = np.array([handle.velocity.x, handle.velocity.y, handle.angular_velocity])

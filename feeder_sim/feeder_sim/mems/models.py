@@ -10,26 +10,28 @@ from feeder_planner.mems.fields import Field
 from feeder_sim.mems.cellsum import CellForceSums
 from feeder_sim.mems.coverage import Grid
 
+__all__ = ["IdealForces", "ArrayForces"]
+
 
 class IdealForces:
     """Exact resultant force and torque of the ideal field on the part (eqs. 1-2)."""
 
-    name = "ideal"
-
     def wrench(self, field: Field, loops: tuple[np.ndarray, ...], about: np.ndarray) -> np.ndarray:
+        """Return the field's exact wrench on the placed loops."""
         return field.wrench(loops, about)
 
     def cell_forces(self, field: Field) -> None:
+        """Return None: the ideal model has no cells."""
         return None
 
 
 class ArrayForces:
-    """A MEMS actuator array: each cell pushes with the field's force at its centre, optionally
-    quantised to ``directions`` actuator directions; force on a part = sum of exact covered area
-    times cell force, torque = sum of cell force times the exact first moment of the covered area.
-    """
+    """A MEMS actuator array: each cell pushes with the field's force at its centre.
 
-    name = "array"
+    Cell forces are optionally quantised to ``directions`` actuator directions; force on a part =
+    sum of exact covered area times cell force, torque = sum of cell force times the exact first
+    moment of the covered area.
+    """
 
     def __init__(self, nx: int, ny: int, pitch: float, directions: int = 0) -> None:
         self.grid = Grid(nx, ny, pitch)
@@ -39,8 +41,13 @@ class ArrayForces:
         self._sums: CellForceSums | None = None
 
     def cell_forces(self, field: Field) -> np.ndarray:
-        """(nx, ny, 2) force per unit area of every cell for this field (cached per field)."""
-        if field is not self._field:
+        """Return the (nx, ny, 2) force per unit area of every cell for this field (cached per field)."""
+        self._sums_for(field)
+        return self._forces
+
+    def _sums_for(self, field: Field) -> CellForceSums:
+        """Return the prefix sums of this field's cell forces, computing them when the field changes."""
+        if self._sums is None or field is not self._field:
             forces = field.force_density(self.grid.centers())
             if self.directions > 0:
                 step = 2 * math.pi / self.directions
@@ -49,17 +56,20 @@ class ArrayForces:
                 forces = norm[..., None] * np.stack([np.cos(angle), np.sin(angle)], axis=-1)
             self._field, self._forces = field, forces
             self._sums = CellForceSums(forces, self.grid.x_nodes, self.grid.y_nodes)
-        return self._forces
+        return self._sums
 
     def wrench(self, field: Field, loops: tuple[np.ndarray, ...], about: np.ndarray) -> np.ndarray:
-        """Sum over cells of cell force times exact covered area (and first moments for the torque),
-        from edge integrals over the cells the boundary crosses (``CellForceSums``).
+        """Return the sum over cells of cell force times exact covered area (first moments: torque).
+
+        Computed from edge integrals over the cells the boundary crosses (``CellForceSums``).
         """
-        self.cell_forces(field)
-        return self._sums.wrench(loops, about)
+        return self._sums_for(field).wrench(loops, about)
 
     def wrench_by_cells(self, field: Field, loops: tuple[np.ndarray, ...], about: np.ndarray) -> np.ndarray:
-        """Reference: the same sum from the covered area and moments of every cell (``Grid.cell_moments``)."""
+        """Return the same sum from the covered area and moments of every cell (the reference).
+
+        Uses ``Grid.cell_moments``: slower, but independent of the edge integrals.
+        """
         forces = self.cell_forces(field)
         si, sj, cells = self.grid.cell_moments(loops)
         f = forces[si, sj]

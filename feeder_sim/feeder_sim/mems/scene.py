@@ -3,73 +3,76 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from feeder_planner.errors import InputError
 from feeder_planner.mems.fields import Field, ProgramStep
-from feeder_planner.parts import Part
+from feeder_sim.mems.bodies import FIDELITIES, Body, Fidelity, ForceModel, check_fidelity, drag_coefficients
+from feeder_sim.mems.dynamic import DynamicWorld
 from feeder_sim.mems.models import ArrayForces, IdealForces
+from feeder_sim.mems.tolerances import (
+    DEFAULT_CELLS,
+    DEFAULT_DAMPING,
+    DEFAULT_FRICTION,
+    DEFAULT_PITCH,
+    GRAVITY,
+)
 
-FIDELITIES = ("ideal", "array", "dynamic")
+__all__ = ["FIDELITIES", "Fidelity", "Body", "Scene", "random_poses"]
 
 
-@dataclass
-class Body:
-    """A part on the array: pose (x, y, theta) of its centroid and velocity (vx, vy, omega)."""
-
-    part: Part
-    pose: np.ndarray
-    velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    wrench: np.ndarray = field(default_factory=lambda: np.zeros(3))
-
-    def loops(self, pose: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
-        p = self.pose if pose is None else pose
-        return self.part.placed(float(p[0]), float(p[1]), float(p[2]))
+def random_poses(count: int, radius: float, seed: int) -> np.ndarray:
+    """Return (count, 3) poses: positions uniform in the disc of ``radius``, angles uniform, for a seed."""
+    rng = np.random.default_rng(seed)
+    r = radius * np.sqrt(rng.uniform(size=count))
+    angle = rng.uniform(0, 2 * math.pi, size=count)
+    return np.column_stack([r * np.cos(angle), r * np.sin(angle), rng.uniform(0, 2 * math.pi, size=count)])
 
 
 class Scene:
-    """Parts driven by a field program. ``ideal`` and ``array`` are quasi-static: a uniform viscous
-    surface drag ``damping`` (N s/m^3) per unit area gives v = F / (damping A), omega = M / (damping J)
-    with J the polar moment of area; ``dynamic`` adds inertia, Coulomb friction and collisions.
+    """Parts driven by a field program at one fidelity level.
+
+    ``ideal`` and ``array`` are quasi-static: a uniform viscous surface drag ``damping`` (N s/m^3)
+    per unit area gives v = F / (damping A), omega = M / (damping J) with J the polar moment of area;
+    ``dynamic`` adds inertia, Coulomb friction and collisions (``DynamicWorld``; pymunk is loaded only
+    for several parts).
     """
 
     def __init__(
         self,
         bodies: list[Body],
         program: tuple[ProgramStep, ...],
-        fidelity: str = "ideal",
-        array: tuple[int, int, float] = (100, 100, 1e-4),
+        fidelity: Fidelity | str = "ideal",
+        array: tuple[int, int, float] = (*DEFAULT_CELLS, DEFAULT_PITCH),
         directions: int = 0,
-        damping: float = 1.0,
-        friction: float = 0.0,
-        gravity: float = 9.81,
+        damping: float = DEFAULT_DAMPING,
+        friction: float = DEFAULT_FRICTION,
+        gravity: float = GRAVITY,
     ) -> None:
-        if fidelity not in FIDELITIES:
-            raise InputError(
-                "fidelity", f"unknown fidelity {fidelity!r} (expected one of {', '.join(FIDELITIES)})"
-            )
+        self.fidelity: Fidelity = check_fidelity(fidelity)
         if not program:
             raise InputError("program", "a field program needs at least one step")
         self.bodies = bodies
-        self.fidelity = fidelity
         self.damping = float(damping)
         self.time = 0.0
         self.set_program(program)
-        self.forces = ArrayForces(*array, directions=directions) if fidelity == "array" else IdealForces()
-        self._dynamic = None
-        if fidelity == "dynamic":
-            from feeder_sim.mems.dynamic import DynamicWorld  # pymunk only when it is asked for
-
-            self._dynamic = DynamicWorld(self, friction, gravity)
+        self.forces: ForceModel = (
+            ArrayForces(*array, directions=directions) if self.fidelity == "array" else IdealForces()
+        )
+        self._dynamic = (
+            DynamicWorld(bodies, self.forces, self.damping, friction, gravity)
+            if self.fidelity == "dynamic"
+            else None
+        )
 
     def set_program(self, program: tuple[ProgramStep, ...]) -> None:
+        """Start ``program`` now (its first step's time counts from the current scene time)."""
         self.program = tuple(program)
         self.program_start = self.time
 
     def active_field(self) -> Field:
-        """The field of the program step active now; the last step stays on when the program ends."""
+        """Return the field of the program step active now; the last step stays on when the program ends."""
         elapsed = self.time - self.program_start
         for step in self.program:
             if elapsed < step.duration:
@@ -78,22 +81,19 @@ class Scene:
         return self.program[-1].field
 
     def wrench(self, body: Body, pose: np.ndarray, field_now: Field) -> np.ndarray:
+        """Return the force model's wrench of ``field_now`` on the body placed at ``pose``."""
         return self.forces.wrench(field_now, body.loops(pose), pose[:2])
 
     def _rate(self, body: Body, pose: np.ndarray, field_now: Field) -> tuple[np.ndarray, np.ndarray]:
+        """Return the quasi-static velocity (F / damping A, M / damping J) at ``pose`` and the wrench."""
         w = self.wrench(body, pose, field_now)
-        part = body.part
-        return np.array(
-            [
-                w[0] / (self.damping * part.area),
-                w[1] / (self.damping * part.area),
-                w[2] / (self.damping * part.polar_moment),
-            ]
-        ), w
+        return w / drag_coefficients(body.part, self.damping), w
 
     def step(self, dt: float) -> None:
-        """Advance by dt seconds: Heun's method for 'ideal'; forward Euler for 'array', whose cell
-        discretisation error dominates the step error (one force evaluation per step).
+        """Advance by dt seconds.
+
+        Heun's method for 'ideal'; forward Euler for 'array', whose cell discretisation error
+        dominates the step error (one force evaluation per step); 'dynamic' by its world.
         """
         field_now = self.active_field()
         if self._dynamic is not None:
@@ -112,5 +112,6 @@ class Scene:
         self.time += dt
 
     def run(self, duration: float, dt: float) -> None:
+        """Advance by ``duration`` seconds in steps of dt (rounded to a whole number of steps)."""
         for _ in range(int(round(duration / dt))):
             self.step(dt)

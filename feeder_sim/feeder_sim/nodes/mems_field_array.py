@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -22,7 +23,7 @@ from feeder_msgs.msg import (
 from feeder_msgs.srv import FieldSetProgram, MemsPlaceParts
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import load_yaml_mapping
-from feeder_planner.mems.fields import CombinedField, ProgramStep, program_from_mapping
+from feeder_planner.mems import DELTA_MAX, DELTA_MIN, CombinedField, Field, ProgramStep, program_from_mapping
 from feeder_planner.node_kit import (
     LATCHED,
     STREAM_DEPTH,
@@ -40,20 +41,31 @@ from feeder_planner.node_kit import (
 )
 from feeder_planner.node_kit.msg_fields import fill_field_spec, program_from_msg
 from feeder_planner.node_kit.msg_parts import part_to_msg
-from feeder_planner.parts import load_part
-from feeder_sim.mems.scene import FIDELITIES, Body, Scene
+from feeder_planner.parts import Part, load_part
+from feeder_sim.mems import FIDELITIES, Body, Grid, Scene, random_poses
+from feeder_sim.mems.tolerances import DEFAULT_CELLS, DEFAULT_DAMPING, DEFAULT_FRICTION, DEFAULT_PITCH
+
+__all__ = ["PARAMETERS", "MemsFieldArray", "main"]
 
 
-def _array_size(value: Any) -> str | None:
+def _array_size(value: Sequence[object]) -> str | None:
+    """Check the array_size parameter: two integers > 0."""
     ok = len(value) == 2 and all(isinstance(v, int) and v > 0 for v in value)
     return None if ok else f"must be two integers > 0 [nx, ny], got {list(value)!r}"
 
 
+def _time(t: float) -> Time:
+    """Return simulated time t (s) as a message time stamp."""
+    return Time(sec=int(t), nanosec=int(round((t - int(t)) * 1e9)) % 1_000_000_000)
+
+
 PARAMETERS = (
-    ParameterSpec("array_size", [100, 100], "number of actuator cells [nx, ny] of the array", _array_size),
+    ParameterSpec(
+        "array_size", list(DEFAULT_CELLS), "number of actuator cells [nx, ny] of the array", _array_size
+    ),
     ParameterSpec(
         "pitch",
-        1e-4,
+        DEFAULT_PITCH,
         "side of one square actuator cell (m); the array is centred on the plane origin",
         positive,
     ),
@@ -90,7 +102,7 @@ PARAMETERS = (
         "default_delta",
         0.2,
         "delta of the default combined field (0 <= delta < 1)",
-        in_range(0.0, 1.0, include_high=False),
+        in_range(DELTA_MIN, DELTA_MAX, include_high=False),
     ),
     ParameterSpec("publish_rate", 20.0, "rate (Hz, wall clock) of part state messages", positive),
     ParameterSpec(
@@ -98,10 +110,16 @@ PARAMETERS = (
     ),
     ParameterSpec("time_step", 2e-4, "integration step (s of simulated time)", positive),
     ParameterSpec(
-        "damping", 1.0, "viscous surface drag per unit area (N s/m^3): v = F/(damping A)", positive
+        "damping",
+        DEFAULT_DAMPING,
+        "viscous surface drag per unit area (N s/m^3): v = F/(damping A)",
+        positive,
     ),
     ParameterSpec(
-        "friction", 0.0, "Coulomb friction coefficient with the surface (dynamic fidelity)", non_negative
+        "friction",
+        DEFAULT_FRICTION,
+        "Coulomb friction coefficient with the surface (dynamic fidelity)",
+        non_negative,
     ),
     ParameterSpec(
         "seed",
@@ -114,33 +132,24 @@ PARAMETERS = (
 
 
 class MemsFieldArray(Node):
-    """Publishes part states at a fixed rate, the field program and cell forces (latched); serves program/placement."""
+    """Publishes part states at a fixed rate, the field program and cell forces (latched).
+
+    Serves /mems/set_program and /mems/place_parts.
+    """
 
     def __init__(self) -> None:
         super().__init__("mems_field_array")
         p = declare_parameters(self, PARAMETERS)
         self.p = p
         files = [f for f in p["part_files"] if f]
-        parts, documents = [], []
+        parts: list[Part] = []
+        documents: list[dict[str, Any]] = []
         for path in files:
             parts.append(load_part(path))
             documents.append(load_yaml_mapping(path))
         poses = list(p["initial_poses"])
         if poses in ([], [0.0]):
-            rng = np.random.default_rng(p["seed"])
-            radius = p["placement_radius"] * np.sqrt(rng.uniform(size=len(parts)))
-            angle = rng.uniform(0, 2 * math.pi, size=len(parts))
-            poses = (
-                np.column_stack(
-                    [
-                        radius * np.cos(angle),
-                        radius * np.sin(angle),
-                        rng.uniform(0, 2 * math.pi, size=len(parts)),
-                    ]
-                )
-                .ravel()
-                .tolist()
-            )
+            poses = random_poses(len(parts), p["placement_radius"], p["seed"]).ravel().tolist()
         if len(poses) != 3 * len(parts) or not all(math.isfinite(v) for v in poses):
             raise InputError(
                 "parameter initial_poses",
@@ -151,6 +160,7 @@ class MemsFieldArray(Node):
             doc.get("name", f"part{i}") if isinstance(doc.get("name"), str) else f"part{i}"
             for i, doc in enumerate(documents)
         ]
+        program: tuple[ProgramStep, ...]
         if p["program_file"]:
             try:
                 program = program_from_mapping(load_yaml_mapping(p["program_file"]))
@@ -160,7 +170,7 @@ class MemsFieldArray(Node):
             program = (ProgramStep(CombinedField(p["default_delta"]), math.inf),)
         nx, ny = p["array_size"]
         self.scene = Scene(
-            [Body(part, pose.copy()) for part, pose in zip(parts, self.initial)],
+            [Body(part, pose.copy()) for part, pose in zip(parts, self.initial, strict=True)],
             program,
             p["fidelity"],
             array=(nx, ny, p["pitch"]),
@@ -177,24 +187,25 @@ class MemsFieldArray(Node):
         self.create_service(FieldSetProgram, "/mems/set_program", service_guard(self)(self.on_set_program))
         self.create_service(MemsPlaceParts, "/mems/place_parts", service_guard(self)(self.on_place_parts))
         self.parts_pub.publish(MemsParts(parts=[part_to_msg(d) for d in documents]))
-        self.last_field = None
+        self.last_field: Field | None = None
         self.publish_program()
         self.create_timer(1.0 / p["publish_rate"], self.tick)
 
     def stamp(self) -> Time:
-        t = self.scene.time
-        return Time(sec=int(t), nanosec=int(round((t - int(t)) * 1e9)) % 1_000_000_000)
+        """Return the scene's simulated time as a message time stamp."""
+        return _time(self.scene.time)
 
     def publish_program(self) -> None:
+        """Publish the scene's field program (latched), stamped with its start time."""
         msg = FieldProgram(
             name="program", steps=[fill_field_spec(FieldSpec(), s) for s in self.scene.program]
         )
         msg.header.frame_id = self.p["frame_id"]
-        t = self.scene.program_start
-        msg.header.stamp = Time(sec=int(t), nanosec=int(round((t - int(t)) * 1e9)) % 1_000_000_000)
+        msg.header.stamp = _time(self.scene.program_start)
         self.program_pub.publish(msg)
 
     def publish_cells(self) -> None:
+        """Publish the cell forces of the active field (latched) when the field has changed."""
         field = self.scene.active_field()
         if field is self.last_field:
             return
@@ -203,8 +214,6 @@ class MemsFieldArray(Node):
         pitch = self.p["pitch"]
         grid_forces = self.scene.forces.cell_forces(field)
         if grid_forces is None:  # ideal / dynamic: the ideal field sampled at the cell centres
-            from feeder_sim.mems.coverage import Grid
-
             grid_forces = field.force_density(Grid(nx, ny, pitch).centers())
         msg = MemsCellForces(
             nx=nx,
@@ -218,6 +227,7 @@ class MemsFieldArray(Node):
         self.cells_pub.publish(msg)
 
     def tick(self) -> None:
+        """Advance the scene by one publishing period of simulated time and publish the states."""
         p = self.p
         steps = max(1, int(round(p["real_time_factor"] / p["publish_rate"] / p["time_step"])))
         for _ in range(steps):
@@ -228,7 +238,7 @@ class MemsFieldArray(Node):
         states.header.frame_id = p["frame_id"]
         poses = PoseArray()
         poses.header = states.header
-        for name, body in zip(self.names, self.scene.bodies):
+        for name, body in zip(self.names, self.scene.bodies, strict=True):
             state = MemsPartState(name=name, theta=float(body.pose[2]))
             state.pose = self._pose(body.pose)
             state.twist.linear.x, state.twist.linear.y = float(body.velocity[0]), float(body.velocity[1])
@@ -244,11 +254,13 @@ class MemsFieldArray(Node):
 
     @staticmethod
     def _pose(pose: np.ndarray) -> Pose:
+        """Return a pose (x, y, theta) as a Pose message."""
         return planar_pose(pose[0], pose[1], pose[2])
 
     def on_set_program(
         self, request: FieldSetProgram.Request, response: FieldSetProgram.Response
     ) -> FieldSetProgram.Response:
+        """Start the requested field program now."""
         program = program_from_msg(request.program)
         self.scene.set_program(program)
         self.publish_program()
@@ -258,8 +270,9 @@ class MemsFieldArray(Node):
     def on_place_parts(
         self, request: MemsPlaceParts.Request, response: MemsPlaceParts.Response
     ) -> MemsPlaceParts.Response:
+        """Put named parts at requested poses at rest, or every part back at its initial pose."""
         if request.reset:
-            for body, pose in zip(self.scene.bodies, self.initial):
+            for body, pose in zip(self.scene.bodies, self.initial, strict=True):
                 body.pose, body.velocity = pose.copy(), np.zeros(3)
             return response
         n = len(request.names)
@@ -282,6 +295,7 @@ class MemsFieldArray(Node):
 
 
 def main(args: list[str] | None = None) -> None:
+    """Run the node until shut down."""
     run_node(MemsFieldArray, "mems_field_array", args)
 
 

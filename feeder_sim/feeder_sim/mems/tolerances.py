@@ -1,0 +1,38 @@
+"""Model constants and numerical limits of the MEMS simulator's fidelity models, each with its reason.
+
+The defaults of a scene (array geometry, drag) are here too, so that the scene and the node that
+declares them as parameters share one definition. Changing a value changes simulations.
+"""
+
+from __future__ import annotations
+
+from typing import Final
+
+__all__ = [
+    "DEFAULT_CELLS",
+    "DEFAULT_PITCH",
+    "DEFAULT_DAMPING",
+    "DEFAULT_FRICTION",
+    "GRAVITY",
+    "COLLISION_FRICTION",
+    "EAR_CLIP_PASSES",
+]
+
+# A 100 x 100 array of 100 um cells: 1 cm square, with 20-40 cells across the 2-4 mm parts of the
+# examples (the 'array' model converges to 'ideal' as the pitch shrinks, see docs/mems.md).
+DEFAULT_CELLS: Final = (100, 100)
+DEFAULT_PITCH: Final = 1e-4
+# Viscous surface drag per unit area (N s/m^3). In the quasi-static models v = F/(damping A) it only
+# scales time, so equilibria do not depend on it; with 1, a 4 mm part in a unit-strength field settles
+# within the 1.5 s the tests simulate.
+DEFAULT_DAMPING: Final = 1.0
+# Coulomb friction coefficient with the surface ('dynamic'): none by default, like the paper's model.
+DEFAULT_FRICTION: Final = 0.0
+# Standard gravity (m/s^2): the normal force of a part on the array is its weight, for Coulomb friction.
+GRAVITY: Final = 9.81
+# Coulomb coefficient between touching parts (pymunk shape friction): a moderate dry-contact value; it
+# acts only while parts collide, and no planned equilibrium depends on it.
+COLLISION_FRICTION: Final = 0.5
+# Ear clipping removes one ear per pass; a simple polygon of n vertices needs n - 3 passes, each
+# scanning at most n candidates. 10 n^2 bounds the work of a degenerate (not simple) outline.
+EAR_CLIP_PASSES: Final = 10
