@@ -322,8 +322,7 @@ def test_planner_limit_set_and_design_services_match_the_cli_library(planner, ro
 
     from feeder_msgs.srv import DesignSearch, LimitSetCompute
     from feeder_planner.parts import load_part
-    from feeder_planner.throwing import api
-    from feeder_planner.throwing.throw_map import ThrowParams
+    from feeder_planner.throwing import ThrowParams, arm_part, limit_set
 
     response = ros_harness.call_service(
         ros_client,
@@ -335,14 +334,14 @@ def test_planner_limit_set_and_design_services_match_the_cli_library(planner, ro
         60,
     )
     assert response.ok, response.error
-    expected = api.limit_set_dict(
-        load_part(TRIANGLE),
+    expected = limit_set(
+        arm_part(load_part(TRIANGLE)),
         ThrowParams(PAPER["offset"], PAPER["release_speed"], PAPER["gravity"], PAPER["mu"]),
         GOAL,
-        HEIGHT,
         8,
         200,
-    )
+        sensing_height=HEIGHT,
+    ).to_json()
     assert json.loads(response.json) == expected
     assert list(response.cycle_edges) == expected["cycle"]["edges"] and response.unique
     assert (response.trigger_min, response.trigger_max) == tuple(expected["trigger"]["radius_range"])

@@ -3,16 +3,31 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any, Callable
+from typing import Callable
+
+import numpy as np
 
 from feeder_cell.cli.common import add_json_flag, angle, emit, finite_float
 from feeder_planner.errors import InputError
 from feeder_planner.parts import Part, load_part
-from feeder_planner.throwing import api
-from feeder_planner.throwing.geometry import arm_part
-from feeder_planner.throwing.grasp import grasp_radius
-from feeder_planner.throwing.throw_map import ThrowParams
+from feeder_planner.throwing import (
+    DEFAULT_STARTS_PER_EDGE,
+    DEFAULT_THROWS,
+    BelowGraspError,
+    DesignSearch,
+    LimitSet,
+    ThrowParams,
+    ThrowResult,
+    arm_part,
+    check_sensing_height,
+    limit_set,
+    search,
+    throw,
+)
+from feeder_planner.throwing.tolerances import SENSING_HEIGHT_FRACTION
 from feeder_planner.units import LENGTH_UNITS
+
+__all__ = ["CONVENTIONS", "FLAGS", "register", "run_throw", "run_limit_set", "run_design"]
 
 CONVENTIONS = """Frame at the arm pivot; gravity (0, G) with G < 0; the arm's top surface is y = H while
 horizontal; a throw turns the arm counter-clockwise and releases at angular speed W > 0 (impulsive).
@@ -74,10 +89,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--sensing-height",
         type=finite_float,
         default=None,
-        help="sensor sensing height (default 1%% of the part radius)",
+        help=f"sensor sensing height (default {100 * SENSING_HEIGHT_FRACTION:g}%% of the part radius)",
     )
-    q.add_argument("--starts-per-edge", type=int, default=25, help="grid starts per stable edge (default 25)")
-    q.add_argument("--throws", type=int, default=300, help="throws from each start (default 300)")
+    q.add_argument(
+        "--starts-per-edge",
+        type=int,
+        default=DEFAULT_STARTS_PER_EDGE,
+        help=f"grid starts per stable edge (default {DEFAULT_STARTS_PER_EDGE})",
+    )
+    q.add_argument(
+        "--throws",
+        type=int,
+        default=DEFAULT_THROWS,
+        help=f"throws from each start (default {DEFAULT_THROWS})",
+    )
     q.set_defaults(handler=_guard(run_limit_set))
     d = subparsers.add_parser(
         "throw-design",
@@ -112,122 +137,120 @@ def _guard(handler: Callable[[argparse.Namespace], int]) -> Callable[[argparse.N
 
 
 def _params(args: argparse.Namespace, part: Part) -> ThrowParams:
+    """Return the design parameters of the flags, lengths converted from the file's unit to metres."""
     scale = part.unit_scale
     return ThrowParams(args.offset * scale, args.release_speed, args.gravity * scale, args.mu)
 
 
 def _unit_name(part: Part) -> str:
+    """Return the name of the part file's length unit."""
     return next((name for name, scale in LENGTH_UNITS.items() if scale == part.unit_scale), "m")
 
 
+def _summary_throw(r: ThrowResult, unit: float) -> str:
+    """Return the one-line summary of a throw, lengths in file units."""
+    return (
+        f"edge {r.start_edge} at R={r.start_radius / unit:.6g} -> edge {r.edge} at "
+        f"R={r.radius / unit:.6g} (file units): {r.kind}, {r.turns} whole turn(s), "
+        f"{r.impacts} impact(s), flight {r.flight_time:.4g} s"
+    )
+
+
 def run_throw(args: argparse.Namespace) -> int:
+    """Run `feeder throw`: one application of the throw map."""
     part = load_part(args.part)
     params = _params(args, part)
-    arm = arm_part(part)
-    if 0 <= args.edge < arm.n and arm.stable[args.edge]:
-        # Say it in the file's unit, as the flag was given.
-        r_grasp = grasp_radius(arm, args.edge, params.offset, params.mu) / part.unit_scale
-        if args.radius < r_grasp * (1 - 1e-12) - 1e-300:
-            unit = _unit_name(part)
-            raise InputError(
-                "--radius",
-                f"R = {args.radius:.6g} {unit} is below R_grasp = {r_grasp:.6g} {unit} of "
-                f"edge {args.edge}: the throw is not in a dynamic grasp (eqs. 1-4)",
-            )
-    result = api.throw_dict(part, args.edge, args.radius * part.unit_scale, params)
-    unit = part.unit_scale
-    emit(
-        args,
-        result,
-        lambda r: (
-            f"edge {r['start_edge']} at R={r['start_radius'] / unit:.6g} -> edge {r['edge']} at "
-            f"R={r['radius'] / unit:.6g} (file units): {r['kind']}, {r['turns']} whole turn(s), "
-            f"{r['impacts']} impact(s), flight {r['flight_time']:.4g} s"
-        ),
-    )
+    try:
+        result = throw(arm_part(part), args.edge, args.radius * part.unit_scale, params)
+    except BelowGraspError as error:
+        raise error.in_unit(part.unit_scale, _unit_name(part)) from None  # as the flag was given
+    emit(args, result.to_json(), lambda _: _summary_throw(result, part.unit_scale))
     return 0
 
 
-def _summary_limit(result: dict[str, Any], unit: float) -> str:
-    lines = [f"stable edges {result['stable_edges']}; invariant set (Prop. IV.4): {result['invariant']}"]
-    for i in result["grasp_radius"]:
+def _summary_limit(result: LimitSet, unit: float) -> str:
+    """Return the summary of a limit set, lengths in file units."""
+    b = result.bounds
+    lines = [f"stable edges {result.stable_edges}; invariant set (Prop. IV.4): {b.invariant}"]
+    for i in b.grasp:
         lines.append(
-            f"  edge {i}: R_grasp {result['grasp_radius'][i] / unit:.6g}  R_flip {result['flip_radius'][i] / unit:.6g}"
-            f"  R_max {result['max_radius'][i] / unit:.6g}"
+            f"  edge {i}: R_grasp {b.grasp[i] / unit:.6g}  R_flip {b.flip[i] / unit:.6g}"
+            f"  R_max {b.max[i] / unit:.6g}"
         )
-    c = result["cycle"]
+    c = result.cycle
     lines.append(
         "cycle: none common to all starts"
         if c is None
-        else f"cycle: edges {c['edges']}, {c['throws_per_cycle']:.1f} throws per cycle ({c['throws_range'][0]}-"
-        f"{c['throws_range'][1]}), unique from all {result['starts']} starts"
+        else f"cycle: edges {c.edges}, {c.throws_per_cycle:.1f} throws per cycle ({c.throws_range[0]}-"
+        f"{c.throws_range[1]}), unique from all {result.starts} starts"
     )
-    for e, (lo, hi) in result["edge_radius_ranges"].items():
+    for e, (lo, hi) in result.edge_radius_ranges.items():
         lines.append(f"  edge {e} in the limit set: R in [{lo / unit:.6g}, {hi / unit:.6g}]")
-    t = result["trigger"]
+    t = result.trigger
     lines.append(
         "trigger: none"
         if t is None
-        else f"trigger for edge {t['goal_edge']}: sensor radius in [{t['radius_range'][0] / unit:.6g}, "
-        f"{t['radius_range'][1] / unit:.6g}] (file units)"
+        else f"trigger for edge {result.goal_edge}: sensor radius in [{t[0] / unit:.6g}, "
+        f"{t[1] / unit:.6g}] (file units)"
     )
     return "\n".join(lines)
 
 
 def _positive_int(value: int, flag: str) -> int:
+    """Return ``value`` if it is >= 1, else raise InputError naming ``flag``."""
     if value < 1:
         raise InputError(flag, f"must be >= 1, got {value}")
     return value
 
 
+def _height(args: argparse.Namespace, part: Part) -> float | None:
+    """Return --sensing-height in metres (None: the default), checked in the unit it was given in."""
+    if args.sensing_height is None:
+        return None
+    return check_sensing_height(args.sensing_height) * part.unit_scale
+
+
 def run_limit_set(args: argparse.Namespace) -> int:
+    """Run `feeder limit-set`: grasp radii, the forward limit set and the sensor trigger range."""
     part = load_part(args.part)
     params = _params(args, part)
-    height = None
-    if args.sensing_height is not None:
-        if args.sensing_height < 0:
-            raise InputError("--sensing-height", f"must be >= 0, got {args.sensing_height}")
-        height = args.sensing_height * part.unit_scale
-    result = api.limit_set_dict(
-        part,
+    height = _height(args, part)
+    result = limit_set(
+        arm_part(part),
         params,
         args.goal_edge,
-        height,
         _positive_int(args.starts_per_edge, "--starts-per-edge"),
         _positive_int(args.throws, "--throws"),
+        sensing_height=height,
     )
-    emit(args, result, lambda r: _summary_limit(r, part.unit_scale))
+    emit(args, result.to_json(), lambda _: _summary_limit(result, part.unit_scale))
     return 0
 
 
+def _summary_design(r: DesignSearch, s: float) -> str:
+    """Return the design table, lengths in file units (``s`` metres per unit)."""
+    lines = [f"{'H':>10} {'W rad/s':>9} unique cycle / trigger range (file units)"]
+    for row in r.designs:
+        tr = row.trigger
+        text = f"[{tr[0] / s:.4g}, {tr[1] / s:.4g}]" if tr else row.note
+        lines.append(f"{row.offset / s:>10.4g} {row.speed:>9.4g} {str(row.unique):6} {row.cycle} {text}")
+    b = r.best
+    lines.append("best: none" if b is None else f"best: H={b.offset / s:.4g}, W={b.speed:.4g} rad/s")
+    return "\n".join(lines)
+
+
 def run_design(args: argparse.Namespace) -> int:
+    """Run `feeder throw-design`: every (H, W) of the grid and the best sensor-based design."""
     part = load_part(args.part)
     s = part.unit_scale
-    height = None if args.sensing_height is None else args.sensing_height * s
-    result = api.design_dict(
-        part,
+    result = search(
+        arm_part(part),
         args.goal_edge,
-        [h * s for h in args.offsets],
-        args.release_speeds,
+        np.array([h * s for h in args.offsets]),
+        np.array(args.release_speeds),
         args.gravity * s,
         args.mu,
-        height,
+        _height(args, part),
     )
-
-    def summary(r: dict[str, Any]) -> str:
-        lines = [f"{'H':>10} {'W rad/s':>9} unique cycle / trigger range (file units)"]
-        for row in r["designs"]:
-            tr = row["trigger_range"]
-            text = f"[{tr[0] / s:.4g}, {tr[1] / s:.4g}]" if tr else row["note"]
-            lines.append(
-                f"{row['offset'] / s:>10.4g} {row['release_speed']:>9.4g} {str(row['unique']):6} "
-                f"{row['cycle']} {text}"
-            )
-        b = r["best"]
-        lines.append(
-            "best: none" if b is None else f"best: H={b['offset'] / s:.4g}, W={b['release_speed']:.4g} rad/s"
-        )
-        return "\n".join(lines)
-
-    emit(args, result, summary)
+    emit(args, result.to_json(), lambda _: _summary_design(result, s))
     return 0

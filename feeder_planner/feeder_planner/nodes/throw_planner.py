@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any
+from typing import Any, Protocol
 
+import numpy as np
 from rclpy.node import Node
 
 from feeder_msgs.msg import DesignCandidate, LimitEdgeRange
@@ -19,33 +20,63 @@ from feeder_planner.node_kit import (
     service_guard,
 )
 from feeder_planner.node_kit.msg_parts import part_from_msg
-from feeder_planner.throwing import api
-from feeder_planner.throwing.throw_map import ThrowParams
+from feeder_planner.throwing import (
+    DEFAULT_STARTS_PER_EDGE,
+    DEFAULT_THROWS,
+    DesignRow,
+    LimitSet,
+    ThrowParams,
+    arm_part,
+    check_grasp_parameters,
+    check_sensing_height,
+    grasp_radii,
+    limit_set,
+    search,
+    throw,
+)
+
+__all__ = ["PARAMETERS", "ThrowPlanner", "main"]
 
 PARAMETERS = (
     ParameterSpec(
         "default_starts_per_edge",
-        25,
+        DEFAULT_STARTS_PER_EDGE,
         "grid starts per stable edge when a request leaves it 0",
         integer_at_least(1),
     ),
     ParameterSpec(
         "default_throws",
-        300,
+        DEFAULT_THROWS,
         "throws per start when a request leaves it 0",
         integer_at_least(3),
     ),
 )
 
 
-def _params(request: Any) -> ThrowParams:
+class _ThrowRequest(Protocol):
+    """The design fields every throw_planner request carries (SI)."""
+
+    offset: float
+    release_speed: float
+    gravity: float
+    mu: float
+
+
+class _LimitRequest(_ThrowRequest, Protocol):
+    """The fields of a limit-set or trigger-radii request besides the design."""
+
+    part: Any  # feeder_msgs/Part
+    sensing_height: float
+
+
+def _params(request: _ThrowRequest) -> ThrowParams:
+    """Return the request's design parameters, checked (errors name the request field)."""
     return ThrowParams(request.offset, request.release_speed, request.gravity, request.mu)
 
 
 def _height(value: float) -> float | None:
-    if not math.isfinite(value):
-        raise InputError("sensing_height", f"must be finite, got {value!r}")
-    return None if value < 0 else value
+    """Return a request's sensing height: negative means the default (None); NaN or inf is refused."""
+    return None if math.isfinite(value) and value < 0 else check_sensing_height(value)
 
 
 class ThrowPlanner(Node):
@@ -62,113 +93,117 @@ class ThrowPlanner(Node):
         self.create_service(DesignSearch, "/throw_planner/design_search", guard(self.on_design))
 
     def on_grasp(self, request: GraspRadii.Request, response: GraspRadii.Response) -> GraspRadii.Response:
+        """Answer R_grasp for every stable edge (eqs. 1-4)."""
         part = part_from_msg(request.part)
-        ThrowParams(request.offset, 1.0, -1.0, request.mu)  # validates offset and mu, naming the field
-        result = api.grasp_dict(part, request.offset, request.mu)
-        response.stable_edges = result["stable_edges"]
-        response.grasp_radius = [result["grasp_radius"][str(i)] for i in result["stable_edges"]]
+        check_grasp_parameters(request.offset, request.mu)
+        radii = grasp_radii(arm_part(part), request.offset, request.mu)
+        response.stable_edges = list(radii)
+        response.grasp_radius = list(radii.values())
         return response
 
     def on_throw(
         self, request: ThrowCompute.Request, response: ThrowCompute.Response
     ) -> ThrowCompute.Response:
+        """Answer one application of the throw map."""
         part = part_from_msg(request.part)
-        result = api.throw_dict(part, request.edge, request.radius, _params(request))
-        response.edge_after, response.radius_after = result["edge"], result["radius"]
-        response.kind, response.turns = result["kind"], result["turns"]
+        result = throw(arm_part(part), request.edge, request.radius, _params(request))
+        response.edge_after, response.radius_after = result.edge, result.radius
+        response.kind, response.turns = result.kind, result.turns
         return response
 
-    def _limit(self, request: Any, goal: int | None, starts: int, throws: int) -> dict[str, Any]:
+    def _limit(self, request: _LimitRequest, goal: int | None, starts: int, throws: int) -> LimitSet:
+        """Return the limit set a request asks for; 0 starts or throws mean the node's defaults."""
         part = part_from_msg(request.part)
-        return api.limit_set_dict(
-            part,
+        return limit_set(
+            arm_part(part),
             _params(request),
             goal,
-            _height(request.sensing_height),
             starts or self.p["default_starts_per_edge"],
             throws or self.p["default_throws"],
+            sensing_height=_height(request.sensing_height),
         )
 
     def on_limit_set(
         self, request: LimitSetCompute.Request, response: LimitSetCompute.Response
     ) -> LimitSetCompute.Response:
+        """Answer the limit set per edge, its cycle and trigger range, and the whole result as JSON."""
         goal = None if request.goal_edge < 0 else request.goal_edge
-        r = self._limit(request, goal, request.starts_per_edge, request.throws)
-        response.stable_edges = r["stable_edges"]
-        for i in r["stable_edges"]:
-            key = str(i)
-            rng = r["edge_radius_ranges"].get(key)
+        ls = self._limit(request, goal, request.starts_per_edge, request.throws)
+        response.stable_edges = ls.stable_edges
+        for i in ls.stable_edges:
+            rng = ls.edge_radius_ranges.get(i)
             response.edges.append(
                 LimitEdgeRange(
                     edge=i,
-                    grasp_radius=r["grasp_radius"][key],
-                    flip_radius=r["flip_radius"][key],
-                    max_radius=r["max_radius"][key],
+                    grasp_radius=ls.bounds.grasp[i],
+                    flip_radius=ls.bounds.flip[i],
+                    max_radius=ls.bounds.max[i],
                     in_limit_set=rng is not None,
                     range_min=rng[0] if rng else math.nan,
                     range_max=rng[1] if rng else math.nan,
                 )
             )
-        response.unique = r["unique"]
-        if r["cycle"]:
-            response.cycle_edges, response.throws_per_cycle = (
-                r["cycle"]["edges"],
-                r["cycle"]["throws_per_cycle"],
-            )
-        response.has_trigger = r["trigger"] is not None
-        if r["trigger"]:
-            response.trigger_min, response.trigger_max = r["trigger"]["radius_range"]
-        response.json = json.dumps(r, allow_nan=False)
+        response.unique = ls.unique
+        if ls.cycle:
+            response.cycle_edges, response.throws_per_cycle = ls.cycle.edges, ls.cycle.throws_per_cycle
+        response.has_trigger = ls.trigger is not None
+        if ls.trigger:
+            response.trigger_min, response.trigger_max = ls.trigger
+        response.json = json.dumps(ls.to_json(), allow_nan=False)
         return response
 
     def on_trigger(
         self, request: SensorTriggerRadii.Request, response: SensorTriggerRadii.Response
     ) -> SensorTriggerRadii.Response:
+        """Answer the sensor trigger radius range for the goal edge (with the node's default grid)."""
         if request.goal_edge < 0:
             raise InputError("goal_edge", f"must be a stable edge index, got {request.goal_edge}")
-        r = self._limit(request, request.goal_edge, 0, 0)
-        response.has_trigger = r["trigger"] is not None
-        if r["trigger"]:
-            response.radius_min, response.radius_max = r["trigger"]["radius_range"]
-        if r["cycle"]:
-            response.cycle_edges = r["cycle"]["edges"]
+        ls = self._limit(request, request.goal_edge, 0, 0)
+        response.has_trigger = ls.trigger is not None
+        if ls.trigger:
+            response.radius_min, response.radius_max = ls.trigger
+        if ls.cycle:
+            response.cycle_edges = ls.cycle.edges
         return response
 
     def on_design(
         self, request: DesignSearch.Request, response: DesignSearch.Response
     ) -> DesignSearch.Response:
+        """Answer every design of the (h, W) grid and the best one."""
         part = part_from_msg(request.part)
-        r = api.design_dict(
-            part,
+        found = search(
+            arm_part(part),
             request.goal_edge,
-            list(request.offsets),
-            list(request.release_speeds),
+            np.array(list(request.offsets)),
+            np.array(list(request.release_speeds)),
             request.gravity,
             request.mu,
             _height(request.sensing_height),
         )
-
-        def candidate(row: dict[str, Any]) -> DesignCandidate:
-            tr = row["trigger_range"]
-            return DesignCandidate(
-                offset=row["offset"],
-                release_speed=row["release_speed"],
-                unique=row["unique"],
-                cycle_edges=row["cycle"] or [],
-                has_trigger=tr is not None,
-                trigger_min=tr[0] if tr else math.nan,
-                trigger_max=tr[1] if tr else math.nan,
-                note=row["note"],
-            )
-
-        response.designs = [candidate(row) for row in r["designs"]]
-        response.found = r["best"] is not None
-        if r["best"]:
-            response.best = candidate(r["best"])
+        response.designs = [_candidate(row) for row in found.designs]
+        response.found = found.best is not None
+        if found.best:
+            response.best = _candidate(found.best)
         return response
 
 
+def _candidate(row: DesignRow) -> DesignCandidate:
+    """Return one design as a message."""
+    tr = row.trigger
+    return DesignCandidate(
+        offset=row.offset,
+        release_speed=row.speed,
+        unique=row.unique,
+        cycle_edges=row.cycle or [],
+        has_trigger=tr is not None,
+        trigger_min=tr[0] if tr else math.nan,
+        trigger_max=tr[1] if tr else math.nan,
+        note=row.note,
+    )
+
+
 def main(args: list[str] | None = None) -> None:
+    """Run the throw_planner node."""
     run_node(ThrowPlanner, "throw_planner", args)
 
 

@@ -1,94 +1,129 @@
-"""Free flight after an impulsive release, eqs. (5) and (6), and the certified earliest impact with the arm."""
+"""Free flight after an impulsive release, eqs. (5) and (6), and the certified earliest impact on the arm."""
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
 from feeder_planner.throwing.geometry import ArmPart
+from feeder_planner.throwing.tolerances import IMPACT_BISECTIONS
 
-_BISECTIONS = 60  # halvings of a piece: 2^-60 of the flight time is below double resolution
+__all__ = ["rest_pose", "flight_state", "vertex_positions", "earliest_impact"]
+
+Pose = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
-def release_state(
-    part: ArmPart, edge: np.ndarray, radius: np.ndarray, offset: float, speed: float
-) -> tuple[np.ndarray, ...]:
-    """(x, y, Theta, xdot, ydot, Thetadot) at release, eq. (5) at t = 0; Theta is the part's absolute angle."""
-    a = offset + part.d[edge]
-    return (
-        radius.astype(float),
-        a,
-        -part.edge_angle[edge],
-        -a * speed,
-        radius * speed,
-        np.full(radius.shape, float(speed)),
-    )
+def rest_pose(part: ArmPart, edge: np.ndarray | int, radius: np.ndarray | float, offset: float) -> Pose:
+    """Return (x, y, Theta) of the centre of mass resting on ``edge`` at R = ``radius``: eq. (5) at t = 0.
+
+    The centre of mass lies d^i above the arm surface y = h, and the part's absolute angle is
+    Theta = -alpha_i (edge i's direction turned flat). Broadcasts over arrays of edges and radii.
+    """
+    edge = np.asarray(edge)
+    return np.asarray(radius, dtype=float), offset + part.d[edge], -part.edge_angle[edge]
 
 
 def flight_state(
-    part: ArmPart, edge: int, radius: float, offset: float, speed: float, gravity: float, t: np.ndarray
+    part: ArmPart,
+    edge: np.ndarray | int,
+    radius: np.ndarray | float,
+    offset: float,
+    speed: float,
+    gravity: float,
+    t: np.ndarray,
 ) -> np.ndarray:
-    """Rows (x, y, Theta, xdot, ydot, Thetadot) at times t, eq. (5) (Theta = -alpha_i + phi)."""
+    """Return rows (x, y, Theta, xdot, ydot, Thetadot) at times t after release, eq. (5).
+
+    Theta = -alpha_i + phi is the part's absolute angle. ``edge``, ``radius`` and ``t`` broadcast against
+    each other: one start at many times, or a batch of starts each at its own time.
+    """
     t = np.asarray(t, dtype=float)
-    a = offset + float(part.d[edge])
-    return np.stack(
-        [
-            radius - a * speed * t,
-            a + radius * speed * t + 0.5 * gravity * t * t,
-            -float(part.edge_angle[edge]) + speed * t,
-            np.full_like(t, -a * speed),
-            radius * speed + gravity * t,
-            np.full_like(t, speed),
-        ],
-        axis=-1,
+    x0, a, theta0 = rest_pose(part, edge, radius, offset)  # a = h + d^i, the height of the centre of mass
+    columns = (
+        x0 - a * speed * t,
+        a + x0 * speed * t + 0.5 * gravity * t * t,
+        theta0 + speed * t,
+        -a * speed,
+        x0 * speed + gravity * t,
+        speed,
     )
+    shape = np.broadcast_shapes(np.shape(a), x0.shape, t.shape)
+    return np.stack([np.broadcast_to(np.asarray(c, dtype=float), shape) for c in columns], axis=-1)
 
 
 def vertex_positions(
     part: ArmPart, edge: int, radius: float, offset: float, speed: float, gravity: float, t: float
 ) -> np.ndarray:
-    """Hull vertices in the arm frame at time t of flight, eq. (6)."""
+    """Return the hull vertices in the arm frame at time t of flight, eq. (6)."""
     x, y, theta = flight_state(part, edge, radius, offset, speed, gravity, np.array([t]))[0, :3]
     c, s = math.cos(theta), math.sin(theta)
     return part.hull @ np.array([[c, s], [-s, c]]) + np.array([x, y])
 
 
-def earliest_impact(
-    part: ArmPart, edge: np.ndarray, radius: np.ndarray, offset: float, speed: float, gravity: float
+def _height(
+    t: np.ndarray, d: np.ndarray, b: np.ndarray, s: np.ndarray, c: np.ndarray, w: float, g: float
+) -> np.ndarray:
+    """Return f(t) = d + b t + g t^2/2 + s sin(W t + c): a vertex's height above the arm, eqs. (5), (6)."""
+    return d + t * (b + 0.5 * g * t) + s * np.sin(w * t + c)
+
+
+def _rate(t: np.ndarray, b: np.ndarray, s: np.ndarray, c: np.ndarray, w: float, g: float) -> np.ndarray:
+    """Return f'(t) = b + g t + W s cos(W t + c)."""
+    return b + g * t + w * s * np.cos(w * t + c)
+
+
+def _bisect(
+    lo: np.ndarray,
+    hi: np.ndarray,
+    go_right: Callable[[np.ndarray], np.ndarray],
+    step: int = IMPACT_BISECTIONS,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(t*, k*): the first time t > 0 a hull vertex reaches the arm surface y = h, and which vertex.
+    """Halve every bracket [lo, hi] ``step`` times; ``go_right(mid)`` says where the sought point is not."""
+    for _ in range(step):
+        mid = 0.5 * (lo + hi)
+        right = go_right(mid)
+        lo, hi = np.where(right, mid, lo), np.where(right, hi, mid)
+    return lo, hi
 
-    Vertex k's height above the arm is f(t) = d + R W t + g t^2/2 + s_k sin(W t + c_k), with
-    f'' = g - W^2 s_k sin(W t + c_k). The flight [0, T] (T: the centre of mass back at arm level,
-    after which an impact has surely happened) is cut at the inflection points of every f, so each
-    piece is convex or concave. On a concave piece f is positive then negative; on a convex piece it
-    decreases to its minimum (found by bisection on the monotone f') then increases. Hence at most one
-    first crossing per piece, found by bisection: no root is missed however often the part turns.
-    Tolerance: the impact time is exact to 2^-60 of the flight time. The contact vertices start at
-    f(0) = 0 with f'(0) = W (R + u) > 0 (the caller has ruled out a stubbed toe).
+
+@dataclass(frozen=True)
+class _Pieces:
+    """Pieces [lo, hi] of the flight on which one vertex's height is convex or concave, flattened.
+
+    Entry j belongs to throw ``throw[j]`` and hull vertex ``vertex[j]``; ``d``, ``b``, ``s``, ``c`` are
+    the coefficients of that vertex's height f (see ``_height``).
     """
-    edge = np.asarray(edge)
-    radius = np.asarray(radius, dtype=float)
-    w, g = float(speed), float(gravity)
-    d = part.d[edge][:, None]  # (B, 1)
-    b1 = (radius * w)[:, None]
-    q = part.hull
-    s = np.hypot(q[:, 0], q[:, 1])[None, :]  # (1, n)
-    c = np.arctan2(q[:, 1], q[:, 0])[None, :] - part.edge_angle[edge][:, None]  # (B, n)
-    t_end = (b1 + np.sqrt(b1 * b1 - 2.0 * g * d)) / (-g)  # (B, 1)
 
-    def f(t: np.ndarray, d_: np.ndarray, b_: np.ndarray, s_: np.ndarray, c_: np.ndarray) -> np.ndarray:
-        return d_ + t * (b_ + 0.5 * g * t) + s_ * np.sin(w * t + c_)
+    throw: np.ndarray
+    vertex: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    d: np.ndarray
+    b: np.ndarray
+    s: np.ndarray
+    c: np.ndarray
 
-    def fp(t: np.ndarray, b_: np.ndarray, s_: np.ndarray, c_: np.ndarray) -> np.ndarray:
-        return b_ + g * t + w * s_ * np.cos(w * t + c_)
 
-    # Inflection times: sin(W t + c) = g / (W^2 s); none when W^2 s <= |g| (f concave throughout).
+def _flight_end(d: np.ndarray, b: np.ndarray, g: float) -> np.ndarray:
+    """Return T, when the centre of mass is back at arm level: the root of d + b t + g t^2/2 (eq. 5)."""
+    return (b + np.sqrt(b * b - 2.0 * g * d)) / (-g)
+
+
+def _pieces(
+    d: np.ndarray, b: np.ndarray, s: np.ndarray, c: np.ndarray, w: float, g: float, t_end: np.ndarray
+) -> _Pieces:
+    """Cut each throw's flight [0, T] at the inflection points of every vertex's height.
+
+    f'' = g - W^2 s sin(W t + c) vanishes where sin(W t + c) = g / (W^2 s); there is none when
+    W^2 s <= |g| (f concave throughout). Shapes: d, b, t_end (B, 1); s (1, n); c (B, n).
+    """
+    batch, n = c.shape
     sigma = np.clip(g / (w * w * s), -1.0, 1.0)
     has_inflection = (w * w * s > -g)[0]  # (n,)
-    batch, n = len(radius), len(q)
-    edges_ = [np.zeros((batch, n, 1)), np.broadcast_to(t_end[..., None], (batch, n, 1))]
+    ends = [np.zeros((batch, n, 1)), np.broadcast_to(t_end[..., None], (batch, n, 1))]
     if has_inflection.any():
         turns = int(math.ceil(w * float(t_end.max()) / (2 * math.pi))) + 1
         phases = np.concatenate([np.arcsin(sigma), math.pi - np.arcsin(sigma)], axis=0)  # (2, n)
@@ -96,42 +131,71 @@ def earliest_impact(
         cuts = first[..., None] + (2 * math.pi / w) * np.arange(turns)  # (2, B, n, J)
         cuts = np.moveaxis(cuts, 0, -2).reshape(batch, n, -1)
         cuts = np.where(has_inflection[None, :, None], cuts, np.inf)
-        edges_.insert(1, np.minimum(cuts, t_end[..., None]))
-    bounds = np.sort(np.concatenate(edges_, axis=-1), axis=-1)
-    a_, b_ = bounds[..., :-1], bounds[..., 1:]  # pieces (B, n, P)
-    bi, ki, pi = np.nonzero(b_ > a_)
-    a_, b_ = a_[bi, ki, pi], b_[bi, ki, pi]
-    dd, bb, ss, cc = d[bi, 0], b1[bi, 0], s[0, ki], c[bi, ki]
-    mid = 0.5 * (a_ + b_)
-    convex = (g - w * w * ss * np.sin(w * mid + cc)) > 0
-    # Minimum point m of each piece: b on concave pieces, where f' = 0 (or an end) on convex ones.
-    m = b_.copy()
-    fpa, fpb = fp(a_, bb, ss, cc), fp(b_, bb, ss, cc)
-    m = np.where(convex & (fpa >= 0), a_, m)
-    inner = np.flatnonzero(convex & (fpa < 0) & (fpb > 0))
+        ends.insert(1, np.minimum(cuts, t_end[..., None]))
+    bounds = np.sort(np.concatenate(ends, axis=-1), axis=-1)
+    lo, hi = bounds[..., :-1], bounds[..., 1:]  # (B, n, P)
+    bi, ki, pi = np.nonzero(hi > lo)
+    return _Pieces(bi, ki, lo[bi, ki, pi], hi[bi, ki, pi], d[bi, 0], b[bi, 0], s[0, ki], c[bi, ki])
+
+
+def _piece_minima(p: _Pieces, w: float, g: float) -> np.ndarray:
+    """Return where f is lowest on each piece: its right end if concave, else where f' = 0 (or an end)."""
+    mid = 0.5 * (p.lo + p.hi)
+    convex = (g - w * w * p.s * np.sin(w * mid + p.c)) > 0
+    m = p.hi.copy()
+    rate_lo, rate_hi = _rate(p.lo, p.b, p.s, p.c, w, g), _rate(p.hi, p.b, p.s, p.c, w, g)
+    m = np.where(convex & (rate_lo >= 0), p.lo, m)
+    inner = np.flatnonzero(convex & (rate_lo < 0) & (rate_hi > 0))
     if inner.size:
-        lo, hi = a_[inner].copy(), b_[inner].copy()
-        bb_i, ss_i, cc_i = bb[inner], ss[inner], cc[inner]
-        for _ in range(_BISECTIONS):
-            mm = 0.5 * (lo + hi)
-            neg = fp(mm, bb_i, ss_i, cc_i) < 0
-            lo, hi = np.where(neg, mm, lo), np.where(neg, hi, mm)
-        m[inner] = hi
-    candidate = (f(m, dd, bb, ss, cc) <= 0) & (m > 0)
-    # Only pieces that can hold the earliest root: start before the earliest sure crossing m.
-    batch = len(radius)
+        b, s, c = p.b[inner], p.s[inner], p.c[inner]
+        _, m[inner] = _bisect(p.lo[inner].copy(), p.hi[inner].copy(), lambda t: _rate(t, b, s, c, w, g) < 0)
+    return m
+
+
+def _first_crossings(
+    p: _Pieces, m: np.ndarray, w: float, g: float, batch: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return (t*, k*) per throw: bisect f = 0 on the pieces that can hold the earliest root, keep the first.
+
+    A piece holds a sure crossing when f(m) <= 0 at its minimum m; only pieces starting before the
+    earliest such m can hold the first root, and on each f falls from positive to m at most once.
+    """
+    candidate = (_height(m, p.d, p.b, p.s, p.c, w, g) <= 0) & (m > 0)
     best_m = np.full(batch, np.inf)
-    np.minimum.at(best_m, bi[candidate], m[candidate])
-    keep = np.flatnonzero(candidate & (a_ <= best_m[bi]))
-    lo, hi = a_[keep].copy(), m[keep].copy()
-    dk, bk, sk, ck = dd[keep], bb[keep], ss[keep], cc[keep]
-    for _ in range(_BISECTIONS):
-        mm = 0.5 * (lo + hi)
-        pos = f(mm, dk, bk, sk, ck) > 0
-        lo, hi = np.where(pos, mm, lo), np.where(pos, hi, mm)
+    np.minimum.at(best_m, p.throw[candidate], m[candidate])
+    keep = np.flatnonzero(candidate & (p.lo <= best_m[p.throw]))
+    d, b, s, c = p.d[keep], p.b[keep], p.s[keep], p.c[keep]
+    _, hit = _bisect(p.lo[keep].copy(), m[keep].copy(), lambda t: _height(t, d, b, s, c, w, g) > 0)
+    throw = p.throw[keep]
     t_hit = np.full(batch, np.inf)
-    np.minimum.at(t_hit, bi[keep], hi)
+    np.minimum.at(t_hit, throw, hit)
     owner = np.full(batch, -1)
-    winner = hi <= t_hit[bi[keep]]
-    owner[bi[keep][winner]] = ki[keep][winner]
+    winner = hit <= t_hit[throw]
+    owner[throw[winner]] = p.vertex[keep][winner]
     return t_hit, owner
+
+
+def earliest_impact(
+    part: ArmPart, edge: np.ndarray, radius: np.ndarray, offset: float, speed: float, gravity: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return (t*, k*): the first time t > 0 a hull vertex reaches the arm surface y = h, and which vertex.
+
+    Vertex k's height above the arm is f(t) = d + R W t + g t^2/2 + s_k sin(W t + c_k) (eqs. 5, 6), with
+    f'' = g - W^2 s_k sin(W t + c_k). The flight [0, T] (T: the centre of mass back at arm level,
+    after which an impact has surely happened) is cut at the inflection points of every f, so each
+    piece is convex or concave. On a concave piece f is positive then negative; on a convex piece it
+    decreases to its minimum (found by bisection on the monotone f') then increases. Hence at most one
+    first crossing per piece, found by bisection: no root is missed however often the part turns.
+    Tolerance: the impact time is exact to 2^-IMPACT_BISECTIONS of the flight time. The contact vertices
+    start at f(0) = 0 with f'(0) = W (R + u) > 0 (the caller has ruled out a stubbed toe).
+    """
+    edge = np.asarray(edge)
+    radius = np.asarray(radius, dtype=float)
+    w, g = float(speed), float(gravity)
+    d = part.d[edge][:, None]  # (B, 1)
+    b = (radius * w)[:, None]
+    q = part.hull
+    s = np.hypot(q[:, 0], q[:, 1])[None, :]  # (1, n)
+    c = np.arctan2(q[:, 1], q[:, 0])[None, :] - part.edge_angle[edge][:, None]  # (B, n)
+    pieces = _pieces(d, b, s, c, w, g, _flight_end(d, b, g))
+    return _first_crossings(pieces, _piece_minima(pieces, w, g), w, g, len(radius))

@@ -1,4 +1,4 @@
-"""Hull numbering, stable edges, d^i, contact vertices, rho and d_min of a part on the arm (paper section II)."""
+"""Hull numbering, stable edges, d^i, contact vertices, rho and d_min of a part on the arm (section II)."""
 
 from __future__ import annotations
 
@@ -9,6 +9,8 @@ import numpy as np
 
 from feeder_planner import polygon
 from feeder_planner.parts import Part
+
+__all__ = ["ArmPart", "rotate", "arm_part"]
 
 
 @dataclass(frozen=True)
@@ -33,6 +35,7 @@ class ArmPart:
 
     @property
     def n(self) -> int:
+        """Number of hull vertices (and edges)."""
         return len(self.hull)
 
     @property
@@ -42,6 +45,7 @@ class ArmPart:
 
     @property
     def stable_edges(self) -> list[int]:
+        """The stable edges E^i (u_l < 0 < u_r), in edge order."""
         return [int(i) for i in np.flatnonzero(self.stable)]
 
     @property
@@ -50,11 +54,11 @@ class ArmPart:
         return float(self.d[self.stable].min())
 
     def frame_vertices(self, edge: int) -> np.ndarray:
-        """All hull vertices in the frame F^i of the part resting on ``edge`` (v^i up)."""
+        """Return all hull vertices in the frame F^i of the part resting on ``edge`` (v^i up)."""
         return rotate(self.hull, -float(self.edge_angle[edge]))
 
     def contact_vertices(self, edge: int) -> tuple[tuple[float, float], tuple[float, float]]:
-        """((u_l, v_l), (u_r, v_r)) of edge i in F^i; v_l = v_r = -d^i."""
+        """Return ((u_l, v_l), (u_r, v_r)) of edge i in F^i; v_l = v_r = -d^i."""
         return (
             (float(self.u_left[edge]), -float(self.d[edge])),
             (float(self.u_right[edge]), -float(self.d[edge])),
@@ -62,12 +66,13 @@ class ArmPart:
 
 
 def rotate(points: np.ndarray, angle: float) -> np.ndarray:
+    """Return the rows of ``points`` rotated counter-clockwise by ``angle`` about the origin."""
     c, s = math.cos(angle), math.sin(angle)
     return points @ np.array([[c, s], [-s, c]])
 
 
 def arm_part(part: Part) -> ArmPart:
-    """Build the arm's view of ``part`` (convex hull numbered from the file's first hull vertex)."""
+    """Return the arm's view of ``part`` (convex hull numbered from the file's first hull vertex)."""
     file_pts = part.file_vertices - part.offset  # file order, part frame
     hull_idx = polygon.convex_hull_indices(file_pts)  # counter-clockwise
     start = min(hull_idx)  # first vertex of the file that lies on the hull

@@ -1,4 +1,4 @@
-"""Dynamic grasp: the wrench-cone test of section III-A.1 and its impulsive limit, eqs. (1)-(4), R_grasp (Prop. III.3)."""
+"""Dynamic grasp: the wrench-cone test (III-A.1), its impulsive limit, eqs. (1)-(4), R_grasp (Prop. III.3)."""
 
 from __future__ import annotations
 
@@ -9,9 +9,20 @@ import numpy as np
 from feeder_planner.errors import InputError
 from feeder_planner.throwing.geometry import ArmPart
 
+__all__ = [
+    "cone_edges",
+    "required_wrench",
+    "in_cone",
+    "carry_in_grasp",
+    "impulse_in_grasp",
+    "grasp_bounds",
+    "grasp_radius",
+    "grasp_radii",
+]
+
 
 def cone_edges(part: ArmPart, edge: int, mu: float) -> np.ndarray:
-    """The four contact wrenches w_1..w_4 of edge i in F^i (rows), as in section III-A.1."""
+    """Return the four contact wrenches w_1..w_4 of edge i in F^i (rows), as in section III-A.1."""
     (ul, vl), (ur, vr) = part.contact_vertices(edge)
     return np.array(
         [[-mu, 1.0, ul + mu * vl], [mu, 1.0, ul - mu * vl], [mu, 1.0, ur - mu * vr], [-mu, 1.0, ur + mu * vr]]
@@ -28,7 +39,7 @@ def required_wrench(
     theta_dot: float,
     theta_ddot: float,
 ) -> np.ndarray:
-    """The wrench (f_u, f_v, tau) the arm must apply to carry the part rigidly (section III-A.1), per unit mass."""
+    """Return the wrench (f_u, f_v, tau) that carries the part rigidly (section III-A.1), per unit mass."""
     a = offset + float(part.d[edge])
     return (
         theta_ddot * np.array([-a, radius, part.rho**2])
@@ -38,7 +49,7 @@ def required_wrench(
 
 
 def in_cone(wrench: np.ndarray, cone: np.ndarray, tol: float = 0.0) -> bool:
-    """W in W^i iff w . (w_j x w_k) <= 0 for (j, k) = (1,2), (2,3), (3,4), (4,1)."""
+    """Return whether w lies in the cone W^i: w . (w_j x w_k) <= 0 for (j, k) = (1,2), (2,3), (3,4), (4,1)."""
     scale = float(np.abs(wrench).max()) or 1.0
     for j in range(4):
         normal = np.cross(cone[j], cone[(j + 1) % 4])
@@ -58,7 +69,7 @@ def carry_in_grasp(
     theta_dot: float,
     theta_ddot: float,
 ) -> bool:
-    """Necessary condition for a dynamic grasp at one arm state of a carry (wrench-cone test)."""
+    """Return the necessary condition for a dynamic grasp at one arm state of a carry (wrench-cone test)."""
     return in_cone(
         required_wrench(part, edge, radius, offset, gravity, theta, theta_dot, theta_ddot),
         cone_edges(part, edge, mu),
@@ -66,13 +77,13 @@ def carry_in_grasp(
 
 
 def impulse_in_grasp(part: ArmPart, edge: int, radius: float, offset: float, mu: float) -> bool:
-    """Whether the impulse p = W (-(h+d), R, rho^2) lies in the impulse cone (independent of W > 0)."""
+    """Return whether the impulse p = W (-(h+d), R, rho^2) lies in the impulse cone (independent of W > 0)."""
     a = offset + float(part.d[edge])
     return in_cone(np.array([-a, radius, part.rho**2]), cone_edges(part, edge, mu))
 
 
 def grasp_bounds(part: ArmPart, edge: int, offset: float, mu: float) -> tuple[float, float, float, float]:
-    """The four lower bounds on R of eqs. (1)-(4) for a stable edge."""
+    """Return the four lower bounds on R of eqs. (1)-(4) for a stable edge."""
     if not part.stable[edge]:
         raise InputError("edge", f"edge {edge} is not a stable edge (stable edges: {part.stable_edges})")
     (ul, vl), (ur, vr) = part.contact_vertices(edge)
@@ -82,10 +93,10 @@ def grasp_bounds(part: ArmPart, edge: int, offset: float, mu: float) -> tuple[fl
 
 
 def grasp_radius(part: ArmPart, edge: int, offset: float, mu: float) -> float:
-    """R_grasp^i = the largest of the bounds (1)-(4) (Proposition III.3)."""
+    """Return R_grasp^i, the largest of the bounds (1)-(4) (Proposition III.3)."""
     return max(grasp_bounds(part, edge, offset, mu))
 
 
 def grasp_radii(part: ArmPart, offset: float, mu: float) -> dict[int, float]:
-    """R_grasp^i for every stable edge."""
+    """Return R_grasp^i for every stable edge, in edge order."""
     return {i: grasp_radius(part, i, offset, mu) for i in part.stable_edges}

@@ -1,14 +1,16 @@
-"""The sticking impact of section III-B, eqs. (7)-(9): the impact vertex stops, the impulse passes through it."""
+"""The sticking impact of section III-B, eqs. (7)-(9): the impact vertex stops, the impulse acts on it."""
 
 from __future__ import annotations
 
 import numpy as np
 
+__all__ = ["sticking_impact", "kinetic_energy"]
+
 
 def sticking_impact(
     rx: np.ndarray, ry: np.ndarray, xdot: np.ndarray, ydot: np.ndarray, phidot: np.ndarray, rho: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Post-impact (xdot+, ydot+, phidot+) from eqs. (7)-(9); (rx, ry) runs from the centre of mass to the vertex.
+    """Return the post-impact (xdot+, ydot+, phidot+) of eqs. (7)-(9); (rx, ry): centre of mass to vertex.
 
     Substituting (7) xdot+ = ry phidot+ and (8) ydot+ = -rx phidot+ into (9) gives
     phidot+ (rho^2 + rx^2 + ry^2) = rho^2 phidot- + ry xdot- - rx ydot-
@@ -20,5 +22,5 @@ def sticking_impact(
 
 
 def kinetic_energy(xdot: np.ndarray, ydot: np.ndarray, phidot: np.ndarray, rho: float) -> np.ndarray:
-    """Kinetic energy per unit mass."""
+    """Return the kinetic energy per unit mass."""
     return 0.5 * (xdot * xdot + ydot * ydot + rho * rho * phidot * phidot)

@@ -1,23 +1,45 @@
-"""Iterating the throw map: R_flip and R_max (Prop. IV.4), forward limit sets from a grid of starts, cycles."""
+"""Iterating the throw map: R_flip, R_max (Prop. IV.4), forward limit sets from a grid of starts, cycles."""
 
 from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from feeder_planner.errors import InputError, SolverError
 from feeder_planner.throwing.geometry import ArmPart
 from feeder_planner.throwing.grasp import grasp_radii
-from feeder_planner.throwing.sensor import trigger_range
-from feeder_planner.throwing.throw_map import GRASP_TOL, ThrowParams, lowest_radius, throw_batch
+from feeder_planner.throwing.sensor import sensing_height_or_default, trigger_range
+from feeder_planner.throwing.throw_map import ThrowParams, lowest_radius, radius_in_domain, throw_batch
+from feeder_planner.throwing.tolerances import (
+    BURN_IN_CAP,
+    BURN_IN_DIVISOR,
+    DEFAULT_STARTS_PER_EDGE,
+    DEFAULT_THROWS,
+    FIRST_SCAN_RADII,
+    FLIP_REFINE,
+    MAX_GROWTH_ROUNDS,
+    MAX_SCAN_RADII,
+    SCAN_GROWTH,
+    SCAN_POINTS,
+)
 
-SCAN_POINTS = 400  # resolution of the R_flip scan and of the invariant-set check, per edge
-MAX_SCAN_RADII = 1000  # give up looking for a flip beyond this many part radii past R_grasp
+__all__ = [
+    "Trajectories",
+    "iterate",
+    "EdgeBounds",
+    "edge_bounds",
+    "Cycle",
+    "find_cycle",
+    "LimitSet",
+    "default_burn_in",
+    "limit_set",
+]
 
 
-@dataclass
+@dataclass(frozen=True)
 class Trajectories:
     """States after each throw: edge[b, n], radius[b, n], jog[b, n] (jog[:, 0] is meaningless), escaped[b]."""
 
@@ -30,7 +52,7 @@ class Trajectories:
 def iterate(
     part: ArmPart, params: ThrowParams, edges: np.ndarray, radii: np.ndarray, throws: int
 ) -> Trajectories:
-    """f^N from every start at once; a state outside the domain (unstable edge, R < R_grasp) stops its row."""
+    """Return f^N from every start at once; a state outside the domain (R < lowest R) stops its row."""
     low = np.full(part.n, np.inf)
     for i in part.stable_edges:
         low[i] = lowest_radius(part, i, params)
@@ -47,15 +69,20 @@ def iterate(
         out = throw_batch(part, edge[alive, n - 1], radius[alive, n - 1], params)
         edge[alive, n], radius[alive, n] = out.edge, out.radius
         jog[alive, n] = out.is_jog(edge[alive, n - 1])
-        ok = out.radius >= low[out.edge] - GRASP_TOL * np.abs(low[out.edge])
+        ok = radius_in_domain(out.radius, low[out.edge])
         escaped[alive[~ok]] = True
         alive = alive[ok]
     return Trajectories(edge, radius, jog, escaped)
 
 
-@dataclass
+def _by_edge(values: dict[int, Any]) -> dict[str, Any]:
+    """Return a per-edge mapping with the contract's JSON keys (edge numbers as strings)."""
+    return {str(i): v for i, v in values.items()}
+
+
+@dataclass(frozen=True)
 class EdgeBounds:
-    """Per stable edge: R_grasp, the lowest throwable R, R_flip, R_max (Prop. IV.4), and whether jogs go outward."""
+    """Per stable edge: R_grasp, the lowest throwable R, R_flip, R_max (Prop. IV.4), if jogs go outward."""
 
     grasp: dict[int, float]
     low: dict[int, float]
@@ -65,11 +92,68 @@ class EdgeBounds:
     invariant: bool  # f maps Z = U_i (i, [low_i, R_max_i]) into itself on the sampled grid
 
 
-def edge_bounds(part: ArmPart, params: ThrowParams, points: int = SCAN_POINTS) -> EdgeBounds:
-    """R_flip^i: the first flip on a grid of R from the lowest throwable R; R_max^i: grown until f(Z) lies in Z.
+def _scan_flip(
+    part: ArmPart, params: ThrowParams, edge: int, low: float, points: int
+) -> tuple[float, bool, float]:
+    """Return (R_flip, whether every jog below it moves outward, first R_max guess) of one edge.
 
-    Sampled on ``points`` radii per edge (resolution stated by the grid); raises SolverError if some edge
-    never flips within MAX_SCAN_RADII part radii.
+    Scans ``points`` radii from ``low`` over FIRST_SCAN_RADII part radii, growing the span by SCAN_GROWTH
+    until a throw flips (Prop. IV.4, property 1); raises SolverError past MAX_SCAN_RADII part radii.
+    """
+    span = FIRST_SCAN_RADII * part.radius
+    while True:
+        r = np.linspace(low, low + span, points)
+        out = throw_batch(part, np.full(points, edge), r, params)
+        flips = np.flatnonzero(~out.is_jog(np.full(points, edge)))
+        if flips.size:
+            first = int(flips[0])
+            flip = (
+                _refine_flip(part, params, edge, float(r[first - 1]), float(r[first]))
+                if first
+                else float(r[0])
+            )
+            outward = bool(np.all(out.radius[:first] > r[:first]))
+            top = max(float(r[first]), float(out.radius[:first].max()) if first else float(r[first]))
+            return flip, outward, top
+        span *= SCAN_GROWTH
+        if span > MAX_SCAN_RADII * part.radius:
+            raise SolverError(
+                f"edge {edge} never flips for R up to {low + span / SCAN_GROWTH:.4g} m: no R_flip"
+            )
+
+
+def _grow_max(
+    part: ArmPart, params: ThrowParams, low: dict[int, float], top: dict[int, float], points: int
+) -> bool:
+    """Grow ``top`` (R_max per edge, in place) until f maps Z = U_i (i, [low_i, top_i]) into itself.
+
+    Returns whether Z is invariant on the sampled grid (Prop. IV.4, property 2): no image below its
+    edge's lowest R or on an unstable edge, and the growth ends within MAX_GROWTH_ROUNDS rounds.
+    """
+    invariant = True
+    for _ in range(MAX_GROWTH_ROUNDS):
+        grown = False
+        for i in part.stable_edges:
+            r = np.linspace(low[i], top[i], points)
+            out = throw_batch(part, np.full(points, i), r, params)
+            for e, r1 in zip(out.edge, out.radius, strict=True):
+                e = int(e)
+                if e not in low or not radius_in_domain(r1, low[e]):
+                    invariant = False
+                    continue
+                if r1 > top[e]:
+                    top[e], grown = float(r1), True
+        if not grown:
+            return invariant
+    return False
+
+
+def edge_bounds(part: ArmPart, params: ThrowParams, points: int = SCAN_POINTS) -> EdgeBounds:
+    """Return the edge bounds: R_flip^i and R_max^i of every stable edge (Prop. IV.4).
+
+    R_flip^i is the first flip on a grid of R from the lowest throwable R (``_scan_flip``); R_max^i is
+    grown until f(Z) lies in Z (``_grow_max``). Sampled on ``points`` radii per edge (resolution stated
+    by the grid); raises SolverError if some edge never flips within MAX_SCAN_RADII part radii.
     """
     grasp = grasp_radii(part, params.offset, params.mu)
     low = {i: lowest_radius(part, i, params) for i in part.stable_edges}
@@ -77,48 +161,15 @@ def edge_bounds(part: ArmPart, params: ThrowParams, points: int = SCAN_POINTS) -
     outward: dict[int, bool] = {}
     top: dict[int, float] = {}
     for i in part.stable_edges:
-        span = 10 * part.radius
-        while True:
-            r = np.linspace(low[i], low[i] + span, points)
-            out = throw_batch(part, np.full(points, i), r, params)
-            flips = np.flatnonzero(~out.is_jog(np.full(points, i)))
-            if flips.size:
-                first = int(flips[0])
-                flip[i] = (
-                    _refine_flip(part, params, i, float(r[first - 1]), float(r[first]))
-                    if first
-                    else float(r[0])
-                )
-                outward[i] = bool(np.all(out.radius[:first] > r[:first]))
-                top[i] = max(float(r[first]), float(out.radius[:first].max()) if first else float(r[first]))
-                break
-            span *= 4
-            if span > MAX_SCAN_RADII * part.radius:
-                raise SolverError(f"edge {i} never flips for R up to {low[i] + span / 4:.4g} m: no R_flip")
-    invariant = True
-    for _ in range(50):
-        grown = False
-        for i in part.stable_edges:
-            r = np.linspace(low[i], top[i], points)
-            out = throw_batch(part, np.full(points, i), r, params)
-            for e, r1 in zip(out.edge, out.radius):
-                e = int(e)
-                if e not in low or r1 < low[e] * (1 - GRASP_TOL):
-                    invariant = False
-                    continue
-                if r1 > top[e]:
-                    top[e], grown = float(r1), True
-        if not grown:
-            break
-    else:
-        invariant = False
+        flip[i], outward[i], top[i] = _scan_flip(part, params, i, low[i], points)
+    invariant = _grow_max(part, params, low, top, points)
     return EdgeBounds(grasp, low, flip, top, outward, invariant)
 
 
 def _refine_flip(part: ArmPart, params: ThrowParams, edge: int, jog_r: float, flip_r: float) -> float:
-    """Bisect between the last jog and the first flip of the scan grid (to 1e-12 of the radius)."""
+    """Bisect between the last jog and the first flip of the scan grid (to FLIP_REFINE of the radius)."""
     one = np.array([edge])
-    while flip_r - jog_r > 1e-12 * flip_r:
+    while flip_r - jog_r > FLIP_REFINE * flip_r:
         mid = 0.5 * (jog_r + flip_r)
         if throw_batch(part, one, np.array([mid]), params).is_jog(one)[0]:
             jog_r = mid
@@ -127,15 +178,25 @@ def _refine_flip(part: ArmPart, params: ThrowParams, edge: int, jog_r: float, fl
     return flip_r
 
 
-@dataclass
+@dataclass(frozen=True)
 class Cycle:
+    """A cycle of the limit set: the edges of one period, and the throws one period takes (mean, range)."""
+
     edges: list[int]
     throws_per_cycle: float
     throws_range: tuple[int, int]
 
+    def to_json(self) -> dict[str, Any]:
+        """Return the contract's `cycle` object."""
+        return {
+            "edges": self.edges,
+            "throws_per_cycle": self.throws_per_cycle,
+            "throws_range": list(self.throws_range),
+        }
 
-def find_cycle(edge_row: np.ndarray, jog_row: np.ndarray) -> Cycle | None:
-    """Shortest period of the sequence of visited edges (a visit starts at each flip), canonically rotated."""
+
+def _visits(edge_row: np.ndarray, jog_row: np.ndarray) -> tuple[list[int], list[int]]:
+    """Return the visited edges (a visit starts at each flip) and the throws of each visit."""
     visits: list[int] = []
     lengths: list[int] = []
     for n in range(len(edge_row)):
@@ -144,6 +205,12 @@ def find_cycle(edge_row: np.ndarray, jog_row: np.ndarray) -> Cycle | None:
             lengths.append(1)
         else:
             lengths[-1] += 1
+    return visits, lengths
+
+
+def find_cycle(edge_row: np.ndarray, jog_row: np.ndarray) -> Cycle | None:
+    """Return the shortest period of the visited edges (a visit starts at each flip), canonically rotated."""
+    visits, lengths = _visits(edge_row, jog_row)
     # Drop the first and last visits: the window cuts them.
     visits, lengths = visits[1:-1], lengths[1:-1]
     total = len(visits)
@@ -154,57 +221,125 @@ def find_cycle(edge_row: np.ndarray, jog_row: np.ndarray) -> Cycle | None:
         return None
     if total < 2 * p:
         return None
-    dwell = Counter()
-    for v, n in zip(visits, lengths):
+    dwell: Counter[int] = Counter()
+    for v, n in zip(visits, lengths, strict=True):
         dwell[v] += n
     period = visits[:p]
     # Start the cycle at the visit with the longest stay (ties: smallest edge), as the paper tells its cycles.
-    start = max(range(p), key=lambda j: (sum(n for v, n in zip(visits[j::p], lengths[j::p])), -period[j]))
+    start = max(
+        range(p), key=lambda j: (sum(n for _, n in zip(visits[j::p], lengths[j::p], strict=True)), -period[j])
+    )
     canonical = period[start:] + period[:start]
     per_cycle = [sum(lengths[c : c + p]) for c in range(0, total - p + 1, p)]
     return Cycle(canonical, float(np.mean(per_cycle)), (min(per_cycle), max(per_cycle)))
 
 
-@dataclass
+@dataclass(frozen=True)
 class LimitSet:
+    """A forward limit set from a grid of starts: the edge bounds, the common cycle and the trigger range.
+
+    ``to_json`` gives the `feeder limit-set --json` object (contract 3, SI units).
+    """
+
+    stable_edges: list[int]
     bounds: EdgeBounds
     cycle: Cycle | None
     unique: bool
     edge_radius_ranges: dict[int, tuple[float, float]]
     trigger: tuple[float, float] | None
     goal_edge: int | None
+    sensing_height: float
     starts: int
     throws: int
-    escaped: int
     cycles_by_start: list[list[int] | None] = field(default_factory=list)
     trajectories: Trajectories | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """Return the contract's limit-set object: bounds per edge, cycle, ranges, trigger, grid size."""
+        b = self.bounds
+        return {
+            "stable_edges": self.stable_edges,
+            "grasp_radius": _by_edge(b.grasp),
+            "flip_radius": _by_edge(b.flip),
+            "max_radius": _by_edge(b.max),
+            "invariant": b.invariant,
+            "cycle": None if self.cycle is None else self.cycle.to_json(),
+            "unique": self.unique,
+            "edge_radius_ranges": _by_edge({e: list(r) for e, r in self.edge_radius_ranges.items()}),
+            "trigger": None
+            if self.trigger is None
+            else {
+                "goal_edge": self.goal_edge,
+                "radius_range": list(self.trigger),
+                "sensing_height": self.sensing_height,
+            },
+            "starts": self.starts,
+            "throws": self.throws,
+        }
+
+
+def _grid_starts(part: ArmPart, bounds: EdgeBounds, starts_per_edge: int) -> tuple[list[int], list[float]]:
+    """Return the starts: ``starts_per_edge`` cell centres of [low_i, R_max_i] on each stable edge.
+
+    Cell centres, because the ends of the interval are degenerate (at low_i the left vertex barely lifts).
+    """
+    edges: list[int] = []
+    radii: list[float] = []
+    for i in part.stable_edges:
+        edges += [i] * starts_per_edge
+        step = (bounds.max[i] - bounds.low[i]) / starts_per_edge
+        radii += list(bounds.low[i] + step * (0.5 + np.arange(starts_per_edge)))
+    return edges, radii
+
+
+def _common_cycle(cycles: list[Cycle | None]) -> Cycle | None:
+    """Return the cycle every start reached, its throws averaged over the starts; None if they differ."""
+    names = [c.edges if c else None for c in cycles]
+    if not (all(n is not None for n in names) and all(n == names[0] for n in names)):
+        return None
+    found = [c for c in cycles if c]
+    lo = min(c.throws_range[0] for c in found)
+    hi = max(c.throws_range[1] for c in found)
+    return Cycle(found[0].edges, float(np.mean([c.throws_per_cycle for c in found])), (lo, hi))
+
+
+def _edge_ranges(tail_e: np.ndarray, tail_r: np.ndarray) -> dict[int, tuple[float, float]]:
+    """Return the (min, max) of R per edge over the limit set's states."""
+    ranges = {}
+    for e in sorted({int(v) for v in tail_e.ravel()}):
+        values = tail_r[tail_e == e]
+        ranges[e] = (float(values.min()), float(values.max()))
+    return ranges
+
+
+def default_burn_in(throws: int) -> int:
+    """Return the throws discarded as transient: a third of the run, at most BURN_IN_CAP."""
+    return min(BURN_IN_CAP, throws // BURN_IN_DIVISOR)
 
 
 def limit_set(
     part: ArmPart,
     params: ThrowParams,
     goal_edge: int | None = None,
-    starts_per_edge: int = 25,
-    throws: int = 300,
-    burn_in: int = 100,
+    starts_per_edge: int = DEFAULT_STARTS_PER_EDGE,
+    throws: int = DEFAULT_THROWS,
+    burn_in: int | None = None,
     sensing_height: float | None = None,
     keep_trajectories: bool = False,
 ) -> LimitSet:
-    """Forward limit set from a grid of starts over Z (as Figs. 7, 8), its cycle and the sensor trigger range.
+    """Return the forward limit set from a grid of starts over Z (Figs. 7, 8), its cycle and trigger range.
 
     Every start of the grid (``starts_per_edge`` radii in [low_i, R_max_i] on each stable edge) is thrown
-    ``throws`` times; states after ``burn_in`` throws are taken as the limit set. The cycle is unique when
-    every start's visit sequence has the same period.
+    ``throws`` times; states after ``burn_in`` throws (default: ``default_burn_in``) are taken as the limit
+    set. The cycle is unique when every start's visit sequence has the same period (Theorem IV.6).
+    ``sensing_height`` None means the default (``sensing_height_or_default``).
     """
     if goal_edge is not None and goal_edge not in part.stable_edges:
         raise InputError("goal_edge", f"edge {goal_edge} is not a stable edge (stable: {part.stable_edges})")
+    height = sensing_height_or_default(part, sensing_height)
+    skip = default_burn_in(throws) if burn_in is None else burn_in
     bounds = edge_bounds(part, params)
-    edges, radii = [], []
-    for i in part.stable_edges:
-        edges += [i] * starts_per_edge
-        # Cell centres: the ends of [low_i, R_max_i] are degenerate (at low_i the left vertex barely lifts).
-        step = (bounds.max[i] - bounds.low[i]) / starts_per_edge
-        radii += list(bounds.low[i] + step * (0.5 + np.arange(starts_per_edge)))
+    edges, radii = _grid_starts(part, bounds, starts_per_edge)
     traj = iterate(part, params, np.array(edges), np.array(radii), throws)
     if traj.escaped.any():
         bad = int(np.flatnonzero(traj.escaped)[0])
@@ -213,35 +348,27 @@ def limit_set(
             f"R_grasp or on no stable edge), e.g. from edge {edges[bad]} at R = {radii[bad]:.4g} m: "
             "this design has no invariant set (Prop. IV.4)"
         )
-    tail_e, tail_r, tail_j = traj.edge[:, burn_in:], traj.radius[:, burn_in:], traj.jog[:, burn_in:]
-    cycles = [find_cycle(e, j) for e, j in zip(tail_e, tail_j)]
-    names = [c.edges if c else None for c in cycles]
-    unique = all(n is not None for n in names) and all(n == names[0] for n in names)
-    ranges = {}
-    for e in sorted(set(int(v) for v in tail_e.ravel())):
-        values = tail_r[tail_e == e]
-        ranges[e] = (float(values.min()), float(values.max()))
-    cycle = None
-    if unique:
-        counts = [c.throws_per_cycle for c in cycles if c]
-        lo = min(c.throws_range[0] for c in cycles if c)
-        hi = max(c.throws_range[1] for c in cycles if c)
-        cycle = Cycle(names[0], float(np.mean(counts)), (lo, hi))
+    tail_e, tail_r, tail_j = traj.edge[:, skip:], traj.radius[:, skip:], traj.jog[:, skip:]
+    cycles = [find_cycle(e, j) for e, j in zip(tail_e, tail_j, strict=True)]
     trigger = None
     if goal_edge is not None:
-        height = 0.01 * part.radius if sensing_height is None else sensing_height
-        runs = [list(zip((int(v) for v in e), (float(r) for r in rr))) for e, rr in zip(tail_e, tail_r)]
+        runs = [
+            list(zip((int(v) for v in e), (float(r) for r in rr), strict=True))
+            for e, rr in zip(tail_e, tail_r, strict=True)
+        ]
         trigger = trigger_range(part, goal_edge, height, runs)
+    cycle = _common_cycle(cycles)
     return LimitSet(
-        bounds,
-        cycle,
-        unique,
-        ranges,
-        trigger,
-        goal_edge,
-        len(edges),
-        throws,
-        0,
-        names,
-        traj if keep_trajectories else None,
+        stable_edges=part.stable_edges,
+        bounds=bounds,
+        cycle=cycle,
+        unique=cycle is not None,
+        edge_radius_ranges=_edge_ranges(tail_e, tail_r),
+        trigger=trigger,
+        goal_edge=goal_edge,
+        sensing_height=height,
+        starts=len(edges),
+        throws=throws,
+        cycles_by_start=[c.edges if c else None for c in cycles],
+        trajectories=traj if keep_trajectories else None,
     )

@@ -10,12 +10,14 @@ import numpy as np
 from feeder_planner.errors import SolverError
 from feeder_planner.throwing.geometry import ArmPart
 from feeder_planner.throwing.impact import sticking_impact
+from feeder_planner.throwing.tolerances import FLAT_ANGLE, MAX_IMPACTS
+
+__all__ = ["Settled", "settle"]
 
 TWO_PI = 2 * math.pi
-MAX_IMPACTS = 20000  # sticking impacts shed a fixed fraction of energy each, so settling takes far fewer
 
 
-@dataclass
+@dataclass(frozen=True)
 class Settled:
     """Where each part of a batch came to rest: edge, centre-of-mass x, absolute angle, impacts taken."""
 
@@ -67,17 +69,128 @@ def _path_peak(geo: _Geometry, k: np.ndarray, start: np.ndarray, end: np.ndarray
     return np.where(top, np.sqrt(geo.s2[k]), peak)
 
 
+def _interval(geo: _Geometry, k: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return (offset, lo, hi): theta's offset in pivot k's angular interval and the interval's ends."""
+    off = _offset(geo, k, theta)
+    lo = theta - off
+    return off, lo, lo + geo.ext[k]
+
+
+def _pivot(
+    geo: _Geometry, k: np.ndarray, theta: np.ndarray, omega: np.ndarray, pivot_x: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return (pivot vertex, its x, direction of rotation +-1) for the next swing.
+
+    The direction is the motion's, or from rest that of the gravity torque g c_x / I. A part at rest
+    on a flat edge that would rotate into the arm pivots about the edge's other vertex instead.
+    """
+    off, _, _ = _interval(geo, k, theta)
+    ext = geo.ext[k]
+    cx = _cm_dx(geo, k, theta)
+    direction = np.where(omega != 0, np.sign(omega), np.where(cx > 0, -1.0, 1.0))
+    at_lo, at_hi = off <= FLAT_ANGLE, off >= ext - FLAT_ANGLE
+    swap_up = (omega == 0) & at_lo & (direction < 0)
+    swap_down = (omega == 0) & at_hi & (direction > 0)
+    if swap_up.any() or swap_down.any():
+        cm_x = pivot_x + cx
+        k = np.where(swap_up, (k + 1) % geo.n, np.where(swap_down, (k - 1) % geo.n, k))
+        pivot_x = np.where(swap_up | swap_down, cm_x - _cm_dx(geo, k, theta), pivot_x)
+    return k, pivot_x, direction
+
+
+def _swing(
+    geo: _Geometry,
+    g: float,
+    k: np.ndarray,
+    theta: np.ndarray,
+    omega: np.ndarray,
+    direction: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Return (direction, end angle, c_y there, omega there) of the rotation about pivot k.
+
+    Energy E = I_k omega^2 / 2 - g c_y is conserved: the part reaches the interval's end in its direction
+    if E clears the highest potential on the way (or the way is downhill), else it swings back to the
+    other end.
+    """
+    inertia = geo.inertia[k]
+    kinetic = 0.5 * inertia * omega * omega
+    h0 = _height(geo, k, theta)
+    target = np.where(direction > 0, hi, lo)
+    peak = _path_peak(geo, k, theta, target)
+    h_target = _height(geo, k, target)
+    downhill = (peak <= h0) & (h_target <= h0)
+    reach = downhill | (kinetic > -g * (peak - h0))
+    direction = np.where(reach, direction, -direction)
+    target = np.where(reach, target, np.where(direction > 0, hi, lo))
+    h_target = _height(geo, k, target)
+    speed2 = np.maximum(2.0 * (kinetic + g * (h_target - h0)) / inertia, 0.0)
+    return direction, target, h_target, direction * np.sqrt(speed2)
+
+
+def _strike(
+    geo: _Geometry,
+    k: np.ndarray,
+    direction: np.ndarray,
+    target: np.ndarray,
+    h_target: np.ndarray,
+    omega: np.ndarray,
+    pivot_x: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Return (struck vertex j, flat edge e, centre of mass x, omega after, j's x) at the end of a swing.
+
+    The neighbouring vertex j strikes the arm with edge e now flat: a sticking impact, eqs. (7)-(9).
+    If j's velocity after it would push the other vertex of e into the arm, both stick (omega = 0).
+    """
+    j = np.where(direction > 0, (k - 1) % geo.n, (k + 1) % geo.n)
+    e = np.where(direction > 0, (k - 1) % geo.n, k)
+    c, s = np.cos(target), np.sin(target)
+    cx_t = -(c * geo.qx[k] - s * geo.qy[k])
+    cm_x = pivot_x + cx_t
+    vx, vy = -omega * h_target, omega * cx_t
+    rx = c * geo.qx[j] - s * geo.qy[j]
+    ry = s * geo.qx[j] + c * geo.qy[j]
+    _, _, om_new = sticking_impact(rx, ry, vx, vy, omega, geo.rho)
+    into_arm = np.where(direction > 0, om_new < 0, om_new > 0)
+    return j, e, cm_x, np.where(into_arm, 0.0, om_new), cm_x + rx
+
+
+def _settled(
+    geo: _Geometry,
+    g: float,
+    k: np.ndarray,
+    j: np.ndarray,
+    e: np.ndarray,
+    direction: np.ndarray,
+    target: np.ndarray,
+    h_target: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    omega: np.ndarray,
+) -> np.ndarray:
+    """Return whether the part has settled on edge e: stable, and too little energy to tip over either vertex.
+
+    Every later impact only removes energy, so a part below both barriers (about j onward, about k back)
+    stays on e.
+    """
+    kinetic = 0.5 * geo.inertia[j] * omega * omega
+    off_j = _offset(geo, j, target)
+    far_j = np.where(direction > 0, target - off_j + geo.ext[j], target - off_j)
+    barrier_j = -g * (_path_peak(geo, j, target, far_j) - _height(geo, j, target))
+    far_k = np.where(direction > 0, lo, hi)
+    barrier_k = -g * (_path_peak(geo, k, target, far_k) - h_target)
+    return geo.stable[e] & (kinetic < np.minimum(barrier_j, barrier_k))
+
+
 def settle(
     part: ArmPart, gravity: float, k: np.ndarray, theta: np.ndarray, omega: np.ndarray, pivot_x: np.ndarray
 ) -> Settled:
-    """Roll each part about its pivot vertex until it settles on an edge it can no longer escape.
+    """Roll each part about its pivot vertex until it settles on an edge it can no longer escape (III-B).
 
-    Rolling about vertex k conserves energy E = I_k omega^2 / 2 - g c_y (per unit mass, I_k = rho^2 + |q_k|^2).
-    The part reaches the end of k's angular interval in its direction of motion if E exceeds the highest
-    potential on the way, else it swings back to the other end. At an end the next vertex strikes: a sticking
-    impact, eqs. (7)-(9). If the struck vertex's velocity would push the other vertex of the now flat edge into
-    the arm, both vertices stick (omega = 0). A part on a flat stable edge whose kinetic energy is below the
-    barriers over both its vertices has settled (every later impact only removes energy).
+    Rolling about vertex k conserves E = I_k omega^2 / 2 - g c_y (per unit mass, I_k = rho^2 + |q_k|^2).
+    Each round is one swing (``_pivot``, ``_swing``) ended by the strike of the next vertex (``_strike``,
+    a sticking impact, eqs. 7-9), after which the part may have settled (``_settled``).
     """
     geo = _Geometry(part)
     g = float(gravity)
@@ -95,61 +208,12 @@ def settle(
     for _ in range(MAX_IMPACTS):
         if active.size == 0:
             return out
-        kk, th, om, pp = k[active], theta[active], omega[active], px[active]
-        off = _offset(geo, kk, th)
-        ext = geo.ext[kk]
-        lo = th - off
-        hi = lo + ext
-        # Direction: of the motion, or of the gravity torque g c_x / I from rest.
-        cx = _cm_dx(geo, kk, th)
-        direction = np.where(om != 0, np.sign(om), np.where(cx > 0, -1.0, 1.0))
-        # From rest on a flat edge, rotating into the arm means the other vertex is the pivot.
-        at_lo, at_hi = off <= 1e-12, off >= ext - 1e-12
-        swap_up = (om == 0) & at_lo & (direction < 0)
-        swap_down = (om == 0) & at_hi & (direction > 0)
-        if swap_up.any() or swap_down.any():
-            cm_x = pp + cx
-            kk = np.where(swap_up, (kk + 1) % geo.n, np.where(swap_down, (kk - 1) % geo.n, kk))
-            pp = np.where(swap_up | swap_down, cm_x - _cm_dx(geo, kk, th), pp)
-            off = _offset(geo, kk, th)
-            ext = geo.ext[kk]
-            lo = th - off
-            hi = lo + ext
-        inertia = geo.inertia[kk]
-        kinetic = 0.5 * inertia * om * om
-        h0 = _height(geo, kk, th)
-        target = np.where(direction > 0, hi, lo)
-        peak = _path_peak(geo, kk, th, target)
-        h_target = _height(geo, kk, target)
-        downhill = (peak <= h0) & (h_target <= h0)
-        reach = downhill | (kinetic > -g * (peak - h0))
-        direction = np.where(reach, direction, -direction)
-        target = np.where(reach, target, np.where(direction > 0, hi, lo))
-        h_target = _height(geo, kk, target)
-        speed2 = np.maximum(2.0 * (kinetic + g * (h_target - h0)) / inertia, 0.0)
-        om_end = direction * np.sqrt(speed2)
-        # Strike of the neighbouring vertex j on edge e, now flat.
-        j = np.where(direction > 0, (kk - 1) % geo.n, (kk + 1) % geo.n)
-        e = np.where(direction > 0, (kk - 1) % geo.n, kk)
-        c, s = np.cos(target), np.sin(target)
-        cx_t = -(c * geo.qx[kk] - s * geo.qy[kk])
-        cy_t = h_target
-        cm_x = pp + cx_t
-        vx, vy = -om_end * cy_t, om_end * cx_t
-        rx = c * geo.qx[j] - s * geo.qy[j]
-        ry = s * geo.qx[j] + c * geo.qy[j]
-        _, _, om_new = sticking_impact(rx, ry, vx, vy, om_end, geo.rho)
-        into_arm = np.where(direction > 0, om_new < 0, om_new > 0)
-        om_new = np.where(into_arm, 0.0, om_new)
-        p_new = cm_x + rx
-        # Settling: a flat stable edge with too little energy to tip over either of its vertices.
-        kin_new = 0.5 * geo.inertia[j] * om_new * om_new
-        off_j = _offset(geo, j, target)
-        far_j = np.where(direction > 0, target - off_j + geo.ext[j], target - off_j)
-        barrier_j = -g * (_path_peak(geo, j, target, far_j) - _height(geo, j, target))
-        far_k = np.where(direction > 0, lo, hi)
-        barrier_k = -g * (_path_peak(geo, kk, target, far_k) - h_target)
-        done = geo.stable[e] & (kin_new < np.minimum(barrier_j, barrier_k))
+        th, om = theta[active], omega[active]
+        kk, pp, direction = _pivot(geo, k[active], th, om, px[active])
+        _, lo, hi = _interval(geo, kk, th)
+        direction, target, h_target, om_end = _swing(geo, g, kk, th, om, direction, lo, hi)
+        j, e, cm_x, om_new, p_new = _strike(geo, kk, direction, target, h_target, om_end, pp)
+        done = _settled(geo, g, kk, j, e, direction, target, h_target, lo, hi, om_new)
         idx = active[done]
         out.edge[idx], out.x[idx], out.theta[idx] = e[done], cm_x[done], target[done]
         out.impacts[active] += 1

@@ -1,16 +1,48 @@
-"""The one-bit proximity sensor: which arm positions a part covers, and the trigger radius range (contract 3)."""
+"""The one-bit proximity sensor: the arm positions a part covers and the trigger radius range (contract 3)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from feeder_planner.errors import InputError
 from feeder_planner.throwing.geometry import ArmPart, rotate
+from feeder_planner.throwing.tolerances import HORIZONTAL_EDGE, SENSING_HEIGHT_FRACTION, SLAB_SLACK
+
+__all__ = [
+    "Intervals",
+    "check_sensing_height",
+    "sensing_height_or_default",
+    "merge",
+    "intersect",
+    "subtract",
+    "covered",
+    "resting_cover",
+    "reads",
+    "reads_pose",
+    "trigger_range",
+]
 
 Intervals = list[tuple[float, float]]
 
 
+def check_sensing_height(value: float, field: str = "sensing_height") -> float:
+    """Return ``value`` if it is a finite sensing height >= 0, else raise InputError naming ``field``."""
+    if not math.isfinite(value):
+        raise InputError(field, f"must be finite, got {value!r}")
+    if value < 0:
+        raise InputError(field, f"must be >= 0, got {value}")
+    return value
+
+
+def sensing_height_or_default(part: ArmPart, height: float | None) -> float:
+    """Return ``height`` checked, or when None the default: SENSING_HEIGHT_FRACTION of the part radius."""
+    return SENSING_HEIGHT_FRACTION * part.radius if height is None else check_sensing_height(height)
+
+
 def merge(intervals: Intervals) -> Intervals:
-    """Union of closed intervals, sorted and disjoint."""
+    """Return the union of closed intervals, sorted and disjoint."""
     out: Intervals = []
     for lo, hi in sorted(intervals):
         if out and lo <= out[-1][1]:
@@ -21,6 +53,7 @@ def merge(intervals: Intervals) -> Intervals:
 
 
 def intersect(a: Intervals, b: Intervals) -> Intervals:
+    """Return the intersection of two sorted, disjoint unions of closed intervals."""
     out: Intervals = []
     i = j = 0
     while i < len(a) and j < len(b):
@@ -35,7 +68,7 @@ def intersect(a: Intervals, b: Intervals) -> Intervals:
 
 
 def subtract(a: Intervals, b: Intervals) -> Intervals:
-    """A minus the open interiors of b (a sensor exactly on a forbidden state's border is refused too)."""
+    """Return a minus the open interiors of b (a sensor exactly on a forbidden border is refused too)."""
     out: Intervals = []
     for lo, hi in a:
         pieces = [(lo, hi)]
@@ -55,18 +88,18 @@ def subtract(a: Intervals, b: Intervals) -> Intervals:
 
 
 def covered(loops: tuple[np.ndarray, ...], base: float, height: float) -> Intervals:
-    """The x positions where the vertical segment {x} x [base, base + height] meets the polygon with these loops."""
+    """Return the x where the vertical segment {x} x [base, base + height] meets the polygon of ``loops``."""
     top = base + height
     scale = max(float(np.abs(loop).max()) for loop in loops)
-    eps = 1e-12 * scale
+    eps = SLAB_SLACK * scale
     pieces: Intervals = []
     for loop in loops:
         p, q = loop, np.roll(loop, -1, axis=0)
-        for (x0, y0), (x1, y1) in zip(p, q):
+        for (x0, y0), (x1, y1) in zip(p, q, strict=True):
             # Clip the boundary segment to the slab.
             t0, t1 = 0.0, 1.0
             dy = y1 - y0
-            if abs(dy) < 1e-300:
+            if abs(dy) < HORIZONTAL_EDGE:
                 if not (base - eps <= y0 <= top + eps):
                     continue
             else:
@@ -76,12 +109,12 @@ def covered(loops: tuple[np.ndarray, ...], base: float, height: float) -> Interv
                     continue
             xa, xb = x0 + t0 * (x1 - x0), x0 + t1 * (x1 - x0)
             pieces.append((min(xa, xb), max(xa, xb)))
-    # Chords of the part along the slab's top line (where the part spans the slab wider than its boundary shows).
+    # Chords along the slab's top and bottom lines: where the part spans the slab wider than its boundary.
     for level in (top, base):
         xs = []
         for loop in loops:
             p, q = loop, np.roll(loop, -1, axis=0)
-            for (x0, y0), (x1, y1) in zip(p, q):
+            for (x0, y0), (x1, y1) in zip(p, q, strict=True):
                 if (y0 > level) != (y1 > level):
                     xs.append(x0 + (level - y0) * (x1 - x0) / (y1 - y0))
         xs.sort()
@@ -90,21 +123,24 @@ def covered(loops: tuple[np.ndarray, ...], base: float, height: float) -> Interv
 
 
 def resting_cover(part: ArmPart, edge: int, height: float) -> Intervals:
-    """Covered x positions, relative to the centre of mass, of the part resting on ``edge`` (its loops, not its hull)."""
+    """Return the covered x, relative to the centre of mass, of the part resting on ``edge``.
+
+    The part's own loops count, not its hull (contract 3).
+    """
     angle = -float(part.edge_angle[edge])
     loops = tuple(rotate(loop, angle) for loop in part.part.loops())
     return covered(loops, -float(part.d[edge]), height)
 
 
 def reads(part: ArmPart, edge: int, radius: float, sensor_radius: float, height: float) -> bool:
-    """Sensor value with the part at rest on ``edge`` at R = ``radius``."""
+    """Return the sensor value with the part at rest on ``edge`` at R = ``radius``."""
     return any(lo <= sensor_radius - radius <= hi for lo, hi in resting_cover(part, edge, height))
 
 
 def reads_pose(
     part: ArmPart, x: float, y: float, theta: float, arm_y: float, sensor_radius: float, height: float
 ) -> bool:
-    """Sensor value for a part at any pose (x, y, theta) in the arm frame, arm surface at y = arm_y."""
+    """Return the sensor value for a part at a pose (x, y, theta) in the arm frame, arm surface y = arm_y."""
     loops = part.part.placed(x, y, theta)
     return any(lo <= sensor_radius <= hi for lo, hi in covered(loops, arm_y, height))
 
@@ -112,7 +148,7 @@ def reads_pose(
 def trigger_range(
     part: ArmPart, goal: int, height: float, states: list[list[tuple[int, float]]]
 ) -> tuple[float, float] | None:
-    """Widest sensor radius interval that reads true at rest in every visit to ``goal`` and never elsewhere.
+    """Return the widest sensor radius range reading true at rest in every visit to ``goal``, never elsewhere.
 
     ``states`` holds, per start, the resting states (edge, R) of its trajectory inside the limit set.
     """
@@ -143,7 +179,7 @@ def trigger_range(
 
 
 def _starts_inside(run: list[tuple[int, float]], end: int, goal: int) -> bool:
-    """Whether the goal visit ending at ``end`` began after the window's first state."""
+    """Return whether the goal visit ending at ``end`` began after the window's first state."""
     start = end
     while start > 0 and run[start - 1][0] == goal:
         start -= 1

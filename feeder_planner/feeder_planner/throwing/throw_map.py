@@ -1,20 +1,60 @@
-"""The throw map f: (i0, R0) -> (i1, R1) of section III-C (impulsive throw, flight, sticking catch, settling)."""
+"""The throw map f: (i0, R0) -> (i1, R1) of section III-C (impulsive throw, flight, sticking catch, rest)."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any, Literal, get_args
 
 import numpy as np
 
 from feeder_planner.errors import InputError
-from feeder_planner.throwing.flight import earliest_impact
+from feeder_planner.throwing.flight import earliest_impact, flight_state, rest_pose
 from feeder_planner.throwing.geometry import ArmPart
 from feeder_planner.throwing.grasp import grasp_radius
 from feeder_planner.throwing.impact import sticking_impact
-from feeder_planner.throwing.rolling import TWO_PI, settle
+from feeder_planner.throwing.rolling import settle
+from feeder_planner.throwing.tolerances import GRASP_SLACK, TURN_NUDGE
 
-GRASP_TOL = 1e-12  # relative slack on R >= R_grasp, so that R exactly at R_grasp is accepted
+__all__ = [
+    "ThrowKind",
+    "THROW_KINDS",
+    "ThrowParams",
+    "check_grasp_parameters",
+    "radius_in_domain",
+    "BelowGraspError",
+    "whole_turns",
+    "is_jog",
+    "throw_kind",
+    "ThrowBatch",
+    "lowest_radius",
+    "check_start",
+    "throw_batch",
+    "ThrowResult",
+    "throw",
+]
+
+ThrowKind = Literal["jog", "flip"]
+THROW_KINDS: tuple[ThrowKind, ...] = get_args(ThrowKind)
+
+
+def _require_finite(name: str, value: Any) -> None:
+    """Refuse a value that is not a finite number, naming the field."""
+    if not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(name, f"must be a finite number, got {value!r}")
+
+
+def _require_friction(mu: float) -> None:
+    """Refuse mu <= 0: eqs. (2), (4) divide by mu, and Prop. III.3 needs mu > 0."""
+    if mu <= 0:
+        raise InputError("mu", f"must be > 0, got {mu!r}")
+
+
+def check_grasp_parameters(offset: float, mu: float) -> None:
+    """Refuse the inputs of the grasp radii, eqs. (1)-(4): a non-finite offset h, or mu not finite and > 0."""
+    _require_finite("offset", offset)
+    _require_finite("mu", mu)
+    _require_friction(mu)
 
 
 @dataclass(frozen=True)
@@ -33,17 +73,66 @@ class ThrowParams:
             ("gravity", self.gravity),
             ("mu", self.mu),
         ):
-            if not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise InputError(name, f"must be a finite number, got {value!r}")
+            _require_finite(name, value)
         if self.gravity >= 0:
             raise InputError("gravity", f"must be < 0 (gravity pulls along -y), got {self.gravity!r}")
         if self.speed <= 0:
             raise InputError("release_speed", f"must be > 0 (counter-clockwise throw), got {self.speed!r}")
-        if self.mu <= 0:
-            raise InputError("mu", f"must be > 0, got {self.mu!r}")
+        _require_friction(self.mu)
 
 
-@dataclass
+def radius_in_domain(radius: Any, bound: Any) -> Any:
+    """Return whether R >= ``bound``, up to the relative GRASP_SLACK.
+
+    ``bound`` is R_grasp or the lowest throwable R.
+
+    The one definition of "at or above the bound" for the throw map's domain: R exactly at R_grasp is
+    accepted (Prop. III.3 includes it). Works on floats and on arrays (elementwise).
+    """
+    return radius >= bound - GRASP_SLACK * np.abs(bound)
+
+
+class BelowGraspError(InputError):
+    """A start below R_grasp: the impulsive throw is not in a dynamic grasp (eqs. 1-4).
+
+    Carries the values in metres so that a caller can restate them in its own length unit.
+    """
+
+    def __init__(self, edge: int, radius: float, r_grasp: float, scale: float = 1.0, unit: str = "m") -> None:
+        self.edge, self.radius, self.r_grasp = edge, radius, r_grasp
+        super().__init__(
+            "radius",
+            f"R = {radius / scale:.6g} {unit} is below R_grasp = {r_grasp / scale:.6g} {unit} "
+            f"of edge {edge}: "
+            "the impulsive throw is not in a dynamic grasp (eqs. 1-4)",
+        )
+
+    def in_unit(self, scale: float, unit: str) -> BelowGraspError:
+        """Return the same error with R and R_grasp stated in ``unit`` (``scale`` metres per unit)."""
+        return BelowGraspError(self.edge, self.radius, self.r_grasp, scale, unit)
+
+
+def whole_turns(rotation: Any) -> np.ndarray:
+    """Return the whole turns in a net rotation (toward zero), nudged TURN_NUDGE of a turn outward.
+
+    The one turn count of both fidelities: a rotation meant to be exactly k turns that rounding left a
+    hair short still counts k.
+    """
+    rotation = np.asarray(rotation, dtype=float)
+    return np.trunc(rotation / (2 * math.pi) + np.sign(rotation) * TURN_NUDGE).astype(int)
+
+
+def is_jog(start_edge: Any, end_edge: Any, rotation: Any) -> Any:
+    """Return whether a throw is a jog: same edge, net rotation under pi; anything else is a flip (III-C)."""
+    return (end_edge == start_edge) & (np.abs(rotation) < math.pi)
+
+
+def throw_kind(start_edge: int, end_edge: int, rotation: float) -> ThrowKind:
+    """Return "jog" or "flip" for one throw (section III-C)."""
+    return "jog" if bool(is_jog(start_edge, end_edge, rotation)) else "flip"
+
+
+@dataclass(frozen=True)
 class ThrowBatch:
     """Results of a batch of throws."""
 
@@ -56,15 +145,18 @@ class ThrowBatch:
     @property
     def turns(self) -> np.ndarray:
         """Whole turns contained in the net rotation (toward zero)."""
-        return np.trunc(self.rotation / TWO_PI + np.sign(self.rotation) * 1e-9).astype(int)
+        return whole_turns(self.rotation)
 
     def is_jog(self, start_edge: np.ndarray) -> np.ndarray:
-        """Jog: same edge and zero net rotation; anything else is a flip (section III-C)."""
-        return (self.edge == start_edge) & (np.abs(self.rotation) < math.pi)
+        """Return per throw whether it was a jog from ``start_edge``; anything else is a flip (III-C)."""
+        return np.asarray(is_jog(start_edge, self.edge, self.rotation))
 
 
 def lowest_radius(part: ArmPart, edge: int, params: ThrowParams) -> float:
-    """Smallest throwable R: R_grasp, and the left contact vertex right of the pivot (no stubbed toe)."""
+    """Return the smallest throwable R: R_grasp, and the left contact vertex right of the pivot.
+
+    The second bound is the paper's assumption that the part lies right of the pivot (no stubbed toe).
+    """
     return max(grasp_radius(part, edge, params.offset, params.mu), -float(part.u_left[edge]))
 
 
@@ -75,12 +167,8 @@ def check_start(part: ArmPart, edge: int, radius: float, params: ThrowParams) ->
     if not math.isfinite(radius):
         raise InputError("radius", f"must be finite, got {radius!r}")
     r_grasp = grasp_radius(part, edge, params.offset, params.mu)  # raises for an unstable edge
-    if radius < r_grasp - GRASP_TOL * max(1.0, abs(r_grasp)):
-        raise InputError(
-            "radius",
-            f"R = {radius:.6g} m is below R_grasp = {r_grasp:.6g} m of edge {edge}: "
-            "the impulsive throw is not in a dynamic grasp (eqs. 1-4)",
-        )
+    if not radius_in_domain(radius, r_grasp):
+        raise BelowGraspError(edge, radius, r_grasp)
     if radius + float(part.u_left[edge]) <= 0:
         raise InputError(
             "radius",
@@ -90,25 +178,25 @@ def check_start(part: ArmPart, edge: int, radius: float, params: ThrowParams) ->
 
 
 def throw_batch(part: ArmPart, edge: np.ndarray, radius: np.ndarray, params: ThrowParams) -> ThrowBatch:
-    """Apply f to every (edge[b], radius[b]) at once (callers have checked the domain)."""
+    """Apply f to every (edge[b], radius[b]) at once (callers have checked the domain).
+
+    Flight to the earliest impact (eqs. 5, 6), the sticking impact of the striking vertex (eqs. 7-9),
+    then rolling to rest (section III-B).
+    """
     edge = np.asarray(edge, dtype=int)
     radius = np.asarray(radius, dtype=float)
     w, g, h = params.speed, params.gravity, params.offset
     t, k = earliest_impact(part, edge, radius, h, w, g)
     if (k < 0).any():
-        raise RuntimeError(
-            "flight ended without an impact: the flight bound is wrong"
-        )  # cannot happen: CM at arm level
-    a = h + part.d[edge]
-    theta0 = -part.edge_angle[edge]
-    theta = theta0 + w * t
-    x = radius - a * w * t
-    xdot, ydot = -a * w, radius * w + g * t
+        # Cannot happen: by the end of the searched flight the centre of mass is back at arm level.
+        raise RuntimeError("flight ended without an impact: the flight bound is wrong")
+    x, _, theta, xdot, ydot, phidot = np.moveaxis(flight_state(part, edge, radius, h, w, g, t), -1, 0)
     c, s = np.cos(theta), np.sin(theta)
     rx = c * part.hull[k, 0] - s * part.hull[k, 1]
     ry = s * part.hull[k, 0] + c * part.hull[k, 1]
-    _, _, omega = sticking_impact(rx, ry, xdot, ydot, np.full_like(t, w), part.rho)
+    _, _, omega = sticking_impact(rx, ry, xdot, ydot, phidot, part.rho)
     rest = settle(part, g, k, theta, omega, x + rx)
+    theta0 = rest_pose(part, edge, radius, h)[2]
     return ThrowBatch(
         edge=rest.edge, radius=rest.x, rotation=rest.theta - theta0, flight_time=t, impacts=rest.impacts + 1
     )
@@ -116,26 +204,45 @@ def throw_batch(part: ArmPart, edge: np.ndarray, radius: np.ndarray, params: Thr
 
 @dataclass(frozen=True)
 class ThrowResult:
+    """One application of the throw map from (start_edge, start_radius); SI units."""
+
     edge: int
     radius: float
-    kind: str
+    kind: ThrowKind
     rotation: float
     turns: int
     flight_time: float
     impacts: int
+    start_edge: int
+    start_radius: float
+
+    def to_json(self) -> dict[str, Any]:
+        """Return the `feeder throw --json` object (contract 3)."""
+        return {
+            "edge": self.edge,
+            "radius": self.radius,
+            "kind": self.kind,
+            "start_edge": self.start_edge,
+            "start_radius": self.start_radius,
+            "rotation": self.rotation,
+            "turns": self.turns,
+            "flight_time": self.flight_time,
+            "impacts": self.impacts,
+        }
 
 
 def throw(part: ArmPart, edge: int, radius: float, params: ThrowParams) -> ThrowResult:
-    """One application of the throw map, with the domain checked (errors name the field)."""
+    """Apply the throw map once, with the domain checked (errors name the field)."""
     check_start(part, edge, radius, params)
     out = throw_batch(part, np.array([edge]), np.array([radius]), params)
-    kind = "jog" if bool(out.is_jog(np.array([edge]))[0]) else "flip"
     return ThrowResult(
         edge=int(out.edge[0]),
         radius=float(out.radius[0]),
-        kind=kind,
+        kind=throw_kind(edge, int(out.edge[0]), float(out.rotation[0])),
         rotation=float(out.rotation[0]),
         turns=int(out.turns[0]),
         flight_time=float(out.flight_time[0]),
         impacts=int(out.impacts[0]),
+        start_edge=edge,
+        start_radius=radius,
     )

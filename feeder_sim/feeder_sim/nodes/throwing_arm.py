@@ -1,13 +1,14 @@
-"""ROS 2 node: the simulated throwing arm with a one-bit proximity sensor (thin adapter around feeder_sim.throwing)."""
+"""ROS 2 node: the simulated throwing arm with a one-bit proximity sensor (adapts feeder_sim.throwing)."""
 
 from __future__ import annotations
 
 import math
-from typing import Any
 
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool
 
@@ -32,9 +33,19 @@ from feeder_planner.node_kit import (
     yaw_quaternion,
 )
 from feeder_planner.parts import load_part
-from feeder_planner.throwing.geometry import arm_part
-from feeder_planner.throwing.throw_map import ThrowParams, lowest_radius
-from feeder_sim.throwing.arm import FIDELITIES, ThrowingArm
+from feeder_planner.throwing import ThrowParams, arm_part, lowest_radius
+from feeder_sim.throwing import DEFAULT_STEP, FIDELITIES, ThrowingArm, ThrowOutcome, parse_command
+
+__all__ = ["PARAMETERS", "ThrowingArmNode", "main"]
+
+# A start-up R of 0 means this multiple of the edge's lowest throwable R: clear of the domain's edge,
+# where the left contact vertex barely lifts.
+DEFAULT_RADIUS_FACTOR = 1.5
+# Display of a throw within its motion window: the flight path fills the first FLIGHT_SHOWN of the window
+# (the part then rests), and the joint shows the release speed during the first RELEASE_SHOWN.
+FLIGHT_SHOWN = 0.8
+RELEASE_SHOWN = 0.05
+Pose = tuple[float, float, float]
 
 PARAMETERS = (
     ParameterSpec(
@@ -58,7 +69,7 @@ PARAMETERS = (
         "analytic (the paper's model) or dynamic (pymunk, restitution and friction)",
         one_of(FIDELITIES),
     ),
-    ParameterSpec("dynamic_step", 1e-4, "pymunk step (s) of the dynamic fidelity", positive),
+    ParameterSpec("dynamic_step", DEFAULT_STEP, "pymunk step (s) of the dynamic fidelity", positive),
     ParameterSpec("period", 0.5, "time between throws (s, wall clock)", positive),
     ParameterSpec(
         "motion_fraction",
@@ -87,7 +98,7 @@ PARAMETERS = (
     ParameterSpec(
         "initial_radius",
         0.0,
-        "R at start (m); 0: 1.5 x the lowest throwable radius of the edge",
+        f"R at start (m); 0: {DEFAULT_RADIUS_FACTOR:g} x the lowest throwable radius of the edge",
         non_negative,
     ),
     ParameterSpec(
@@ -114,7 +125,7 @@ class ThrowingArmNode(Node):
             raise InputError(
                 "parameter initial_edge", f"must be a stable edge {self.part.stable_edges}, got {edge}"
             )
-        radius = p["initial_radius"] or 1.5 * lowest_radius(self.part, edge, params)
+        radius = p["initial_radius"] or DEFAULT_RADIUS_FACTOR * lowest_radius(self.part, edge, params)
         try:
             self.arm = ThrowingArm(
                 self.part, params, edge, radius, p["fidelity"], p["arm_length"], p["dynamic_step"]
@@ -130,11 +141,12 @@ class ThrowingArmNode(Node):
         self.create_service(ArmCommand, "/throwing_arm/command", service_guard(self)(self._command))
         self.create_service(ArmPlacePart, "/throwing_arm/place_part", service_guard(self)(self._place))
         self.running, self.pending, self.count = p["autostart"], 0, 0
-        self.motion: Any = None  # (start time, outcome) while a throw is shown
+        self.motion: tuple[float, ThrowOutcome] | None = None  # (start time, outcome) while a throw is shown
         self.last_throw = -math.inf
         self.create_timer(1.0 / p["sensor_rate"], self._tick)
 
-    def _on_parameters(self, changes: list[Any]) -> SetParametersResult:
+    def _on_parameters(self, changes: list[Parameter]) -> SetParametersResult:
+        """Accept runtime changes of the sensor's radius and height only, each checked."""
         for change in changes:
             if change.name in ("sensor_radius", "sensing_height"):
                 value = change.value
@@ -148,21 +160,21 @@ class ThrowingArmNode(Node):
         return SetParametersResult(successful=True)
 
     def _command(self, request: ArmCommand.Request, response: ArmCommand.Response) -> ArmCommand.Response:
-        command = request.command.strip().lower()
+        """Queue throws, or start or stop throwing every period."""
+        command = parse_command(request.command)
         if command == "throw":
             if request.count < 1:
                 raise InputError("count", f"must be >= 1 for 'throw', got {request.count}")
             self.pending += request.count
         elif command == "start":
             self.running = True
-        elif command == "stop":
+        else:  # stop
             self.running, self.pending = False, 0
-        else:
-            raise InputError("command", f"must be throw, start or stop, got {request.command!r}")
         response.pending = self.pending
         return response
 
     def _place(self, request: ArmPlacePart.Request, response: ArmPlacePart.Response) -> ArmPlacePart.Response:
+        """Put the part at rest at (edge, R), ending any throw being shown."""
         if not math.isfinite(request.radius):
             raise InputError("radius", f"must be finite, got {request.radius!r}")
         self.arm.place(request.edge, request.radius)
@@ -170,33 +182,53 @@ class ThrowingArmNode(Node):
         return response
 
     def _tick(self) -> None:
+        """Advance the shown throw or start the next one, then publish the sensor, joint and part pose."""
         now = self.get_clock().now()
         t = now.nanoseconds * 1e-9
-        period, window = self.p["period"], self.p["period"] * self.p["motion_fraction"]
         pose, velocity = self.arm.rest_pose(), 0.0
         if self.motion is not None:
-            start, outcome = self.motion
-            if t - start >= window:
-                self.motion = None
-                self._publish_event(now, outcome)
-            else:
-                pose, velocity = self._animate(outcome, (t - start) / window)
-        elif (self.running or self.pending > 0) and t - self.last_throw >= period:
-            if self.pending > 0:
-                self.pending -= 1
-            self.last_throw = t
-            outcome = self.arm.throw()
-            self.count += 1
-            if outcome.kind == "fault":
-                self.running, self.pending = False, 0
-                self.get_logger().error(f"throw {self.count}: FAULT: {outcome.fault}")
-                self._publish_event(now, outcome)
-            else:
-                self.motion = (t, outcome)
-        sensor = self.arm.sensor(
-            self.sensor_radius, self.sensing_height, None if self.motion is None else pose
-        )
+            pose, velocity = self._advance_motion(now, t, pose, *self.motion)
+        elif self._throw_due(t):
+            self._start_throw(now, t)
+        self._publish_sensor(None if self.motion is None else pose)
+        self._publish_joint_and_pose(now, pose, velocity)
+
+    def _throw_due(self, t: float) -> bool:
+        """Return whether a throw is wanted (running, or queued) and a period has passed since the last."""
+        return (self.running or self.pending > 0) and t - self.last_throw >= self.p["period"]
+
+    def _start_throw(self, now: Time, t: float) -> None:
+        """Throw once; show the throw over the motion window, or report a fault at once and stop."""
+        if self.pending > 0:
+            self.pending -= 1
+        self.last_throw = t
+        outcome = self.arm.throw()
+        self.count += 1
+        if outcome.kind == "fault":
+            self.running, self.pending = False, 0
+            self.get_logger().error(f"throw {self.count}: FAULT: {outcome.fault}")
+            self._publish_event(now, outcome)
+        else:
+            self.motion = (t, outcome)
+
+    def _advance_motion(
+        self, now: Time, t: float, rest: Pose, start: float, outcome: ThrowOutcome
+    ) -> tuple[Pose, float]:
+        """Return the pose and joint velocity shown of the throw begun at ``start``; publish it at the end."""
+        window = self.p["period"] * self.p["motion_fraction"]
+        if t - start >= window:
+            self.motion = None
+            self._publish_event(now, outcome)
+            return rest, 0.0
+        return self._animate(outcome, (t - start) / window)
+
+    def _publish_sensor(self, pose: Pose | None) -> None:
+        """Publish the sensor bit: at rest (``pose`` None) or for the pose shown in flight."""
+        sensor = self.arm.sensor(self.sensor_radius, self.sensing_height, pose)
         self.pub_sensor.publish(Bool(data=bool(sensor)))
+
+    def _publish_joint_and_pose(self, now: Time, pose: Pose, velocity: float) -> None:
+        """Publish the arm joint state and the part pose in the arm frame."""
         stamp = now.to_msg()
         joint = JointState()
         joint.header.stamp = stamp
@@ -208,17 +240,18 @@ class ThrowingArmNode(Node):
         msg.pose.orientation = yaw_quaternion(pose[2])
         self.pub_pose.publish(msg)
 
-    def _animate(self, outcome: Any, fraction: float) -> tuple[tuple[float, float, float], float]:
-        """Pose along the flight path in the first 80 % of the window; the arm moves only at release."""
+    def _animate(self, outcome: ThrowOutcome, fraction: float) -> tuple[Pose, float]:
+        """Return the pose along the flight path and the joint velocity (the arm moves only at release)."""
         path = outcome.path
-        velocity = self.p["release_speed"] if fraction < 0.05 else 0.0
+        velocity = self.p["release_speed"] if fraction < RELEASE_SHOWN else 0.0
         if not path:
             return self.arm.rest_pose(), velocity
-        index = min(int(fraction / 0.8 * (len(path) - 1)), len(path) - 1)
+        index = min(int(fraction / FLIGHT_SHOWN * (len(path) - 1)), len(path) - 1)
         _, x, y, theta = path[index]
         return (x, y, theta), velocity
 
-    def _publish_event(self, now: Any, outcome: Any) -> None:
+    def _publish_event(self, now: Time, outcome: ThrowOutcome) -> None:
+        """Publish the throw event: states before and after, kind, fault, the sensor at rest."""
         ev = ThrowEvent()
         ev.header.stamp, ev.header.frame_id = now.to_msg(), self.p["frame_id"]
         ev.index = self.count
@@ -232,6 +265,7 @@ class ThrowingArmNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
+    """Run the throwing_arm node."""
     run_node(ThrowingArmNode, "throwing_arm", args)
 
 

@@ -1,0 +1,103 @@
+"""Numerical tolerances and model constants of the analytic throwing-arm model, each with its reason.
+
+Angles are in radians and lengths in metres; "relative" means relative to the quantity named in the
+comment. Changing a value changes results: the tests, the benchmark and the `feeder` JSON outputs were
+produced with exactly these.
+"""
+
+from __future__ import annotations
+
+from typing import Final
+
+__all__ = [
+    "GRASP_SLACK",
+    "TURN_NUDGE",
+    "IMPACT_BISECTIONS",
+    "MAX_IMPACTS",
+    "FLAT_ANGLE",
+    "SCAN_POINTS",
+    "FIRST_SCAN_RADII",
+    "SCAN_GROWTH",
+    "MAX_SCAN_RADII",
+    "FLIP_REFINE",
+    "MAX_GROWTH_ROUNDS",
+    "DEFAULT_STARTS_PER_EDGE",
+    "DEFAULT_THROWS",
+    "BURN_IN_CAP",
+    "BURN_IN_DIVISOR",
+    "SENSING_HEIGHT_FRACTION",
+    "SLAB_SLACK",
+    "HORIZONTAL_EDGE",
+]
+
+# --- Domain of the throw map (R >= R_grasp, eqs. 1-4) ---------------------------------------------------
+# Relative slack on R >= bound (bound = R_grasp or the lowest throwable R), so that R exactly at R_grasp
+# is accepted even after a round trip through file units (cm -> m multiplies by 0.01, an error of a few
+# ulps, ~1e-16 relative) while no physically different radius is: 1e-12 of a centimetre-sized R_grasp
+# is 1e-14 m.
+GRASP_SLACK: Final = 1e-12
+
+# --- Jog / flip (section III-C) ----------------------------------------------------------------------
+# Whole turns are counted after adding this fraction of a turn, toward the rotation's sign: a net rotation
+# meant to be exactly k * 2 pi comes out of flight plus a chain of rolling angles (hundreds of additions of
+# angles of order pi) up to ~1e-13 of a turn short, which must not count as k - 1 turns. 1e-9 of a turn
+# (6e-9 rad) is far below any physical rotation difference the model resolves.
+TURN_NUDGE: Final = 1e-9
+
+# --- Earliest impact (eqs. 5, 6) ---------------------------------------------------------------------
+# Halvings of a monotone piece of the flight when bisecting for a vertex's minimum and for its first
+# crossing of the arm: 2^-60 of the flight time is below double resolution (2^-52 relative), so the
+# impact time is exact to rounding.
+IMPACT_BISECTIONS: Final = 60
+
+# --- Rolling and settling (section III-B) ------------------------------------------------------------
+# Give up on a part still rolling after this many sticking impacts: each sticking impact sheds a fixed
+# fraction of the kinetic energy, so real settling takes tens of impacts; 20000 only catches a model bug.
+MAX_IMPACTS: Final = 20000
+# An angle within this of either end of the pivot vertex's interval counts as the part lying flat on
+# that edge (rad). The offset is a difference of angles of order 2 pi reduced mod 2 pi, accurate to
+# ~1e-15 rad; 1e-12 rad absorbs that and the rounding carried over a chain of impacts, and is far below
+# any physical tilt.
+FLAT_ANGLE: Final = 1e-12
+
+# --- R_flip and R_max (Prop. IV.4) -------------------------------------------------------------------
+# Radii per stable edge in the R_flip scan and in the sampled check that f maps Z into itself: the
+# resolution of R_max and of `invariant` is (R_max - low) / 400, under 0.5 mm for the paper's parts.
+SCAN_POINTS: Final = 400
+# The first R_flip scan covers this many part radii beyond the lowest throwable R; the jog ranges of the
+# paper's triangle and bracket end within 4.1 part radii, so one scan suffices for them.
+FIRST_SCAN_RADII: Final = 10
+# Factor by which the scan span grows while no flip is found (each scan costs SCAN_POINTS throws).
+SCAN_GROWTH: Final = 4
+# Give up looking for a flip beyond this many part radii past the lowest R: the upward release speed
+# grows with R while the spin does not, so every edge flips well before (Prop. IV.4); a design that does
+# not is reported as a SolverError.
+MAX_SCAN_RADII: Final = 1000
+# R_flip is bisected between the last jog and the first flip of the scan to this fraction of R_flip:
+# relative 1e-12 is four decades above double rounding, so the bisection always terminates.
+FLIP_REFINE: Final = 1e-12
+# Rounds of growing R_max until f(Z) lies in Z; growth stops within a handful of rounds for any design
+# with an invariant set, so running out of rounds means `invariant` is false.
+MAX_GROWTH_ROUNDS: Final = 50
+
+# --- Forward limit set (Figs. 7, 8) ------------------------------------------------------------------
+# Grid starts per stable edge and throws per start when the caller gives none (the `feeder limit-set`
+# defaults and the throw_planner parameters): 300 throws hold 13 or more whole cycles of the paper's
+# parts (12-15 throws per cycle for the triangle, 17-23 for the bracket) after the burn-in below.
+DEFAULT_STARTS_PER_EDGE: Final = 25
+DEFAULT_THROWS: Final = 300
+# Throws discarded as the transient before the limit set is read: a third of the run, and at most 100,
+# so that a long run reads more of the limit set rather than a longer transient.
+BURN_IN_CAP: Final = 100
+BURN_IN_DIVISOR: Final = 3
+
+# --- The one-bit proximity sensor (contract 3) -------------------------------------------------------
+# Default sensing height as a fraction of the part radius: small against the part (so the sensor sees
+# the edge the part rests on, not its walls) and large against rounding.
+SENSING_HEIGHT_FRACTION: Final = 0.01
+# Slack on the sensing slab's bottom and top, relative to the part's extent: a vertex exactly on the arm
+# (at the slab's bottom after rotation, up to rounding ~1e-16 relative) must count as inside the slab.
+SLAB_SLACK: Final = 1e-12
+# A boundary segment whose height change is below this (m) is horizontal: only a guard against dividing
+# by an exact zero; any real segment of a part is many orders of magnitude taller.
+HORIZONTAL_EDGE: Final = 1e-300
