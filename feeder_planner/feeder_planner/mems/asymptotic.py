@@ -16,13 +16,12 @@ from functools import lru_cache
 import numpy as np
 
 from feeder_planner.errors import SolverError
-from feeder_planner.mems.curve import pivot_translation
+from feeder_planner.mems.curve import pivot_point, pivot_translation, plane_coordinates
 from feeder_planner.mems.lifted import (
     Edges,
     derivatives,
-    gradient_noise,
     part_edges,
-    value_gradient_hessian,
+    value_gradient_hessian_noise,
 )
 from feeder_planner.mems.result import AsymptoticDetails, EquilibriaResult, Equilibrium
 from feeder_planner.mems.tolerances import (
@@ -181,8 +180,8 @@ def pivot_off_centroid(edges: Edges, z0: np.ndarray) -> bool:
     The pivot counts as off the centroid when |(X0, Y0)| exceeds PIVOT_TOL times its rounding bound
     (the gradient's rounding floor mapped through Hess^-1).
     """
-    hess0 = value_gradient_hessian(edges, z0)[2]
-    noise = float(gradient_noise(edges, z0)) / float(np.linalg.eigvalsh(hess0)[0])
+    _, _, hess0, gnoise = value_gradient_hessian_noise(edges, z0)
+    noise = float(gnoise) / float(np.linalg.eigvalsh(hess0)[0])
     return float(np.hypot(*z0)) > PIVOT_TOL * noise
 
 
@@ -191,8 +190,9 @@ def expansion(edges: Edges, z0: np.ndarray, area: float, theta: np.ndarray, orde
     v = derivatives(edges, z0, order + 1)
     c = taylor_coefficients(v, area, theta, order)
     c_t, s_t = np.cos(theta), np.sin(theta)
-    x_k = [c_t * z0[0] - s_t * z0[1]] + [
-        math.factorial(k) * (c_t * c[:, 0, k] - s_t * c[:, 1, k]) for k in range(1, order + 1)
+    x_k = [plane_coordinates(c_t, s_t, z0[0], z0[1])[0]] + [
+        math.factorial(k) * plane_coordinates(c_t, s_t, c[:, 0, k], c[:, 1, k])[0]
+        for k in range(1, order + 1)
     ]
     return Expansion(theta, c, x_k)
 
@@ -287,15 +287,8 @@ def configurations(
     equilibria = []
     for theta, slope, dz in zip(thetas, slopes, z_at, strict=True):
         z = z0 + dz
-        ct, st = math.cos(theta), math.sin(theta)
-        equilibria.append(
-            Equilibrium(
-                float(ct * z[0] - st * z[1]),
-                float(st * z[0] + ct * z[1]),
-                float(theta % TWO_PI),
-                bool(slope > 0),
-            )
-        )
+        x, y = plane_coordinates(math.cos(theta), math.sin(theta), z[0], z[1])
+        equilibria.append(Equilibrium(float(x), float(y), float(theta % TWO_PI), bool(slope > 0)))
     equilibria.sort(key=lambda e: e.theta)
     return equilibria
 
@@ -327,7 +320,7 @@ def asymptotic_equilibria(part: Part, delta: float, edges: Edges | None = None) 
         stable_limit_theta=(1.5 * math.pi - math.atan2(z0[1], z0[0])) % TWO_PI if n == 0 else None,
     )
     return EquilibriaResult(
-        (float(-z0[0]), float(-z0[1])),
+        pivot_point(z0),
         part.area,
         delta,
         "asymptotic",

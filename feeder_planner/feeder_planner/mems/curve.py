@@ -7,6 +7,7 @@ positive definite (Prop. 3), so damped Newton converges from anywhere to its uni
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import overload
 
 import numpy as np
 
@@ -24,7 +25,24 @@ from feeder_planner.mems.tolerances import (
     ROUNDING_BOUND,
 )
 
-__all__ = ["CurvePoints", "pivot_translation", "curve", "hessian_xyt"]
+__all__ = ["CurvePoints", "plane_coordinates", "pivot_translation", "pivot_point", "curve", "hessian_xyt"]
+
+
+@overload
+def plane_coordinates(cos: float, sin: float, big_x: float, big_y: float) -> tuple[float, float]: ...
+
+
+@overload
+def plane_coordinates(
+    cos: np.ndarray, sin: np.ndarray, big_x: np.ndarray | float, big_y: np.ndarray | float
+) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+def plane_coordinates(
+    cos: float | np.ndarray, sin: float | np.ndarray, big_x: float | np.ndarray, big_y: float | np.ndarray
+) -> tuple[float | np.ndarray, float | np.ndarray]:
+    """Return (x, y) = R(theta) (X, Y), eqs. (13-14), from cos theta and sin theta (floats or arrays)."""
+    return cos * big_x - sin * big_y, sin * big_x + cos * big_y
 
 
 def _rounding_floor(gnoise: np.ndarray, tilt: np.ndarray, hess: np.ndarray) -> np.ndarray:
@@ -80,6 +98,11 @@ def _newton(edges: Edges, z: np.ndarray, tilt: np.ndarray) -> np.ndarray:
     raise SolverError("Newton on the lifted potential did not converge (equilibrium curve)")
 
 
+def pivot_point(z0: np.ndarray) -> tuple[float, float]:
+    """Return the pivot point (part frame) from the minimum (X0, Y0) of V: (-X0, -Y0) (Prop. 3)."""
+    return float(-z0[0]), float(-z0[1])
+
+
 def pivot_translation(edges: Edges) -> np.ndarray:
     """Return (X0, Y0), the unique minimum of V (Prop. 3 (ii)); the pivot point is (-X0, -Y0), part frame."""
     return _newton(edges, np.zeros((1, 2)), np.zeros((1, 2)))[0]
@@ -114,8 +137,7 @@ def curve(
     z = _newton(edges, z0, tilt)
     _, grad, hess, gnoise = value_gradient_hessian_noise(edges, z)
     c, s = np.cos(theta), np.sin(theta)
-    x = c * z[:, 0] - s * z[:, 1]
-    y = s * z[:, 0] + c * z[:, 1]
+    x, y = plane_coordinates(c, s, z[:, 0], z[:, 1])
     # Hess V dZ/dtheta = -delta |S| (cos theta, -sin theta)
     dz = -np.linalg.solve(hess, (delta * area * np.column_stack([c, -s]))[..., None])[..., 0]
     dx = -s * z[:, 0] - c * z[:, 1] + c * dz[:, 0] - s * dz[:, 1]

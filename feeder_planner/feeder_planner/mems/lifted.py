@@ -35,7 +35,6 @@ __all__ = [
     "part_edges",
     "potential",
     "gradient",
-    "gradient_noise",
     "value_gradient_hessian",
     "value_gradient_hessian_noise",
     "derivatives",
@@ -134,7 +133,10 @@ def value_gradient_hessian(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, np.
 def value_gradient_hessian_noise(
     edges: Edges, z: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Return value_gradient_hessian plus gradient_noise, from one evaluation of the edge terms."""
+    """Return V, grad V, Hess V and a bound on the rounding error of grad V, from one evaluation.
+
+    The bound is ROUNDING_BOUND times the sum of the magnitudes of grad V's edge terms.
+    """
     terms = _edge_terms(edges, np.asarray(z, float))
     s0, s1, h, rho0, rho1, h_a = terms
     noise = _noise_of(terms)
@@ -147,11 +149,6 @@ def value_gradient_hessian_noise(
     hess = np.einsum("...ei,ej->...ij", w, edges.normal)
     hess = 0.5 * (hess + np.swapaxes(hess, -1, -2))
     return value, grad, hess, noise
-
-
-def gradient_noise(edges: Edges, z: np.ndarray) -> np.ndarray:
-    """Return a bound on the rounding error of ``gradient`` at z (...,): ROUNDING_BOUND x its terms."""
-    return _noise_of(_edge_terms(edges, np.asarray(z, float)))
 
 
 def _rho_derivatives(xi: np.ndarray, eta: np.ndarray, order: int) -> dict[tuple[int, int], np.ndarray]:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from feeder_planner.errors import SolverError
-from feeder_planner.mems.curve import CurvePoints, curve, hessian_xyt, pivot_translation
+from feeder_planner.mems.curve import CurvePoints, curve, hessian_xyt, pivot_point, pivot_translation
 from feeder_planner.mems.lifted import Edges, part_edges
 from feeder_planner.mems.result import EquilibriaResult, Equilibrium, NumericDetails
 from feeder_planner.mems.tolerances import (
@@ -240,7 +240,7 @@ def numeric_equilibria(part: Part, delta: float, edges: Edges | None = None) -> 
     uncertainty = floor / np.maximum(np.abs(roots.dx), SLOPE_FLOOR) + THETA_TOL
     details = NumericDetails(len(samples.theta), floor, tuple(eig_min), float(uncertainty.max()))
     return EquilibriaResult(
-        (float(-z0[0]), float(-z0[1])),
+        pivot_point(z0),
         part.area,
         delta,
         "numeric",

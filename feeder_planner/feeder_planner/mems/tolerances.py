@@ -60,7 +60,7 @@ __all__ = [
 # --- rounding ---------------------------------------------------------------------------------------
 # Bound on the relative rounding error of a sum of closed-form edge terms: each term carries a few
 # roundings (sqrt, log, products), 8 eps per term covers them with margin. Used for the rounding floor
-# of grad V (lifted.gradient_noise) and of the tilt delta |S| (sin, cos) added to it (curve.py).
+# of grad V (lifted.value_gradient_hessian_noise) and of the tilt delta |S| (sin, cos) added to it (curve.py).
 ROUNDING_BOUND: Final = 8.0 * float(np.finfo(float).eps)
 
 # --- lifted.py: derivatives of order >= 3 by graded Gauss-Legendre quadrature ------------------------

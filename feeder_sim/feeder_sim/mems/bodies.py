@@ -21,6 +21,7 @@ __all__ = [
     "check_fidelity",
     "Body",
     "ForceModel",
+    "wrench_on",
     "drag_coefficients",
     "inertia",
 ]
@@ -64,6 +65,15 @@ class ForceModel(Protocol):
     def cell_forces(self, field: Field) -> np.ndarray | None:
         """Return the (nx, ny, 2) cell forces for this field, or None without cells."""
         ...
+
+
+def wrench_on(body: Body, forces: ForceModel, field: Field, pose: np.ndarray | None = None) -> np.ndarray:
+    """Return the force model's wrench of ``field`` on the body at ``pose`` (default: its pose).
+
+    The torque is about the part's centroid, the reference point of the motion law.
+    """
+    p = body.pose if pose is None else pose
+    return forces.wrench(field, body.loops(p), p[:2])
 
 
 def drag_coefficients(part: Part, damping: float) -> np.ndarray:

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from feeder_planner.mems.fields import Field
-from feeder_sim.mems.bodies import Body, ForceModel, drag_coefficients, inertia
+from feeder_sim.mems.bodies import Body, ForceModel, drag_coefficients, inertia, wrench_on
 from feeder_sim.mems.tolerances import COLLISION_FRICTION, EAR_CLIP_PASSES
 
 __all__ = ["ear_clip", "DynamicWorld"]
@@ -94,7 +94,7 @@ class DynamicWorld:
     def _external(self, body: Body, field: Field) -> np.ndarray:
         """Return the field's wrench plus viscous drag and Coulomb surface friction on the body."""
         part = body.part
-        w = self.forces.wrench(field, body.loops(body.pose), body.pose[:2])
+        w = wrench_on(body, self.forces, field)
         body.wrench = w
         drag = -drag_coefficients(part, self.damping) * body.velocity
         total = w + drag

@@ -8,7 +8,15 @@ import numpy as np
 
 from feeder_planner.errors import InputError
 from feeder_planner.mems.fields import Field, ProgramStep
-from feeder_sim.mems.bodies import FIDELITIES, Body, Fidelity, ForceModel, check_fidelity, drag_coefficients
+from feeder_sim.mems.bodies import (
+    FIDELITIES,
+    Body,
+    Fidelity,
+    ForceModel,
+    check_fidelity,
+    drag_coefficients,
+    wrench_on,
+)
 from feeder_sim.mems.dynamic import DynamicWorld
 from feeder_sim.mems.models import ArrayForces, IdealForces
 from feeder_sim.mems.tolerances import (
@@ -80,13 +88,9 @@ class Scene:
             elapsed -= step.duration
         return self.program[-1].field
 
-    def wrench(self, body: Body, pose: np.ndarray, field_now: Field) -> np.ndarray:
-        """Return the force model's wrench of ``field_now`` on the body placed at ``pose``."""
-        return self.forces.wrench(field_now, body.loops(pose), pose[:2])
-
     def _rate(self, body: Body, pose: np.ndarray, field_now: Field) -> tuple[np.ndarray, np.ndarray]:
         """Return the quasi-static velocity (F / damping A, M / damping J) at ``pose`` and the wrench."""
-        w = self.wrench(body, pose, field_now)
+        w = wrench_on(body, self.forces, field_now, pose)
         return w / drag_coefficients(body.part, self.damping), w
 
     def step(self, dt: float) -> None:
