@@ -1,4 +1,4 @@
-"""Throwing-arm benchmarks: analytic throw-map throughput, limit-set time, analytic vs dynamic (pymunk) fidelity."""
+"""Throwing-arm benchmarks: analytic throw-map throughput, limit-set time, analytic vs dynamic (pymunk)."""
 
 from __future__ import annotations
 
@@ -45,7 +45,10 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     t_batch = median_time(lambda: throw_batch(part, edges, radii, p), repeats)
     m = 100 if quick else 300
     t_scalar = (
-        median_time(lambda: [throw(part, int(e), float(r), p) for e, r in zip(edges[:m], radii[:m])], repeats)
+        median_time(
+            lambda: [throw(part, int(e), float(r), p) for e, r in zip(edges[:m], radii[:m], strict=True)],
+            repeats,
+        )
         / m
     )
     rate = n / t_batch
@@ -93,7 +96,7 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
         t = time.perf_counter()
         dyn = [dynamic_throw(tri, TRIANGLE, e, r, step=step) for e, r in starts]
         t_dyn = (time.perf_counter() - t) / len(starts)
-        same = [(a, d) for a, d in zip(ana, dyn) if d.kind == a.kind and d.edge_after == a.edge]
+        same = [(a, d) for a, d in zip(ana, dyn, strict=True) if d.kind == a.kind and d.edge_after == a.edge]
         agree_rates.append(len(same) / len(starts))
         errors.append(
             float(np.median([abs(d.radius_after - a.radius) for a, d in same]) / tri.radius)
@@ -108,7 +111,10 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
                 "value": agree_rates[-1],
                 "unit": "fraction",
                 "target": ">= 0.8",
-                "baseline": f"analytic model; median |dR| = {errors[-1]:.3f} part radii; dynamic {ratios[-1]:.0f}x slower",
+                "baseline": (
+                    f"analytic model; median |dR| = {errors[-1]:.3f} part radii; "
+                    f"dynamic {ratios[-1]:.0f}x slower"
+                ),
                 "met": agree_rates[-1] >= 0.8,
             }
         )
@@ -121,6 +127,7 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
             "median |R_dyn - R_ana| / part radius",
             "time per throw, dynamic / analytic",
         ),
+        strict=True,
     ):
         ax.semilogx(steps, values, "o-")
         ax.set_xlabel("pymunk step (s)")
@@ -145,7 +152,8 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
         ax.set_xlabel("throw")
         ax.set_ylabel("R (cm)")
         ax.set_title(
-            f"{name}: {len(es)} starts converge to one cycle (cf. paper Fig. {7 if name == 'triangle' else 8})"
+            f"{name}: {len(es)} starts converge to one cycle "
+            f"(cf. paper Fig. {7 if name == 'triangle' else 8})"
         )
         ax.legend(markerscale=4, fontsize=8)
         fig.tight_layout()

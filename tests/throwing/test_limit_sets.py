@@ -73,7 +73,9 @@ def test_sensor_in_trigger_range_reads_only_on_goal_edge_and_every_cycle():
     for sensor in (lo + 0.1 * (hi - lo), 0.5 * (lo + hi), hi - 0.1 * (hi - lo)):
         for row in range(20):
             e, r = traj.edge[row, 150:], traj.radius[row, 150:]
-            seen = np.array([reads(part, int(ei), float(ri), sensor, height) for ei, ri in zip(e, r)])
+            seen = np.array(
+                [reads(part, int(ei), float(ri), sensor, height) for ei, ri in zip(e, r, strict=True)]
+            )
             assert not seen[e != 1].any()
             # At least once in every cycle: gaps between readings shorter than the longest cycle.
             hits = np.flatnonzero(seen)

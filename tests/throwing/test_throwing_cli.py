@@ -1,4 +1,6 @@
-"""`feeder throw` / `feeder limit-set` per the contract: JSON in SI, file units on the command line, bad input."""
+"""`feeder throw` / `feeder limit-set` per the contract: JSON in SI, file units on the command line, bad
+input.
+"""
 
 import json
 import math
@@ -7,9 +9,11 @@ import pytest
 from throwing_helpers import EXAMPLES, TRIANGLE_PARAMS
 
 from feeder_cell.cli.main import main
+from feeder_planner.errors import InputError
 from feeder_planner.parts import load_part
 from feeder_planner.throwing.geometry import arm_part
-from feeder_planner.throwing.throw_map import throw
+from feeder_planner.throwing.grasp import grasp_radius
+from feeder_planner.throwing.throw_map import ThrowParams, throw
 
 TRI = str(EXAMPLES / "triangle.yaml")
 PAPER = ["--offset", "-0.5", "--release-speed", "320deg", "--gravity", "-966", "--mu", "0.5"]
@@ -162,3 +166,29 @@ def test_throw_design_json_table(capsys):
     assert {round(d["offset"], 6) for d in r["designs"]} == {-0.005, -0.002}  # metres in JSON
     assert r["best"] is not None  # h = -0.5 cm is the paper's design: unique, with a trigger range
     assert r["best"]["unique"] and r["best"]["width"] == max(d["width"] for d in r["designs"] if d["unique"])
+
+
+def test_cli_radius_check_is_the_core_domain_check_at_r_grasp(capsys):
+    # Bracket edge 1 (file in cm): R_grasp is above the stubbed-toe bound, so R = R_grasp is throwable.
+    bracket = str(EXAMPLES / "bracket.yaml")
+    part = arm_part(load_part(bracket))
+    r_grasp_cm = grasp_radius(part, 1, -0.0025, 0.5) / 0.01
+    flags = [
+        "--edge",
+        "1",
+        "--offset",
+        "-0.25",
+        "--release-speed",
+        "320deg",
+        "--gravity",
+        "-220",
+        "--mu",
+        "0.5",
+    ]
+    code, out, _ = _run(capsys, ["throw", bracket, *flags, "--radius", repr(r_grasp_cm), "--json"])
+    assert code == 0 and json.loads(out)["kind"] in ("jog", "flip")
+    below = repr(r_grasp_cm * (1 - 1e-9))
+    code, _, err = _run(capsys, ["throw", bracket, *flags, "--radius", below])
+    assert code == 2 and "--radius" in err and f"R_grasp = {r_grasp_cm:.6g} cm" in err
+    with pytest.raises(InputError):
+        throw(part, 1, float(below) * 0.01, ThrowParams(-0.0025, math.radians(320), -2.2, 0.5))

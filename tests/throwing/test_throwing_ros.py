@@ -1,4 +1,4 @@
-"""Over DDS: the throwing_arm simulator and the throw_planner (sensor at a planned radius, faults, bad requests)."""
+"""Over DDS: the throwing_arm simulator and throw_planner (sensor at a planned radius, faults, bad input)."""
 
 from __future__ import annotations
 
@@ -130,10 +130,12 @@ def test_sensor_at_planned_radius_reads_true_only_on_goal_edge_and_every_cycle(
             with lock:
                 seen = len(events)
             future = command.call_async(ArmCommand.Request(command="throw", count=1))
-            response = _wait_for(lambda: future.result() if future.done() else None, 30, "the throw command")
+            response = _wait_for(
+                lambda future=future: future.result() if future.done() else None, 30, "the throw command"
+            )
             assert response.ok, response.error
             event = _wait_for(
-                lambda: events[seen] if len(events) > seen else None,
+                lambda seen=seen: events[seen] if len(events) > seen else None,
                 30,
                 f"throw event {seen + 1}; node log:\n{sim.output()[-2000:]}",
             )
@@ -416,5 +418,6 @@ def test_dynamic_fidelity_node_throws_on_command(ros_client, launch_node):
     assert all(ev.fidelity == "dynamic" and ev.kind in ("jog", "flip") and not ev.fault for ev in got)
     assert got[0].edge_before == 1 and abs(got[0].radius_before - 0.12) < 1e-12
     assert all(
-        a.edge_after == b.edge_before and a.radius_after == b.radius_before for a, b in zip(got, got[1:])
+        a.edge_after == b.edge_before and a.radius_after == b.radius_before
+        for a, b in zip(got, got[1:], strict=False)
     )

@@ -1,16 +1,17 @@
-"""The simulated arm: analytic fidelity is the throw map, dynamic (pymunk) agrees with it, faults are reported."""
+"""The simulated arm: analytic fidelity is the throw map, dynamic (pymunk) agrees with it, faults reported."""
 
 import math
 
 import numpy as np
 import pytest
-from throwing_helpers import BRACKET_PARAMS, TRIANGLE_PARAMS, bracket, triangle
+from throwing_helpers import BRACKET_PARAMS, TRIANGLE_PARAMS, bracket, regular, triangle
 
 from feeder_planner.errors import InputError
+from feeder_planner.throwing.flight import rest_pose
 from feeder_planner.throwing.limit_set import iterate
-from feeder_planner.throwing.throw_map import lowest_radius, throw_batch
+from feeder_planner.throwing.throw_map import ThrowBatch, ThrowParams, lowest_radius, throw_batch
 from feeder_sim.throwing.arm import ThrowingArm
-from feeder_sim.throwing.dynamic import dynamic_throw
+from feeder_sim.throwing.dynamic import dynamic_throw, rest_outcome
 
 
 def test_analytic_arm_follows_the_throw_map():
@@ -75,3 +76,37 @@ def test_dynamic_carry_outside_the_grasp_is_a_fault_not_a_simulation():
     out = dynamic_throw(part, p, 1, 0.12, step=5e-4, carry_angle=1.0)
     assert out.kind == "fault" and "dynamic grasp" in out.fault
     assert dynamic_throw(part, p, 1, 0.12, step=5e-4).kind in ("jog", "flip")
+
+
+@pytest.mark.parametrize("k", [-2, -1, 1, 2])
+@pytest.mark.parametrize("delta", [-1e-3, -1e-12, 0.0, 1e-12, 1e-3])
+def test_both_fidelities_count_the_same_turns_at_a_whole_turn_boundary(k, delta):
+    # A rest angle k whole turns (give or take rounding) from the start: the dynamic fidelity's outcome
+    # must count the turns as the analytic throw map does, or the two disagree on the same landing.
+    part, edge, radius = triangle(), 1, 0.12
+    rotation = 2 * math.pi * k + delta * math.copysign(1.0, k)  # delta < 0: short of k turns
+    theta0 = rest_pose(part, edge, radius, TRIANGLE_PARAMS.offset)[2]
+    analytic = ThrowBatch(
+        edge=np.array([edge]),
+        radius=np.array([radius]),
+        rotation=np.array([rotation]),
+        flight_time=np.zeros(1),
+        impacts=np.ones(1, dtype=int),
+    )
+    dynamic = rest_outcome(part, edge, radius, float(theta0 + rotation), radius)
+    expected = k if delta > -1e-6 else k - int(math.copysign(1, k))
+    assert dynamic.kind == "flip" and dynamic.edge_after == edge
+    assert dynamic.turns == int(analytic.turns[0]) == expected
+
+
+def test_dynamic_outcome_classifies_analytic_landings_as_the_throw_map_does():
+    part = regular(4)
+    p = ThrowParams(offset=-0.002, speed=25.0, gravity=-9.81, mu=1.0)
+    r = np.linspace(lowest_radius(part, 0, p) + 1e-3, lowest_radius(part, 0, p) + 0.6, 200)
+    out = throw_batch(part, np.zeros(r.size, dtype=int), r, p)
+    theta0 = rest_pose(part, 0, 0.0, p.offset)[2]
+    kinds = np.where(out.is_jog(np.zeros(r.size, dtype=int)), "jog", "flip")
+    assert (np.abs(out.turns) >= 1).any()  # whole-turn flips back onto edge 0 are in the sweep
+    for b in range(r.size):
+        o = rest_outcome(part, 0, float(r[b]), float(theta0 + out.rotation[b]), float(out.radius[b]))
+        assert (o.edge_after, o.kind, o.turns) == (int(out.edge[b]), kinds[b], int(out.turns[b]))
