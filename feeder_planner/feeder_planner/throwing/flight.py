@@ -139,7 +139,11 @@ def _pieces(
 
 
 def _piece_minima(p: _Pieces, w: float, g: float) -> np.ndarray:
-    """Return where f is lowest on each piece: its right end if concave, else where f' = 0 (or an end)."""
+    """Return the point m of each piece where its first crossing must show: f(m) <= 0 iff f crosses there.
+
+    On a convex piece m is the minimum of f (where f' = 0, or an end); on a concave piece, which f enters
+    positive and can cross at most once, it is the right end.
+    """
     mid = 0.5 * (p.lo + p.hi)
     convex = (g - w * w * p.s * np.sin(w * mid + p.c)) > 0
     m = p.hi.copy()
