@@ -18,7 +18,7 @@ def test_safe_path_between_two_stable_directions_is_certified_and_inside_the_reg
     region = prepared.region
     g1, g2 = region.vertices[0] * 0.9 + region.center * 0.1, region.vertices[2] * 0.9 + region.center * 0.1
     result = path_result(prepared, g1, g2, step=math.radians(0.5))
-    path = np.asarray(result["path"])
+    path = result.path
     assert path[0] == pytest.approx(g1 / np.linalg.norm(g1)) and path[-1] == pytest.approx(
         g2 / np.linalg.norm(g2)
     )
@@ -28,7 +28,7 @@ def test_safe_path_between_two_stable_directions_is_certified_and_inside_the_reg
     plane = np.cross(path[0], path[-1])
     assert np.abs(path @ plane).max() < 1e-12
     assert all(prepared.check(g).stable and region.contains(g, 1e-9) for g in path)
-    assert result["min_margin_rad"] >= -1e-9
+    assert result.min_margin_rad >= -1e-9
 
 
 def test_path_refuses_an_unstable_end(example) -> None:
@@ -44,7 +44,7 @@ def test_antipodal_ends_of_a_pointed_region_have_no_arc() -> None:
 
 def test_antipodal_ends_on_the_sphere_go_through_a_stable_midpoint(example) -> None:
     prepared = example("block_between_parallel_faces", mu=0.3)
-    path = np.asarray(path_result(prepared, np.array([0, 0, -1.0]), np.array([0, 0, 1.0]))["path"])
+    path = path_result(prepared, np.array([0, 0, -1.0]), np.array([0, 0, 1.0])).path
     assert path[0] @ path[-1] == pytest.approx(-1.0)
     assert (
         np.arccos(np.clip(np.einsum("ij,ij->i", path[1:], path[:-1]), -1, 1)).max() <= math.radians(1) + 1e-12
@@ -54,13 +54,13 @@ def test_antipodal_ends_on_the_sphere_go_through_a_stable_midpoint(example) -> N
 def test_exact_cone_is_bracketed_and_the_pyramids_converge(example) -> None:
     prepared = example("block_in_l_bracket", mu=0.3)
     comparison = compare_pyramids(prepared.assembly, prepared.contacts, (4, 32), reference=64)
-    lower, upper = comparison["exact_area_sr"]
+    lower, upper = comparison.exact_area_sr
     assert lower <= upper
-    errors = {row["facets"]: row for row in comparison["pyramids"]}
+    errors = {row.facets: row for row in comparison.pyramids}
     # Inscribed pyramids are inside the exact cone: never more area than the exact region's upper bound.
-    assert all(row["area_sr"] <= upper + 1e-9 for row in errors.values())
-    assert errors[32]["area_error_sr"] < errors[4]["area_error_sr"]
-    assert errors[32]["hausdorff_rad"] < errors[4]["hausdorff_rad"]
+    assert all(row.area_sr <= upper + 1e-9 for row in errors.values())
+    assert errors[32].area_error_sr < errors[4].area_error_sr
+    assert errors[32].hausdorff_rad < errors[4].hausdorff_rad
 
 
 def test_exact_cone_verdict_on_an_incline_matches_tan_alpha_le_mu(from_doc) -> None:

@@ -4,27 +4,36 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from feeder_cell.cli.common import add_json_flag, emit, finite_float
-from feeder_planner.assembly.model import load_assembly
-from feeder_planner.assembly.planner import (
+from feeder_planner.assembly import (
     DEFAULT_FACETS,
+    KINDS,
+    STANDARD_GRAVITY,
+    CheckResult,
     PreparedAssembly,
     check_result,
+    load_assembly,
     prepare,
     region_result,
+    unit_gravity,
+    validate_facets,
+    validate_mu,
 )
-from feeder_planner.errors import InputError
+
+__all__ = ["register"]
 
 CONVENTIONS = (
     "Frames and signs: g is the direction gravity pulls, a unit vector in the assembly file's frame "
     "(it is normalised if not unit). A direction g is stable when contact forces at the contact "
     "points balance every free body (potential stability, paper eq. 9), friction linearised by a "
-    "K-facet pyramid inscribed in the Coulomb cone (K=4 is the paper's). The stable set is "
+    f"K-facet pyramid inscribed in the Coulomb cone (K={DEFAULT_FACETS} is the paper's). The stable set is "
     "{unit g : n.g <= 0 for n in normals, e.g = 0 for e in equalities}. JSON is SI: metres, "
-    "newtons (for |g| = 9.80665 m/s^2), radians, steradians. Exit 2: bad input; 3: not certified."
+    f"newtons (for |g| = {STANDARD_GRAVITY} m/s^2), radians, steradians. Exit 2: bad input; 3: not certified."
 )
 
 
@@ -33,9 +42,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     region = subparsers.add_parser(
         "stable-region",
         help="the whole set of gravity directions for which an assembly is potentially stable",
-        description="Compute the exact region of stable gravity directions of an assembly (a convex spherical "
-        "polygon or a degenerate kind: empty, point, antipodal_pair, arc, great_circle, region, "
-        "hemisphere, sphere). " + CONVENTIONS,
+        description="Compute the exact region of stable gravity directions of an assembly (a convex "
+        f"spherical polygon or a degenerate kind: {', '.join(KINDS)}). " + CONVENTIONS,
     )
     _common(region)
     region.add_argument(
@@ -86,25 +94,25 @@ def _common(parser: argparse.ArgumentParser) -> None:
 
 
 def _prepared(args: argparse.Namespace) -> PreparedAssembly:
-    if args.mu is not None and args.mu < 0:
-        raise InputError("--mu", f"must be >= 0, got {args.mu!r}")
-    if args.facets < 3:
-        raise InputError("--facets", f"must be an integer >= 3, got {args.facets!r}")
-    return prepare(load_assembly(args.assembly), args.mu, args.facets)
+    """Load the assembly file with the flags' mu and K, each flag checked by the core's one definition."""
+    mu = validate_mu(args.mu, "--mu")
+    facets = validate_facets(args.facets, "--facets")
+    return prepare(load_assembly(args.assembly), mu, facets)
 
 
 def _stable_region(args: argparse.Namespace) -> int:
-    prepared = _prepared(args)
-    result = region_result(prepared)
-    if args.exact_cone:
-        from feeder_planner.assembly.exact_cone import compare_pyramids
-
-        result["exact_cone"] = compare_pyramids(prepared.assembly, prepared.contacts)
-    emit(args, result, _region_summary)
+    """Run ``feeder stable-region``."""
+    result = region_result(_prepared(args), exact_cone=args.exact_cone)
+    emit(args, result.to_json(), _region_summary)
     return 0
 
 
-def _region_summary(result: dict) -> str:
+def _region_summary(result: dict[str, Any]) -> str:
+    """Summarise a region for people: kind, counts, area, centre, vertices and constraints.
+
+    It reads the JSON object, so it shows exactly what ``--json`` prints (unit vectors without rounding
+    noise).
+    """
     lines = [
         f"{result['assembly']}: stable region is {result['kind']} ({result['contacts']} contact points, "
         f"K = {result['facets']}, {result['lp_count']} LPs)",
@@ -112,52 +120,46 @@ def _region_summary(result: dict) -> str:
     ]
     if result["center"] is not None:
         lines.append(f"  centre g = {_vec(result['center'])}")
-    for v in result["vertices"]:
-        lines.append(f"  vertex {_vec(v)}")
-    for n in result["normals"]:
-        lines.append(f"  n.g <= 0 for n = {_vec(n)}")
-    for e in result["equalities"]:
-        lines.append(f"  e.g == 0 for e = {_vec(e)}")
+    lines += [f"  vertex {_vec(v)}" for v in result["vertices"]]
+    lines += [f"  n.g <= 0 for n = {_vec(n)}" for n in result["normals"]]
+    lines += [f"  e.g == 0 for e = {_vec(e)}" for e in result["equalities"]]
     return "\n".join(lines)
 
 
 def _check_stability(args: argparse.Namespace) -> int:
+    """Run ``feeder check-stability``."""
     g = np.asarray(args.g, dtype=float)
-    if np.linalg.norm(g) < 1e-12:
-        raise InputError("--g", "must be a non-zero direction")
-    prepared = _prepared(args)
-    result = check_result(prepared, g)
-    if args.exact_cone:
-        from feeder_planner.assembly.exact_cone import check_exact
-
-        verdict = check_exact(prepared.assembly, prepared.contacts, g)
-        result["exact_cone"] = {"stable": verdict.stable, "method": verdict.method}
-    emit(args, result, _check_summary)
+    unit_gravity(g, "--g")  # refuses a zero direction before the file is read; check_result normalises g
+    result = check_result(_prepared(args), g, exact_cone=args.exact_cone)
+    emit(args, result.to_json(), lambda _: _check_summary(result))
     return 0
 
 
-def _check_summary(result: dict) -> str:
+def _check_summary(result: CheckResult) -> str:
+    """Summarise a check for people, with the exact cone's verdict when asked for."""
     text = _pyramid_summary(result)
-    if "exact_cone" in result:
+    if result.exact_cone is not None:
         verdict = {True: "stable", False: "NOT stable", None: "undecided (on the boundary, to tolerance)"}
-        text += f"\nexact circular friction cone: {verdict[result['exact_cone']['stable']]}"
+        text += f"\nexact circular friction cone: {verdict[result.exact_cone.stable]}"
     return text
 
 
-def _pyramid_summary(result: dict) -> str:
-    if result["stable"]:
-        text = f"stable for g = {_vec(result['g'])} (angular margin {result['margin_rad']:.6g} rad)"
+def _pyramid_summary(result: CheckResult) -> str:
+    """Summarise the pyramid LP's verdict: margin and non-zero contact forces, or the unbalanced bodies."""
+    if result.stable:
+        text = f"stable for g = {_vec(result.g)} (angular margin {result.margin_rad:.6g} rad)"
         loads = [
-            f"  {f['a']} on {f['b']} at {_vec(f['point'])}: force {_vec(f['force'])} N"
-            for f in result.get("forces", [])
-            if np.linalg.norm(f["force"]) > 0
+            f"  {f.a} on {f.b} at {_vec(f.point)}: force {_vec(f.force)} N"
+            for f in result.forces or ()
+            if np.linalg.norm(f.force) > 0
         ]
         return "\n".join([text] + loads)
     return (
-        f"NOT stable for g = {_vec(result['g'])}; bodies that cannot be balanced: "
-        f"{', '.join(result['unbalanced_bodies']) or '(none identified)'}"
+        f"NOT stable for g = {_vec(result.g)}; bodies that cannot be balanced: "
+        f"{', '.join(result.unbalanced_bodies) or '(none identified)'}"
     )
 
 
-def _vec(v: list[float]) -> str:
+def _vec(v: Sequence[float] | np.ndarray) -> str:
+    """Format a vector as (x, y, z) with 6 significant digits."""
     return "(" + ", ".join(f"{x:.6g}" for x in v) + ")"

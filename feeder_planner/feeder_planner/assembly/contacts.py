@@ -1,4 +1,4 @@
-"""Contact points of an assembly: vertices of the polygons where opposite faces touch (paper sec. II-B, Fig. 7)."""
+"""Contact points of an assembly: vertices of the polygons where opposite faces touch (sec. II-B, Fig. 7)."""
 
 from __future__ import annotations
 
@@ -8,17 +8,21 @@ import numpy as np
 
 from feeder_planner.assembly.geometry import ConvexPiece, Face, tangent_basis
 from feeder_planner.assembly.model import Assembly
+from feeder_planner.assembly.tolerances import (
+    ANGLE_TOLERANCE,
+    AREA_TOLERANCE,
+    DISTANCE_TOLERANCE,
+    NORM_FLOOR,
+    NORMAL_KEY_SCALE,
+    POLYGON_DEDUPE,
+)
 
-# Faces touch when their planes are within DISTANCE_TOLERANCE x assembly size, their normals are opposite within
-# ANGLE_TOLERANCE rad, and their common polygon has an area above AREA_TOLERANCE x (smaller face's diameter)^2.
-DISTANCE_TOLERANCE = 1e-7
-ANGLE_TOLERANCE = 1e-6
-AREA_TOLERANCE = 1e-9
+__all__ = ["Contact", "assembly_contacts", "auto_contacts", "clip_convex", "polygon_area"]
 
 
 @dataclass(frozen=True)
 class Contact:
-    """One contact point between bodies ``a`` and ``b`` (indices): the force on a is along +normal (from b into a)."""
+    """One contact point between bodies ``a`` and ``b`` (indices): force on a along +normal (b into a)."""
 
     a: int
     b: int
@@ -51,7 +55,7 @@ def auto_contacts(assembly: Assembly) -> list[Contact]:
     owner = np.array([e[0] for e in entries])
     grounded = np.array([assembly.bodies[e[0]].grounded for e in entries])
     contacts: list[Contact] = []
-    seen: set[tuple] = set()
+    seen: set[tuple[int, ...]] = set()
     for k, (bi, piece) in enumerate(entries):
         gap = np.min(np.minimum(upper[k + 1 :], upper[k]) - np.maximum(lower[k + 1 :], lower[k]), axis=1)
         near = (gap >= -distance_tol) & (owner[k + 1 :] != bi) & ~(grounded[k + 1 :] & grounded[k])
@@ -62,7 +66,7 @@ def auto_contacts(assembly: Assembly) -> list[Contact]:
                     contact.a,
                     contact.b,
                     *np.round(contact.point / distance_tol).astype(np.int64),
-                    *np.round(contact.normal * 1e6).astype(np.int64),
+                    *np.round(contact.normal * NORMAL_KEY_SCALE).astype(np.int64),
                 )
                 if key not in seen:
                     seen.add(key)
@@ -73,9 +77,10 @@ def auto_contacts(assembly: Assembly) -> list[Contact]:
 def _piece_contacts(
     bi: int, p: ConvexPiece, bj: int, q: ConvexPiece, tol: float, assembly: Assembly
 ) -> list[Contact]:
+    """Return the contacts of piece p (body bi) and q (body bj): vertices of touching face pairs' polygons."""
     if p.is_box and q.is_box:
         return _box_contacts(bi, p, bj, q, tol, assembly)
-    found = []
+    found: list[Contact] = []
     cos_tol = np.cos(ANGLE_TOLERANCE)
     for fp in p.faces:
         for fq in q.faces:
@@ -133,7 +138,7 @@ def _box_contacts(
 
 
 def _face_intersection(fp: Face, fq: Face) -> np.ndarray | None:
-    """The common polygon of two touching faces (3-D vertices on the mid-plane), or None if it has no area."""
+    """Return the common polygon of two touching faces (3-D vertices on the mid-plane), None without area."""
     u, v = tangent_basis(fq.normal)
     origin = fq.polygon[0]
     q2 = np.column_stack([(fq.polygon - origin) @ u, (fq.polygon - origin) @ v])
@@ -172,12 +177,13 @@ def clip_convex(subject: np.ndarray, clip: np.ndarray) -> np.ndarray:
 
 
 def _dedupe(polygon: np.ndarray) -> np.ndarray:
+    """Drop repeated and collinear vertices of a polygon (relative to its extent)."""
     if len(polygon) == 0:
         return polygon
-    scale = max(float(np.ptp(polygon, axis=0).max()), 1e-300)
+    scale = max(float(np.ptp(polygon, axis=0).max()), NORM_FLOOR)
     keep = []
     for i in range(len(polygon)):
-        if np.linalg.norm(polygon[i] - polygon[(i + 1) % len(polygon)]) > 1e-12 * scale:
+        if np.linalg.norm(polygon[i] - polygon[(i + 1) % len(polygon)]) > POLYGON_DEDUPE * scale:
             keep.append(i)
     polygon = polygon[keep]
     # Drop collinear vertices: they add contact points without adding any force the others cannot make.
@@ -185,11 +191,12 @@ def _dedupe(polygon: np.ndarray) -> np.ndarray:
     for i in range(len(polygon)):
         a, b, c = polygon[i - 1], polygon[i], polygon[(i + 1) % len(polygon)]
         cross = (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0])
-        if abs(cross) > 1e-12 * scale * scale:
+        if abs(cross) > POLYGON_DEDUPE * scale * scale:
             keep.append(i)
     return polygon[keep]
 
 
 def polygon_area(polygon: np.ndarray) -> float:
+    """Signed area of a planar polygon (rows x, y): positive when counter-clockwise (shoelace formula)."""
     x, y = polygon[:, 0], polygon[:, 1]
     return float(0.5 * (np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))

@@ -1,4 +1,6 @@
-"""The built-in assembly nodes use when no file is given: the paper's block in an L bracket (Figs. 12, 14), mu 0.3."""
+"""The nodes' built-in assembly when no file is given: the block in an L bracket (Figs. 12, 14), mu 0.3."""
+
+__all__ = ["DEFAULT_ASSEMBLY_YAML"]
 
 DEFAULT_ASSEMBLY_YAML = """
 name: block_in_l_bracket

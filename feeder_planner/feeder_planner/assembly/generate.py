@@ -1,4 +1,4 @@
-"""Random assembly documents (towers of jittered boxes on a grounded base, side walls) for tests and benchmarks."""
+"""Generated assembly documents (random towers on a grounded base, brick walls) for tests and benchmarks."""
 
 from __future__ import annotations
 
@@ -6,14 +6,17 @@ from typing import Any
 
 import numpy as np
 
+__all__ = ["brick_wall", "random_assembly"]
+
 
 def random_assembly(
     seed: int, contact_faces: int, mu: float = 0.3, walls: bool = True, scale: float = 1.0
 ) -> dict[str, Any]:
-    """An assembly document with about ``contact_faces`` touching face pairs (4 contact points each).
+    """Return an assembly document with about ``contact_faces`` touching face pairs (4 contact points each).
 
-    Towers of boxes stand on a grounded base; each box is shifted at random but keeps overlapping the one below,
-    so every contact is a generic rectangle. With ``walls`` a grounded wall touches the side of some towers.
+    Towers of boxes stand on a grounded base; each box is shifted at random but keeps overlapping the one
+    below, so every contact is a generic rectangle. With ``walls`` a grounded wall touches the side of some
+    towers.
     """
     rng = np.random.default_rng(seed)
     towers = max(1, int(np.sqrt(contact_faces / 2)))
@@ -63,7 +66,7 @@ def random_assembly(
 
 
 def brick_wall(rows: int, columns: int, mu: float = 0.6) -> dict[str, Any]:
-    """A running-bond wall of 2 x 1 x 1 bricks on a grounded footing: one connected sub-assembly.
+    """Return a running-bond wall of 2 x 1 x 1 bricks on a grounded footing: one connected sub-assembly.
 
     Each brick rests on two bricks of the row below (half offset) and touches its neighbours in its row, so
     there are about (3 rows x columns) contact faces of 4 points each.

@@ -8,15 +8,29 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from feeder_planner.assembly.tolerances import (
+    FLAT_TOLERANCE,
+    ON_PLANE_FACTOR,
+    PARALLEL_EDGES,
+    PLANE_MATCH_TOLERANCE,
+    SAME_EDGE_DIRECTION,
+)
 from feeder_planner.errors import InputError
 
-# Relative tolerance of flatness tests, as a fraction of the piece's size.
-FLAT_TOLERANCE = 1e-9
+__all__ = [
+    "ConvexPiece",
+    "Face",
+    "box_piece",
+    "faces_piece",
+    "hull_piece",
+    "overlap_depth",
+    "tangent_basis",
+]
 
 
 @dataclass(frozen=True)
 class Face:
-    """A planar convex face: outward unit normal, plane offset (normal . x = offset), CCW polygon about the normal."""
+    """A planar convex face: outward unit normal, offset (normal . x = offset), CCW polygon about normal."""
 
     normal: np.ndarray
     offset: float
@@ -35,18 +49,21 @@ class ConvexPiece:
 
     @property
     def lower(self) -> np.ndarray:
+        """Lower corner of the axis-aligned bounding box (m)."""
         return self.vertices.min(axis=0)
 
     @property
     def upper(self) -> np.ndarray:
+        """Upper corner of the axis-aligned bounding box (m)."""
         return self.vertices.max(axis=0)
 
     @property
     def size(self) -> float:
+        """Diagonal of the bounding box (m): the length scale of the piece's tolerances."""
         return float(np.linalg.norm(self.upper - self.lower))
 
     def edge_directions(self) -> np.ndarray:
-        """Unit directions of the edges of all faces (duplicates allowed)."""
+        """Return the unit directions of the edges of all faces (duplicates allowed)."""
         directions = []
         for face in self.faces:
             loop = face.polygon
@@ -56,7 +73,7 @@ class ConvexPiece:
 
 
 def box_piece(lower: np.ndarray, upper: np.ndarray, field: str) -> ConvexPiece:
-    """An axis-aligned box; refuses max <= min on any axis."""
+    """Build an axis-aligned box; refuses max <= min on any axis."""
     lower, upper = np.asarray(lower, float), np.asarray(upper, float)
     for axis, name in enumerate("xyz"):
         if not upper[axis] > lower[axis]:
@@ -80,7 +97,7 @@ def box_piece(lower: np.ndarray, upper: np.ndarray, field: str) -> ConvexPiece:
 
 
 def hull_piece(points: np.ndarray, field: str) -> ConvexPiece:
-    """The convex polyhedron whose vertices are ``points``; every point must be a hull vertex."""
+    """Build the convex polyhedron whose vertices are ``points``; every point must be a hull vertex."""
     points = np.asarray(points, float)
     if len(points) < 4:
         raise InputError(field, f"degenerate polyhedron: needs at least 4 vertices, got {len(points)}")
@@ -102,7 +119,7 @@ def hull_piece(points: np.ndarray, field: str) -> ConvexPiece:
 
 
 def faces_piece(points: np.ndarray, faces: list[list[int]], field: str) -> ConvexPiece:
-    """A convex polyhedron given by vertices and faces: checks closedness, planarity and convexity."""
+    """Build a convex polyhedron given by vertices and faces: checks closedness, planarity and convexity."""
     points = np.asarray(points, float)
     edge_count: dict[tuple[int, int], int] = {}
     for f_index, face in enumerate(faces):
@@ -113,7 +130,7 @@ def faces_piece(points: np.ndarray, faces: list[list[int]], field: str) -> Conve
         for index in face:
             if not isinstance(index, int) or isinstance(index, bool) or not 0 <= index < len(points):
                 raise InputError(f"{field}.faces[{f_index}]", f"vertex index {index!r} out of range")
-        for a, b in zip(face, face[1:] + face[:1]):
+        for a, b in zip(face, face[1:] + face[:1], strict=True):
             key = (min(a, b), max(a, b))
             edge_count[key] = edge_count.get(key, 0) + 1
     for (a, b), count in sorted(edge_count.items()):
@@ -134,18 +151,20 @@ def faces_piece(points: np.ndarray, faces: list[list[int]], field: str) -> Conve
 
 
 def _piece_from_planes(points: np.ndarray, equations: np.ndarray, size: float, field: str) -> ConvexPiece:
-    # qhull triangulates; merge the triangles of one plane into one polygonal face.
+    """Build the piece bounded by qhull's plane equations, merging each plane's triangles into one face."""
+    on_plane_tolerance = FLAT_TOLERANCE * size * ON_PLANE_FACTOR
     faces: list[Face] = []
     seen: list[np.ndarray] = []
     for equation in equations:
         normal, offset = equation[:3], -equation[3]
         if any(
-            np.dot(normal, other[:3]) > 1.0 - 1e-9 and abs(offset + other[3]) <= FLAT_TOLERANCE * size * 10
+            np.dot(normal, other[:3]) > 1.0 - PLANE_MATCH_TOLERANCE
+            and abs(offset + other[3]) <= on_plane_tolerance
             for other in seen
         ):
             continue
         seen.append(equation)
-        on_plane = points[np.abs(points @ normal - offset) <= FLAT_TOLERANCE * size * 10]
+        on_plane = points[np.abs(points @ normal - offset) <= on_plane_tolerance]
         faces.append(Face(normal / np.linalg.norm(normal), float(offset), _ccw(on_plane, normal)))
     volume, centroid = _volume_centroid(faces)
     if volume <= (FLAT_TOLERANCE * size) * size * size:
@@ -165,7 +184,7 @@ def _ccw(points: np.ndarray, normal: np.ndarray) -> np.ndarray:
 
 
 def _perpendicular(normal: np.ndarray) -> np.ndarray:
-    """A unit vector perpendicular to ``normal`` (chosen away from the smallest component)."""
+    """Return a unit vector perpendicular to ``normal`` (chosen away from the smallest component)."""
     axis = np.zeros(3)
     axis[int(np.argmin(np.abs(normal)))] = 1.0
     u = _cross(normal, axis)
@@ -178,13 +197,13 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def tangent_basis(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors u, v with u x v = normal (a right-handed frame of the tangent plane)."""
+    """Return two unit vectors u, v with u x v = normal (a right-handed frame of the tangent plane)."""
     u = _perpendicular(normal)
     return u, _cross(normal, u)
 
 
 def _volume_centroid(faces: list[Face]) -> tuple[float, np.ndarray]:
-    # Divergence theorem over fan triangles of each face, apex at a reference point.
+    """Return volume and centroid: divergence theorem over fan triangles of each face, apex at a reference."""
     reference = np.mean([face.polygon.mean(axis=0) for face in faces], axis=0)
     volume, moment = 0.0, np.zeros(3)
     for face in faces:
@@ -206,7 +225,7 @@ def overlap_depth(p: ConvexPiece, q: ConvexPiece) -> float:
         for e in _unique_directions(q.edge_directions()):
             cross = np.cross(d, e)
             norm = np.linalg.norm(cross)
-            if norm > 1e-9:
+            if norm > PARALLEL_EDGES:
                 axes.append(cross / norm)
     axes_array = np.asarray(axes)
     pp, qq = p.vertices @ axes_array.T, q.vertices @ axes_array.T
@@ -215,8 +234,9 @@ def overlap_depth(p: ConvexPiece, q: ConvexPiece) -> float:
 
 
 def _unique_directions(directions: np.ndarray) -> np.ndarray:
+    """Drop repeated unit directions, up to sign (first occurrence kept)."""
     unique: list[np.ndarray] = []
     for d in directions:
-        if not any(abs(np.dot(d, u)) > 1.0 - 1e-12 for u in unique):
+        if not any(abs(np.dot(d, u)) > 1.0 - SAME_EDGE_DIRECTION for u in unique):
             unique.append(d)
     return np.asarray(unique)

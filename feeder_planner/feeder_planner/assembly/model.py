@@ -11,6 +11,7 @@ import numpy as np
 import yaml
 
 from feeder_planner.assembly.geometry import ConvexPiece, box_piece, faces_piece, hull_piece, overlap_depth
+from feeder_planner.assembly.tolerances import PENETRATION_TOLERANCE, UNIT_NORMAL_TOLERANCE
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import (
     load_yaml_mapping,
@@ -22,13 +23,19 @@ from feeder_planner.fields_io import (
 )
 from feeder_planner.units import length_scale
 
-# Two pieces whose overlap depth exceeds this fraction of the assembly's size interpenetrate.
-PENETRATION_TOLERANCE = 1e-7
+__all__ = [
+    "Assembly",
+    "Body",
+    "ExplicitContact",
+    "assembly_from_document",
+    "assembly_from_text",
+    "load_assembly",
+]
 
 
 @dataclass(frozen=True)
 class Body:
-    """A rigid body: its convex pieces (metres), mass (kg) and centre of mass; grounded bodies are held fixed."""
+    """A rigid body: convex pieces (metres), mass (kg) and centre of mass; grounded bodies are held fixed."""
 
     name: str
     grounded: bool
@@ -40,6 +47,7 @@ class Body:
 
     @property
     def size(self) -> float:
+        """Diagonal of the body's bounding box (m): the length scale of its torque equations."""
         lower = np.min([p.lower for p in self.pieces], axis=0)
         upper = np.max([p.upper for p in self.pieces], axis=0)
         return float(np.linalg.norm(upper - lower))
@@ -70,12 +78,14 @@ class Assembly:
 
     @property
     def size(self) -> float:
+        """Diagonal of the assembly's bounding box (m): the length scale of the contact tolerances."""
         lower = np.min([p.lower for b in self.bodies for p in b.pieces], axis=0)
         upper = np.max([p.upper for b in self.bodies for p in b.pieces], axis=0)
         return float(np.linalg.norm(upper - lower))
 
     @property
     def free_bodies(self) -> list[int]:
+        """Indices of the bodies that are not grounded (the ones with equilibrium equations)."""
         return [i for i, body in enumerate(self.bodies) if not body.grounded]
 
 
@@ -137,6 +147,7 @@ def assembly_from_document(document: dict[str, Any], source: str = "") -> Assemb
 
 
 def _body(raw: Any, field_name: str, scale: float) -> Body:
+    """Read one body of the file: name, grounded flag, density and pieces, with its mass properties."""
     if not isinstance(raw, dict):
         raise InputError(field_name, f"expected a mapping, got {type(raw).__name__}")
     name = raw.get("name")
@@ -146,22 +157,37 @@ def _body(raw: Any, field_name: str, scale: float) -> Body:
     if not isinstance(grounded, bool):
         raise InputError(f"{field_name}.grounded", f"expected true or false, got {grounded!r}")
     density = positive_number(optional(raw, "density", 1.0), f"{field_name}.density")
-    pieces: list[ConvexPiece] = []
-    fields: list[str] = []
+    named = _box_pieces(raw, field_name, scale) + _convex_pieces(raw, field_name, scale)
+    pieces = [piece for _, piece in named]
+    fields = [item for item, _ in named]
+    if not pieces:
+        raise InputError(field_name, "a body needs at least one box or convex polyhedron")
+    mass, center = _mass_properties(pieces, fields, density, field_name)
+    return Body(name, grounded, tuple(pieces), mass, center, density, tuple(fields))
+
+
+def _box_pieces(raw: dict[str, Any], field_name: str, scale: float) -> list[tuple[str, ConvexPiece]]:
+    """Read the body's ``boxes`` ({min, max} in the file's unit) as pieces in metres, with their fields."""
     boxes = optional(raw, "boxes", [])
     if not isinstance(boxes, list):
         raise InputError(f"{field_name}.boxes", "expected a list of {min, max} boxes")
+    pieces = []
     for j, box in enumerate(boxes):
         item = f"{field_name}.boxes[{j}]"
         if not isinstance(box, dict):
             raise InputError(item, "expected a mapping with min and max")
         lower = point_array([required(box, "min", f"{item}.min")], f"{item}.min", 3)[0] * scale
         upper = point_array([required(box, "max", f"{item}.max")], f"{item}.max", 3)[0] * scale
-        pieces.append(box_piece(lower, upper, item))
-        fields.append(item)
+        pieces.append((item, box_piece(lower, upper, item)))
+    return pieces
+
+
+def _convex_pieces(raw: dict[str, Any], field_name: str, scale: float) -> list[tuple[str, ConvexPiece]]:
+    """Read the body's ``convex`` polyhedra (vertex lists, or vertices and faces) as pieces, with fields."""
     convex = optional(raw, "convex", [])
     if not isinstance(convex, list):
         raise InputError(f"{field_name}.convex", "expected a list of convex polyhedra")
+    pieces = []
     for j, poly in enumerate(convex):
         item = f"{field_name}.convex[{j}]"
         if isinstance(poly, dict):
@@ -171,14 +197,10 @@ def _body(raw: Any, field_name: str, scale: float) -> Body:
             faces = required(poly, "faces", f"{item}.faces")
             if not isinstance(faces, list) or not all(isinstance(f, list) for f in faces):
                 raise InputError(f"{item}.faces", "expected a list of vertex-index lists")
-            pieces.append(faces_piece(points, faces, item))
+            pieces.append((item, faces_piece(points, faces, item)))
         else:
-            pieces.append(hull_piece(point_array(poly, item, 3) * scale, item))
-        fields.append(item)
-    if not pieces:
-        raise InputError(field_name, "a body needs at least one box or convex polyhedron")
-    mass, center = _mass_properties(pieces, fields, density, field_name)
-    return Body(name, grounded, tuple(pieces), mass, center, density, tuple(fields))
+            pieces.append((item, hull_piece(point_array(poly, item, 3) * scale, item)))
+    return pieces
 
 
 def _mass_properties(
@@ -235,6 +257,7 @@ def _box_union(boxes: list[ConvexPiece]) -> tuple[float, np.ndarray]:
 
 
 def _check_interpenetration(assembly: Assembly) -> None:
+    """Refuse pieces of different bodies overlapping deeper than PENETRATION_TOLERANCE x assembly size."""
     tolerance = PENETRATION_TOLERANCE * assembly.size
     entries = [
         (bi, pi, piece) for bi, body in enumerate(assembly.bodies) for pi, piece in enumerate(body.pieces)
@@ -243,7 +266,8 @@ def _check_interpenetration(assembly: Assembly) -> None:
     upper = np.array([e[2].upper for e in entries])
     owner = np.array([e[0] for e in entries])
     for k, (bi, pi, piece) in enumerate(entries):
-        # Bounding-box prefilter: only later pieces of other bodies whose boxes overlap by more than the tolerance.
+        # Bounding-box prefilter: only later pieces of other bodies whose boxes overlap by more than the
+        # tolerance.
         overlap = np.min(np.minimum(upper[k + 1 :], upper[k]) - np.maximum(lower[k + 1 :], lower[k]), axis=1)
         for offset in np.nonzero((overlap > tolerance) & (owner[k + 1 :] != bi))[0]:
             bj, pj, other = entries[k + 1 + offset]
@@ -258,6 +282,7 @@ def _check_interpenetration(assembly: Assembly) -> None:
 
 
 def _explicit_contacts(raw: Any, assembly: Assembly, scale: float) -> tuple[ExplicitContact, ...]:
+    """Read the file's ``contacts`` list: bodies by name, point in metres, unit normal from b into a, mu."""
     if not isinstance(raw, list):
         raise InputError("contacts", "expected 'auto' or a list of {a, b, point, normal, mu} contacts")
     contacts = []
@@ -276,7 +301,7 @@ def _explicit_contacts(raw: Any, assembly: Assembly, scale: float) -> tuple[Expl
         point = point_array([required(item, "point", f"{where}.point")], f"{where}.point", 3)[0] * scale
         normal = point_array([required(item, "normal", f"{where}.normal")], f"{where}.normal", 3)[0]
         length = float(np.linalg.norm(normal))
-        if abs(length - 1.0) > 1e-6:
+        if abs(length - 1.0) > UNIT_NORMAL_TOLERANCE:
             raise InputError(f"{where}.normal", f"must be a unit vector, has length {length:.9g}")
         mu = non_negative_number(optional(item, "mu", assembly.mu), f"{where}.mu")
         contacts.append(ExplicitContact(names[0], names[1], point, normal / length, mu))

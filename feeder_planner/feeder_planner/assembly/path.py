@@ -1,4 +1,4 @@
-"""Safe reorientation paths: the great arc of Property 2 between two stable directions, every sample certified."""
+"""Safe reorientation paths: Property 2's great arc between two stable directions, every sample certified."""
 
 from __future__ import annotations
 
@@ -8,18 +8,25 @@ import numpy as np
 
 from feeder_planner.assembly.region import StableRegion
 from feeder_planner.assembly.stability import StabilityChecker, unit_gravity
+from feeder_planner.assembly.tolerances import (
+    ANTIPODAL_ANGLE,
+    ANTIPODAL_COSINE,
+    DEFAULT_PATH_STEP,
+    MIDPOINT_MIN_NORM,
+    SAME_POINT_ANGLE,
+)
 from feeder_planner.errors import InputError, SolverError
 
-DEFAULT_STEP = math.radians(1.0)
+__all__ = ["great_arc", "safe_path"]
 
 
 def great_arc(g1: np.ndarray, g2: np.ndarray, step: float) -> np.ndarray:
-    """Points of the shorter great arc from g1 to g2 (eq. 11, reparametrised by angle), at most ``step`` apart."""
+    """Return points of the shorter great arc from g1 to g2 (eq. 11, by angle), at most ``step`` apart."""
     g1, g2 = unit_gravity(g1, "from"), unit_gravity(g2, "to")
     angle = math.acos(float(np.clip(g1 @ g2, -1.0, 1.0)))
-    if angle < 1e-15:
+    if angle < SAME_POINT_ANGLE:
         return g1[None, :]
-    if math.pi - angle < 1e-9:
+    if math.pi - angle < ANTIPODAL_ANGLE:
         raise InputError("to", "is antipodal to 'from': the great arc between them is not unique")
     count = max(1, math.ceil(angle / step))
     t = np.linspace(0.0, 1.0, count + 1)
@@ -34,9 +41,9 @@ def safe_path(
     checker: StabilityChecker,
     g1: np.ndarray,
     g2: np.ndarray,
-    step: float = DEFAULT_STEP,
+    step: float = DEFAULT_PATH_STEP,
 ) -> np.ndarray:
-    """A sampled great-arc path from g1 to g2 whose every sample the stability LP certifies stable.
+    """Return a sampled great-arc path from g1 to g2 whose every sample the stability LP certifies stable.
 
     Property 2: for two stable, non-antipodal directions the arc lies in the region. Antipodal ends (possible
     only for the sphere, a great circle or a hemisphere's rim) go through a stable midpoint first.
@@ -49,9 +56,9 @@ def safe_path(
         if not verdict.stable:
             raise InputError(name, f"direction {np.round(g, 9).tolist()} is not stable")
     waypoints = [g1, g2]
-    if g1 @ g2 < -1 + 1e-9:
+    if g1 @ g2 < -1 + ANTIPODAL_COSINE:
         waypoints = [g1, _antipodal_midpoint(region, g1), g2]
-    samples = [great_arc(a, b, step) for a, b in zip(waypoints, waypoints[1:])]
+    samples = [great_arc(a, b, step) for a, b in zip(waypoints, waypoints[1:], strict=False)]
     path = np.vstack([samples[0]] + [s[1:] for s in samples[1:]])
     for index, g in enumerate(path):
         if not checker(g).stable:
@@ -60,6 +67,7 @@ def safe_path(
 
 
 def _antipodal_midpoint(region: StableRegion, g: np.ndarray) -> np.ndarray:
+    """Return a stable direction 90 degrees from g, joining g and -g by two great arcs (sphere, circle...)."""
     if region.kind in ("sphere", "hemisphere"):
         candidates = [-n for n in region.normals] or [
             np.cross(g, [1.0, 0.0, 0.0]),
@@ -73,6 +81,6 @@ def _antipodal_midpoint(region: StableRegion, g: np.ndarray) -> np.ndarray:
         )
     for c in candidates:
         c = c - (c @ g) * g
-        if np.linalg.norm(c) > 1e-6:
+        if np.linalg.norm(c) > MIDPOINT_MIN_NORM:
             return c / np.linalg.norm(c)
     raise SolverError("no midpoint found between antipodal directions")

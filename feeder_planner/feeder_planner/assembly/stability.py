@@ -1,4 +1,4 @@
-"""The stability linear program (eq. 9) for one gravity direction: verdict, contact forces or moving bodies."""
+"""The stability LP (eq. 9) for one gravity direction: the verdict, contact forces or the moving bodies."""
 
 from __future__ import annotations
 
@@ -9,17 +9,24 @@ from scipy import sparse
 from scipy.optimize import linprog
 
 from feeder_planner.assembly.lp import WarmLP
+from feeder_planner.assembly.tolerances import FEASIBILITY_TOLERANCE, MIN_DIRECTION_NORM, RESIDUAL_TOLERANCE
 from feeder_planner.assembly.wrench import EquilibriumSystem, contact_forces
 from feeder_planner.errors import InputError, SolverError
 
-# HiGHS tolerances; a stable verdict is certified by re-checking the residual of the returned forces.
-LP_OPTIONS = {"primal_feasibility_tolerance": 1e-9, "dual_feasibility_tolerance": 1e-9, "presolve": True}
-RESIDUAL_TOLERANCE = 1e-7  # on the scaled equations: a fraction of each body's weight (and weight x size)
+__all__ = ["StabilityChecker", "StabilityVerdict", "unit_gravity"]
+
+# HiGHS options of the least-imbalance LP; a stable verdict is certified by re-checking the residual of the
+# returned forces, an unstable one names the rows left unbalanced beyond RESIDUAL_TOLERANCE.
+LP_OPTIONS = {
+    "primal_feasibility_tolerance": FEASIBILITY_TOLERANCE,
+    "dual_feasibility_tolerance": FEASIBILITY_TOLERANCE,
+    "presolve": True,
+}
 
 
 @dataclass(frozen=True)
 class StabilityVerdict:
-    """Whether g is potentially stable; forces (N, on body a, per contact) when it is, else the unbalanced bodies."""
+    """Whether g is potentially stable; forces (N, on body a, per contact) if so, else unbalanced bodies."""
 
     stable: bool
     forces: np.ndarray | None
@@ -28,20 +35,24 @@ class StabilityVerdict:
 
 
 def unit_gravity(g: np.ndarray, field: str = "g") -> np.ndarray:
-    """A finite, non-zero gravity direction, normalised."""
+    """Return g as a unit vector; InputError naming ``field`` unless it has 3 finite, not all zero parts."""
     g = np.asarray(g, dtype=float).reshape(-1)
     if g.shape != (3,):
         raise InputError(field, f"expected 3 components, got {g.size}")
     if not np.all(np.isfinite(g)):
         raise InputError(field, f"must be finite, got {g.tolist()}")
     norm = float(np.linalg.norm(g))
-    if norm < 1e-12:
+    if norm < MIN_DIRECTION_NORM:
         raise InputError(field, "must be a non-zero direction")
     return g / norm
 
 
 class StabilityChecker:
-    """Eq. (9) for one gravity direction at a time, on one warm-started LP (g's columns fixed by bounds)."""
+    """Eq. (9) for one gravity direction at a time, on one warm-started LP (g's columns fixed by bounds).
+
+    Columns 0-2 of the LP are g itself, fixed to the direction asked by their bounds, so only the bounds
+    change between calls and each solve restarts from the last basis.
+    """
 
     def __init__(self, system: EquilibriumSystem) -> None:
         self.system = system
@@ -53,11 +64,12 @@ class StabilityChecker:
             np.concatenate([np.zeros(3), np.zeros(columns)]),
             np.concatenate([np.zeros(3), np.full(columns, np.inf)]),
         )
-        # Minimise the total multiplier: a bounded objective that picks a small, well-scaled force distribution.
+        # Minimise the total multiplier: a bounded objective that picks a small, well-scaled force
+        # distribution.
         self.lp.set_cost(np.arange(3, 3 + columns), np.ones(columns))
 
     def __call__(self, g: np.ndarray, explain: bool = True) -> StabilityVerdict:
-        """Verdict for g; ``explain`` also finds the bodies that cannot be balanced when unstable (one more LP)."""
+        """Decide g; ``explain`` also finds the bodies that cannot be balanced when unstable (one more LP)."""
         system = self.system
         g = unit_gravity(g)
         rhs = -system.B @ g
@@ -70,7 +82,7 @@ class StabilityChecker:
         self.lp.set_bounds(np.arange(3), g, g)
         result = self.lp.solve()
         if result.status == "optimal":
-            lam = np.maximum(result.x[3:], 0.0)
+            lam = np.maximum(result.solution[3:], 0.0)
             residual = float(np.abs(system.A @ lam - rhs).max())
             if residual > RESIDUAL_TOLERANCE:
                 raise SolverError(
@@ -82,13 +94,8 @@ class StabilityChecker:
         raise SolverError(f"stability LP failed: {result.message}")
 
 
-def check_stability(system: EquilibriumSystem, g: np.ndarray) -> StabilityVerdict:
-    """Solve eq. (9) for unit g: feasible contact forces exist iff the assembly is potentially stable."""
-    return StabilityChecker(system)(g)
-
-
 def _unbalanced(system: EquilibriumSystem, rhs: np.ndarray) -> StabilityVerdict:
-    """Least total imbalance (L1 over the scaled rows); bodies with imbalance left are the ones that move."""
+    """Find the least total imbalance (L1, scaled rows); bodies with imbalance left are the ones that move."""
     rows = system.A.shape[0]
     identity = sparse.identity(rows, format="csc")
     A = sparse.hstack([system.A, identity, -identity], format="csc")
@@ -102,4 +109,5 @@ def _unbalanced(system: EquilibriumSystem, rhs: np.ndarray) -> StabilityVerdict:
 
 
 def _bodies(system: EquilibriumSystem, rows: np.ndarray) -> tuple[int, ...]:
+    """Return the sorted indices of the bodies owning the selected rows (a boolean mask of equations)."""
     return tuple(sorted({int(b) for b in system.body_of_row[rows]}))

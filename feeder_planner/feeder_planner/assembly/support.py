@@ -1,38 +1,35 @@
-"""The support function of the cube section of the stable cone (sec. III): max c.g over {g in V, |g|_inf <= 1}."""
+"""The support function of the stable cone's cube section (sec. III): max c.g over {g in V, |g|_inf <= 1}."""
 
 from __future__ import annotations
 
+import highspy
 import numpy as np
 from scipy import sparse
 
 from feeder_planner.assembly.lp import LPResult, WarmLP
-from feeder_planner.assembly.stability import RESIDUAL_TOLERANCE
+from feeder_planner.assembly.tolerances import (
+    FACE_TILT,
+    FAR_PIVOTS,
+    INTERIOR_POINT_ROWS,
+    RESIDUAL_TOLERANCE,
+    TILT_AXIS,
+)
 from feeder_planner.assembly.wrench import EquilibriumSystem
 from feeder_planner.errors import SolverError
 
-# A restarted support LP still unsolved after this many pivots has its optimum in another corner of P: it is
-# solved by the interior point method and crossover instead. Measured on brick walls: the restarts that succeed
-# take 0-125 pivots, the far ones 2000-6000.
-FAR_PIVOTS = 150
-# Below this many equations a far LP costs the simplex (pivots are O(rows)) less than the interior point route's
-# fixed cost (about 20 ms at 140 rows, 1.1x faster at 264 rows, 2x at 540): those LPs stay on the simplex.
-INTERIOR_POINT_ROWS = 200
-# Relative tilt of a far LP's objective for the interior point solve (see SupportOracle._far_optimum), along a
-# fixed axis in general position.
-FACE_TILT = 1e-4
-_TILT_AXIS = np.array([0.37, -0.61, 0.70]) / np.linalg.norm([0.37, -0.61, 0.70])
+__all__ = ["SupportOracle"]
 
 
 class SupportOracle:
     """max c.g over the cube section of V for one equilibrium system; counts its LPs.
 
-    Every optimal basis found is kept with its maximiser g: any of them is primal feasible for a new objective,
-    so each LP restarts the primal simplex from the kept vertex best for its direction (the parametric
-    programming of sec. III).
+    Every optimal basis found is kept with its maximiser g: any of them is primal feasible for a new
+    objective, so each LP restarts the primal simplex from the kept vertex best for its direction (the
+    parametric programming of sec. III).
     """
 
     def __init__(self, system: EquilibriumSystem, far_pivots: int | None = FAR_PIVOTS) -> None:
-        """``far_pivots``: simplex pivots after which an LP moves to the interior point route (None: never)."""
+        """Set up the LP; ``far_pivots``: pivots after which an LP goes by interior point (None: never)."""
         self.system = system
         self.far_pivots = far_pivots
         self.calls = 0
@@ -47,9 +44,10 @@ class SupportOracle:
         )
         self._large = system.A.shape[0] >= INTERIOR_POINT_ROWS
         self._points: list[np.ndarray] = []
-        self._bases: list = []
+        self._bases: list[highspy.HighsBasis] = []
 
     def __call__(self, direction: np.ndarray) -> tuple[float, np.ndarray]:
+        """Return max direction.g over P and a maximiser g, certified by our residual check."""
         direction = np.asarray(direction, dtype=float)
         self.calls += 1
         if self.system.A.shape[0] == 0:  # nothing free: every g is stable
@@ -59,8 +57,9 @@ class SupportOracle:
         result = self._optimise(direction, self._restart_basis(direction))
         if result.status != "optimal":
             raise SolverError(f"support LP failed ({result.status}): {result.message}")
-        g = np.clip(result.x[:3], -1.0, 1.0)
-        lam = np.maximum(result.x[3:], 0.0)
+        x = result.solution
+        g = np.clip(x[:3], -1.0, 1.0)
+        lam = np.maximum(x[3:], 0.0)
         residual = (
             float(np.abs(self.system.A @ lam + self.system.B @ g).max()) if self.system.columns else 0.0
         )
@@ -72,19 +71,19 @@ class SupportOracle:
             self._bases.append(basis)
         return float(direction @ g), g
 
-    def _restart_basis(self, direction: np.ndarray):
-        """The kept basis whose vertex is best for ``direction`` (None before the first LP)."""
+    def _restart_basis(self, direction: np.ndarray) -> highspy.HighsBasis | None:
+        """Return the kept basis whose vertex is best for ``direction`` (None before the first LP)."""
         if not self._points:
             return None
         return self._bases[int(np.argmax(np.asarray(self._points) @ direction))]
 
-    def _optimise(self, direction: np.ndarray, start) -> LPResult:
-        """Restarted primal simplex; past ``far_pivots`` on a large LP, interior point + crossover instead.
+    def _optimise(self, direction: np.ndarray, start: highspy.HighsBasis | None) -> LPResult:
+        """Solve by the restarted primal simplex; past ``far_pivots`` (large LPs) by interior point.
 
         Restarting from the last basis instead of the best vertex's costs thousands of degenerate pivots on
-        statically indeterminate assemblies. An optimum in another corner of P is still thousands of pivots away
-        (each O(rows)); the interior point method's cost does not grow with that distance, and its crossover
-        hands back an optimal basis for later restarts.
+        statically indeterminate assemblies. An optimum in another corner of P is still thousands of pivots
+        away (each O(rows)); the interior point method's cost does not grow with that distance, and its
+        crossover hands back an optimal basis for later restarts.
         """
         lp = self.lp
         use_interior_point = self._large and self.far_pivots is not None and lp.interior_point_available()
@@ -98,11 +97,11 @@ class SupportOracle:
         return result
 
     def _far_optimum(self, direction: np.ndarray) -> LPResult:
-        """Interior point + crossover on a slightly tilted objective, then the simplex on the exact one.
+        """Solve by interior point + crossover on a tilted objective, then by simplex on the exact one.
 
-        When ``direction`` is normal to an edge or facet of P (common: hull facets of symmetric assemblies) the
-        interior point method returns the centre of that face, not a vertex of P, and the far LP is wasted on a
-        point the hull does not need. Tilting by FACE_TILT (far above the interior point tolerance, 1e-8)
+        When ``direction`` is normal to an edge or facet of P (common: hull facets of symmetric assemblies)
+        the interior point method returns the centre of that face, not a vertex of P, and the far LP is wasted
+        on a point the hull does not need. Tilting by FACE_TILT (far above the interior point tolerance, 1e-8)
         breaks the tie towards one vertex of the face; that vertex is still optimal for the exact direction
         unless its normal cone is thinner than the tilt, and the simplex run on the exact objective from the
         crossover basis certifies it (usually without a pivot) or moves on to the exact optimum.
@@ -110,7 +109,7 @@ class SupportOracle:
         self.far_solves += 1
         lp = self.lp
         scale = float(np.linalg.norm(direction))
-        lp.set_cost(np.arange(3), -(direction + FACE_TILT * scale * _TILT_AXIS))
+        lp.set_cost(np.arange(3), -(direction + FACE_TILT * scale * TILT_AXIS))
         lp.solve_by_interior_point()
         lp.set_cost(np.arange(3), -direction)
         basis = lp.basis()

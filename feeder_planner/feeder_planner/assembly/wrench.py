@@ -1,4 +1,4 @@
-"""The equilibrium system of eqs. (5)-(9): contact wrench matrix with a K-facet friction pyramid, and gravity."""
+"""The equilibrium system of eqs. (5)-(9): contact wrenches with a K-facet friction pyramid, and gravity."""
 
 from __future__ import annotations
 
@@ -11,18 +11,27 @@ from scipy.sparse.csgraph import connected_components
 from feeder_planner.assembly.contacts import Contact
 from feeder_planner.assembly.geometry import tangent_basis
 from feeder_planner.assembly.model import Assembly
+from feeder_planner.assembly.tolerances import DEFAULT_FACETS, MIN_FACETS, STANDARD_GRAVITY
 from feeder_planner.errors import InputError
 
-STANDARD_GRAVITY = 9.80665  # m/s^2: contact forces are reported in newtons for |g| = 1 standard gravity
+__all__ = [
+    "EquilibriumSystem",
+    "build_system",
+    "contact_forces",
+    "pyramid_edges",
+    "split_components",
+    "validate_facets",
+    "wrench_system",
+]
 
 
 @dataclass(frozen=True)
 class EquilibriumSystem:
     """Scaled system  A lam + B g = 0,  lam >= 0  (eq. 9 with generator form of the friction pyramid).
 
-    Column k of A is the wrench of one pyramid edge (generator) of one contact, scaled by ``column_scale`` (kg)
-    so that lam is O(1) for any mass ratio; rows of body j are divided by M_j (forces) and M_j L_j (torques).
-    ``generators[k]`` is the force direction of column k; ``contact_of[k]`` its contact.
+    Column k of A is the wrench of one pyramid edge (generator) of one contact, scaled by ``column_scale``
+    (kg) so that lam is O(1) for any mass ratio; rows of body j are divided by M_j (forces) and M_j L_j
+    (torques). ``generators[k]`` is the force direction of column k; ``contact_of[k]`` its contact.
     """
 
     A: sparse.csc_matrix
@@ -36,32 +45,40 @@ class EquilibriumSystem:
 
     @property
     def columns(self) -> int:
+        """Number of LP columns (pyramid edges of all contacts)."""
         return self.A.shape[1]
 
 
-def pyramid_directions(normal: np.ndarray, mu: float, facets: int, circumscribed: bool = False) -> np.ndarray:
-    """Edges of the K-facet pyramid inscribed in the Coulomb cone (eq. 9 for K = 4), one row each.
+def validate_facets(facets: object, field: str = "facets") -> int:
+    """Return ``facets`` as an int K >= MIN_FACETS; InputError naming ``field`` otherwise (bools refused)."""
+    if isinstance(facets, bool) or not isinstance(facets, (int, np.integer)) or facets < MIN_FACETS:
+        raise InputError(field, f"must be an integer >= {MIN_FACETS}, got {facets!r}")
+    return int(facets)
 
-    Edge k is n + mu (cos t_k u + sin t_k v) with t_k = (2k + 1) pi / K, which for K = 4 is exactly
-    |f_x|, |f_y| <= mu f_n / sqrt(2) in the paper's (u, v) axes. ``circumscribed`` scales the tangential part by
-    1 / cos(pi / K), giving the smallest pyramid that contains the cone (used to bound the exact cone).
+
+def pyramid_edges(
+    normals: np.ndarray, mus: np.ndarray, facets: int, circumscribed: bool = False
+) -> np.ndarray:
+    """Return the edges (contacts, K, 3) of the K-facet pyramid inscribed in each Coulomb cone (eq. 9, K = 4).
+
+    Edge k is n + mu (cos t_k u + sin t_k v) with t_k = (2k + 1) pi / K, which for K = 4 is exactly |f_x|,
+    |f_y| <= mu f_n / sqrt(2) in the paper's (u, v) axes. ``circumscribed`` scales the tangential part by 1 /
+    cos(pi / K), giving the smallest pyramid that contains the cone (used to bound the exact cone, eq. 2).
     """
-    if mu == 0.0:
-        return normal[None, :].copy()
-    u, v = tangent_basis(normal)
+    u = np.array([tangent_basis(n)[0] for n in normals]).reshape(-1, 3)
+    v = np.cross(normals, u)
     angles = (2 * np.arange(facets) + 1) * np.pi / facets
-    radius = mu / np.cos(np.pi / facets) if circumscribed else mu
-    return normal[None, :] + radius * (
-        np.cos(angles)[:, None] * u[None, :] + np.sin(angles)[:, None] * v[None, :]
+    radius = mus / np.cos(np.pi / facets) if circumscribed else mus
+    return normals[:, None, :] + radius[:, None, None] * (
+        np.cos(angles)[None, :, None] * u[:, None, :] + np.sin(angles)[None, :, None] * v[:, None, :]
     )
 
 
 def build_system(
-    assembly: Assembly, contacts: list[Contact], facets: int = 4, circumscribed: bool = False
+    assembly: Assembly, contacts: list[Contact], facets: int = DEFAULT_FACETS, circumscribed: bool = False
 ) -> EquilibriumSystem:
     """Assemble eq. (6)'s J^T f + G in scaled generator form for the free bodies."""
-    if isinstance(facets, bool) or not isinstance(facets, (int, np.integer)) or facets < 3:
-        raise InputError("facets", f"the friction pyramid needs K >= 3 facets, got {facets!r}")
+    facets = validate_facets(facets)
     generators_array, contact_array = _generators(contacts, facets, circumscribed)
     return wrench_system(assembly, contacts, generators_array, contact_array, facets)
 
@@ -73,8 +90,10 @@ def wrench_system(
     contact_array: np.ndarray,
     facets: int,
 ) -> EquilibriumSystem:
-    """The scaled system of eq. (6) for arbitrary force directions: column k is a unit multiple of force
-    ``generators_array[k]`` at contact ``contact_array[k]`` (pyramid edges, or the exact cone's n, u, v axes).
+    """Assemble the scaled system of eq. (6) for arbitrary force directions.
+
+    Column k is a unit multiple of force ``generators_array[k]`` at contact ``contact_array[k]`` (pyramid
+    edges, or the exact cone's n, u, v axes).
     """
     free = assembly.free_bodies
     slot = np.full(len(assembly.bodies), -1)
@@ -126,20 +145,15 @@ def wrench_system(
 
 
 def _generators(contacts: list[Contact], facets: int, circumscribed: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Pyramid edges of all contacts (vectorised pyramid_directions), ordered by contact, and their contact index."""
+    """Return the pyramid edges of all contacts, ordered by contact, and each edge's contact index."""
     if not contacts:
         return np.zeros((0, 3)), np.zeros(0, dtype=int)
     normals = np.array([c.normal for c in contacts])
     mus = np.array([c.mu for c in contacts])
-    u = np.array([tangent_basis(n)[0] for n in normals])
-    v = np.cross(normals, u)
-    angles = (2 * np.arange(facets) + 1) * np.pi / facets
-    radius = mus / np.cos(np.pi / facets) if circumscribed else mus
-    edges = normals[:, None, :] + radius[:, None, None] * (
-        np.cos(angles)[None, :, None] * u[:, None, :] + np.sin(angles)[None, :, None] * v[:, None, :]
-    )
+    edges = pyramid_edges(normals, mus, facets, circumscribed)
     frictional = mus > 0
-    generators, owners = [], []
+    generators: list[np.ndarray] = []
+    owners: list[np.ndarray] = []
     # mu = 0 contacts have the single generator n (the pyramid collapses onto its axis).
     for index in range(len(contacts)):
         if frictional[index]:
@@ -154,7 +168,7 @@ def _generators(contacts: list[Contact], facets: int, circumscribed: bool) -> tu
 def contact_forces(
     system: EquilibriumSystem, lam: np.ndarray, gravity: float = STANDARD_GRAVITY
 ) -> np.ndarray:
-    """Force on body a at each contact (N), from the scaled multipliers, for |g| = ``gravity``."""
+    """Return the force on body a at each contact (N), from the scaled multipliers, for |g| = ``gravity``."""
     forces = np.zeros((len(system.contacts), 3))
     weighted = system.generators * (lam * system.column_scale * gravity)[:, None]
     np.add.at(forces, system.contact_of, weighted)
@@ -162,10 +176,10 @@ def contact_forces(
 
 
 def split_components(system: EquilibriumSystem) -> list[EquilibriumSystem]:
-    """Independent sub-assemblies: free bodies linked only through grounded ones have separate equations.
+    """Split into independent sub-assemblies: free bodies linked only through grounded ones.
 
-    Eq. (9) is then a product of smaller LPs and V is the intersection of their cones, so each part's region can
-    be found on its own (smaller, faster LPs) and the parts' constraints intersected.
+    Eq. (9) is then a product of smaller LPs and V is the intersection of their cones, so each part's region
+    can be found on its own (smaller, faster LPs) and the parts' constraints intersected.
     """
     rows = system.A.shape[0]
     bodies = rows // 6

@@ -2,20 +2,24 @@
 
 from __future__ import annotations
 
-from typing import Any, Sequence
-
-import numpy as np
+from collections.abc import Sequence
 
 from feeder_msgs.msg import ContactForce, StabilityRegion
-from feeder_planner.assembly.default import DEFAULT_ASSEMBLY_YAML
-from feeder_planner.assembly.model import Assembly, assembly_from_text, load_assembly
-from feeder_planner.assembly.planner import PreparedAssembly
-from feeder_planner.assembly.region import StableRegion
+from feeder_planner.assembly import (
+    DEFAULT_ASSEMBLY_YAML,
+    DEFAULT_FACETS,
+    MIN_FACETS,
+    Assembly,
+    ContactLoad,
+    RegionResult,
+    assembly_from_text,
+    load_assembly,
+)
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit.msg_geometry import point, vec
 from feeder_planner.node_kit.parameters import ParameterSpec, integer_at_least, non_negative
 
-__all__ = ["ASSEMBLY_PARAMETERS", "load_assembly_parameter", "region_msg", "force_msgs", "contact_force_msgs"]
+__all__ = ["ASSEMBLY_PARAMETERS", "force_msgs", "load_assembly_parameter", "region_msg"]
 
 ASSEMBLY_PARAMETERS = (
     ParameterSpec(
@@ -40,16 +44,16 @@ ASSEMBLY_PARAMETERS = (
     ),
     ParameterSpec(
         "facets",
-        4,
-        "facets K >= 3 of the friction pyramid (4 is the paper's)",
-        integer_at_least(3),
+        DEFAULT_FACETS,
+        f"facets K >= {MIN_FACETS} of the friction pyramid ({DEFAULT_FACETS} is the paper's)",
+        integer_at_least(MIN_FACETS),
         read_only=True,
     ),
 )
 
 
 def load_assembly_parameter(path: str) -> Assembly:
-    """The assembly the ``assembly_file`` parameter names (the built-in one when empty); errors name it."""
+    """Load the assembly the ``assembly_file`` parameter names (built-in when empty); errors name it."""
     if not path:
         return assembly_from_text(DEFAULT_ASSEMBLY_YAML, "built-in assembly")
     try:
@@ -58,8 +62,9 @@ def load_assembly_parameter(path: str) -> Assembly:
         raise InputError(f"parameter assembly_file ({error.field})", error.problem, error.source) from None
 
 
-def region_msg(region: StableRegion, contacts: int) -> StabilityRegion:
-    """A feeder_msgs/StabilityRegion of a computed region."""
+def region_msg(result: RegionResult) -> StabilityRegion:
+    """Build the feeder_msgs/StabilityRegion of a computed region and its contact count."""
+    region = result.region
     return StabilityRegion(
         kind=region.kind,
         normals=[vec(n) for n in region.normals],
@@ -69,35 +74,20 @@ def region_msg(region: StableRegion, contacts: int) -> StabilityRegion:
         has_center=region.center is not None,
         center=vec(region.center) if region.center is not None else vec((0.0, 0.0, 0.0)),
         facets=region.facets,
-        contacts=contacts,
+        contacts=result.contacts,
         lp_count=region.lp_count,
     )
 
 
-def force_msgs(forces: Sequence[dict[str, Any]]) -> list[ContactForce]:
-    """ContactForce messages from the ``forces`` rows of a check result (body names, point, normal, force)."""
+def force_msgs(loads: Sequence[ContactLoad] | None) -> list[ContactForce]:
+    """Build the ContactForce messages of a check result's contact loads (none when unstable)."""
     return [
         ContactForce(
-            body_a=f["a"],
-            body_b=f["b"],
-            point=point(f["point"]),
-            normal=vec(f["normal"]),
-            force=vec(f["force"]),
+            body_a=load.a,
+            body_b=load.b,
+            point=point(load.point),
+            normal=vec(load.normal),
+            force=vec(load.force),
         )
-        for f in forces
-    ]
-
-
-def contact_force_msgs(prepared: PreparedAssembly, forces: np.ndarray) -> list[ContactForce]:
-    """ContactForce messages for a certified LP solution: one row of ``forces`` per prepared contact."""
-    bodies = prepared.assembly.bodies
-    return [
-        ContactForce(
-            body_a=bodies[c.a].name,
-            body_b=bodies[c.b].name,
-            point=point(c.point),
-            normal=vec(c.normal),
-            force=vec(f),
-        )
-        for c, f in zip(prepared.contacts, forces, strict=True)
+        for load in loads or ()
     ]

@@ -1,4 +1,4 @@
-"""ROS 2 node: a two-axis tilting fixture holding an assembly, with a stability interlock (paper Figs. 1-2)."""
+"""ROS 2 node: a two-axis tilting fixture holding an assembly, with a stability interlock (Figs. 1-2)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from std_msgs.msg import Header
 
 from feeder_msgs.msg import StabilityStatus
 from feeder_msgs.srv import FixtureMove
-from feeder_planner.assembly.planner import prepare
+from feeder_planner.assembly import check_result, prepare
 from feeder_planner.errors import FeederError, InputError
 from feeder_planner.node_kit import (
     STREAM_DEPTH,
@@ -27,47 +27,55 @@ from feeder_planner.node_kit import (
     service_guard,
     vec,
 )
-from feeder_planner.node_kit.msg_assembly import (
-    ASSEMBLY_PARAMETERS,
-    contact_force_msgs,
-    load_assembly_parameter,
+from feeder_planner.node_kit.msg_assembly import ASSEMBLY_PARAMETERS, force_msgs, load_assembly_parameter
+from feeder_sim.fixture import (
+    INTERLOCK_STEP,
+    JOINT_NAMES,
+    MAX_RATE,
+    TILT_X_RANGE,
+    TILT_Y_RANGE,
+    TableLimits,
+    TimedPath,
+    certify,
+    gravity_of,
+    plan_joint_path,
+    sample_waypoints,
 )
-from feeder_sim.fixture.interlock import DEFAULT_STEP, certify, sample_waypoints
-from feeder_sim.fixture.kinematics import JOINT_NAMES, TableLimits, TimedPath, gravity_of, plan_joint_path
+
+__all__ = ["PARAMETERS", "AssemblyFixture", "InterlockRefusedError", "main"]
 
 
-def _angle(low: float, high: float) -> Check:
-    return in_range(low, high, unit="rad")
+def _angle(limits: tuple[float, float]) -> Check:
+    """Parameter check: an angle (rad) within a joint's mechanical range."""
+    return in_range(limits[0], limits[1], unit="rad")
 
 
 PARAMETERS = ASSEMBLY_PARAMETERS + (
     ParameterSpec(
         "tilt_x_min",
-        -math.pi / 2,
+        TILT_X_RANGE[0],
         "lower limit of joint tilt_x (rad, about the world x axis)",
-        _angle(-math.pi / 2, math.pi / 2),
+        _angle(TILT_X_RANGE),
     ),
-    ParameterSpec(
-        "tilt_x_max", math.pi / 2, "upper limit of joint tilt_x (rad)", _angle(-math.pi / 2, math.pi / 2)
-    ),
+    ParameterSpec("tilt_x_max", TILT_X_RANGE[1], "upper limit of joint tilt_x (rad)", _angle(TILT_X_RANGE)),
     ParameterSpec(
         "tilt_y_min",
-        -math.pi,
+        TILT_Y_RANGE[0],
         "lower limit of joint tilt_y (rad, about the cradle's y axis)",
-        _angle(-math.pi, math.pi),
+        _angle(TILT_Y_RANGE),
     ),
-    ParameterSpec("tilt_y_max", math.pi, "upper limit of joint tilt_y (rad)", _angle(-math.pi, math.pi)),
-    ParameterSpec("max_rate_x", 1.0, "maximum speed of joint tilt_x (rad/s)", positive),
-    ParameterSpec("max_rate_y", 1.0, "maximum speed of joint tilt_y (rad/s)", positive),
+    ParameterSpec("tilt_y_max", TILT_Y_RANGE[1], "upper limit of joint tilt_y (rad)", _angle(TILT_Y_RANGE)),
+    ParameterSpec("max_rate_x", MAX_RATE, "maximum speed of joint tilt_x (rad/s)", positive),
+    ParameterSpec("max_rate_y", MAX_RATE, "maximum speed of joint tilt_y (rad/s)", positive),
     ParameterSpec("interlock", True, "refuse any commanded path that leaves the stable region (default on)"),
     ParameterSpec("publish_rate", 20.0, "rate of joint_states, gravity and stability (Hz)", positive),
-    ParameterSpec("path_step", DEFAULT_STEP, "angle between certified path samples (rad)", positive),
-    ParameterSpec("initial_tilt_x", 0.0, "tilt_x at start (rad)", _angle(-math.pi / 2, math.pi / 2)),
-    ParameterSpec("initial_tilt_y", 0.0, "tilt_y at start (rad)", _angle(-math.pi, math.pi)),
+    ParameterSpec("path_step", INTERLOCK_STEP, "angle between certified path samples (rad)", positive),
+    ParameterSpec("initial_tilt_x", 0.0, "tilt_x at start (rad)", _angle(TILT_X_RANGE)),
+    ParameterSpec("initial_tilt_y", 0.0, "tilt_y at start (rad)", _angle(TILT_Y_RANGE)),
 )
 
 
-class InterlockRefusal(FeederError):
+class InterlockRefusedError(FeederError):
     """The interlock refused a commanded path."""
 
 
@@ -89,14 +97,7 @@ class AssemblyFixture(Node):
         self.prepared = prepare(assembly, self.p["mu"] if self.p["override_mu"] else None, self.p["facets"])
         self.region = self.prepared.region
         self.joints = np.array([self.p["initial_tilt_x"], self.p["initial_tilt_y"]])
-        for name, value in zip(JOINT_NAMES, self.joints, strict=True):
-            low, high = (
-                (self.limits.x_min, self.limits.x_max)
-                if name == "tilt_x"
-                else (self.limits.y_min, self.limits.y_max)
-            )
-            if not low <= value <= high:
-                raise InputError(f"parameter initial_{name}", f"{value} is outside [{low}, {high}]")
+        self.limits.check_start(self.joints)
         self.velocity = np.zeros(2)
         self.path: TimedPath | None = None
         self.path_start = 0.0
@@ -111,9 +112,11 @@ class AssemblyFixture(Node):
         )
 
     def _now(self) -> float:
+        """Node clock time (s)."""
         return self.get_clock().now().nanoseconds * 1e-9
 
     def on_move(self, request: FixtureMove.Request, response: FixtureMove.Response) -> FixtureMove.Response:
+        """Serve ~/move: plan and time the great arcs through the waypoints; the interlock may refuse them."""
         if not request.waypoints:
             raise InputError("waypoints", "needs at least one gravity direction")
         waypoints = [from_vec(w, f"waypoints[{i}]") for i, w in enumerate(request.waypoints)]
@@ -134,13 +137,14 @@ class AssemblyFixture(Node):
                 f"{', '.join(verdict.unbalanced_bodies) or 'the assembly'} would lose equilibrium"
             )
             if self.p["interlock"]:
-                raise InterlockRefusal(f"refused by the interlock: {what}")
+                raise InterlockRefusedError(f"refused by the interlock: {what}")
             response.warning = f"interlock off, moving anyway: {what}"
             self.get_logger().warning(response.warning)
         self.path, self.path_start = path, self._now()
         return response
 
     def _advance(self) -> None:
+        """Move the joints along the current path to the present time; drop the path once finished."""
         if self.path is None:
             return
         elapsed = self._now() - self.path_start
@@ -149,6 +153,7 @@ class AssemblyFixture(Node):
             self.path = None
 
     def tick(self) -> None:
+        """Publish joint states, gravity and the stability status of the current direction."""
         self._advance()
         stamp = self.get_clock().now().to_msg()
         g = gravity_of(self.joints)
@@ -163,12 +168,11 @@ class AssemblyFixture(Node):
         self.gravity_pub.publish(Vector3Stamped(header=_header(stamp), vector=vec(g)))
         status = StabilityStatus(header=_header(stamp), gravity=vec(g), moving=self.path is not None)
         try:
-            verdict = self.prepared.check(g)
-            status.stable = verdict.stable
-            status.margin = self.region.margin(g)
-            status.unbalanced_bodies = self.prepared.body_names(verdict.unbalanced)
-            if verdict.forces is not None:
-                status.forces = contact_force_msgs(self.prepared, verdict.forces)
+            result = check_result(self.prepared, g)
+            status.stable = result.stable
+            status.margin = result.margin_rad
+            status.unbalanced_bodies = list(result.unbalanced_bodies)
+            status.forces = force_msgs(result.forces)
         except FeederError as error:  # an uncertified LP is reported, never published as stable
             status.stable = False
             status.margin = math.nan
@@ -177,10 +181,12 @@ class AssemblyFixture(Node):
 
 
 def _header(stamp: Time) -> Header:
+    """Return a header in the assembly frame."""
     return Header(stamp=stamp, frame_id="assembly")
 
 
 def main(args: list[str] | None = None) -> None:
+    """Run the node until shutdown."""
     run_node(AssemblyFixture, "assembly_fixture", args)
 
 
