@@ -1,0 +1,294 @@
+"""The cell: several instances in namespaces that never cross, one clock held and stepped in lockstep.
+
+Everything runs as real node processes over DDS. The scene tests go through `feeder launch`, as a user
+would; the clock tests drive `cell_clock` and the devices directly with use_sim_time.
+"""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+import ros_harness
+import yaml
+
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLES = ROOT / "examples"
+FEEDER = [sys.executable, "-m", "feeder_cell.cli.main"]
+
+ARMS = {
+    "/cell/feeder_a": EXAMPLES / "throwing/triangle.yaml",
+    "/cell/feeder_b": EXAMPLES / "throwing/bracket.yaml",
+}
+ARRAYS = {"/cell/array_a": EXAMPLES / "mems/plus.yaml", "/cell/array_b": EXAMPLES / "mems/bracket.yaml"}
+# Parameters of each arm's part for a feeder that throws (the part files' own examples).
+ARM_PARAMETERS = {
+    "/cell/feeder_a": {"gravity": -9.66, "offset": -0.005, "release_speed": 5.585053606381854},
+    "/cell/feeder_b": {"gravity": -2.2, "offset": -0.0025, "release_speed": 5.585053606381854},
+}
+STANDARD_TOPICS = {"/diagnostics", "/rosout", "/parameter_events", "/clock"}
+
+
+def multi_instance_scene(path: Path) -> Path:
+    nodes: list[dict[str, Any]] = []
+    for namespace, part in ARMS.items():
+        nodes.append(
+            {
+                "package": "feeder_sim",
+                "executable": "throwing_arm",
+                "namespace": namespace,
+                "parameters": {
+                    "part_file": str(part),
+                    "autostart": True,
+                    "period": 0.4,
+                    **ARM_PARAMETERS[namespace],
+                },
+            }
+        )
+        nodes.append({"package": "feeder_planner", "executable": "throw_planner", "namespace": namespace})
+    for namespace, part in ARRAYS.items():
+        nodes.append(
+            {
+                "package": "feeder_sim",
+                "executable": "mems_field_array",
+                "namespace": namespace,
+                "parameters": {"part_files": [str(part)], "fidelity": "ideal", "seed": 5},
+            }
+        )
+        nodes.append(
+            {"package": "feeder_planner", "executable": "field_equilibria_planner", "namespace": namespace}
+        )
+    path.write_text(yaml.safe_dump({"name": "two_of_each", "nodes": nodes}))
+    return path
+
+
+class Launch:
+    """`feeder launch` running in the background; ended by SIGINT, its JSON summary kept."""
+
+    def __init__(self, scene: Path, log_dir: Path, *extra: str) -> None:
+        self.process = subprocess.Popen(
+            [*FEEDER, "launch", str(scene), "--log-dir", str(log_dir), "--json", *extra],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+
+    def stop(self) -> dict[str, Any]:
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGINT)
+        out, err = self.process.communicate(timeout=60)
+        assert self.process.returncode == 0, err
+        return json.loads(out)
+
+
+def wait_for_status(client: Any, node_name: str, state: str, timeout: float = 60.0) -> Any:
+    from feeder_msgs.msg import DeviceStatus
+    from feeder_planner.node_kit import LATCHED
+
+    seen: list[Any] = []
+    done = threading.Event()
+
+    def on_status(msg: Any) -> None:
+        seen.append(msg)
+        if msg.state_name == state:
+            done.set()
+
+    sub = client.create_subscription(DeviceStatus, f"{node_name}/status", on_status, LATCHED)
+    try:
+        done.wait(timeout)
+    finally:
+        client.destroy_subscription(sub)
+    assert done.is_set(), f"{node_name} not {state} within {timeout} s; last: {seen[-1] if seen else None}"
+    return seen[-1]
+
+
+@pytest.mark.ros
+def test_two_arms_and_two_arrays_in_namespaces_never_cross(ros_client: Any, tmp_path: Path) -> None:
+    from feeder_msgs.msg import EquilibriaPrediction, MemsPartStates, ThrowEvent
+    from feeder_planner.node_kit import LATCHED
+
+    launch = Launch(multi_instance_scene(tmp_path / "scene.yaml"), tmp_path / "logs")
+    try:
+        for namespace in (*ARMS, *ARRAYS):
+            device = "throwing_arm" if namespace in ARMS else "mems_field_array"
+            wait_for_status(ros_client, f"{namespace}/{device}", "IDLE" if namespace in ARRAYS else "RUNNING")
+        events = {
+            ns: ros_harness.collect(
+                ros_client, ThrowEvent, f"{ns}/throwing_arm/throw_events", count=2, timeout=60
+            )
+            for ns in ARMS
+        }
+        states = {
+            ns: ros_harness.collect(ros_client, MemsPartStates, f"{ns}/mems_field_array/part_states", count=1)
+            for ns in ARRAYS
+        }
+        predictions = {
+            ns: ros_harness.collect(
+                ros_client,
+                EquilibriaPrediction,
+                f"{ns}/field_equilibria_planner/predicted_poses",
+                count=1,
+                qos=LATCHED,
+                timeout=60,
+            )
+            for ns in ARRAYS
+        }
+        topics = {name for name, _ in ros_client.get_topic_names_and_types()}
+    finally:
+        summary = launch.stop()
+
+    part_names = {ns: yaml.safe_load(path.read_text())["name"] for ns, path in ARRAYS.items()}
+    for ns in ARMS:
+        # Each arm's events carry its own frame and come from its own part (the triangle has 3 hull edges).
+        assert all(e.header.frame_id == f"{ns.strip('/')}/arm_pivot" for e in events[ns])
+    assert max(e.edge_after for e in events["/cell/feeder_a"]) < 3
+    for ns in ARRAYS:
+        assert [s.name for s in states[ns][0].parts] == [part_names[ns]]
+        assert states[ns][0].header.frame_id == f"{ns.strip('/')}/mems_array"
+        assert list(predictions[ns][0].names) == [part_names[ns]]
+    # Every topic of the cell lives under one instance's namespace (or is a standard one).
+    stray = sorted(
+        t for t in topics - STANDARD_TOPICS if not t.startswith(tuple(f"{ns}/" for ns in (*ARMS, *ARRAYS)))
+    )
+    assert stray == []
+    assert sorted(n["name"] for n in summary["nodes"]) == sorted(
+        [f"{ns}/throwing_arm" for ns in ARMS]
+        + [f"{ns}/throw_planner" for ns in ARMS]
+        + [f"{ns}/mems_field_array" for ns in ARRAYS]
+        + [f"{ns}/field_equilibria_planner" for ns in ARRAYS]
+    )
+    assert all(n["lifecycle"] in ("active", "unmanaged") and not n["died_early"] for n in summary["nodes"])
+
+
+def step_clock(client: Any, seconds: float) -> int:
+    from builtin_interfaces.msg import Duration
+
+    from feeder_msgs.srv import StepClock
+
+    nanoseconds = int(round(seconds * 1e9))
+    request = StepClock.Request(duration=Duration(sec=nanoseconds // 10**9, nanosec=nanoseconds % 10**9))
+    response = ros_harness.call_service(client, StepClock, "/cell_clock/step", request)
+    assert response.ok, response.error
+    return int(response.now.sec) * 10**9 + int(response.now.nanosec)
+
+
+def lockstep_run(ros_client: Any, launch_node: Any, seed: int, steps: int) -> list[tuple[Any, ...]]:
+    """Part states of a paused-and-stepped cell, one message per clock step, as comparable tuples."""
+    from feeder_msgs.msg import MemsPartStates
+
+    clock = launch_node(
+        "feeder_cell",
+        "cell_clock",
+        {"start_paused": True, "start_time": 1.0e9},
+        wait_services=("/cell_clock/step",),
+    )
+    received: list[Any] = []
+    arrived = threading.Condition()
+
+    def on_states(msg: Any) -> None:
+        with arrived:
+            received.append(msg)
+            arrived.notify_all()
+
+    array = launch_node(
+        "feeder_sim",
+        "mems_field_array",
+        {
+            "use_sim_time": True,
+            "part_files": [str(EXAMPLES / "mems/bracket.yaml")],
+            "fidelity": "array",
+            "array_size": [60, 60],
+            "seed": seed,
+            "publish_rate": 20.0,
+            "inject_faults": ["dead_cells=0.2"],
+            "fault_seed": seed,
+        },
+        wait_topics=("/mems_field_array/part_states",),
+    )
+    sub = ros_client.create_subscription(MemsPartStates, "/mems_field_array/part_states", on_states, 100)
+    try:
+        rows = []
+        for _ in range(steps):
+            now = step_clock(ros_client, 0.05)
+            with arrived:
+                assert arrived.wait_for(
+                    lambda now=now: any(_stamp(m) == now for m in received), timeout=30
+                ), f"no part state stamped {now} ns; got {[_stamp(m) for m in received[-3:]]}"
+                msg = next(m for m in received if _stamp(m) == now)
+            rows.append(
+                (_stamp(msg), *[(p.name, p.pose.position.x, p.pose.position.y, p.theta) for p in msg.parts])
+            )
+        return rows
+    finally:
+        ros_client.destroy_subscription(sub)
+        array.stop()
+        clock.stop()
+
+
+def _stamp(msg: Any) -> int:
+    return int(msg.header.stamp.sec) * 10**9 + int(msg.header.stamp.nanosec)
+
+
+@pytest.mark.ros
+def test_a_paused_clock_steps_the_cell_in_lockstep_and_runs_repeat_message_by_message(
+    ros_client: Any, launch_node: Any
+) -> None:
+    first = lockstep_run(ros_client, launch_node, seed=11, steps=12)
+    second = lockstep_run(ros_client, launch_node, seed=11, steps=12)
+    other = lockstep_run(ros_client, launch_node, seed=12, steps=12)
+    assert first == second
+    # The stamps are the stepped clock's, 50 ms apart, from the clock's start time (not from 0).
+    stamps = [row[0] for row in first]
+    assert stamps[0] >= 10**18 and all(b - a == 50_000_000 for a, b in zip(stamps, stamps[1:], strict=False))
+    # The part really moves under the stepped clock, and another seed gives another run.
+    assert first[0][1:] != first[-1][1:]
+    assert first != other
+
+
+@pytest.mark.ros
+def test_launch_real_time_factor_runs_every_device_on_the_cell_clock(ros_client: Any, tmp_path: Path) -> None:
+    from feeder_msgs.msg import DeviceStatus
+
+    scene = tmp_path / "fast.yaml"
+    scene.write_text(
+        yaml.safe_dump(
+            {
+                "name": "fast",
+                "nodes": [
+                    {
+                        "package": "feeder_sim",
+                        "executable": "throwing_arm",
+                        "parameters": {
+                            "part_file": str(EXAMPLES / "throwing/triangle.yaml"),
+                            "autostart": True,
+                            "period": 0.5,
+                            **ARM_PARAMETERS["/cell/feeder_a"],
+                        },
+                    },
+                ],
+            }
+        )
+    )
+    launch = Launch(scene, tmp_path / "logs", "--real-time-factor", "4")
+    try:
+        wait_for_status(ros_client, "/throwing_arm", "RUNNING")
+        first = wait_for_status(ros_client, "/throwing_arm", "RUNNING")
+        time.sleep(6.0)
+        last = ros_harness.collect(ros_client, DeviceStatus, "/throwing_arm/status", count=1, timeout=10)[-1]
+    finally:
+        summary = launch.stop()
+    assert [n["executable"] for n in summary["nodes"]] == ["cell_clock", "throwing_arm"]
+    assert summary["real_time_factor"] == 4.0
+    throws = dict(zip(last.counter_names, last.counter_values, strict=True))["throws"]
+    before = dict(zip(first.counter_names, first.counter_values, strict=True))["throws"]
+    # A 0.5 s throw period at 4x: about 8 throws per wall second, far more than at real time (2 per second).
+    assert throws - before >= 6.0 * 4
+    assert last.configured_real_time_factor == 4.0
+    assert abs(last.achieved_real_time_factor - 4.0) < 0.4
