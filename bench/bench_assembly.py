@@ -1,4 +1,4 @@
-"""Assembly benchmarks: exact stable region speed, against 2-degree sphere sampling, compas_cra, and the exact cone."""
+"""Assembly benchmarks: exact stable region speed, vs 2-degree sphere sampling, compas_cra, the exact cone."""
 
 from __future__ import annotations
 
@@ -83,9 +83,10 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
                 )
             )
 
-    # One connected sub-assembly each (no splitting possible): running-bond brick walls, statically indeterminate
-    # and highly degenerate LPs. 8 x 6 bricks give 448 contact points, 12 x 8 give 960 (the 1000-point target).
-    # Baseline in the same run: the same iteration with every support LP kept on the restarted simplex.
+    # One connected sub-assembly each (no splitting possible): running-bond brick walls, statically
+    # indeterminate and highly degenerate LPs. 8 x 6 bricks give 448 contact points, 12 x 8 give 960 (the
+    # 1000-point target). Baseline in the same run: the same iteration with every support LP kept on the
+    # restarted simplex.
     for wall_rows, wall_columns, wall_repeats in ((8, 6, repeats), (12, 8, 3 if quick else 5)):
         wall = assembly_from_document(brick_wall(wall_rows, wall_columns))
         wall_time, (wall_prepared, wall_region) = median_time_and_result(
@@ -94,9 +95,9 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
         system = wall_prepared.system
         baseline_repeats = 1 if quick else 3
         simplex_time, simplex_region = median_time_and_result(
-            lambda: stable_region(system, far_pivots=None), baseline_repeats
+            lambda system=system: stable_region(system, far_pivots=None), baseline_repeats
         )
-        fast_time = median_time_and_result(lambda: stable_region(system), baseline_repeats)[0]
+        fast_time = median_time_and_result(lambda system=system: stable_region(system), baseline_repeats)[0]
         # Same set, not the same facet list: a sliver edge's normal is ill-conditioned (two nearly parallel
         # facets), so the two LP paths may describe it differently while the sets agree to the LP tolerance.
         distance = max(
@@ -190,7 +191,8 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     rows += _peer_rows(quick)
     rows += _cone_rows(out_dir, quick, plt)
 
-    # Plot: exact region time against contact points, with the sampling cost per size (LP time x sample count).
+    # Plot: exact region time against contact points, with the sampling cost per size (LP time x sample
+    # count).
     figure, axis = plt.subplots(figsize=(6, 4))
     xs = sorted(region_time)
     axis.loglog([points[n] for n in xs], [region_time[n] for n in xs], "o-", label="exact region (this work)")
@@ -219,7 +221,7 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
 
 
 def _peer_rows(quick: bool) -> list[dict]:
-    """Time per single-direction check against compas_cra's RBE solver (IPOPT), same assemblies and directions."""
+    """Time per single-direction check against compas_cra's RBE solver (IPOPT) on the same directions."""
     try:
         import compas_cra  # noqa: F401
     except ImportError as exc:
@@ -244,7 +246,9 @@ def _peer_rows(quick: bool) -> list[dict]:
         center = prepared.region.center if prepared.region.center is not None else np.array([0, 0, -1.0])
         for g in [center, -center] + [center + 0.3 * rng.normal(size=3) for _ in range(3)]:
             g = g / np.linalg.norm(g)
-            t, verdict = median_time_and_result(lambda g=g: prepared.checker(g, explain=False), 3)
+            t, verdict = median_time_and_result(
+                lambda g=g, prepared=prepared: prepared.checker(g, explain=False), 3
+            )
             ours.append(t)
             peer, elapsed = _cra_check(assembly, g, 0.6)
             theirs.append(elapsed)
@@ -276,8 +280,8 @@ def _peer_rows(quick: bool) -> list[dict]:
         row(
             "assembly check vs compas_cra",
             f"verdicts agreeing: ours stable {ours_stable}/{total}, RBE stable "
-            f"{theirs_stable}/{total}, {failed} RBE solves failed (RBE: friction square |f_t| <= mu f_n per axis, "
-            "tension penalised; stable iff no tension)",
+            f"{theirs_stable}/{total}, {failed} RBE solves failed (RBE: friction square |f_t| <= mu f_n per "
+            "axis, tension penalised; stable iff no tension)",
             agree,
             f"of {total}",
             "report",
@@ -338,31 +342,31 @@ def _cone_rows(out_dir: Path, quick: bool, plt: Any) -> list[dict]:
     for k in (4, 8, 16, 32):
         times[k], _ = median_time_and_result(lambda k=k: prepare(assembly, 0.3, k).region, 3)
     rows = []
-    first = comparison["pyramids"][0]
-    lo, hi = comparison["exact_area_sr"]
-    for entry in comparison["pyramids"]:
-        k = entry["facets"]
+    first = comparison.pyramids[0]
+    lo, hi = comparison.exact_area_sr
+    for entry in comparison.pyramids:
+        k = entry.facets
         rows.append(
             row(
                 "assembly pyramid vs exact cone",
                 f"K = {k}: area error (exact area in [{lo:.6f}, {hi:.6f}] "
-                f"sr, K = {reference} bracket), Hausdorff {entry['hausdorff_rad']:.2e} rad, "
+                f"sr, K = {reference} bracket), Hausdorff {entry.hausdorff_rad:.2e} rad, "
                 f"{times[k] * 1e3:.1f} ms",
-                entry["area_error_sr"],
+                entry.area_error_sr,
                 "sr",
                 "<= K = 4's",
                 "exact circular cone",
-                entry["area_error_sr"] <= first["area_error_sr"] + 1e-12,
+                entry.area_error_sr <= first.area_error_sr + 1e-12,
             )
         )
     figure, axes = plt.subplots(1, 2, figsize=(9, 3.6))
-    ks = [e["facets"] for e in comparison["pyramids"]]
-    axes[0].loglog([times[k] * 1e3 for k in ks], [e["area_error_sr"] for e in comparison["pyramids"]], "o-")
-    for k, e in zip(ks, comparison["pyramids"]):
-        axes[0].annotate(f"K={k}", (times[k] * 1e3, e["area_error_sr"]))
+    ks = [e.facets for e in comparison.pyramids]
+    axes[0].loglog([times[k] * 1e3 for k in ks], [e.area_error_sr for e in comparison.pyramids], "o-")
+    for k, e in zip(ks, comparison.pyramids, strict=True):
+        axes[0].annotate(f"K={k}", (times[k] * 1e3, e.area_error_sr))
     axes[0].set_xlabel("region time (ms)")
     axes[0].set_ylabel("area error vs exact cone (sr)")
-    axes[1].loglog(ks, [e["hausdorff_rad"] for e in comparison["pyramids"]], "s-")
+    axes[1].loglog(ks, [e.hausdorff_rad for e in comparison.pyramids], "s-")
     axes[1].set_xlabel("pyramid facets K")
     axes[1].set_ylabel("Hausdorff angle (rad)")
     figure.suptitle("Block in L bracket, mu = 0.3: K-facet pyramid vs exact Coulomb cone")
@@ -382,7 +386,7 @@ def _plot_fig14(out_dir: Path, plt: Any) -> None:
     for mu, color in ((0.0, "k"), (0.2, "tab:blue"), (0.4, "tab:red")):
         region = prepare(assembly, mu).region
         vertices = list(region.vertices) + ([region.vertices[0]] if region.kind == "region" else [])
-        for a, b in zip(vertices, vertices[1:]):
+        for a, b in zip(vertices, vertices[1:], strict=False):
             t = np.linspace(0, 1, 30)[:, None]
             arc = (1 - t) * a + t * b
             arc /= np.linalg.norm(arc, axis=1, keepdims=True)

@@ -33,7 +33,7 @@ def from_doc():
 
 
 def in_cone(generators: np.ndarray, target: np.ndarray, tolerance: float = 1e-9) -> bool:
-    """Whether target is a non-negative combination of the rows of generators (NNLS, independent of the LP)."""
+    """Whether target is a non-negative combination of the rows of generators (NNLS, not the LP)."""
     _, residual = nnls(np.asarray(generators, float).T, np.asarray(target, float))
     return residual <= tolerance
 

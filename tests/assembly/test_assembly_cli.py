@@ -1,4 +1,4 @@
-"""`feeder stable-region` and `feeder check-stability`: contract JSON, summaries, and one-line bad-input errors."""
+"""`feeder stable-region` and `feeder check-stability`: contract JSON, summaries, one-line input errors."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Property 1's degenerate kinds beyond the paper's figures: hemisphere, great circle; and the deepest centre."""
+"""Property 1's degenerate kinds beyond the paper's figures: hemisphere, great circle; the deepest centre."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""WarmLP's interior-point route (Clarabel on the dual, then HiGHS crossover) solves general bounded LPs exactly."""
+"""WarmLP's interior-point route (Clarabel on the dual, then HiGHS crossover) solves bounded LPs exactly."""
 
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ def _random_lp(seed: int) -> tuple[sparse.csc_matrix, np.ndarray, np.ndarray, np
 @pytest.mark.parametrize("seed", range(8))
 def test_interior_point_route_matches_linprog(seed: int) -> None:
     A, b, lower, upper, cost = _random_lp(seed)
-    reference = linprog(cost, A_eq=A, b_eq=b, bounds=list(zip(lower, upper)), method="highs")
+    reference = linprog(cost, A_eq=A, b_eq=b, bounds=list(zip(lower, upper, strict=True)), method="highs")
     assert reference.status == 0, reference.message
     lp = WarmLP(A, b, lower, upper)
     lp.set_cost(np.arange(A.shape[1]), cost)

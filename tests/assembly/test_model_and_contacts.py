@@ -1,4 +1,4 @@
-"""Assembly files: mass properties from geometry, automatic contact polygons, and bad input naming the field."""
+"""Assembly files: mass properties from geometry, automatic contact polygons, bad input naming the field."""
 
 from __future__ import annotations
 

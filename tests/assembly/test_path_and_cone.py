@@ -88,7 +88,8 @@ def test_exact_cone_verdict_on_an_incline_matches_tan_alpha_le_mu(from_doc) -> N
 
 def test_exact_cone_conic_check_agrees_with_the_pyramid_bracket(example) -> None:
     """The conic program and the bracket of growing pyramids are independent methods: wherever the bracket
-    decides, the verdicts must be equal, and the conic program must decide (no None) away from the boundary."""
+    decides, the verdicts must be equal, and the conic program must decide (no None) away from the boundary.
+    """
     from feeder_planner.assembly.exact_cone import check_exact_bracketed, check_exact_socp
 
     prepared = example("block_in_l_bracket", mu=0.3)

@@ -12,7 +12,7 @@ BOUNDARY_BAND = 1e-6  # rad: directions this close to the boundary are not compa
 
 
 def _directions(region, count: int, seed: int) -> np.ndarray:
-    """Half uniform on the sphere, half scattered around the region's centre (so both verdicts are frequent)."""
+    """Half uniform on the sphere, half scattered around the region's centre (both verdicts frequent)."""
     uniform = random_directions(count - count // 2, seed)
     if region.center is None:
         return uniform
