@@ -23,9 +23,10 @@ __all__ = ["SupportOracle"]
 class SupportOracle:
     """max c.g over the cube section of V for one equilibrium system; counts its LPs.
 
-    Every optimal basis found is kept with its maximiser g: any of them is primal feasible for a new
-    objective, so each LP restarts the primal simplex from the kept vertex best for its direction (the
-    parametric programming of sec. III).
+    Each call is one LP over eq. (12)'s feasible set with the cube's bounds on all of g, its objective the
+    paper's eq. (13) extended to three components. Every optimal basis found is kept with its maximiser g: any
+    of them is primal feasible for a new objective, so each LP restarts the primal simplex from the kept
+    vertex best for its direction (the parametric programming of sec. III).
     """
 
     def __init__(self, system: EquilibriumSystem, far_pivots: int | None = FAR_PIVOTS) -> None:

@@ -92,8 +92,10 @@ def wrench_system(
 ) -> EquilibriumSystem:
     """Assemble the scaled system of eq. (6) for arbitrary force directions.
 
-    Column k is a unit multiple of force ``generators_array[k]`` at contact ``contact_array[k]`` (pyramid
-    edges, or the exact cone's n, u, v axes).
+    Each column is one force direction at one contact with its torques about the bodies' centres, eqs.
+    (3)-(4), on body a and, opposite, on body b; B is eq. (7)'s G per unit g. Column k is a unit multiple of
+    force ``generators_array[k]`` at contact ``contact_array[k]`` (pyramid edges, or the exact cone's n, u, v
+    axes).
     """
     free = assembly.free_bodies
     slot = np.full(len(assembly.bodies), -1)
@@ -168,7 +170,7 @@ def _generators(contacts: list[Contact], facets: int, circumscribed: bool) -> tu
 def contact_forces(
     system: EquilibriumSystem, lam: np.ndarray, gravity: float = STANDARD_GRAVITY
 ) -> np.ndarray:
-    """Return the force on body a at each contact (N), from the scaled multipliers, for |g| = ``gravity``."""
+    """Return the force on body a at each contact (N, eq. 1) from scaled multipliers, |g| = ``gravity``."""
     forces = np.zeros((len(system.contacts), 3))
     weighted = system.generators * (lam * system.column_scale * gravity)[:, None]
     np.add.at(forces, system.contact_of, weighted)
