@@ -26,7 +26,7 @@ from feeder_planner.assembly.planner import check_result
 from feeder_planner.assembly.tolerances import REGION_TOLERANCE_RAD, SUPPORT_TOLERANCE
 from feeder_planner.assembly.wrench import pyramid_edges, validate_facets
 from feeder_planner.errors import InputError
-from feeder_sim.fixture import TableLimits
+from feeder_sim.fixture import TableLimits, certify, sample_waypoints
 from feeder_sim.fixture.kinematics import _arrival_times, _check_sample
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -284,6 +284,15 @@ def test_table_start_outside_the_range_names_the_parameter() -> None:
     with pytest.raises(InputError, match=r"tilt_y = -3\.2"):
         _check_sample(np.array([0.0, -3.2]), limits, 4)
     _check_sample(np.array([0.5 + 1e-13, 0.0]), limits, 0)  # rounding past a limit is inside
+
+
+def test_interlock_verdict_names_the_sample_and_the_falling_body(example) -> None:
+    prepared = example("block_in_l_bracket", mu=0.3)
+    samples = sample_waypoints(np.array([0, 0, -1.0]), [np.array([1.0, 0.0, -0.3])], math.radians(1))
+    verdict = certify(prepared, samples)
+    assert verdict.problem().startswith(f"path sample {verdict.first_unstable} of {len(samples)} (g = [")
+    assert verdict.problem().endswith("is not stable: block would lose equilibrium")
+    assert certify(prepared, samples[:1]).problem() == ""
 
 
 def test_arrival_times_follow_the_slower_joint() -> None:

@@ -122,20 +122,15 @@ class AssemblyFixture(Node):
         waypoints = [from_vec(w, f"waypoints[{i}]") for i, w in enumerate(request.waypoints)]
         self._advance()
         samples = sample_waypoints(gravity_of(self.joints), waypoints, self.p["path_step"])
-        path = plan_joint_path(
-            samples[1:], self.joints, self.limits
-        )  # joint limits checked before anything moves
+        # Joint limits are checked before anything moves.
+        path = plan_joint_path(samples[1:], self.joints, self.limits)
         verdict = certify(self.prepared, samples)
         response.samples = len(samples)
         response.first_unstable_sample = verdict.first_unstable
         response.unbalanced_bodies = list(verdict.unbalanced_bodies)
         response.duration = path.duration
         if not verdict.stable:
-            g = np.round(samples[verdict.first_unstable], 6).tolist()
-            what = (
-                f"path sample {verdict.first_unstable} of {len(samples)} (g = {g}) is not stable: "
-                f"{', '.join(verdict.unbalanced_bodies) or 'the assembly'} would lose equilibrium"
-            )
+            what = verdict.problem()
             if self.p["interlock"]:
                 raise InterlockRefusedError(f"refused by the interlock: {what}")
             response.warning = f"interlock off, moving anyway: {what}"
