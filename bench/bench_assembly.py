@@ -85,8 +85,8 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
 
     # One connected sub-assembly each (no splitting possible): running-bond brick walls, statically
     # indeterminate and highly degenerate LPs. 8 x 6 bricks give 448 contact points, 12 x 8 give 960 (the
-    # 1000-point target). Baseline in the same run: the same iteration with every support LP kept on the
-    # restarted simplex.
+    # 1000-point target). Baseline in the same run: the same iteration, every support LP on the restarted
+    # simplex.
     for wall_rows, wall_columns, wall_repeats in ((8, 6, repeats), (12, 8, 3 if quick else 5)):
         wall = assembly_from_document(brick_wall(wall_rows, wall_columns))
         wall_time, (wall_prepared, wall_region) = median_time_and_result(
@@ -191,8 +191,7 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     rows += _peer_rows(quick)
     rows += _cone_rows(out_dir, quick, plt)
 
-    # Plot: exact region time against contact points, with the sampling cost per size (LP time x sample
-    # count).
+    # Plot: exact region time against contact points, and the sampling cost per size (LP time x samples).
     figure, axis = plt.subplots(figsize=(6, 4))
     xs = sorted(region_time)
     axis.loglog([points[n] for n in xs], [region_time[n] for n in xs], "o-", label="exact region (this work)")

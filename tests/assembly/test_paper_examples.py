@@ -90,8 +90,8 @@ def test_fig16_block_between_parallel_faces(example) -> None:
     assert ends[0] @ ends[1] == pytest.approx(-1.0)  # half a great circle
     assert _as_set(ends) == _as_set([[1, 0, 0], [-1, 0, 0]])
     assert frictionless.contains(np.array([0.3, 0.0, -1.0]))
-    # Friction 0.3: squeezing forces on the parallel faces hold the block against any gravity (potential
-    # stability).
+    # Friction 0.3: squeezing forces on the parallel faces hold the block against any gravity (Fig. 16c:
+    # potential stability).
     whole = example("block_between_parallel_faces", mu=0.3).region
     assert whole.kind == "sphere"
     assert whole.area_sr == pytest.approx(4 * math.pi)

@@ -110,8 +110,7 @@ def _stable_region(args: argparse.Namespace) -> int:
 def _region_summary(result: dict[str, Any]) -> str:
     """Summarise a region for people: kind, counts, area, centre, vertices and constraints.
 
-    It reads the JSON object, so it shows exactly what ``--json`` prints (unit vectors without rounding
-    noise).
+    It reads the JSON object, so it shows exactly what ``--json`` prints (unit vectors without noise).
     """
     lines = [
         f"{result['assembly']}: stable region is {result['kind']} ({result['contacts']} contact points, "

@@ -208,8 +208,7 @@ class WarmLP:
             return self.solve()
         self.crossovers += 1
         if self._model.getModelStatus() == highspy.HighsModelStatus.kOptimal:
-            # HiGHS checked the crossover basis primal and dual feasible at its 1e-9 tolerances: a certified
-            # optimum.
+            # HiGHS checked the crossover basis primal and dual feasible at 1e-9: a certified optimum.
             x = np.asarray(self._model.getSolution().col_value)
             return LPResult("optimal", x, float(self.cost @ x))
         return self.solve_from(basis)
@@ -414,8 +413,7 @@ class _DualInteriorPoint:
         self.settings = _clarabel.DefaultSettings()
         self.settings.verbose = False
         self.settings.presolve_enable = False  # keeps the rows fixed, so later costs update the data in place
-        # The static KKT regularisation only slows these LPs down; the dynamic one still guards singular
-        # pivots.
+        # Static KKT regularisation only slows these LPs down; the dynamic one still guards singular pivots.
         self.settings.static_regularization_enable = False
         self.settings.tol_gap_abs = self.settings.tol_gap_rel = self.settings.tol_feas = INTERIOR_TOLERANCE
         self._solver: Any = None

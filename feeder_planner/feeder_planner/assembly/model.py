@@ -266,8 +266,7 @@ def _check_interpenetration(assembly: Assembly) -> None:
     upper = np.array([e[2].upper for e in entries])
     owner = np.array([e[0] for e in entries])
     for k, (bi, pi, piece) in enumerate(entries):
-        # Bounding-box prefilter: only later pieces of other bodies whose boxes overlap by more than the
-        # tolerance.
+        # Bounding-box prefilter: later pieces of other bodies whose boxes overlap beyond the tolerance.
         overlap = np.min(np.minimum(upper[k + 1 :], upper[k]) - np.maximum(lower[k + 1 :], lower[k]), axis=1)
         for offset in np.nonzero((overlap > tolerance) & (owner[k + 1 :] != bi))[0]:
             bj, pj, other = entries[k + 1 + offset]

@@ -64,8 +64,7 @@ class StabilityChecker:
             np.concatenate([np.zeros(3), np.zeros(columns)]),
             np.concatenate([np.zeros(3), np.full(columns, np.inf)]),
         )
-        # Minimise the total multiplier: a bounded objective that picks a small, well-scaled force
-        # distribution.
+        # Minimise the total multiplier: a bounded objective picking a small, well-scaled force distribution.
         self.lp.set_cost(np.arange(3, 3 + columns), np.ones(columns))
 
     def __call__(self, g: np.ndarray, explain: bool = True) -> StabilityVerdict:

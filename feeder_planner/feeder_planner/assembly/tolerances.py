@@ -68,8 +68,7 @@ __all__ = [
     "ZERO_COMPONENT",
 ]
 
-# --- Model constants
-# -------------------------------------------------------------------------------------------
+# --- Model constants ---
 
 # m/s^2: contact forces are reported in newtons for |g| = 1 standard gravity (the LP itself is scale-free).
 STANDARD_GRAVITY = 9.80665
@@ -82,8 +81,7 @@ MIN_FACETS = 3
 # user would plan with.
 DEFAULT_PATH_STEP = math.radians(1.0)
 
-# --- Geometry (geometry.py): relative to the piece's size
-# -------------------------------------------------------
+# --- Geometry (geometry.py): relative to the piece's size ---
 
 # Flatness and coplanarity of a convex piece's vertices, as a fraction of its size: far above the rounding of
 # coordinates given in a file (1e-16 relative), far below any real feature a file would describe.
@@ -99,8 +97,7 @@ PARALLEL_EDGES = 1e-9
 # Two unit edge directions are the same axis when |cos| exceeds 1 - this (only de-duplicates the axis list).
 SAME_EDGE_DIRECTION = 1e-12
 
-# --- Assembly files (model.py)
-# ----------------------------------------------------------------------------------
+# --- Assembly files (model.py) ---
 
 # Two pieces overlapping deeper than this fraction of the assembly's size interpenetrate: touching faces
 # written with rounded coordinates overlap by far less, a modelling error by far more.
@@ -108,8 +105,7 @@ PENETRATION_TOLERANCE = 1e-7
 # An explicit contact normal must have unit length within this: a file's rounding, not a wrong vector.
 UNIT_NORMAL_TOLERANCE = 1e-6
 
-# --- Contacts (contacts.py)
-# -------------------------------------------------------------------------------------
+# --- Contacts (contacts.py) ---
 
 # Faces touch when their planes are within this fraction of the assembly's size (same scale as the
 # interpenetration test, so a pair is either touching or separated, never both or neither).
@@ -119,18 +115,15 @@ ANGLE_TOLERANCE = 1e-6
 # A common polygon with area below this x (smaller face's diameter)^2 is an edge or point touch: no contact
 # (the paper assumes a contact surface of non-vanishing area, sec. II-B).
 AREA_TOLERANCE = 1e-9
-# Contact normals are rounded to 1 / this for the duplicate-contact key: the same resolution as
-# ANGLE_TOLERANCE.
+# Contact normals are rounded to 1 / this for the duplicate-contact key: ANGLE_TOLERANCE's resolution.
 NORMAL_KEY_SCALE = 1e6
 # Polygon vertices closer than this x the polygon's extent are one vertex, and three vertices whose cross
 # product is below this x extent^2 are collinear: the clipping's rounding, relative to the polygon's own size.
 POLYGON_DEDUPE = 1e-12
-# Smallest divisor used to turn a zero-size extent or norm into a harmless scale instead of a division by
-# zero.
+# Smallest divisor: turns a zero extent or norm into a harmless scale instead of a division by zero.
 NORM_FLOOR = 1e-300
 
-# --- Equilibrium LP (lp.py, stability.py, support.py): on the scaled equations
-# ---------------------------------
+# --- Equilibrium LP (lp.py, stability.py, support.py): on the scaled equations ---
 
 # HiGHS primal and dual feasibility: the equations are scaled to O(1) per body (forces / weight), so this is a
 # 1e-9 fraction of each body's weight, two orders below RESIDUAL_TOLERANCE: every certified optimum passes it.
@@ -141,20 +134,17 @@ RESIDUAL_TOLERANCE = 1e-7
 # Clarabel's gap and feasibility tolerances on the dual LP: the crossover only needs the right active set;
 # HiGHS then certifies the crossover basis at FEASIBILITY_TOLERANCE (or the simplex continues from it).
 INTERIOR_TOLERANCE = 1e-8
-# A gravity vector shorter than this has no direction (inputs are any length; 1e-12 is far below any real
-# one).
+# A gravity vector shorter than this has no direction (inputs may have any length; none real is this short).
 MIN_DIRECTION_NORM = 1e-12
 
-# --- Support LPs of the region (support.py)
-# ---------------------------------------------------------------------
+# --- Support LPs of the region (support.py) ---
 
 # A restarted support LP still unsolved after this many pivots has its optimum in another corner of P: it is
 # solved by the interior point method and crossover instead. Measured on brick walls: the restarts that
 # succeed take 0-125 pivots, the far ones 2000-6000.
 FAR_PIVOTS = 150
 # Below this many equations a far LP costs the simplex (pivots are O(rows)) less than the interior point
-# route's fixed cost (about 20 ms at 140 rows, 1.1x faster at 264 rows, 2x at 540): those LPs stay on the
-# simplex.
+# route's fixed cost (about 20 ms at 140 rows, 1.1x faster at 264 rows, 2x at 540): they stay on the simplex.
 INTERIOR_POINT_ROWS = 200
 # Relative tilt of a far LP's objective for the interior point solve (SupportOracle._far_optimum): far above
 # INTERIOR_TOLERANCE, so it decides ties over an edge or face of P towards one vertex; small, so that vertex
@@ -164,8 +154,7 @@ FACE_TILT = 1e-4
 # The tilt's direction: a fixed axis in general position (no assembly is aligned with it).
 TILT_AXIS = np.array([0.37, -0.61, 0.70]) / np.linalg.norm([0.37, -0.61, 0.70])
 
-# --- The stable region (region.py): in the cube metric of P = V n {|g|_inf <= 1}
-# ---------------------------------
+# --- The stable region (region.py): in the cube metric of P = V n {|g|_inf <= 1} ---
 
 # A support value above a hull facet's offset by more than this is a new vertex of P, else the facet is
 # certified (cube metric, about 1e-7 rad on the sphere): two orders above the LP's feasibility tolerance.
@@ -205,15 +194,13 @@ CENTER_SLSQP_FTOL = 1e-12
 CENTER_SLSQP_MAXITER = 500
 # Default membership tolerance of StableRegion.contains (n.g of unit vectors): the LP's feasibility tolerance.
 CONTAINS_TOLERANCE = 1e-9
-# Components of unit vectors below this are rounding noise (the LP tolerance is 1e-9): the JSON prints them as
-# 0.
+# Components of unit vectors below this are rounding noise (the LP tolerance is 1e-9): printed as 0 in JSON.
 ZERO_COMPONENT = 1e-15
 # Rows of a fixed frame in general position for the first support LPs (orthonormalised by QR): assemblies are
 # often axis-aligned, and an axis direction then maximises over a whole edge or face of P.
 GENERIC_FRAME_SEED = ((0.8, 0.3, -0.5), (-0.2, 0.9, 0.4), (0.55, -0.35, 0.75))
 
-# --- Paths (path.py): angles between unit vectors
-# ---------------------------------------------------------------
+# --- Paths (path.py): angles between unit vectors ---
 
 # rad: end points closer than this are the same direction (the path is one sample).
 SAME_POINT_ANGLE = 1e-15
@@ -225,8 +212,7 @@ ANTIPODAL_COSINE = 1e-9
 # A midpoint candidate shorter than this after removing its component along g is parallel to g: not usable.
 MIDPOINT_MIN_NORM = 1e-6
 
-# --- Exact friction cone (exact_cone.py)
-# ------------------------------------------------------------------------
+# --- Exact friction cone (exact_cone.py) ---
 
 # Facets of the inscribed and circumscribed pyramids that bracket the exact-cone region: their tangential
 # radii differ by the factor 1 / cos(pi / K), 7.5e-5 relative at K = 256.
