@@ -8,12 +8,10 @@ from typing import Sequence
 import numpy as np
 from geometry_msgs.msg import Point, Pose, Quaternion, Vector3
 
+from feeder_planner.assembly.tolerances import MIN_DIRECTION_NORM
 from feeder_planner.errors import InputError
 
 __all__ = ["vec", "from_vec", "point", "yaw_quaternion", "planar_pose"]
-
-# A direction shorter than this (in the message's own unit) has no meaningful orientation.
-MIN_DIRECTION_NORM = 1e-12
 
 
 def vec(v: Sequence[float] | np.ndarray) -> Vector3:
