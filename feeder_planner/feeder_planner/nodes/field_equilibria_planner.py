@@ -1,10 +1,19 @@
-"""ROS 2 node: the equilibria planner of the MEMS field array (thin adapter around feeder_planner.mems)."""
+"""ROS 2 node: the equilibria planner of the MEMS field array (thin adapter around feeder_planner.mems).
+
+Its own service and topic are private (``~/equilibria``, ``~/predicted_poses``); it finds its array's
+topics relative to its own namespace as ``<device>/field_program``, ``<device>/parts`` and
+``<device>/part_states``, so a planner and its array in one namespace find each other and remappings
+work. ``device`` is read-only; ``default_method`` is applied at run time; ``prediction_rate`` is
+read-only.
+"""
 
 from __future__ import annotations
 
 import math
 
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 
 from feeder_msgs.msg import EquilibriaPrediction, Equilibrium, FieldProgram, MemsParts, MemsPartStates
 from feeder_msgs.srv import EquilibriaCompute
@@ -22,6 +31,7 @@ from feeder_planner.node_kit import (
     LATCHED,
     STREAM_DEPTH,
     ParameterSpec,
+    check_value,
     declare_parameters,
     one_of,
     planar_pose,
@@ -35,34 +45,80 @@ from feeder_planner.parts import Part
 
 __all__ = ["PARAMETERS", "FieldEquilibriaPlanner", "main"]
 
+# The simulator's default node name: a planner beside a default array finds it without parameters.
+DEFAULT_DEVICE = "mems_field_array"
+
+
+def _device_name(value: object) -> str | None:
+    """Check the device parameter: a node name or path, relative (to this namespace) or absolute."""
+    if not isinstance(value, str) or not value.strip("/"):
+        return f"must name the array node, e.g. {DEFAULT_DEVICE} or /cell/array_a/{DEFAULT_DEVICE}"
+    return None
+
+
 PARAMETERS = (
     ParameterSpec(
         "default_method",
         "auto",
-        f"method when a request leaves it empty: {' | '.join(METHODS)}",
+        f"method when a request leaves it empty: {' | '.join(METHODS)} (runtime)",
         one_of(METHODS),
     ),
-    ParameterSpec("prediction_rate", 2.0, "rate (Hz) at which predicted final poses are refreshed", positive),
+    ParameterSpec(
+        "prediction_rate",
+        2.0,
+        "rate (Hz of the node clock) at which predicted final poses are refreshed",
+        positive,
+        read_only=True,
+    ),
+    ParameterSpec(
+        "device",
+        DEFAULT_DEVICE,
+        "the array node whose topics are followed, as <device>/part_states etc., relative to this "
+        "node's namespace (or absolute)",
+        _device_name,
+        read_only=True,
+    ),
 )
 
 
 class FieldEquilibriaPlanner(Node):
-    """Serves /mems/equilibria and publishes /mems/predicted_poses for the array's last field."""
+    """Serves ~/equilibria and publishes ~/predicted_poses for the last field of its device's program."""
 
     def __init__(self) -> None:
         super().__init__("field_equilibria_planner")
         self.p = declare_parameters(self, PARAMETERS)
-        self.create_service(EquilibriaCompute, "/mems/equilibria", service_guard(self)(self.on_compute))
-        self.prediction_pub = self.create_publisher(EquilibriaPrediction, "/mems/predicted_poses", LATCHED)
-        self.create_subscription(FieldProgram, "/mems/field_program", self.on_program, LATCHED)
-        self.create_subscription(MemsParts, "/mems/parts", self.on_parts, LATCHED)
-        self.create_subscription(MemsPartStates, "/mems/part_states", self.on_states, STREAM_DEPTH)
+        device = self.p["device"].rstrip("/")
+        self.add_on_set_parameters_callback(self.on_parameters)
+        self.create_service(EquilibriaCompute, "~/equilibria", service_guard(self)(self.on_compute))
+        self.prediction_pub = self.create_publisher(EquilibriaPrediction, "~/predicted_poses", LATCHED)
+        try:
+            self.create_subscription(FieldProgram, f"{device}/field_program", self.on_program, LATCHED)
+            self.create_subscription(MemsParts, f"{device}/parts", self.on_parts, LATCHED)
+            self.create_subscription(MemsPartStates, f"{device}/part_states", self.on_states, STREAM_DEPTH)
+        except Exception as error:  # rclpy's invalid-name exceptions share no base class of ours
+            raise InputError("parameter device", f"not a valid node name: {error}") from None
         self.program: tuple[ProgramStep, ...] | None = None
         self.parts: list[Part] = []
         self.states: MemsPartStates | None = None
         self.results: dict[int, EquilibriaResult] = {}
         self.last_published: list[tuple[float, float, float]] | None = None
         self.create_timer(1.0 / self.p["prediction_rate"], self.predict)
+
+    def on_parameters(self, changes: list[Parameter]) -> SetParametersResult:
+        """Validate and apply default_method at once (the others are read-only)."""
+        specs = {spec.name: spec for spec in PARAMETERS}
+        for change in changes:
+            if change.name in specs:
+                try:
+                    check_value(specs[change.name], change.value)
+                except InputError as error:
+                    return SetParametersResult(successful=False, reason=str(error))
+        for change in changes:
+            if change.name in specs:
+                self.p[change.name] = change.value
+                if change.name == "default_method":
+                    self.results.clear()  # predictions are recomputed by the new method
+        return SetParametersResult(successful=True)
 
     def on_compute(
         self, request: EquilibriaCompute.Request, response: EquilibriaCompute.Response

@@ -14,6 +14,7 @@ import numpy as np
 from feeder_planner.errors import InputError
 from feeder_planner.mems.fields import Field
 from feeder_planner.parts import Part
+from feeder_sim.mems.faults import ArrayFaults
 
 __all__ = [
     "Fidelity",
@@ -64,6 +65,15 @@ class ForceModel(Protocol):
 
     def cell_forces(self, field: Field) -> np.ndarray | None:
         """Return the (nx, ny, 2) cell forces for this field, or None without cells."""
+        ...
+
+    @property
+    def faults(self) -> ArrayFaults:
+        """Return the injected faults in force."""
+        ...
+
+    def set_faults(self, faults: ArrayFaults) -> None:
+        """Put injected faults in force (a model without cells refuses cell faults)."""
         ...
 
 

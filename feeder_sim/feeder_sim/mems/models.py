@@ -9,16 +9,32 @@ import numpy as np
 from feeder_planner.mems.fields import Field
 from feeder_sim.mems.cellsum import CellForceSums
 from feeder_sim.mems.coverage import Grid
+from feeder_sim.mems.faults import NO_FAULTS, ArrayFaults
 
 __all__ = ["IdealForces", "ArrayForces"]
 
 
 class IdealForces:
-    """Exact resultant force and torque of the ideal field on the part (eqs. 1-2)."""
+    """Exact resultant force and torque of the ideal field on the part (eqs. 1-2).
+
+    Without cells, the only faults that apply are those on the whole field (strength error, power
+    loss): the exact wrench times the faults' gain, since the wrench is linear in the field.
+    """
+
+    def __init__(self) -> None:
+        self.faults: ArrayFaults = NO_FAULTS
+
+    def set_faults(self, faults: ArrayFaults) -> None:
+        """Put ``faults`` in force; cell faults are refused (ValueError: the caller checks first)."""
+        if faults.has_cell_faults:
+            raise ValueError("the ideal force model has no cells to fail")
+        self.faults = faults
 
     def wrench(self, field: Field, loops: tuple[np.ndarray, ...], about: np.ndarray) -> np.ndarray:
-        """Return the field's exact wrench on the placed loops."""
-        return field.wrench(loops, about)
+        """Return the field's exact wrench on the placed loops (times the faults' gain)."""
+        w = field.wrench(loops, about)
+        gain = self.faults.gain
+        return w if gain == 1.0 else gain * w
 
     def cell_forces(self, field: Field) -> None:
         """Return None: the ideal model has no cells."""
@@ -28,20 +44,30 @@ class IdealForces:
 class ArrayForces:
     """A MEMS actuator array: each cell pushes with the field's force at its centre.
 
-    Cell forces are optionally quantised to ``directions`` actuator directions; force on a part =
-    sum of exact covered area times cell force, torque = sum of cell force times the exact first
-    moment of the covered area.
+    Cell forces are optionally quantised to ``directions`` actuator directions, then changed by the
+    injected faults (``faults.ArrayFaults``: dead, stuck cells, strength error, power loss); force on
+    a part = sum of exact covered area times cell force, torque = sum of cell force times the exact
+    first moment of the covered area.
     """
 
     def __init__(self, nx: int, ny: int, pitch: float, directions: int = 0) -> None:
         self.grid = Grid(nx, ny, pitch)
         self.directions = int(directions)
+        self.faults: ArrayFaults = NO_FAULTS
         self._field: Field | None = None
         self._forces = np.zeros((nx, ny, 2))
         self._sums: CellForceSums | None = None
 
+    def set_faults(self, faults: ArrayFaults) -> None:
+        """Put ``faults`` in force from the next evaluation on (the cached cell forces are rebuilt)."""
+        self.faults = faults
+        self._sums = None
+
     def cell_forces(self, field: Field) -> np.ndarray:
-        """Return the (nx, ny, 2) force per unit area of every cell for this field (cached per field)."""
+        """Return the (nx, ny, 2) force per unit area every cell exerts for this field, faults included.
+
+        Cached per field and faults.
+        """
         self._sums_for(field)
         return self._forces
 
@@ -54,6 +80,7 @@ class ArrayForces:
                 angle = np.round(np.arctan2(forces[..., 1], forces[..., 0]) / step) * step
                 norm = np.hypot(forces[..., 0], forces[..., 1])
                 forces = norm[..., None] * np.stack([np.cos(angle), np.sin(angle)], axis=-1)
+            forces = self.faults.apply_to_cells(forces)
             self._field, self._forces = field, forces
             self._sums = CellForceSums(forces, self.grid.x_nodes, self.grid.y_nodes)
         return self._sums

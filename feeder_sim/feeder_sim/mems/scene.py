@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from feeder_planner.errors import InputError
-from feeder_planner.mems.fields import Field, ProgramStep
+from feeder_planner.mems.fields import ConstantField, Field, ProgramStep
 from feeder_sim.mems.bodies import (
     FIDELITIES,
     Body,
@@ -18,6 +18,7 @@ from feeder_sim.mems.bodies import (
     wrench_on,
 )
 from feeder_sim.mems.dynamic import DynamicWorld
+from feeder_sim.mems.faults import ArrayFaults
 from feeder_sim.mems.models import ArrayForces, IdealForces
 from feeder_sim.mems.tolerances import (
     DEFAULT_CELLS,
@@ -25,9 +26,14 @@ from feeder_sim.mems.tolerances import (
     DEFAULT_FRICTION,
     DEFAULT_PITCH,
     GRAVITY,
+    SETTLED_ANGULAR_SPEED,
+    SETTLED_SPEED,
 )
 
-__all__ = ["FIDELITIES", "Fidelity", "Body", "Scene", "random_poses"]
+__all__ = ["FIDELITIES", "Fidelity", "Body", "Scene", "random_poses", "FIELD_OFF"]
+
+# What the cells push with while the array is switched off (a stopped device): nothing.
+FIELD_OFF: Field = ConstantField((0.0, 0.0))
 
 
 def random_poses(count: int, radius: float, seed: int) -> np.ndarray:
@@ -44,7 +50,8 @@ class Scene:
     ``ideal`` and ``array`` are quasi-static: a uniform viscous surface drag ``damping`` (N s/m^3)
     per unit area gives v = F / (damping A), omega = M / (damping J) with J the polar moment of area;
     ``dynamic`` adds inertia, Coulomb friction and collisions (``DynamicWorld``; pymunk is loaded only
-    for several parts).
+    for several parts). Injected faults (``faults.ArrayFaults``) act through the force model;
+    ``switched_on`` False is an array whose cells push with nothing (a stopped device).
     """
 
     def __init__(
@@ -63,7 +70,9 @@ class Scene:
             raise InputError("program", "a field program needs at least one step")
         self.bodies = bodies
         self.damping = float(damping)
+        self.friction = float(friction)
         self.time = 0.0
+        self.switched_on = True
         self.set_program(program)
         self.forces: ForceModel = (
             ArrayForces(*array, directions=directions) if self.fidelity == "array" else IdealForces()
@@ -73,6 +82,39 @@ class Scene:
             if self.fidelity == "dynamic"
             else None
         )
+
+    @property
+    def faults(self) -> ArrayFaults:
+        """Return the injected faults in force."""
+        return self.forces.faults
+
+    def set_faults(self, faults: ArrayFaults) -> None:
+        """Put ``faults`` in force; cell faults without cells raise InputError naming ``fault``."""
+        if faults.has_cell_faults and not isinstance(self.forces, ArrayForces):
+            raise InputError(
+                "fault", f"dead and stuck cells need fidelity 'array'; this scene is {self.fidelity!r}"
+            )
+        self.forces.set_faults(faults)
+
+    def set_damping(self, damping: float) -> None:
+        """Change the viscous surface drag (N s/m^3) from the next step on."""
+        if not (math.isfinite(damping) and damping > 0):
+            raise InputError("damping", f"must be a finite number > 0, got {damping!r}")
+        self.damping = float(damping)
+        if self._dynamic is not None:
+            self._dynamic.damping = self.damping
+
+    def set_friction(self, friction: float) -> None:
+        """Change the Coulomb surface friction from the next step on (only the 'dynamic' fidelity has it)."""
+        if not (math.isfinite(friction) and friction >= 0):
+            raise InputError("friction", f"must be a finite number >= 0, got {friction!r}")
+        if self._dynamic is None:
+            raise InputError(
+                "friction",
+                f"Coulomb friction acts only in the 'dynamic' fidelity; this scene is {self.fidelity!r} "
+                "(quasi-static: viscous drag only)",
+            )
+        self.friction = self._dynamic.friction = float(friction)
 
     def set_program(self, program: tuple[ProgramStep, ...]) -> None:
         """Start ``program`` now (its first step's time counts from the current scene time)."""
@@ -88,6 +130,22 @@ class Scene:
             elapsed -= step.duration
         return self.program[-1].field
 
+    def output_field(self) -> Field:
+        """Return the field the cells are driven with now: the program's, or nothing when switched off."""
+        return self.active_field() if self.switched_on else FIELD_OFF
+
+    def on_last_step(self) -> bool:
+        """Whether the program has reached its last step (which stays on until the next program)."""
+        return self.time - self.program_start >= sum(step.duration for step in self.program[:-1])
+
+    def settled(self) -> list[bool]:
+        """Return, per body, whether it is at rest (speeds below SETTLED_SPEED, SETTLED_ANGULAR_SPEED)."""
+        return [
+            bool(math.hypot(b.velocity[0], b.velocity[1]) < SETTLED_SPEED)
+            and bool(abs(b.velocity[2]) < SETTLED_ANGULAR_SPEED)
+            for b in self.bodies
+        ]
+
     def _rate(self, body: Body, pose: np.ndarray, field_now: Field) -> tuple[np.ndarray, np.ndarray]:
         """Return the quasi-static velocity (F / damping A, M / damping J) at ``pose`` and the wrench."""
         w = wrench_on(body, self.forces, field_now, pose)
@@ -99,7 +157,7 @@ class Scene:
         Heun's method for 'ideal'; forward Euler for 'array', whose cell discretisation error
         dominates the step error (one force evaluation per step); 'dynamic' by its world.
         """
-        field_now = self.active_field()
+        field_now = self.output_field()
         if self._dynamic is not None:
             self._dynamic.step(dt, field_now)
         else:

@@ -16,6 +16,8 @@ __all__ = [
     "GRAVITY",
     "COLLISION_FRICTION",
     "EAR_CLIP_PASSES",
+    "SETTLED_SPEED",
+    "SETTLED_ANGULAR_SPEED",
 ]
 
 # A 100 x 100 array of 100 um cells: 1 cm square, with 20-40 cells across the 2-4 mm parts of the
@@ -36,3 +38,9 @@ COLLISION_FRICTION: Final = 0.5
 # Ear clipping removes one ear per pass; a simple polygon of n vertices needs n - 3 passes, each
 # scanning at most n candidates. 10 n^2 bounds the work of a degenerate (not simple) outline.
 EAR_CLIP_PASSES: Final = 10
+# A part counts as settled (status counter parts_settled; the device is busy until every part is)
+# below 0.1 um/s, a thousandth of the default 100 um pitch per second, and 1e-5 rad/s. Quasi-static
+# motion decays exponentially near a stable equilibrium, so the speeds pass these within a fraction of
+# a second of the tests' 1e-7 m / 1e-4 rad pose tolerances being met.
+SETTLED_SPEED: Final = 1e-7
+SETTLED_ANGULAR_SPEED: Final = 1e-5

@@ -1,4 +1,19 @@
-"""ROS 2 node: the simulated MEMS field array (thin adapter around feeder_sim.mems)."""
+"""ROS 2 node: the simulated MEMS field array, a managed device (thin adapter around feeder_sim.mems).
+
+Lifecycle: configure loads the part and program files and builds the scene (a bad file or parameter
+fails the transition, naming it); activate starts the physics timer and the part-state streams;
+deactivate freezes the physics where it is (the latched descriptions stay); cleanup releases the scene.
+
+Time: everything is on the node clock (``use_sim_time`` puts it on the cell clock). At every tick of
+``publish_rate`` (Hz of the node clock) the scene advances by the node-clock time elapsed since the last
+tick, in whole ``time_step`` steps (the remainder carries to the next tick), but by at most
+``max_steps_per_tick`` steps: what that cap leaves unsimulated is dropped and counted
+(``steps_dropped``), so a device that cannot keep up lags visibly (its simulated time, recorded at every
+tick, falls behind the clock) and never silently runs slower.
+
+Injected faults (``~/inject_fault`` or the ``inject_faults`` parameter) act through the force model
+(``feeder_sim.mems.faults``); this node only wires them.
+"""
 
 from __future__ import annotations
 
@@ -9,10 +24,10 @@ from typing import Any
 import numpy as np
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Pose, PoseArray
-from rclpy.node import Node
-from rosgraph_msgs.msg import Clock
+from rclpy.time import Time as RclTime
 
 from feeder_msgs.msg import (
+    DeviceStatus,
     FieldProgram,
     FieldSpec,
     MemsCellForces,
@@ -28,7 +43,6 @@ from feeder_planner.node_kit import (
     LATCHED,
     STREAM_DEPTH,
     ParameterSpec,
-    declare_parameters,
     in_range,
     integer,
     integer_at_least,
@@ -39,35 +53,55 @@ from feeder_planner.node_kit import (
     run_node,
     service_guard,
 )
+from feeder_planner.node_kit.device import ActiveFault, FaultSpec, ManagedDevice
 from feeder_planner.node_kit.msg_fields import fill_field_spec, program_from_msg
 from feeder_planner.node_kit.msg_parts import part_to_msg
 from feeder_planner.parts import Part, load_part
 from feeder_sim.mems import FIDELITIES, Body, Grid, Scene, random_poses
 from feeder_sim.mems.tolerances import DEFAULT_CELLS, DEFAULT_DAMPING, DEFAULT_FRICTION, DEFAULT_PITCH
 
-__all__ = ["PARAMETERS", "MemsFieldArray", "main"]
+__all__ = ["PARAMETERS", "FAULTS", "MemsFieldArray", "main"]
+
+NODE_NAME = "mems_field_array"
+BASE_FRAME = "mems_array"
+
+# max_steps_per_tick 0 means the steps of this many periods of the node clock, times the configured
+# real-time factor when it is above 1 (a fast cell clock advances in jumps of several periods): a tick
+# that comes late by up to three periods (a loaded 2-core machine) still catches up in full; anything
+# later is dropped and shows as steps_dropped and a lagging real-time factor.
+AUTO_CATCH_UP_TICKS = 4
+
+NANOSECONDS = 1_000_000_000
 
 
 def _array_size(value: Sequence[object]) -> str | None:
     """Check the array_size parameter: two integers > 0."""
-    ok = len(value) == 2 and all(isinstance(v, int) and v > 0 for v in value)
+    ok = len(value) == 2 and all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in value)
     return None if ok else f"must be two integers > 0 [nx, ny], got {list(value)!r}"
 
 
-def _time(t: float) -> Time:
-    """Return simulated time t (s) as a message time stamp."""
-    return Time(sec=int(t), nanosec=int(round((t - int(t)) * 1e9)) % 1_000_000_000)
+def _time_step(value: Any) -> str | None:
+    """Check the time_step parameter: > 0 and at least one nanosecond (steps are counted in ns)."""
+    problem = positive(value)
+    if problem is None and round(value * NANOSECONDS) < 1:
+        problem = f"must be at least 1e-9 s, got {value!r}"
+    return problem
 
 
 PARAMETERS = (
     ParameterSpec(
-        "array_size", list(DEFAULT_CELLS), "number of actuator cells [nx, ny] of the array", _array_size
+        "array_size",
+        list(DEFAULT_CELLS),
+        "number of actuator cells [nx, ny] of the array",
+        _array_size,
+        read_only=True,
     ),
     ParameterSpec(
         "pitch",
         DEFAULT_PITCH,
         "side of one square actuator cell (m); the array is centred on the plane origin",
         positive,
+        read_only=True,
     ),
     ParameterSpec(
         "fidelity",
@@ -75,50 +109,82 @@ PARAMETERS = (
         "force model: ideal (exact field integrals, quasi-static), array (cells at "
         "the pitch, exact covered areas), dynamic (inertia, friction, collisions)",
         one_of(FIDELITIES),
+        read_only=True,
     ),
     ParameterSpec(
         "directions",
         0,
         "quantise cell forces to this many actuator directions (0: exact directions)",
         integer_at_least(0),
+        read_only=True,
     ),
-    ParameterSpec("part_files", [""], "part files (YAML, contract section 2); empty entries are ignored"),
+    ParameterSpec(
+        "part_files",
+        [""],
+        "part files (YAML, contract section 2); empty entries are ignored",
+        read_only=True,
+    ),
     ParameterSpec(
         "initial_poses",
         [0.0],
         "x, y, theta (m, m, rad) per part, flattened; [] or [0.0]: random poses "
         "within placement_radius drawn with the seed",
+        read_only=True,
     ),
     ParameterSpec(
-        "placement_radius", 1e-3, "radius (m) of the disc random initial positions are drawn in", positive
+        "placement_radius",
+        1e-3,
+        "radius (m) of the disc random initial positions are drawn in",
+        positive,
+        read_only=True,
     ),
     ParameterSpec(
         "program_file",
         "",
         "field program YAML ({steps: [{field: {...}, duration: s}]}, metres); "
         "empty: combined field delta = default_delta forever",
+        read_only=True,
     ),
     ParameterSpec(
         "default_delta",
         0.2,
         "delta of the default combined field (0 <= delta < 1)",
         in_range(DELTA_MIN, DELTA_MAX, include_high=False),
+        read_only=True,
     ),
-    ParameterSpec("publish_rate", 20.0, "rate (Hz, wall clock) of part state messages", positive),
     ParameterSpec(
-        "real_time_factor", 1.0, "simulated seconds per wall second; > 1 also publishes /clock", positive
+        "publish_rate",
+        20.0,
+        "rate (Hz of the node clock) of the physics ticks and the part state messages",
+        positive,
+        read_only=True,
     ),
-    ParameterSpec("time_step", 2e-4, "integration step (s of simulated time)", positive),
+    ParameterSpec(
+        "time_step",
+        2e-4,
+        "integration step (s of simulated time); a tick runs the whole steps of the node-clock time elapsed",
+        _time_step,
+        read_only=True,
+    ),
+    ParameterSpec(
+        "max_steps_per_tick",
+        0,
+        "most integration steps one tick runs (runtime); the rest of a late tick's time is dropped and "
+        f"counted as steps_dropped. 0: the steps of {AUTO_CATCH_UP_TICKS} periods times "
+        "max(1, real_time_factor)",
+        integer_at_least(0),
+    ),
     ParameterSpec(
         "damping",
         DEFAULT_DAMPING,
-        "viscous surface drag per unit area (N s/m^3): v = F/(damping A)",
+        "viscous surface drag per unit area (N s/m^3): v = F/(damping A); runtime: applied to the scene",
         positive,
     ),
     ParameterSpec(
         "friction",
         DEFAULT_FRICTION,
-        "Coulomb friction coefficient with the surface (dynamic fidelity)",
+        "Coulomb friction coefficient with the surface, dynamic fidelity only (refused for the others); "
+        "runtime: applied to the running scene",
         non_negative,
     ),
     ParameterSpec(
@@ -126,51 +192,123 @@ PARAMETERS = (
         0,
         "seed of the random initial poses (the simulation itself is deterministic)",
         integer,
+        read_only=True,
     ),
-    ParameterSpec("frame_id", "mems_array", "frame of the published poses (the plane frame)"),
+    ParameterSpec(
+        "frame_id",
+        "",
+        f"frame of the published poses (the plane frame); empty: {BASE_FRAME} under the node's namespace",
+        read_only=True,
+    ),
 )
 
+FAULTS = {
+    "dead_cells": FaultSpec(
+        "dead_cells",
+        "cells that push with no force (array fidelity)",
+        "fraction of the cells in (0, 1], drawn with the seed; or explicit indices (i * ny + j)",
+    ),
+    "stuck_cells": FaultSpec(
+        "stuck_cells",
+        "cells stuck pushing in direction angle (rad) at the field's magnitude (array fidelity)",
+        "fraction of the cells in (0, 1], drawn with the seed; or explicit indices; angle: the direction",
+    ),
+    "field_strength_error": FaultSpec(
+        "field_strength_error",
+        "every cell force scaled by 1 + e",
+        "relative error e (> -1, nonzero)",
+    ),
+    "power_loss": FaultSpec(
+        "power_loss",
+        "the array has lost power: no field at all",
+        stops_device=True,
+        code=DeviceStatus.FAULT_POWER_LOSS,
+    ),
+}
 
-class MemsFieldArray(Node):
-    """Publishes part states at a fixed rate, the field program and cell forces (latched).
 
-    Serves /mems/set_program and /mems/place_parts.
+def _stamp(nanoseconds: int) -> Time:
+    """Return a node-clock time (integer ns) as a message stamp."""
+    return RclTime(nanoseconds=nanoseconds).to_msg()
+
+
+class MemsFieldArray(ManagedDevice):
+    """Publishes ~/part_states, ~/part_poses at publish_rate and ~/field_program, ~/cell_forces, ~/parts.
+
+    Serves ~/set_program and ~/place_parts (refused unless the device is ready), plus the device
+    services of ``ManagedDevice`` (~/stop, ~/reset, ~/inject_fault; ~/status, /diagnostics).
     """
 
+    FAULTS = FAULTS
+
     def __init__(self) -> None:
-        super().__init__("mems_field_array")
-        p = declare_parameters(self, PARAMETERS)
-        self.p = p
-        files = [f for f in p["part_files"] if f]
+        super().__init__(NODE_NAME, PARAMETERS, rate=20.0)
+        self.scene: Scene | None = None
+        self._release()
+        self.create_service(FieldSetProgram, "~/set_program", service_guard(self)(self.on_set_program))
+        self.create_service(MemsPlaceParts, "~/place_parts", service_guard(self)(self.on_place_parts))
+
+    def _release(self) -> None:
+        """Forget the scene and everything configure or activate made (publishers, timer)."""
+        self.scene = None
+        self.names: list[str] = []
+        self.documents: list[dict[str, Any]] = []
+        self.initial = np.zeros((0, 3))
+        self.frame_id = ""
+        self.step_ns = 1
+        self.timer: Any = None
+        self.publishers_made: list[Any] = []
+        self.last_tick_ns = 0
+        self.owed_ns = 0
+        self.last_cells: tuple[Any, ...] | None = None
+        self.last_activity: tuple[bool, int] | None = None
+        self.program_stamp = 0
+        self.count = {"steps": 0, "steps_dropped": 0, "programs": 0, "placements": 0}
+
+    # --- configure / activate / deactivate / cleanup ----------------------------------------------
+    def configure_device(self, p: dict[str, Any]) -> None:
+        """Load the parts and the program and build the scene; raise InputError naming the field."""
+        self._release()
         parts: list[Part] = []
         documents: list[dict[str, Any]] = []
-        for path in files:
-            parts.append(load_part(path))
-            documents.append(load_yaml_mapping(path))
+        for index, path in enumerate(p["part_files"]):
+            if not path:
+                continue
+            try:
+                parts.append(load_part(path))
+                documents.append(load_yaml_mapping(path))
+            except InputError as error:
+                raise InputError(f"parameter part_files[{index}]", str(error)) from None
         poses = list(p["initial_poses"])
         if poses in ([], [0.0]):
             poses = random_poses(len(parts), p["placement_radius"], p["seed"]).ravel().tolist()
-        if len(poses) != 3 * len(parts) or not all(math.isfinite(v) for v in poses):
+        if len(poses) != 3 * len(parts) or not all(
+            isinstance(v, (int, float)) and math.isfinite(v) for v in poses
+        ):
             raise InputError(
                 "parameter initial_poses",
                 f"needs 3 finite numbers per part ({3 * len(parts)}), got {len(poses)}",
             )
-        self.initial = np.array(poses, float).reshape(-1, 3)
-        self.names = [
-            doc.get("name", f"part{i}") if isinstance(doc.get("name"), str) else f"part{i}"
-            for i, doc in enumerate(documents)
-        ]
         program: tuple[ProgramStep, ...]
         if p["program_file"]:
             try:
                 program = program_from_mapping(load_yaml_mapping(p["program_file"]))
             except InputError as error:
-                raise error.with_source(p["program_file"]) from None
+                raise InputError(
+                    "parameter program_file", str(error.with_source(p["program_file"]))
+                ) from None
         else:
             program = (ProgramStep(CombinedField(p["default_delta"]), math.inf),)
+        if p["friction"] != 0.0 and p["fidelity"] != "dynamic":
+            raise InputError(
+                "parameter friction",
+                f"Coulomb friction acts only in the dynamic fidelity; fidelity is {p['fidelity']!r} "
+                "(leave friction 0 or choose dynamic)",
+            )
+        initial = np.array(poses, float).reshape(-1, 3)
         nx, ny = p["array_size"]
         self.scene = Scene(
-            [Body(part, pose.copy()) for part, pose in zip(parts, self.initial, strict=True)],
+            [Body(part, pose.copy()) for part, pose in zip(parts, initial, strict=True)],
             program,
             p["fidelity"],
             array=(nx, ny, p["pitch"]),
@@ -178,43 +316,143 @@ class MemsFieldArray(Node):
             damping=p["damping"],
             friction=p["friction"],
         )
-        self.state_pub = self.create_publisher(MemsPartStates, "/mems/part_states", STREAM_DEPTH)
-        self.pose_pub = self.create_publisher(PoseArray, "/mems/part_poses", STREAM_DEPTH)
-        self.program_pub = self.create_publisher(FieldProgram, "/mems/field_program", LATCHED)
-        self.cells_pub = self.create_publisher(MemsCellForces, "/mems/cell_forces", LATCHED)
-        self.parts_pub = self.create_publisher(MemsParts, "/mems/parts", LATCHED)
-        self.clock_pub = self.create_publisher(Clock, "/clock", 10) if p["real_time_factor"] > 1 else None
-        self.create_service(FieldSetProgram, "/mems/set_program", service_guard(self)(self.on_set_program))
-        self.create_service(MemsPlaceParts, "/mems/place_parts", service_guard(self)(self.on_place_parts))
+        self.initial, self.documents = initial, documents
+        self.names = [
+            doc["name"] if isinstance(doc.get("name"), str) else f"part{i}" for i, doc in enumerate(documents)
+        ]
+        self.frame_id = p["frame_id"] or self.frame(BASE_FRAME)
+        self.step_ns = int(round(p["time_step"] * NANOSECONDS))
+        self.expect_rate(p["publish_rate"])
+        self.program_pub = self._publisher(FieldProgram, "~/field_program", LATCHED)
+        self.cells_pub = self._publisher(MemsCellForces, "~/cell_forces", LATCHED)
+        self.parts_pub = self._publisher(MemsParts, "~/parts", LATCHED)
+        self.state_pub = self._publisher(MemsPartStates, "~/part_states", STREAM_DEPTH, lifecycle=True)
+        self.pose_pub = self._publisher(PoseArray, "~/part_poses", STREAM_DEPTH, lifecycle=True)
         self.parts_pub.publish(MemsParts(parts=[part_to_msg(d) for d in documents]))
-        self.last_field: Field | None = None
+        self.program_stamp = self.get_clock().now().nanoseconds
         self.publish_program()
-        self.create_timer(1.0 / p["publish_rate"], self.tick)
+        self.publish_cells()
 
-    def stamp(self) -> Time:
-        """Return the scene's simulated time as a message time stamp."""
-        return _time(self.scene.time)
+    def _publisher(self, msg_type: Any, topic: str, qos: Any, lifecycle: bool = False) -> Any:
+        """Create a publisher (a lifecycle one for the streams) that cleanup destroys."""
+        make = self.create_lifecycle_publisher if lifecycle else self.create_publisher
+        publisher = make(msg_type, topic, qos)
+        self.publishers_made.append((publisher, lifecycle))
+        return publisher
 
+    def activate_device(self) -> None:
+        """Start the physics from now: the paused time is not simulated."""
+        self.last_tick_ns = self.get_clock().now().nanoseconds
+        self.owed_ns = 0
+        self.last_activity = None
+        self.timer = self.create_timer(1.0 / self.p["publish_rate"], self.tick)
+
+    def deactivate_device(self) -> None:
+        """Freeze the physics where it is: the timer goes, the scene and the latched messages stay."""
+        if self.timer is not None:
+            self.destroy_timer(self.timer)
+            self.timer = None
+
+    def cleanup_device(self) -> None:
+        """Release the scene, the timer and every publisher configure made."""
+        self.deactivate_device()
+        for publisher, lifecycle in self.publishers_made:
+            if lifecycle:
+                self.destroy_lifecycle_publisher(publisher)
+            else:
+                self.destroy_publisher(publisher)
+        self._release()
+
+    # --- runtime parameters, status, stop/reset ----------------------------------------------------
+    def apply_parameter(self, name: str, value: Any) -> None:
+        """Apply damping, friction or max_steps_per_tick to the running scene (the others are read-only)."""
+        if self.scene is None:
+            return
+        try:
+            if name == "damping":
+                self.scene.set_damping(float(value))
+            elif name == "friction":
+                self.scene.set_friction(float(value))
+        except InputError as error:
+            raise InputError(f"parameter {name}", error.problem) from None
+        # max_steps_per_tick is read from self.p at every tick, which the kit updates after this returns
+
+    def busy(self) -> bool:
+        """Whether a program is still before its last step or a part is still moving."""
+        if self.scene is None or not self.scene.switched_on or self.scene.faults.power_loss:
+            return False
+        return not self.scene.on_last_step() or not all(self.scene.settled())
+
+    def counters(self) -> dict[str, int]:
+        """Return steps simulated and dropped, programs set, placements and parts now at rest."""
+        settled = sum(self.scene.settled()) if self.scene is not None else 0
+        return {**self.count, "parts_settled": settled}
+
+    def stop_device(self) -> None:
+        """Switch every cell off: parts come to rest where they are; commands are refused until ~/reset."""
+        if self.scene is not None:
+            self.scene.switched_on = False
+            self.publish_cells()
+
+    def reset_device(self) -> None:
+        """Switch the cells back on and restart the present program from its first step."""
+        if self.scene is not None:
+            self.scene.switched_on = True
+            self.scene.set_program(self.scene.program)
+            self.program_stamp = self.get_clock().now().nanoseconds
+            self.publish_program()
+            self.publish_cells()
+
+    def apply_fault(self, fault: ActiveFault) -> None:
+        """Put an injected fault into the force model (validated there: InputError naming the field)."""
+        if self.scene is None:
+            return
+        nx, ny = self.p["array_size"]
+        faults = self.scene.faults.with_fault(
+            fault.spec.name,
+            value=fault.value,
+            indices=fault.indices,
+            angle=fault.angle,
+            seed=fault.seed,
+            cells=(nx, ny),
+            fidelity=self.scene.fidelity,
+        )
+        self.scene.set_faults(faults)
+        self.publish_cells()
+
+    def clear_fault(self, name: str) -> None:
+        """Take an injected fault out of the force model."""
+        if self.scene is not None:
+            self.scene.set_faults(self.scene.faults.without(name))
+            self.publish_cells()
+
+    # --- publishing ---------------------------------------------------------------------------------
     def publish_program(self) -> None:
-        """Publish the scene's field program (latched), stamped with its start time."""
+        """Publish the scene's field program (latched), stamped with its node-clock start time."""
+        if self.scene is None:
+            return
         msg = FieldProgram(
             name="program", steps=[fill_field_spec(FieldSpec(), s) for s in self.scene.program]
         )
-        msg.header.frame_id = self.p["frame_id"]
-        msg.header.stamp = _time(self.scene.program_start)
+        msg.header.frame_id = self.frame_id
+        msg.header.stamp = _stamp(self.program_stamp)
         self.program_pub.publish(msg)
 
     def publish_cells(self) -> None:
-        """Publish the cell forces of the active field (latched) when the field has changed."""
-        field = self.scene.active_field()
-        if field is self.last_field:
+        """Publish what the cells push with (latched) when it changed: field, faults or switched off."""
+        scene = self.scene
+        if scene is None:
             return
-        self.last_field = field
+        field: Field = scene.output_field()
+        key = (field, scene.faults)
+        if key == self.last_cells:
+            return
+        self.last_cells = key
         nx, ny = self.p["array_size"]
         pitch = self.p["pitch"]
-        grid_forces = self.scene.forces.cell_forces(field)
+        grid_forces = scene.forces.cell_forces(field)
         if grid_forces is None:  # ideal / dynamic: the ideal field sampled at the cell centres
-            grid_forces = field.force_density(Grid(nx, ny, pitch).centers())
+            grid_forces = scene.faults.apply_to_cells(field.force_density(Grid(nx, ny, pitch).centers()))
         msg = MemsCellForces(
             nx=nx,
             ny=ny,
@@ -222,23 +460,47 @@ class MemsFieldArray(Node):
             fx=grid_forces[..., 0].ravel().tolist(),
             fy=grid_forces[..., 1].ravel().tolist(),
         )
-        msg.header.stamp = self.stamp()
-        msg.header.frame_id = self.p["frame_id"]
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.header.frame_id = self.frame_id
         self.cells_pub.publish(msg)
 
+    def _max_steps(self) -> int:
+        """Return the cap on steps per tick (max_steps_per_tick, or the automatic one for 0)."""
+        cap = int(self.p["max_steps_per_tick"])
+        if cap > 0:
+            return cap
+        factor = max(1.0, float(self.p["real_time_factor"]))
+        period_ns = NANOSECONDS * factor / float(self.p["publish_rate"])
+        return max(1, math.ceil(AUTO_CATCH_UP_TICKS * period_ns / self.step_ns))
+
     def tick(self) -> None:
-        """Advance the scene by one publishing period of simulated time and publish the states."""
-        p = self.p
-        steps = max(1, int(round(p["real_time_factor"] / p["publish_rate"] / p["time_step"])))
+        """Advance the scene by the node-clock time since the last tick (capped) and publish the states."""
+        scene = self.scene
+        if scene is None or not self.active:
+            return
+        now = self.get_clock().now().nanoseconds
+        if self.last_tick_ns <= 0:  # the node clock had not started (no /clock yet): start from now
+            self.last_tick_ns = now
+        elapsed = max(0, now - self.last_tick_ns)  # a clock set back simulates nothing, never negative
+        self.last_tick_ns = now
+        self.owed_ns += elapsed
+        steps, self.owed_ns = divmod(self.owed_ns, self.step_ns)
+        cap = self._max_steps()
+        if steps > cap:
+            self.count["steps_dropped"] += steps - cap
+            steps = cap
+        dt = float(self.p["time_step"])
         for _ in range(steps):
-            self.scene.step(p["time_step"])
+            scene.step(dt)
+        self.count["steps"] += steps
+        self.record_tick(scene.time)
         self.publish_cells()
         states = MemsPartStates()
-        states.header.stamp = self.stamp()
-        states.header.frame_id = p["frame_id"]
+        states.header.stamp = _stamp(now)
+        states.header.frame_id = self.frame_id
         poses = PoseArray()
         poses.header = states.header
-        for name, body in zip(self.names, self.scene.bodies, strict=True):
+        for name, body in zip(self.names, scene.bodies, strict=True):
             state = MemsPartState(name=name, theta=float(body.pose[2]))
             state.pose = self._pose(body.pose)
             state.twist.linear.x, state.twist.linear.y = float(body.velocity[0]), float(body.velocity[1])
@@ -249,31 +511,43 @@ class MemsFieldArray(Node):
             poses.poses.append(state.pose)
         self.state_pub.publish(states)
         self.pose_pub.publish(poses)
-        if self.clock_pub is not None:
-            self.clock_pub.publish(Clock(clock=self.stamp()))
+        activity = (self.busy(), sum(scene.settled()))
+        if activity != self.last_activity:
+            self.last_activity = activity
+            self.publish_status()
 
     @staticmethod
     def _pose(pose: np.ndarray) -> Pose:
         """Return a pose (x, y, theta) as a Pose message."""
         return planar_pose(pose[0], pose[1], pose[2])
 
+    # --- device services ----------------------------------------------------------------------------
     def on_set_program(
         self, request: FieldSetProgram.Request, response: FieldSetProgram.Response
     ) -> FieldSetProgram.Response:
         """Start the requested field program now."""
+        self.require_ready("set_program")
+        assert self.scene is not None  # ready implies configured
         program = program_from_msg(request.program)
         self.scene.set_program(program)
+        self.program_stamp = self.get_clock().now().nanoseconds
+        self.count["programs"] += 1
         self.publish_program()
         self.publish_cells()
+        self.publish_status()
         return response
 
     def on_place_parts(
         self, request: MemsPlaceParts.Request, response: MemsPlaceParts.Response
     ) -> MemsPlaceParts.Response:
         """Put named parts at requested poses at rest, or every part back at its initial pose."""
+        self.require_ready("place_parts")
+        assert self.scene is not None  # ready implies configured
         if request.reset:
             for body, pose in zip(self.scene.bodies, self.initial, strict=True):
                 body.pose, body.velocity = pose.copy(), np.zeros(3)
+            self.count["placements"] += 1
+            self.publish_status()
             return response
         n = len(request.names)
         for key in ("x", "y", "theta"):
@@ -291,12 +565,14 @@ class MemsFieldArray(Node):
         for index, pose in targets:
             body = self.scene.bodies[index]
             body.pose, body.velocity = pose, np.zeros(3)
+        self.count["placements"] += 1
+        self.publish_status()
         return response
 
 
 def main(args: list[str] | None = None) -> None:
     """Run the node until shut down."""
-    run_node(MemsFieldArray, "mems_field_array", args)
+    run_node(MemsFieldArray, NODE_NAME, args)
 
 
 if __name__ == "__main__":
