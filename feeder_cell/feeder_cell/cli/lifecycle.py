@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Any
 
 from feeder_cell.cli.common import add_json_flag, emit
@@ -42,11 +41,7 @@ def _run(args: argparse.Namespace) -> int:
             "state": client.change(args.transition),
         }
 
-    try:
-        result = with_node("feeder_lifecycle", work)
-    except LifecycleError as error:
-        sys.stderr.write(f"feeder lifecycle: {error}\n")
-        return 1
+    result = with_node("feeder_lifecycle", work)  # a refusal is a LifecycleError: exit 1, one line
     emit(
         args,
         result,

@@ -7,7 +7,7 @@ import importlib
 import sys
 from typing import NoReturn, Sequence
 
-from feeder_planner.errors import InputError, SolverError
+from feeder_planner.errors import FeederError, InputError, SolverError
 
 # Each module defines register(subparsers); a subparser sets ``handler`` via set_defaults.
 SUBCOMMAND_MODULES = (
@@ -16,6 +16,7 @@ SUBCOMMAND_MODULES = (
     "feeder_cell.cli.bag",
     "feeder_cell.cli.launch",
     "feeder_cell.cli.lifecycle",
+    "feeder_cell.cli.clock",
     "feeder_cell.cli.equilibria",
     "feeder_cell.cli.throwing",
     "feeder_cell.cli.assembly",
@@ -52,7 +53,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run one ``feeder`` subcommand; return its exit status (2 bad input, 3 not certified)."""
+    """Run one ``feeder`` subcommand; return its exit status (1 failed, 2 bad input, 3 not certified)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
@@ -63,6 +64,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SolverError as error:
         sys.stderr.write(f"feeder {args.command}: not certified: {error}\n")
         return EXIT_NOT_CERTIFIED
+    except FeederError as error:  # a device or node refused (a lifecycle transition, a start-up)
+        sys.stderr.write(f"feeder {args.command}: {error}\n")
+        return EXIT_FAILED
 
 
 if __name__ == "__main__":
