@@ -24,6 +24,7 @@ from feeder_planner.throwing import (
     search,
     throw,
 )
+from feeder_planner.throwing.limit_set import OffsetBelowDMinError
 from feeder_planner.throwing.tolerances import SENSING_HEIGHT_FRACTION
 from feeder_planner.units import LENGTH_UNITS
 
@@ -40,6 +41,7 @@ Exit 2 on bad input, 3 when a result cannot be certified (e.g. no invariant set)
 FLAGS = {
     "radius": "--radius",
     "offset": "--offset",
+    "offsets": "--offsets",
     "release_speed": "--release-speed",
     "gravity": "--gravity",
     "mu": "--mu",
@@ -215,14 +217,17 @@ def run_limit_set(args: argparse.Namespace) -> int:
     part = load_part(args.part)
     params = _params(args, part)
     height = _height(args, part)
-    result = limit_set(
-        arm_part(part),
-        params,
-        args.goal_edge,
-        _positive_int(args.starts_per_edge, "--starts-per-edge"),
-        _positive_int(args.throws, "--throws"),
-        sensing_height=height,
-    )
+    try:
+        result = limit_set(
+            arm_part(part),
+            params,
+            args.goal_edge,
+            _positive_int(args.starts_per_edge, "--starts-per-edge"),
+            _positive_int(args.throws, "--throws"),
+            sensing_height=height,
+        )
+    except OffsetBelowDMinError as error:
+        raise error.in_unit(part.unit_scale, _unit_name(part)) from None  # as the flag was given
     emit(args, result.to_json(), lambda _: _summary_limit(result, part.unit_scale))
     return 0
 
@@ -243,14 +248,17 @@ def run_design(args: argparse.Namespace) -> int:
     """Run `feeder throw-design`: every (H, W) of the grid and the best sensor-based design."""
     part = load_part(args.part)
     s = part.unit_scale
-    result = search(
-        arm_part(part),
-        args.goal_edge,
-        np.array([h * s for h in args.offsets]),
-        np.array(args.release_speeds),
-        args.gravity * s,
-        args.mu,
-        _height(args, part),
-    )
+    try:
+        result = search(
+            arm_part(part),
+            args.goal_edge,
+            np.array([h * s for h in args.offsets]),
+            np.array(args.release_speeds),
+            args.gravity * s,
+            args.mu,
+            _height(args, part),
+        )
+    except OffsetBelowDMinError as error:
+        raise error.in_unit(s, _unit_name(part)) from None  # as the flag was given
     emit(args, result.to_json(), lambda _: _summary_design(result, s))
     return 0

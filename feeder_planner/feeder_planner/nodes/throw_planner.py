@@ -80,17 +80,20 @@ def _height(value: float) -> float | None:
 
 
 class ThrowPlanner(Node):
-    """Services under /throw_planner/; every response carries ok and error."""
+    """Private services (``~/throw``...: under the node's namespace and name); each response has ok and error.
+
+    The planner has no device topics: every request carries the part and the design it is about.
+    """
 
     def __init__(self) -> None:
         super().__init__("throw_planner")
         self.p = declare_parameters(self, PARAMETERS)
         guard = service_guard(self)
-        self.create_service(GraspRadii, "/throw_planner/grasp_radii", guard(self.on_grasp))
-        self.create_service(ThrowCompute, "/throw_planner/throw", guard(self.on_throw))
-        self.create_service(LimitSetCompute, "/throw_planner/limit_set", guard(self.on_limit_set))
-        self.create_service(SensorTriggerRadii, "/throw_planner/trigger_radii", guard(self.on_trigger))
-        self.create_service(DesignSearch, "/throw_planner/design_search", guard(self.on_design))
+        self.create_service(GraspRadii, "~/grasp_radii", guard(self.on_grasp))
+        self.create_service(ThrowCompute, "~/throw", guard(self.on_throw))
+        self.create_service(LimitSetCompute, "~/limit_set", guard(self.on_limit_set))
+        self.create_service(SensorTriggerRadii, "~/trigger_radii", guard(self.on_trigger))
+        self.create_service(DesignSearch, "~/design_search", guard(self.on_design))
 
     def on_grasp(self, request: GraspRadii.Request, response: GraspRadii.Response) -> GraspRadii.Response:
         """Answer R_grasp for every stable edge (eqs. 1-4)."""

@@ -9,7 +9,7 @@ import numpy as np
 
 from feeder_planner.errors import FeederError, InputError
 from feeder_planner.throwing.geometry import ArmPart
-from feeder_planner.throwing.limit_set import limit_set
+from feeder_planner.throwing.limit_set import check_limit_offset, limit_set
 from feeder_planner.throwing.sensor import check_sensing_height
 from feeder_planner.throwing.throw_map import ThrowParams
 
@@ -110,6 +110,8 @@ def search(
         raise InputError("offsets" if len(offsets) == 0 else "release_speeds", "needs at least one value")
     if sensing_height is not None:
         check_sensing_height(sensing_height)
+    for h in offsets:  # before any work: an offset with no limit set is bad input, not a row's note
+        check_limit_offset(part, float(h), "offsets")
     rows = [
         _design(
             part,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
@@ -35,6 +36,8 @@ __all__ = [
     "find_cycle",
     "LimitSet",
     "default_burn_in",
+    "OffsetBelowDMinError",
+    "check_limit_offset",
     "limit_set",
 ]
 
@@ -317,6 +320,38 @@ def default_burn_in(throws: int) -> int:
     return min(BURN_IN_CAP, throws // BURN_IN_DIVISOR)
 
 
+class OffsetBelowDMinError(InputError):
+    """An offset h <= -d_min: outside the regime in which the paper's limit sets exist (Prop. IV.4).
+
+    With h + d^i <= 0 the centre of mass on edge i moves outward (or not inward) in flight,
+    x' = -W (d^i + h) >= 0 (eq. 5), so nothing bounds R: iterating the map carries R off to infinity.
+    Carries the values in metres so that a caller can restate them in its own length unit.
+    """
+
+    def __init__(
+        self, offset: float, d_min: float, field: str = "offset", scale: float = 1.0, unit: str = "m"
+    ) -> None:
+        self.offset, self.d_min, self.scale, self.unit = offset, d_min, scale, unit
+        super().__init__(
+            field,
+            f"h = {offset / scale:.6g} {unit} is at or below -d_min = {-d_min / scale:.6g} {unit}: on "
+            "the edge of least d^i the centre of mass then moves outward in flight and nothing bounds R, "
+            "so there is no limit set (Prop. IV.4 needs h > -d_min)",
+        )
+
+    def in_unit(self, scale: float, unit: str) -> OffsetBelowDMinError:
+        """Return the same error with h and d_min stated in ``unit`` (``scale`` metres per unit)."""
+        return OffsetBelowDMinError(self.offset, self.d_min, self.field, scale, unit)
+
+
+def check_limit_offset(part: ArmPart, offset: float, field: str = "offset") -> None:
+    """Refuse an offset h <= -d_min for iterating the map (Prop. IV.4: the limit set needs h > -d_min)."""
+    if not math.isfinite(offset):
+        raise InputError(field, f"must be a finite number, got {offset!r}")
+    if not offset > -part.d_min:
+        raise OffsetBelowDMinError(float(offset), part.d_min, field)
+
+
 def limit_set(
     part: ArmPart,
     params: ThrowParams,
@@ -332,10 +367,12 @@ def limit_set(
     Every start of the grid (``starts_per_edge`` radii in [low_i, R_max_i] on each stable edge) is thrown
     ``throws`` times; states after ``burn_in`` throws (default: ``default_burn_in``) are taken as the limit
     set. The cycle is unique when every start's visit sequence has the same period (Theorem IV.6).
-    ``sensing_height`` None means the default (``sensing_height_or_default``).
+    ``sensing_height`` None means the default (``sensing_height_or_default``). An offset at or below
+    -d_min is refused (``check_limit_offset``): no limit set exists there.
     """
     if goal_edge is not None and goal_edge not in part.stable_edges:
         raise InputError("goal_edge", f"edge {goal_edge} is not a stable edge (stable: {part.stable_edges})")
+    check_limit_offset(part, params.offset)
     height = sensing_height_or_default(part, sensing_height)
     skip = default_burn_in(throws) if burn_in is None else burn_in
     bounds = edge_bounds(part, params)

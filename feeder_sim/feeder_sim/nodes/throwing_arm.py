@@ -1,25 +1,30 @@
-"""ROS 2 node: the simulated throwing arm with a one-bit proximity sensor (adapts feeder_sim.throwing)."""
+"""ROS 2 node: the simulated throwing arm with a one-bit proximity sensor, a managed device.
+
+Adapts ``feeder_sim.throwing`` (the arm model and its injected faults) to ROS: a lifecycle node (the
+node kit's ManagedDevice) whose streams and services are private names (``~/sensor``, ``~/command``...),
+stamped with the node clock (``use_sim_time`` honoured). The simulated time advances at each tick by the
+elapsed node-clock time, at most MAX_TICK_PERIODS sensor periods per tick: a node that cannot keep up
+lags visibly in its status, never silently.
+"""
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from geometry_msgs.msg import PoseStamped
-from rcl_interfaces.msg import SetParametersResult
-from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rclpy.time import Time
+from rclpy.timer import Timer
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool
 
-from feeder_msgs.msg import ThrowEvent
+from feeder_msgs.msg import DeviceStatus, ThrowEvent
 from feeder_msgs.srv import ArmCommand, ArmPlacePart
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit import (
     EVENT_DEPTH,
     STREAM_DEPTH,
     ParameterSpec,
-    declare_parameters,
     finite,
     in_range,
     integer,
@@ -32,11 +37,21 @@ from feeder_planner.node_kit import (
     service_guard,
     yaw_quaternion,
 )
+from feeder_planner.node_kit.device import ActiveFault, DeviceError, DeviceState, FaultSpec, ManagedDevice
 from feeder_planner.parts import load_part
-from feeder_planner.throwing import ThrowParams, arm_part, lowest_radius
-from feeder_sim.throwing import DEFAULT_STEP, FIDELITIES, ThrowingArm, ThrowOutcome, parse_command
+from feeder_planner.throwing import ArmPart, ThrowParams, arm_part, lowest_radius
+from feeder_sim.throwing import (
+    DEFAULT_STEP,
+    FAULT_INFO,
+    FIDELITIES,
+    MAX_TICK_PERIODS,
+    ArmFaults,
+    ThrowingArm,
+    ThrowOutcome,
+    parse_command,
+)
 
-__all__ = ["PARAMETERS", "ThrowingArmNode", "main"]
+__all__ = ["PARAMETERS", "FAULTS", "ThrowingArmNode", "main"]
 
 # A start-up R of 0 means this multiple of the edge's lowest throwable R: clear of the domain's edge,
 # where the left contact vertex barely lifts.
@@ -45,6 +60,7 @@ DEFAULT_RADIUS_FACTOR = 1.5
 # (the part then rests), and the joint shows the release speed during the first RELEASE_SHOWN.
 FLIGHT_SHOWN = 0.8
 RELEASE_SHOWN = 0.05
+BASE_FRAME = "arm_pivot"
 Pose = tuple[float, float, float]
 
 PARAMETERS = (
@@ -53,115 +69,259 @@ PARAMETERS = (
         "",
         "part file (YAML, contract section 2); required",
         non_empty_string("a part file"),
+        read_only=True,
     ),
-    ParameterSpec("offset", -0.005, "h: height of the arm surface above the pivot (m)", finite),
-    ParameterSpec("release_speed", math.radians(320), "W: release angular speed (rad/s, > 0)", positive),
     ParameterSpec(
-        "gravity",
-        -9.66,
-        "g: gravity along y (m/s^2, < 0)",
-        negative,
+        "offset", -0.005, "h: height of the arm surface above the pivot (m)", finite, read_only=True
     ),
-    ParameterSpec("mu", 0.5, "friction coefficient between arm and part (> 0)", positive),
+    ParameterSpec(
+        "release_speed",
+        math.radians(320),
+        "W: release angular speed (rad/s, > 0); applied from the next throw when set at run time",
+        positive,
+    ),
+    ParameterSpec("gravity", -9.66, "g: gravity along y (m/s^2, < 0)", negative, read_only=True),
+    ParameterSpec("mu", 0.5, "friction coefficient between arm and part (> 0)", positive, read_only=True),
     ParameterSpec(
         "fidelity",
         "analytic",
         "analytic (the paper's model) or dynamic (pymunk, restitution and friction)",
         one_of(FIDELITIES),
+        read_only=True,
     ),
-    ParameterSpec("dynamic_step", DEFAULT_STEP, "pymunk step (s) of the dynamic fidelity", positive),
-    ParameterSpec("period", 0.5, "time between throws (s, wall clock)", positive),
+    ParameterSpec(
+        "dynamic_step",
+        DEFAULT_STEP,
+        "pymunk step (s) of the dynamic fidelity; applied from the next throw when set at run time",
+        positive,
+    ),
+    ParameterSpec(
+        "period", 0.5, "time between throws (s, node clock); applied at once when set at run time", positive
+    ),
     ParameterSpec(
         "motion_fraction",
         0.3,
-        "fraction of the period spent showing the throw; the rest is at rest",
+        "fraction of the period spent showing the throw (the rest is at rest); applied from the next throw",
         in_range(0.0, 1.0, include_low=False, include_high=False),
     ),
     ParameterSpec(
-        "sensor_radius", 0.2, "x of the proximity sensor on the arm (m); may change at runtime", finite
+        "sensor_radius", 0.2, "x of the proximity sensor on the arm (m); applied at once at run time", finite
     ),
     ParameterSpec(
         "sensing_height",
         0.001,
-        "sensing height above the arm surface (m, >= 0); may change at runtime",
+        "sensing height above the arm surface (m, >= 0); applied at once at run time",
         non_negative,
     ),
     ParameterSpec(
-        "sensor_rate", 100.0, "rate of the sensor, joint state and part pose topics (Hz)", positive
+        "sensor_rate",
+        100.0,
+        "rate of the sensor, joint state and part pose topics (Hz of the node clock): the main stream",
+        positive,
+        read_only=True,
     ),
     ParameterSpec(
         "initial_edge",
         -1,
         "stable hull edge the part starts on (-1: the first stable edge)",
         integer,
+        read_only=True,
     ),
     ParameterSpec(
         "initial_radius",
         0.0,
         f"R at start (m); 0: {DEFAULT_RADIUS_FACTOR:g} x the lowest throwable radius of the edge",
         non_negative,
+        read_only=True,
     ),
     ParameterSpec(
-        "arm_length", 0.4, "length of the arm from the pivot (m); a part beyond it has left the arm", positive
+        "arm_length",
+        0.4,
+        "length of the arm from the pivot (m); a part beyond it has left the arm",
+        positive,
+        read_only=True,
     ),
     ParameterSpec(
-        "autostart", False, "throw every period from the start (else wait for a start/throw command)"
+        "autostart",
+        False,
+        "throw every period once active (else wait for a start/throw command)",
+        read_only=True,
     ),
-    ParameterSpec("frame_id", "arm_pivot", "frame of the part pose (at the arm pivot, gravity along -y)"),
+    ParameterSpec(
+        "frame_id",
+        "",
+        f"frame of the part pose and throw events (at the arm pivot, gravity along -y); "
+        f"empty: {BASE_FRAME} under the node's namespace",
+        read_only=True,
+    ),
 )
 
+# The kit's specs of the model's faults (feeder_sim.throwing.faults), with their status codes.
+_CODES = {"motor_fault": DeviceStatus.FAULT_MOTOR, "part_lost": DeviceStatus.FAULT_PART_LOST}
+FAULTS = {
+    name: FaultSpec(name, info.description, info.value_meaning, info.stops, _CODES.get(name, 0))
+    for name, info in FAULT_INFO.items()
+}
 
-class ThrowingArmNode(Node):
+
+class ThrowingArmNode(ManagedDevice):
     """Throw-catch cycles at a period; publishes joint state, part pose, throw events and the sensor bit."""
 
+    FAULTS = FAULTS
+
     def __init__(self) -> None:
-        super().__init__("throwing_arm")
-        p = declare_parameters(self, PARAMETERS)
-        self.p = p
-        self.part = arm_part(load_part(p["part_file"]))
-        params = ThrowParams(p["offset"], p["release_speed"], p["gravity"], p["mu"])
-        edge = p["initial_edge"] if p["initial_edge"] >= 0 else self.part.stable_edges[0]
-        if not (0 <= edge < self.part.n) or not self.part.stable[edge]:
-            raise InputError(
-                "parameter initial_edge", f"must be a stable edge {self.part.stable_edges}, got {edge}"
-            )
-        radius = p["initial_radius"] or DEFAULT_RADIUS_FACTOR * lowest_radius(self.part, edge, params)
+        super().__init__("throwing_arm", PARAMETERS)
+        self.arm: ThrowingArm | None = None
+        self.model_faults: ArmFaults | None = None
+        self._tick_timer: Timer | None = None
+        self._streams: list[Any] = []
+        self._reset_run()
+        guard = service_guard(self)
+        # Served from the start; refused unless the device is ready (require_ready names the state).
+        self.create_service(ArmCommand, "~/command", guard(self._command))
+        self.create_service(ArmPlacePart, "~/place_part", guard(self._place))
+
+    def _reset_run(self) -> None:
+        """Forget the commands, the shown throw, the counters and the simulated time."""
+        self.running, self.pending = False, 0
+        self.motion: tuple[float, ThrowOutcome, float] | None = None  # (start, outcome, W) while shown
+        self.last_throw = -math.inf
+        self.throws = self.fault_count = self.presented = 0
+        self.simulated = 0.0  # the model's time (s): the node clock's at activation, then advanced per tick
+        self.last_tick: Time | None = None
+
+    # --- lifecycle hooks ---------------------------------------------------------------------------
+    def configure_device(self, p: dict[str, Any]) -> None:
+        """Load the part, check the start and build the arm, its faults and the lifecycle publishers."""
         try:
-            self.arm = ThrowingArm(
-                self.part, params, edge, radius, p["fidelity"], p["arm_length"], p["dynamic_step"]
-            )
+            part = arm_part(load_part(p["part_file"]))
+        except InputError as error:
+            raise InputError("parameter part_file", str(error)) from None
+        params = _throw_params(p)
+        edge = self._initial_edge(part, p["initial_edge"])
+        radius = p["initial_radius"] or DEFAULT_RADIUS_FACTOR * lowest_radius(part, edge, params)
+        try:
+            arm = ThrowingArm(part, params, edge, radius, p["fidelity"], p["arm_length"], p["dynamic_step"])
         except InputError as error:
             raise InputError(f"parameter initial_{error.field}", error.problem) from None
-        self.sensor_radius, self.sensing_height = p["sensor_radius"], p["sensing_height"]
-        self.add_on_set_parameters_callback(self._on_parameters)
-        self.pub_joint = self.create_publisher(JointState, "/throwing_arm/joint_states", STREAM_DEPTH)
-        self.pub_pose = self.create_publisher(PoseStamped, "/throwing_arm/part_pose", STREAM_DEPTH)
-        self.pub_event = self.create_publisher(ThrowEvent, "/throwing_arm/throw_events", EVENT_DEPTH)
-        self.pub_sensor = self.create_publisher(Bool, "/throwing_arm/sensor", EVENT_DEPTH)
-        self.create_service(ArmCommand, "/throwing_arm/command", service_guard(self)(self._command))
-        self.create_service(ArmPlacePart, "/throwing_arm/place_part", service_guard(self)(self._place))
-        self.running, self.pending, self.count = p["autostart"], 0, 0
-        self.motion: tuple[float, ThrowOutcome] | None = None  # (start time, outcome) while a throw is shown
-        self.last_throw = -math.inf
-        self.create_timer(1.0 / p["sensor_rate"], self._tick)
+        self.arm, self.model_faults = arm, ArmFaults(arm)
+        self._reset_run()
+        self.running = bool(p["autostart"])
+        self.frame_id = p["frame_id"] or self.frame(BASE_FRAME)
+        self.pub_joint = self._lifecycle_publisher(JointState, "~/joint_states", STREAM_DEPTH)
+        self.pub_pose = self._lifecycle_publisher(PoseStamped, "~/part_pose", STREAM_DEPTH)
+        self.pub_event = self._lifecycle_publisher(ThrowEvent, "~/throw_events", EVENT_DEPTH)
+        self.pub_sensor = self._lifecycle_publisher(Bool, "~/sensor", EVENT_DEPTH)
+        self.expect_rate(p["sensor_rate"])
 
-    def _on_parameters(self, changes: list[Parameter]) -> SetParametersResult:
-        """Accept runtime changes of the sensor's radius and height only, each checked."""
-        for change in changes:
-            if change.name in ("sensor_radius", "sensing_height"):
-                value = change.value
-                bad = finite(value) if change.name == "sensor_radius" else non_negative(value)
-                if bad:
-                    return SetParametersResult(successful=False, reason=f"{change.name}: {bad}")
-            elif change.name in {spec.name for spec in PARAMETERS}:
-                return SetParametersResult(successful=False, reason=f"{change.name} is fixed at start-up")
-        for change in changes:
-            setattr(self, change.name, float(change.value))
-        return SetParametersResult(successful=True)
+    @staticmethod
+    def _initial_edge(part: ArmPart, initial_edge: int) -> int:
+        """Return the start edge (-1: the first stable edge), or raise InputError naming initial_edge."""
+        edge = initial_edge if initial_edge >= 0 else part.stable_edges[0]
+        if not (0 <= edge < part.n) or not part.stable[edge]:
+            raise InputError(
+                "parameter initial_edge", f"must be a stable edge {part.stable_edges}, got {edge}"
+            )
+        return edge
 
+    def _lifecycle_publisher(self, msg_type: Any, topic: str, depth: int) -> Any:
+        """Create a publisher the lifecycle enables on activate and disables on deactivate."""
+        publisher = self.create_lifecycle_publisher(msg_type, topic, depth)
+        self._streams.append(publisher)
+        return publisher
+
+    def activate_device(self) -> None:
+        """Start the tick timer (main stream at sensor_rate on the node clock); simulated time resumes."""
+        if not self.simulated:
+            self.simulated = self.sim_seconds()  # first activation: the model's time starts at the clock's
+        self.last_tick = None  # a paused span is not simulated: the physics was frozen
+        self._tick_timer = self.create_timer(1.0 / self.p["sensor_rate"], self._tick)
+
+    def deactivate_device(self) -> None:
+        """Cancel the timer: the part (and a throw being shown) stays exactly where it is."""
+        if self._tick_timer is not None:
+            self.destroy_timer(self._tick_timer)
+            self._tick_timer = None
+
+    def cleanup_device(self) -> None:
+        """Release the timer, the publishers and the model."""
+        self.deactivate_device()
+        for publisher in self._streams:
+            self.destroy_lifecycle_publisher(publisher)
+        self._streams.clear()
+        self.arm = self.model_faults = None
+        self._reset_run()
+
+    # --- status -------------------------------------------------------------------------------------
+    def busy(self) -> bool:
+        """Throwing: running every period, throws queued, or a throw being shown."""
+        return self.running or self.pending > 0 or self.motion is not None
+
+    def counters(self) -> dict[str, int]:
+        """Throws made, faults entered, and parts presented (rests with the true sensor reading true)."""
+        return {"throws": self.throws, "faults": self.fault_count, "parts_presented": self.presented}
+
+    # --- parameters, stop, reset, faults --------------------------------------------------------------
+    def apply_parameter(self, name: str, value: Any) -> None:
+        """Apply a runtime parameter to the running arm (the read-only ones never get here)."""
+        if name == "release_speed":
+            self._model().set_release_speed(float(value))
+        elif name == "dynamic_step":
+            self._model().dynamic_step = float(value)
+        # period, motion_fraction, sensor_radius and sensing_height are read from self.p at each tick,
+        # which the kit updates once this returns.
+
+    def stop_device(self) -> None:
+        """Cancel the queue and the running cycle; a throw being shown lands at once (it was thrown)."""
+        self._cancel_commands()
+        if self.motion is not None:
+            _, outcome, _ = self.motion
+            self.motion = None
+            self._publish_event(self.get_clock().now(), outcome)
+
+    def reset_device(self) -> None:
+        """Back to IDLE, except that a part that is off the arm (or faulted) still needs ~/place_part."""
+        self._cancel_commands()
+        self._require_part_again()
+
+    def apply_fault(self, fault: ActiveFault) -> None:
+        """Check the magnitudes and put the fault into effect on the model (a stopping one halts throws)."""
+        self._faults_model().inject(fault.spec.name, fault.value, fault.state, fault.indices, fault.seed)
+        if fault.spec.stops_device:
+            self._cancel_commands()
+            self.fault_count += 1
+
+    def clear_fault(self, name: str) -> None:
+        """Take the fault out of effect; a part lost stays lost (FAULT_PART_LOST) until ~/place_part."""
+        self._faults_model().clear(name)
+        self._require_part_again()
+
+    def _require_part_again(self) -> None:
+        """Hold FAULT_PART_LOST while the model cannot throw until the part is placed again."""
+        if self.arm is not None and self.arm.faulted and self.model_fault is None:
+            self.model_fault = (
+                DeviceStatus.FAULT_PART_LOST,
+                f"{self.arm.faulted} (~/place_part puts it back)",
+            )
+
+    def _cancel_commands(self) -> None:
+        self.running, self.pending = False, 0
+
+    def _model(self) -> ThrowingArm:
+        if self.arm is None:
+            raise DeviceError(f"device is {self.state().name}: no arm model (configure it first)")
+        return self.arm
+
+    def _faults_model(self) -> ArmFaults:
+        if self.model_faults is None:
+            raise DeviceError(f"device is {self.state().name}: no arm model (configure it first)")
+        return self.model_faults
+
+    # --- services -----------------------------------------------------------------------------------
     def _command(self, request: ArmCommand.Request, response: ArmCommand.Response) -> ArmCommand.Response:
-        """Queue throws, or start or stop throwing every period."""
+        """Queue throws, or start or stop throwing every period (refused unless the device is ready)."""
         command = parse_command(request.command)
+        self.require_ready(f"command {command}")
         if command == "throw":
             if request.count < 1:
                 raise InputError("count", f"must be >= 1 for 'throw', got {request.count}")
@@ -169,22 +329,47 @@ class ThrowingArmNode(Node):
         elif command == "start":
             self.running = True
         else:  # stop
-            self.running, self.pending = False, 0
+            self._cancel_commands()
         response.pending = self.pending
+        self.publish_status()
         return response
 
     def _place(self, request: ArmPlacePart.Request, response: ArmPlacePart.Response) -> ArmPlacePart.Response:
-        """Put the part at rest at (edge, R), ending any throw being shown."""
+        """Put the part at rest at (edge, R), ending any throw being shown; this ends FAULT_PART_LOST."""
+        self._require_place_ready()
         if not math.isfinite(request.radius):
             raise InputError("radius", f"must be finite, got {request.radius!r}")
-        self.arm.place(request.edge, request.radius)
+        self._model().place(request.edge, request.radius)
         self.motion = None
+        if "part_lost" in self.faults:
+            self._faults_model().clear("part_lost")
+            del self.faults["part_lost"]
+        self.model_fault = None
+        self.publish_status()
         return response
 
+    def _require_place_ready(self) -> None:
+        """Accept ~/place_part when ready, or in FAULT when every cause is a part lost (placing ends it)."""
+        fault = self.stopping_fault()
+        others = [f for f in self.faults.values() if f.spec.stops_device and f.spec.name != "part_lost"]
+        lost_only = (
+            fault is not None
+            and fault[0] == DeviceStatus.FAULT_PART_LOST
+            and not others
+            and self.active
+            and not self.stopped
+        )
+        if not lost_only:
+            self.require_ready("place_part")
+
+    # --- the main stream ------------------------------------------------------------------------------
     def _tick(self) -> None:
-        """Advance the shown throw or start the next one, then publish the sensor, joint and part pose."""
+        """Advance the simulated time, the shown throw or the next one; publish sensor, joint, part pose."""
+        if self.arm is None:
+            return
         now = self.get_clock().now()
-        t = now.nanoseconds * 1e-9
+        self._advance_clock(now)
+        t = self.simulated
         pose, velocity = self.arm.rest_pose(), 0.0
         if self.motion is not None:
             pose, velocity = self._advance_motion(now, t, pose, *self.motion)
@@ -192,27 +377,43 @@ class ThrowingArmNode(Node):
             self._start_throw(now, t)
         self._publish_sensor(None if self.motion is None else pose)
         self._publish_joint_and_pose(now, pose, velocity)
+        self.record_tick(self.simulated)
+
+    def _advance_clock(self, now: Time) -> None:
+        """Advance the simulated time by the node-clock time since the last tick, capped per tick."""
+        if self.last_tick is not None:
+            elapsed = max((now - self.last_tick).nanoseconds * 1e-9, 0.0)
+            self.simulated += min(elapsed, MAX_TICK_PERIODS / self.p["sensor_rate"])
+        self.last_tick = now
 
     def _throw_due(self, t: float) -> bool:
-        """Return whether a throw is wanted (running, or queued) and a period has passed since the last."""
-        return (self.running or self.pending > 0) and t - self.last_throw >= self.p["period"]
+        """Return whether a throw is wanted (running, or queued), allowed, and a period has passed."""
+        wanted = self.running or self.pending > 0
+        ready = self.state() in (DeviceState.IDLE, DeviceState.RUNNING)
+        return wanted and ready and t - self.last_throw >= self.p["period"]
 
     def _start_throw(self, now: Time, t: float) -> None:
-        """Throw once; show the throw over the motion window, or report a fault at once and stop."""
+        """Throw once; show it over the motion window, or report a fault at once (FAULT_PART_LOST)."""
+        arm, faults = self._model(), self._faults_model()
         if self.pending > 0:
             self.pending -= 1
         self.last_throw = t
-        outcome = self.arm.throw()
-        self.count += 1
+        outcome = faults.throw()
+        self.throws += 1
         if outcome.kind == "fault":
-            self.running, self.pending = False, 0
-            self.get_logger().error(f"throw {self.count}: FAULT: {outcome.fault}")
+            self._cancel_commands()
+            self.fault_count += 1
             self._publish_event(now, outcome)
+            self.raise_model_fault(
+                DeviceStatus.FAULT_PART_LOST,
+                f"throw {self.throws}: {outcome.fault} (~/place_part puts it back)",
+            )
         else:
-            self.motion = (t, outcome)
+            self.motion = (t, outcome, arm.params.speed * faults.last_speed_scale)
+            self.publish_status()
 
     def _advance_motion(
-        self, now: Time, t: float, rest: Pose, start: float, outcome: ThrowOutcome
+        self, now: Time, t: float, rest: Pose, start: float, outcome: ThrowOutcome, speed: float
     ) -> tuple[Pose, float]:
         """Return the pose and joint velocity shown of the throw begun at ``start``; publish it at the end."""
         window = self.p["period"] * self.p["motion_fraction"]
@@ -220,48 +421,64 @@ class ThrowingArmNode(Node):
             self.motion = None
             self._publish_event(now, outcome)
             return rest, 0.0
-        return self._animate(outcome, (t - start) / window)
+        return self._animate(outcome, (t - start) / window, speed)
 
     def _publish_sensor(self, pose: Pose | None) -> None:
-        """Publish the sensor bit: at rest (``pose`` None) or for the pose shown in flight."""
-        sensor = self.arm.sensor(self.sensor_radius, self.sensing_height, pose)
-        self.pub_sensor.publish(Bool(data=bool(sensor)))
+        """Publish the sensor bit (at rest, or for the pose shown in flight) as the faults deliver it."""
+        reading = self._model().sensor(self.p["sensor_radius"], self.p["sensing_height"], pose)
+        delivered = self._faults_model().sensor(reading)
+        if delivered is not None:
+            self.pub_sensor.publish(Bool(data=delivered))
 
     def _publish_joint_and_pose(self, now: Time, pose: Pose, velocity: float) -> None:
-        """Publish the arm joint state and the part pose in the arm frame."""
+        """Publish the arm joint state, and the part pose in the arm frame while the part is on the arm."""
         stamp = now.to_msg()
         joint = JointState()
         joint.header.stamp = stamp
         joint.name, joint.position, joint.velocity, joint.effort = ["arm_joint"], [0.0], [velocity], [0.0]
         self.pub_joint.publish(joint)
+        if not self._model().on_arm:
+            return  # nothing on the arm to locate
         msg = PoseStamped()
-        msg.header.stamp, msg.header.frame_id = stamp, self.p["frame_id"]
+        msg.header.stamp, msg.header.frame_id = stamp, self.frame_id
         msg.pose.position.x, msg.pose.position.y = pose[0], pose[1]
         msg.pose.orientation = yaw_quaternion(pose[2])
         self.pub_pose.publish(msg)
 
-    def _animate(self, outcome: ThrowOutcome, fraction: float) -> tuple[Pose, float]:
+    def _animate(self, outcome: ThrowOutcome, fraction: float, speed: float) -> tuple[Pose, float]:
         """Return the pose along the flight path and the joint velocity (the arm moves only at release)."""
         path = outcome.path
-        velocity = self.p["release_speed"] if fraction < RELEASE_SHOWN else 0.0
+        velocity = speed if fraction < RELEASE_SHOWN else 0.0
         if not path:
-            return self.arm.rest_pose(), velocity
+            return self._model().rest_pose(), velocity
         index = min(int(fraction / FLIGHT_SHOWN * (len(path) - 1)), len(path) - 1)
         _, x, y, theta = path[index]
         return (x, y, theta), velocity
 
     def _publish_event(self, now: Time, outcome: ThrowOutcome) -> None:
-        """Publish the throw event: states before and after, kind, fault, the sensor at rest."""
+        """Publish the throw event: states before and after, kind, fault, the (true) sensor at rest."""
+        arm = self._model()
         ev = ThrowEvent()
-        ev.header.stamp, ev.header.frame_id = now.to_msg(), self.p["frame_id"]
-        ev.index = self.count
+        ev.header.stamp, ev.header.frame_id = now.to_msg(), self.frame_id
+        ev.index = self.throws
         ev.edge_before, ev.radius_before = outcome.edge_before, outcome.radius_before
         ev.edge_after, ev.radius_after = outcome.edge_after, outcome.radius_after
         ev.kind, ev.turns, ev.rotation = outcome.kind, outcome.turns, outcome.rotation
         ev.fault, ev.fault_reason = outcome.kind == "fault", outcome.fault
-        ev.sensor_at_rest = bool(self.arm.sensor(self.sensor_radius, self.sensing_height))
+        ev.sensor_at_rest = bool(arm.sensor(self.p["sensor_radius"], self.p["sensing_height"]))
         ev.fidelity = self.p["fidelity"]
+        if ev.sensor_at_rest and not ev.fault:
+            self.presented += 1
         self.pub_event.publish(ev)
+        self.publish_status()
+
+
+def _throw_params(p: dict[str, Any]) -> ThrowParams:
+    """Return the design parameters; an InputError names the parameter."""
+    try:
+        return ThrowParams(p["offset"], p["release_speed"], p["gravity"], p["mu"])
+    except InputError as error:
+        raise InputError(f"parameter {error.field}", error.problem) from None
 
 
 def main(args: list[str] | None = None) -> None:

@@ -1,7 +1,7 @@
 """Simulated throwing arm: the paper's analytic model and a pymunk dynamic model, with faults reported.
 
-The public surface the throwing_arm node, the benchmark and the tests use; tolerances and model
-constants of the pymunk model live in ``tolerances``.
+The public surface the throwing_arm node, the benchmark and the tests use; injected faults and their
+effects are in ``faults``; tolerances and model constants live in ``tolerances``.
 """
 
 from feeder_sim.throwing.arm import (
@@ -14,8 +14,16 @@ from feeder_sim.throwing.arm import (
     parse_command,
 )
 from feeder_sim.throwing.dynamic import dynamic_throw, rest_outcome
+from feeder_sim.throwing.faults import (
+    ARM_FAULTS,
+    FAULT_INFO,
+    ArmFaultName,
+    ArmFaults,
+    FaultInfo,
+    MotorFaultError,
+)
 from feeder_sim.throwing.outcome import OUTCOME_KINDS, OutcomeKind, PathPoint, ThrowOutcome
-from feeder_sim.throwing.tolerances import DEFAULT_STEP
+from feeder_sim.throwing.tolerances import DEFAULT_STEP, MAX_TICK_PERIODS
 
 __all__ = [
     "ThrowingArm",
@@ -32,4 +40,11 @@ __all__ = [
     "OUTCOME_KINDS",
     "PathPoint",
     "DEFAULT_STEP",
+    "MAX_TICK_PERIODS",
+    "ArmFaults",
+    "ArmFaultName",
+    "ARM_FAULTS",
+    "FaultInfo",
+    "FAULT_INFO",
+    "MotorFaultError",
 ]

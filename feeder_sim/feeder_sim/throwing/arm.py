@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Literal, get_args
 
 import numpy as np
@@ -50,7 +51,11 @@ def parse_command(text: str, field: str = "command") -> ArmCommandName:
 
 
 class ThrowingArm:
-    """State (edge, R) of the part on the arm and the throw-catch cycle."""
+    """State (edge, R) of the part on the arm and the throw-catch cycle.
+
+    ``faulted`` says why the arm cannot throw until the part is placed again (a throw that faulted, or the
+    part lost); ``on_arm`` is False once the part has left the arm (it is then neither seen nor thrown).
+    """
 
     def __init__(
         self,
@@ -68,79 +73,100 @@ class ThrowingArm:
         self.part, self.params = part, params
         self.arm_length, self.dynamic_step = arm_length, dynamic_step
         self.place(edge, radius)
-        self.faulted = ""
 
     def place(self, edge: int, radius: float) -> None:
         """Put the part at rest; refuses states outside the throw map's domain (naming the field)."""
         check_start(self.part, edge, radius, self.params)
         self.edge, self.radius = int(edge), float(radius)
         self.faulted = ""
+        self.on_arm = True
+
+    def lose_part(self, reason: str) -> None:
+        """Take the part off the arm (it fell off): nothing is sensed or thrown until ``place``."""
+        self.on_arm = False
+        self.faulted = reason
+
+    def set_release_speed(self, speed: float) -> None:
+        """Change W for the next throws (validated as ThrowParams validates it, naming release_speed)."""
+        self.params = ThrowParams(self.params.offset, speed, self.params.gravity, self.params.mu)
 
     def rest_pose(self) -> tuple[float, float, float]:
         """Return (x, y, theta) of the centre of mass at rest."""
         x, y, theta = rest_pose(self.part, self.edge, self.radius, self.params.offset)
         return float(x), float(y), float(theta)
 
-    def throw(self) -> ThrowOutcome:
-        """Throw and catch; outside the dynamic grasp or off the arm it is a fault, and the part stays put."""
+    def throw(self, speed_scale: float = 1.0) -> ThrowOutcome:
+        """Throw and catch at W x ``speed_scale``; outside the grasp or off the arm it is a fault.
+
+        After a fault the part stays where it landed (if it came to rest on a stable edge on the arm) and
+        every further throw is refused with the reason until ``place``.
+        """
         e0, r0 = self.edge, self.radius
         if self.faulted:
-            return ThrowOutcome.failure(e0, r0, f"arm faulted earlier: {self.faulted}")
+            return ThrowOutcome.failure(e0, r0, f"arm faulted earlier: {self.faulted}", lost=not self.on_arm)
+        if not (speed_scale > 0 and math.isfinite(speed_scale)):
+            raise InputError("speed_scale", f"must be a finite number > 0, got {speed_scale!r}")
+        params = (
+            self.params if speed_scale == 1.0 else replace(self.params, speed=self.params.speed * speed_scale)
+        )
         try:
-            check_start(self.part, e0, r0, self.params)
+            check_start(self.part, e0, r0, params)
         except InputError as error:
             self.faulted = f"throw outside the dynamic grasp: {error.problem}"
             return ThrowOutcome.failure(e0, r0, self.faulted)
         try:
-            out = self._simulate(e0, r0)
+            out = self._simulate(e0, r0, params)
         except FeederError as error:
             self.faulted = f"simulation failed: {error}"
             return ThrowOutcome.failure(e0, r0, self.faulted)
         if out.kind != "fault":
-            reason = self._landing_fault(out)
+            reason, lost = self._landing_fault(out)
             if reason:
-                out = out.with_fault(reason)
+                out = out.with_fault(reason, lost)
         if out.kind == "fault":
             self.faulted = out.fault
+            if out.lost:
+                self.on_arm = False
             if out.edge_after >= 0 and self.part.stable[out.edge_after]:
                 self.edge, self.radius = out.edge_after, out.radius_after
         else:
             self.edge, self.radius = out.edge_after, out.radius_after
         return out
 
-    def _simulate(self, edge: int, radius: float) -> ThrowOutcome:
+    def _simulate(self, edge: int, radius: float, params: ThrowParams) -> ThrowOutcome:
         """Return one throw at the arm's fidelity (the analytic one with its flight path for display)."""
         if self.fidelity == "dynamic":
-            return dynamic_throw(self.part, self.params, edge, radius, step=self.dynamic_step)
-        res = throw(self.part, edge, radius, self.params)
-        path = self._flight_path(edge, radius, res.flight_time)
+            return dynamic_throw(self.part, params, edge, radius, step=self.dynamic_step)
+        res = throw(self.part, edge, radius, params)
+        path = self._flight_path(edge, radius, res.flight_time, params)
         return ThrowOutcome(edge, radius, res.edge, res.radius, res.kind, res.turns, res.rotation, "", path)
 
-    def _landing_fault(self, out: ThrowOutcome) -> str:
-        """Return why a landing is a fault (unstable edge, off the arm, next throw out of the grasp) or ""."""
+    def _landing_fault(self, out: ThrowOutcome) -> tuple[str, bool]:
+        """Return why a landing is a fault (unstable edge, off the arm, next throw out of the grasp) or "".
+
+        The flag says whether the part left the arm.
+        """
         if not self.part.stable[out.edge_after]:
-            return f"part came to rest on unstable edge {out.edge_after}"
+            return f"part came to rest on unstable edge {out.edge_after}", False
         xs = [out.radius_after + float(u) for u in self.part.frame_vertices(out.edge_after)[:, 0]]
         lo_x, hi_x = min(xs), max(xs)
         if lo_x < 0 or hi_x > self.arm_length:
             return (
                 f"part left the arm: it spans x in [{lo_x:.4g}, {hi_x:.4g}] m, "
                 f"the arm [0, {self.arm_length:.4g}] m"
-            )
+            ), True
         try:
             check_start(self.part, out.edge_after, out.radius_after, self.params)
         except InputError as error:
-            return f"the next throw would leave the dynamic grasp: {error.problem}"
-        return ""
+            return f"the next throw would leave the dynamic grasp: {error.problem}", False
+        return "", False
 
     def _flight_path(
-        self, edge: int, radius: float, flight_time: float, samples: int = PATH_SAMPLES
+        self, edge: int, radius: float, flight_time: float, params: ThrowParams, samples: int = PATH_SAMPLES
     ) -> tuple[PathPoint, ...]:
-        """Return ``samples`` poses (t, x, y, theta) of the analytic flight, eq. (5)."""
+        """Return ``samples`` poses (t, x, y, theta) of the analytic flight at ``params``, eq. (5)."""
         t = np.linspace(0.0, flight_time, samples)
-        s = flight_state(
-            self.part, edge, radius, self.params.offset, self.params.speed, self.params.gravity, t
-        )
+        s = flight_state(self.part, edge, radius, params.offset, params.speed, params.gravity, t)
         return tuple(
             (float(tt), float(row[0]), float(row[1]), float(row[2])) for tt, row in zip(t, s, strict=True)
         )
@@ -148,7 +174,9 @@ class ThrowingArm:
     def sensor(
         self, sensor_radius: float, height: float, pose: tuple[float, float, float] | None = None
     ) -> bool:
-        """Return the one-bit proximity sensor's value: at rest, or for a pose in flight."""
+        """Return the one-bit proximity sensor's value: at rest, or for a pose in flight (False: no part)."""
+        if not self.on_arm:
+            return False
         if pose is None:
             return reads(self.part, self.edge, self.radius, sensor_radius, height)
         return reads_pose(self.part, *pose, self.params.offset, sensor_radius, height)

@@ -229,6 +229,6 @@ def dynamic_throw(
     scene = _scene(part, params, edge, radius, elasticity, mu, arm_length)
     run = _run(scene, params, edge, radius, step, carry_angle)
     if run.lost:
-        return ThrowOutcome.failure(edge, radius, "part left the arm", run.path)
+        return ThrowOutcome.failure(edge, radius, "part left the arm", run.path, lost=True)
     body = scene.body
     return rest_outcome(part, edge, radius, body.angle, body.position.x / scene.scale, run.path)

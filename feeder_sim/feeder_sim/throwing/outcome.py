@@ -26,12 +26,15 @@ class ThrowOutcome:
     rotation: float
     fault: str = ""  # why the throw is a fault; empty otherwise
     path: tuple[PathPoint, ...] = ()
+    lost: bool = False  # the part left the arm (a fault): it is no longer on the arm at all
 
     @classmethod
-    def failure(cls, edge: int, radius: float, reason: str, path: tuple[PathPoint, ...] = ()) -> ThrowOutcome:
+    def failure(
+        cls, edge: int, radius: float, reason: str, path: tuple[PathPoint, ...] = (), lost: bool = False
+    ) -> ThrowOutcome:
         """Return the fault of a throw from (edge, radius) that reached no resting state (edge_after -1)."""
-        return cls(edge, radius, -1, math.nan, "fault", 0, 0.0, reason, path)
+        return cls(edge, radius, -1, math.nan, "fault", 0, 0.0, reason, path, lost)
 
-    def with_fault(self, reason: str) -> ThrowOutcome:
+    def with_fault(self, reason: str, lost: bool = False) -> ThrowOutcome:
         """Return this outcome turned into a fault, keeping where the part came to rest."""
-        return replace(self, kind="fault", fault=reason)
+        return replace(self, kind="fault", fault=reason, lost=lost)

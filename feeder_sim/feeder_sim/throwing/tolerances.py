@@ -1,4 +1,4 @@
-"""Numerical tolerances and model constants of the simulated throwing arm (pymunk model, node display).
+"""Numerical tolerances and model constants of the simulated throwing arm (pymunk, faults, node display).
 
 The pymunk world is scaled so that the part radius is 1 ("part radii" below): pymunk's contact tolerances
 are absolute, and this makes them the same for a 1 cm and a 10 cm part. Times are seconds, angles radians.
@@ -35,6 +35,10 @@ __all__ = [
     "LOST_DEPTH",
     "MAX_TILT",
     "PATH_SAMPLES",
+    "MAX_SPEED_ERROR_SIGMA",
+    "MIN_SPEED_SCALE",
+    "MAX_SPEED_ERROR",
+    "MAX_TICK_PERIODS",
 ]
 
 # --- Time stepping -----------------------------------------------------------------------------------
@@ -103,3 +107,19 @@ MAX_TILT: Final = 0.05
 # --- Display -----------------------------------------------------------------------------------------
 # Poses of the analytic flight path the node shows (the analytic model has no path of its own).
 PATH_SAMPLES: Final = 20
+
+# --- Injected faults (faults.py) ---------------------------------------------------------------------
+# Largest sigma of release_speed_error: a calibration error of the motor's speed, not a different
+# machine; at 0.5 a throw's W still lies within [0, 2 W] for 95 % of the draws.
+MAX_SPEED_ERROR_SIGMA: Final = 0.5
+# Smallest factor 1 + e a throw is released at (fixed or drawn): a release speed error never stops or
+# reverses the arm (that is a motor fault); draws below it are clipped to it.
+MIN_SPEED_SCALE: Final = 0.05
+# Largest fixed release speed error e (release at up to twice W).
+MAX_SPEED_ERROR: Final = 1.0
+
+# --- The node's clock --------------------------------------------------------------------------------
+# At most this many sensor periods of simulated time per tick: a node that falls further behind its
+# clock (a slow machine, a long dynamic throw, a big clock step) loses the rest, and its recorded
+# simulated time lags the clock visibly (status behind_real_time) instead of jumping ahead unseen.
+MAX_TICK_PERIODS: Final = 10
