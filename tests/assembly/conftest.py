@@ -1,13 +1,24 @@
-"""Shared helpers of the assembly tests: prepared example assemblies and independent cone membership."""
+"""Shared helpers of the assembly tests: prepared example assemblies and independent cone membership.
+
+Also a stopgap for the shared harness while its lifecycle target is lost: ``ros_harness.bring_to``
+overwrites its ``target`` argument (the lifecycle state) with the node's fully qualified name, so every
+managed node it brings up fails with "no transition path from unconfigured to /assembly_fixture". Until
+the harness is fixed the assembly tests use a copy that keeps the target; with a fixed harness the patch
+is skipped.
+"""
 
 from __future__ import annotations
 
+import inspect
 from pathlib import Path
+from typing import Any, Iterator
 
 import numpy as np
 import pytest
+import ros_harness
 from scipy.optimize import nnls
 
+from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError
 from feeder_planner.assembly.model import assembly_from_document, load_assembly
 from feeder_planner.assembly.planner import prepare
 
@@ -41,3 +52,28 @@ def in_cone(generators: np.ndarray, target: np.ndarray, tolerance: float = 1e-9)
 def random_directions(count: int, seed: int) -> np.ndarray:
     g = np.random.default_rng(seed).normal(size=(count, 3))
     return g / np.linalg.norm(g, axis=1, keepdims=True)
+
+
+_HARNESS_BUG = "target = node.spec.fully_qualified_name"
+
+
+def _bring_to(client: Any, node: ros_harness.NodeProcess, target: str) -> str:
+    name = node.spec.fully_qualified_name
+    lifecycle = LifecycleClient(client, None, name)
+    ros_harness.wait_for_graph(client, node, services=[f"{name}/list_parameters"])
+    if not lifecycle.is_managed(timeout=1.0):
+        return "unmanaged"
+    try:
+        return lifecycle.bring_to(target)
+    except LifecycleError as error:
+        raise AssertionError(f"{error}. Node log:\n{node.output()[-4000:]}") from None
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _harness_keeps_lifecycle_target() -> Iterator[None]:
+    if _HARNESS_BUG not in inspect.getsource(ros_harness.bring_to):
+        yield
+        return
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(ros_harness, "bring_to", _bring_to)
+        yield

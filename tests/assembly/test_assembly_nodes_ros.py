@@ -182,7 +182,7 @@ def test_with_the_interlock_off_it_moves_and_reports_who_falls(nodes, launch_nod
         {"interlock": False, "max_rate_x": 3.0, "max_rate_y": 3.0},
         wait_services=("/alt/assembly_fixture/move",),
         wait_topics=("/alt/assembly_fixture/stability",),
-        extra_args=("-r", "__ns:=/alt"),
+        namespace="/alt",
     )
     response = _move(ros_client, [_v(1.0, 0.0, -0.3)], prefix="/alt")
     assert response.ok and "interlock off" in response.warning and response.unbalanced_bodies == ["block"]

@@ -1,48 +1,73 @@
-"""ROS 2 node: a two-axis tilting fixture holding an assembly, with a stability interlock (Figs. 1-2)."""
+"""ROS 2 node: a two-axis tilting fixture holding an assembly, with a stability interlock (Figs. 1-2).
+
+A managed device (thin adapter around ``feeder_sim.fixture``). Lifecycle: configure loads the assembly and
+prepares its stability LP and region, checks the joint limits and the start pose (a bad file or parameter
+fails the transition, naming it); activate starts the tick timer and the streams; deactivate freezes the table
+where it is (a move in progress resumes from there on activate); cleanup releases the model.
+
+Time: everything is on the node clock (``use_sim_time`` puts it on the cell clock). At every tick of
+``publish_rate`` (Hz of the node clock) the table advances by the node-clock time elapsed since the last tick,
+but by at most ``max_advance_per_tick`` seconds (0: ``CATCH_UP_PERIODS`` periods, times the real-time factor
+when it is above 1); a longer gap is not simulated and the tick is counted (``capped_ticks``), so a fixture
+that cannot keep up lags visibly (its simulated time, recorded at every tick, falls behind the clock).
+
+Injected faults (``~/inject_fault`` or the ``inject_faults`` parameter) act through the table model
+(``feeder_sim.fixture.faults``); this node only wires them. The encoder faults change what ``~/joint_states``
+and ``~/gravity`` report; ``~/stability`` is the model's ground truth: the true gravity and its verdict.
+"""
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
+from typing import Any, Callable
 
-import numpy as np
-from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import Vector3Stamped
-from rclpy.node import Node
+from rclpy.time import Time as RclTime
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 
-from feeder_msgs.msg import StabilityStatus
+from feeder_msgs.msg import DeviceStatus, StabilityStatus
 from feeder_msgs.srv import FixtureMove
-from feeder_planner.assembly import check_result, prepare
+from feeder_planner.assembly import PreparedAssembly, check_result, prepare
 from feeder_planner.errors import FeederError, InputError
 from feeder_planner.node_kit import (
     STREAM_DEPTH,
     Check,
     ParameterSpec,
-    declare_parameters,
     from_vec,
     in_range,
+    non_negative,
     positive,
     run_node,
     service_guard,
     vec,
 )
+from feeder_planner.node_kit.device import ActiveFault, FaultSpec, ManagedDevice
 from feeder_planner.node_kit.msg_assembly import ASSEMBLY_PARAMETERS, force_msgs, load_assembly_parameter
 from feeder_sim.fixture import (
+    CATCH_UP_PERIODS,
+    FAULT_INFO,
+    FIXTURE_FAULTS,
     INTERLOCK_STEP,
     JOINT_NAMES,
     MAX_RATE,
     TILT_X_RANGE,
     TILT_Y_RANGE,
+    Table,
     TableLimits,
-    TimedPath,
     certify,
+    check_fault_name,
     gravity_of,
-    plan_joint_path,
     sample_waypoints,
 )
 
-__all__ = ["PARAMETERS", "AssemblyFixture", "InterlockRefusedError", "main"]
+__all__ = ["PARAMETERS", "FAULTS", "AssemblyFixture", "InterlockRefusedError", "main"]
+
+NODE_NAME = "assembly_fixture"
+BASE_FRAME = "assembly"
+NANOSECONDS = 1_000_000_000
 
 
 def _angle(limits: tuple[float, float]) -> Check:
@@ -50,81 +75,317 @@ def _angle(limits: tuple[float, float]) -> Check:
     return in_range(limits[0], limits[1], unit="rad")
 
 
+def _boolean(value: Any) -> str | None:
+    """Parameter check: true or false."""
+    return None if isinstance(value, bool) else f"must be true or false, got {value!r}"
+
+
+# Read-only, and why: the assembly parameters define the LP and the region configure prepares (changing them
+# means a new model: cleanup and configure); the joint ranges are the mechanism's, checked against the start
+# pose at configure (a range shrunk under the table would leave it outside); publish_rate is the timer and
+# the configured rate status measures against; the initial tilts only mean something at configure; frame_id
+# stamps every stream and a controller keys on it. The runtime ones (interlock, max_rate_x/y, path_step,
+# max_advance_per_tick) are read at every move or tick and applied at once.
 PARAMETERS = ASSEMBLY_PARAMETERS + (
     ParameterSpec(
         "tilt_x_min",
         TILT_X_RANGE[0],
         "lower limit of joint tilt_x (rad, about the world x axis)",
         _angle(TILT_X_RANGE),
+        read_only=True,
     ),
-    ParameterSpec("tilt_x_max", TILT_X_RANGE[1], "upper limit of joint tilt_x (rad)", _angle(TILT_X_RANGE)),
+    ParameterSpec(
+        "tilt_x_max",
+        TILT_X_RANGE[1],
+        "upper limit of joint tilt_x (rad)",
+        _angle(TILT_X_RANGE),
+        read_only=True,
+    ),
     ParameterSpec(
         "tilt_y_min",
         TILT_Y_RANGE[0],
         "lower limit of joint tilt_y (rad, about the cradle's y axis)",
         _angle(TILT_Y_RANGE),
+        read_only=True,
     ),
-    ParameterSpec("tilt_y_max", TILT_Y_RANGE[1], "upper limit of joint tilt_y (rad)", _angle(TILT_Y_RANGE)),
-    ParameterSpec("max_rate_x", MAX_RATE, "maximum speed of joint tilt_x (rad/s)", positive),
-    ParameterSpec("max_rate_y", MAX_RATE, "maximum speed of joint tilt_y (rad/s)", positive),
-    ParameterSpec("interlock", True, "refuse any commanded path that leaves the stable region (default on)"),
-    ParameterSpec("publish_rate", 20.0, "rate of joint_states, gravity and stability (Hz)", positive),
-    ParameterSpec("path_step", INTERLOCK_STEP, "angle between certified path samples (rad)", positive),
-    ParameterSpec("initial_tilt_x", 0.0, "tilt_x at start (rad)", _angle(TILT_X_RANGE)),
-    ParameterSpec("initial_tilt_y", 0.0, "tilt_y at start (rad)", _angle(TILT_Y_RANGE)),
+    ParameterSpec(
+        "tilt_y_max",
+        TILT_Y_RANGE[1],
+        "upper limit of joint tilt_y (rad)",
+        _angle(TILT_Y_RANGE),
+        read_only=True,
+    ),
+    ParameterSpec(
+        "max_rate_x",
+        MAX_RATE,
+        "maximum speed of joint tilt_x (rad/s); at run time it retimes the move",
+        positive,
+    ),
+    ParameterSpec(
+        "max_rate_y",
+        MAX_RATE,
+        "maximum speed of joint tilt_y (rad/s); at run time it retimes the move",
+        positive,
+    ),
+    ParameterSpec(
+        "interlock",
+        True,
+        "refuse any commanded path that leaves the stable region (default on; applies to the next move)",
+        _boolean,
+    ),
+    ParameterSpec(
+        "publish_rate", 20.0, "rate of joint_states, gravity and stability (Hz)", positive, read_only=True
+    ),
+    ParameterSpec(
+        "path_step",
+        INTERLOCK_STEP,
+        "angle between certified path samples (rad); applies to the next move",
+        positive,
+    ),
+    ParameterSpec("initial_tilt_x", 0.0, "tilt_x at configure (rad)", _angle(TILT_X_RANGE), read_only=True),
+    ParameterSpec("initial_tilt_y", 0.0, "tilt_y at configure (rad)", _angle(TILT_Y_RANGE), read_only=True),
+    ParameterSpec(
+        "max_advance_per_tick",
+        0.0,
+        f"most node-clock time (s) one tick simulates; a longer gap is not simulated (the table lags, "
+        f"visibly); 0: {CATCH_UP_PERIODS:g} periods of publish_rate, times real_time_factor when above 1",
+        non_negative,
+    ),
+    ParameterSpec(
+        "frame_id",
+        "",
+        f"frame of every stream (the assembly frame); empty: {BASE_FRAME} under the node's namespace",
+        read_only=True,
+    ),
 )
+
+FAULTS = {
+    name: FaultSpec(
+        name,
+        f"{FAULT_INFO[name].description} ({FAULT_INFO[name].magnitude})",
+        # Empty: the kit's label would print indices as "cells"; status and diagnostics list the name (the
+        # log, and for rate_limit the status text, say the axes and the magnitude).
+        value_meaning="",
+        # axis_stall stops the fixture only once the joint has stalled (raise_model_fault), not on injection.
+        stops_device=False,
+        code={"axis_stall": DeviceStatus.FAULT_AXIS_STALL, "rate_limit": DeviceStatus.FAULT_RATE_LIMIT}.get(
+            name, DeviceStatus.FAULT_NONE
+        ),
+    )
+    for name in FIXTURE_FAULTS
+}
 
 
 class InterlockRefusedError(FeederError):
     """The interlock refused a commanded path."""
 
 
-class AssemblyFixture(Node):
-    """Publishes /assembly_fixture/{joint_states,gravity,stability}; serves /assembly_fixture/move."""
+class _PatchingPublisher:
+    """A publisher that lets the device amend each message before it goes out (see ``warning_fault``)."""
+
+    def __init__(self, publisher: Any, patch: Callable[[Any], None]) -> None:
+        self._publisher, self._patch = publisher, patch
+
+    def publish(self, msg: Any) -> None:
+        self._patch(msg)
+        self._publisher.publish(msg)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._publisher, name)
+
+
+class AssemblyFixture(ManagedDevice):
+    """Publishes ~/joint_states, ~/gravity and ~/stability at publish_rate; serves ~/move.
+
+    ~/move is refused unless the device is ready; the device services of ``ManagedDevice`` (~/stop, ~/reset,
+    ~/inject_fault; ~/status, /diagnostics) come with it.
+    """
+
+    FAULTS = FAULTS
 
     def __init__(self) -> None:
-        super().__init__("assembly_fixture")
-        self.p = declare_parameters(self, PARAMETERS)
-        self.limits = TableLimits(
-            self.p["tilt_x_min"],
-            self.p["tilt_x_max"],
-            self.p["tilt_y_min"],
-            self.p["tilt_y_max"],
-            self.p["max_rate_x"],
-            self.p["max_rate_y"],
-        ).validate()
-        assembly = load_assembly_parameter(self.p["assembly_file"])
-        self.prepared = prepare(assembly, self.p["mu"] if self.p["override_mu"] else None, self.p["facets"])
-        self.region = self.prepared.region
-        self.joints = np.array([self.p["initial_tilt_x"], self.p["initial_tilt_y"]])
-        self.limits.check_start(self.joints)
-        self.velocity = np.zeros(2)
-        self.path: TimedPath | None = None
-        self.path_start = 0.0
-        self.joint_pub = self.create_publisher(JointState, "~/joint_states", STREAM_DEPTH)
-        self.gravity_pub = self.create_publisher(Vector3Stamped, "~/gravity", STREAM_DEPTH)
-        self.status_pub = self.create_publisher(StabilityStatus, "~/stability", STREAM_DEPTH)
+        super().__init__(NODE_NAME, PARAMETERS, rate=20.0)
+        self._release()
+        # Kit workaround: ManagedDevice reports a fault code only for a stopping fault; rate_limit has a code
+        # (FAULT_RATE_LIMIT) but does not stop the fixture, so status and diagnostics are amended here.
+        self._status_pub = _PatchingPublisher(self._status_pub, self._patch_status)
+        self._diagnostics_pub = _PatchingPublisher(self._diagnostics_pub, self._patch_diagnostics)
         self.create_service(FixtureMove, "~/move", service_guard(self)(self.on_move))
-        self.create_timer(1.0 / self.p["publish_rate"], self.tick)
+
+    def _release(self) -> None:
+        """Forget the model and everything configure or activate made (publishers, timer)."""
+        self.table: Table | None = None
+        self.prepared: PreparedAssembly | None = None
+        self.limits = TableLimits()
+        self.frame_id = ""
+        self.timer: Any = None
+        self.publishers_made: list[Any] = []
+        self.last_tick_ns = 0
+        self.count = {"moves": 0, "refused_moves": 0, "moves_completed": 0, "stalls": 0, "capped_ticks": 0}
+
+    # --- configure / activate / deactivate / cleanup ----------------------------------------------
+    def configure_device(self, p: dict[str, Any]) -> None:
+        """Load the assembly, prepare its LP and region, build the table; InputError names a bad field."""
+        self._release()
+        limits = TableLimits(
+            p["tilt_x_min"],
+            p["tilt_x_max"],
+            p["tilt_y_min"],
+            p["tilt_y_max"],
+            p["max_rate_x"],
+            p["max_rate_y"],
+        )
+        try:
+            limits.validate()
+        except InputError as error:
+            raise InputError(f"parameter {error.field}", error.problem) from None
+        assembly = load_assembly_parameter(p["assembly_file"])
+        self.prepared = prepare(assembly, p["mu"] if p["override_mu"] else None, p["facets"])
+        self.table = Table([p["initial_tilt_x"], p["initial_tilt_y"]], limits)
+        self.limits = limits
+        self.frame_id = p["frame_id"] or self.frame(BASE_FRAME)
+        self.expect_rate(p["publish_rate"])
+        self.joint_pub = self._publisher(JointState, "~/joint_states")
+        self.gravity_pub = self._publisher(Vector3Stamped, "~/gravity")
+        self.stability_pub = self._publisher(StabilityStatus, "~/stability")
         self.get_logger().info(
-            f"holding {assembly.name}: stable region {self.region.kind}, "
-            f"interlock {'on' if self.p['interlock'] else 'OFF'}"
+            f"holding {assembly.name}: stable region {self.prepared.region.kind}, "
+            f"interlock {'on' if p['interlock'] else 'OFF'}"
         )
 
-    def _now(self) -> float:
-        """Node clock time (s)."""
-        return self.get_clock().now().nanoseconds * 1e-9
+    def _publisher(self, msg_type: Any, topic: str) -> Any:
+        """Create a lifecycle publisher of a stream, which cleanup destroys."""
+        publisher = self.create_lifecycle_publisher(msg_type, topic, STREAM_DEPTH)
+        self.publishers_made.append(publisher)
+        return publisher
 
+    def activate_device(self) -> None:
+        """Start the table from now: the paused time is not simulated."""
+        self.last_tick_ns = self.get_clock().now().nanoseconds
+        self.timer = self.create_timer(1.0 / self.p["publish_rate"], self.tick)
+
+    def deactivate_device(self) -> None:
+        """Freeze the table where it is: the timer goes, the joints and the move in progress stay."""
+        if self.timer is not None:
+            self.destroy_timer(self.timer)
+            self.timer = None
+
+    def cleanup_device(self) -> None:
+        """Release the model, the timer and every publisher configure made."""
+        self.deactivate_device()
+        for publisher in self.publishers_made:
+            self.destroy_lifecycle_publisher(publisher)
+        self._release()
+
+    # --- runtime parameters, status, stop/reset, faults ---------------------------------------------
+    def apply_parameter(self, name: str, value: Any) -> None:
+        """Apply max_rate_x/y to the running table (the move in progress speeds up or slows down).
+
+        interlock, path_step and max_advance_per_tick are read from ``self.p`` at every move or tick, which
+        the kit updates once this returns; every other parameter is read-only.
+        """
+        if self.table is None or name not in ("max_rate_x", "max_rate_y"):
+            return
+        field = "rate_x" if name == "max_rate_x" else "rate_y"
+        limits = replace(self.limits, **{field: float(value)})
+        try:
+            limits.validate()
+        except InputError as error:
+            raise InputError(f"parameter {name}", error.problem) from None
+        self.limits = self.table.limits = limits
+
+    def busy(self) -> bool:
+        """Whether a move is in progress."""
+        return self.table is not None and self.table.moving
+
+    def counters(self) -> dict[str, int]:
+        """Return moves accepted, refused, completed, axis stalls and ticks whose elapsed time was capped."""
+        return dict(self.count)
+
+    def stop_device(self) -> None:
+        """Halt the table where it is: the move in progress is dropped; moves are refused until ~/reset."""
+        if self.table is not None:
+            self._advance_to(self.get_clock().now().nanoseconds)
+            self.table.halt()
+
+    def apply_fault(self, fault: ActiveFault) -> None:
+        """Put an injected fault into the table model (validated there: InputError naming the field)."""
+        if self.table is None:
+            return
+        self._advance_to(self.get_clock().now().nanoseconds)  # a fault acts from now, not from the last tick
+        self.table.faults.inject(
+            fault.spec.name,
+            self.limits,
+            value=fault.value,
+            indices=fault.indices,
+            angle=fault.angle,
+            seed=fault.seed,
+        )
+        self.get_logger().warning(
+            f"injected fault {fault.spec.name}: {self.table.faults.describe(fault.spec.name)}"
+        )
+
+    def clear_fault(self, name: str) -> None:
+        """Take an injected fault out of the table model; clearing a stall that acted ends its FAULT."""
+        if self.table is None:
+            return
+        self.table.faults.clear(name)
+        if name == "axis_stall" and self.model_fault is not None:
+            if self.model_fault[0] == DeviceStatus.FAULT_AXIS_STALL:
+                self.model_fault = None
+
+    def warning_fault(self) -> tuple[int, str] | None:
+        """(code, text) of an injected fault in force that has a code but does not stop the fixture."""
+        for name, fault in self.faults.items():
+            # axis_stall's code is reported once the joint has stalled (raise_model_fault), not before.
+            if fault.spec.code and not FAULT_INFO[check_fault_name(name)].stops:
+                detail = self.table.faults.describe(name) if self.table is not None else ""
+                return fault.spec.code, f"injected fault {name}: {detail or fault.spec.description}"
+        return None
+
+    def _patch_status(self, msg: DeviceStatus) -> None:
+        """Report a non-stopping coded fault (rate_limit) in fault_code, over 'behind real time'."""
+        warning = self.warning_fault()
+        if warning is not None and msg.fault_code in (
+            DeviceStatus.FAULT_NONE,
+            DeviceStatus.FAULT_BEHIND_REAL_TIME,
+        ):
+            msg.fault_code, msg.fault_text = warning
+
+    def _patch_diagnostics(self, msg: DiagnosticArray) -> None:
+        """Raise an OK diagnostic to WARN while a non-stopping coded fault (rate_limit) is in force."""
+        warning = self.warning_fault()
+        for status in msg.status:
+            if warning is not None and status.level == DiagnosticStatus.OK:
+                status.level, status.message = DiagnosticStatus.WARN, warning[1]
+
+    # --- the move service ----------------------------------------------------------------------------
     def on_move(self, request: FixtureMove.Request, response: FixtureMove.Response) -> FixtureMove.Response:
         """Serve ~/move: plan and time the great arcs through the waypoints; the interlock may refuse them."""
+        try:
+            self.require_ready("move")
+            self._move(request, response)
+        except FeederError:
+            self.count["refused_moves"] += 1
+            self.publish_status()
+            raise
+        self.count["moves"] += 1
+        self.publish_status()
+        return response
+
+    def _move(self, request: FixtureMove.Request, response: FixtureMove.Response) -> None:
+        """Plan, certify and start a move (raise InputError / InterlockRefusedError to refuse it)."""
+        table, prepared = self.table, self.prepared
+        assert table is not None and prepared is not None  # require_ready: configured
         if not request.waypoints:
             raise InputError("waypoints", "needs at least one gravity direction")
         waypoints = [from_vec(w, f"waypoints[{i}]") for i, w in enumerate(request.waypoints)]
-        self._advance()
-        samples = sample_waypoints(gravity_of(self.joints), waypoints, self.p["path_step"])
-        # Joint limits are checked before anything moves.
-        path = plan_joint_path(samples[1:], self.joints, self.limits)
-        verdict = certify(self.prepared, samples)
+        self._advance_to(self.get_clock().now().nanoseconds)
+        self.require_ready("move")  # the table may have stalled on its way here
+        samples = sample_waypoints(table.gravity(), waypoints, self.p["path_step"])
+        # Joint limits are checked before anything moves; the timing is at the rates the axes reach now.
+        path = table.plan(samples[1:])
+        verdict = certify(prepared, samples)
         response.samples = len(samples)
         response.first_unstable_sample = verdict.first_unstable
         response.unbalanced_bodies = list(verdict.unbalanced_bodies)
@@ -135,35 +396,61 @@ class AssemblyFixture(Node):
                 raise InterlockRefusedError(f"refused by the interlock: {what}")
             response.warning = f"interlock off, moving anyway: {what}"
             self.get_logger().warning(response.warning)
-        self.path, self.path_start = path, self._now()
-        return response
+        table.start(path)
 
-    def _advance(self) -> None:
-        """Move the joints along the current path to the present time; drop the path once finished."""
-        if self.path is None:
+    # --- time and the streams ------------------------------------------------------------------------
+    def _max_advance(self) -> float:
+        """Return the most simulated time (s) one tick may advance."""
+        cap = float(self.p["max_advance_per_tick"])
+        if cap > 0:
+            return cap
+        return CATCH_UP_PERIODS * max(1.0, float(self.p["real_time_factor"])) / float(self.p["publish_rate"])
+
+    def _advance_to(self, now_ns: int) -> None:
+        """Advance the table by the node-clock time since the last advance (capped); report a stall."""
+        table = self.table
+        if table is None or not self.active:
             return
-        elapsed = self._now() - self.path_start
-        self.joints, self.velocity = self.path.at(elapsed)
-        if elapsed >= self.path.duration:
-            self.path = None
+        if self.last_tick_ns <= 0:  # the node clock had not started (no /clock yet): start from now
+            self.last_tick_ns = now_ns
+        elapsed = max(0, now_ns - self.last_tick_ns) / NANOSECONDS  # a clock set back simulates nothing
+        self.last_tick_ns = now_ns
+        cap = self._max_advance()
+        if elapsed > cap:
+            self.count["capped_ticks"] += 1
+            elapsed = cap
+        was_moving = table.moving
+        stall = table.advance(elapsed)
+        if stall is not None:
+            self.count["stalls"] += 1
+            self.raise_model_fault(DeviceStatus.FAULT_AXIS_STALL, stall.describe())
+        elif was_moving and not table.moving:
+            self.count["moves_completed"] += 1
+            self.publish_status()
 
     def tick(self) -> None:
-        """Publish joint states, gravity and the stability status of the current direction."""
-        self._advance()
-        stamp = self.get_clock().now().to_msg()
-        g = gravity_of(self.joints)
+        """Advance the table and publish joint states and gravity (as the encoders read) and stability."""
+        table, prepared = self.table, self.prepared
+        if table is None or prepared is None or not self.active:
+            return
+        now = self.get_clock().now().nanoseconds
+        self._advance_to(now)
+        self.record_tick(table.time)
+        header = Header(stamp=RclTime(nanoseconds=now).to_msg(), frame_id=self.frame_id)
+        reading = table.reading()
         self.joint_pub.publish(
             JointState(
+                header=header,
                 name=list(JOINT_NAMES),
-                position=self.joints.tolist(),
-                velocity=self.velocity.tolist(),
-                header=_header(stamp),
+                position=reading.tolist(),
+                velocity=table.velocity.tolist(),
             )
         )
-        self.gravity_pub.publish(Vector3Stamped(header=_header(stamp), vector=vec(g)))
-        status = StabilityStatus(header=_header(stamp), gravity=vec(g), moving=self.path is not None)
+        self.gravity_pub.publish(Vector3Stamped(header=header, vector=vec(gravity_of(reading))))
+        g = table.gravity()
+        status = StabilityStatus(header=header, gravity=vec(g), moving=table.moving)
         try:
-            result = check_result(self.prepared, g)
+            result = check_result(prepared, g)
             status.stable = result.stable
             status.margin = result.margin_rad
             status.unbalanced_bodies = list(result.unbalanced_bodies)
@@ -172,17 +459,12 @@ class AssemblyFixture(Node):
             status.stable = False
             status.margin = math.nan
             status.unbalanced_bodies = [f"(not certified: {error})"]
-        self.status_pub.publish(status)
-
-
-def _header(stamp: Time) -> Header:
-    """Return a header in the assembly frame."""
-    return Header(stamp=stamp, frame_id="assembly")
+        self.stability_pub.publish(status)
 
 
 def main(args: list[str] | None = None) -> None:
     """Run the node until shutdown."""
-    run_node(AssemblyFixture, "assembly_fixture", args)
+    run_node(AssemblyFixture, NODE_NAME, args)
 
 
 if __name__ == "__main__":
