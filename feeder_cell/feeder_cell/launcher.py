@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import os
 import signal
 import subprocess
@@ -16,6 +18,8 @@ from feeder_planner.errors import InputError
 from feeder_planner.fields_io import load_yaml_mapping, optional, required
 
 STOP_GRACE_S = 5.0
+# prctl(2) option: the signal a child gets when its parent dies (linux/prctl.h).
+PR_SET_PDEATHSIG = 1
 
 
 LifecycleTarget = Literal["active", "inactive", "unconfigured"]
@@ -206,6 +210,14 @@ class NodeProcess:
         return self.process.returncode
 
 
+def _die_with_parent() -> None:
+    """In the child before exec: ask the kernel for SIGTERM when the launcher dies, even by SIGKILL."""
+    libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+    libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+    if os.getppid() == 1:  # the launcher died between fork and prctl: nothing will send the signal
+        os._exit(1)
+
+
 def start_node(
     spec: NodeSpec,
     log_dir: Path,
@@ -237,5 +249,6 @@ def start_node(
             stderr=subprocess.STDOUT,
             stdin=subprocess.DEVNULL,
             env=dict(os.environ, PYTHONUNBUFFERED="1"),
+            preexec_fn=_die_with_parent,
         )
     return NodeProcess(spec, process, log_path)

@@ -9,14 +9,20 @@ __all__ = ["with_node"]
 
 Result = TypeVar("Result")
 
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
 
 def with_node(name: str, work: Callable[[Any, Any, Callable[[], bool]], Result]) -> Result:
-    """Run ``work(node, executor, keep_going)`` with a node on its own context; Ctrl-C ends ``keep_going``."""
+    """Run ``work(node, executor, keep_going)`` on a node of its own context; a stop signal ends it."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
 
     stop = {"requested": False}
-    previous = signal.signal(signal.SIGINT, lambda *_: stop.__setitem__("requested", True))
+    # Ctrl-C, `kill` (SIGTERM, as timeout and docker stop send) and a closed terminal (SIGHUP) all end
+    # the work cleanly: the work sees keep_going() turn false and releases what it started.
+    previous = {
+        sig: signal.signal(sig, lambda *_: stop.__setitem__("requested", True)) for sig in STOP_SIGNALS
+    }
     context = rclpy.Context()
     rclpy.init(context=context)
     node = rclpy.create_node(name, context=context)
@@ -25,7 +31,8 @@ def with_node(name: str, work: Callable[[Any, Any, Callable[[], bool]], Result])
     try:
         return work(node, executor, lambda: not stop["requested"])
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown(context=context)

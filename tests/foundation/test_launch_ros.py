@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -42,7 +44,7 @@ def test_scene_runs_its_nodes_records_them_and_ends_them(ros_domain: int, tmp_pa
         with pytest.raises(ProcessLookupError):
             os.kill(node["pid"], 0)
     topics = summary["bag"]["topics"]
-    assert topics["/mems/part_states"]["count"] > 0
+    assert topics["/mems_field_array/part_states"]["count"] > 0
     # Only the models the scene names run: nothing of the other devices is on the graph.
     assert not any(name.startswith(("/throwing_arm", "/assembly_fixture")) for name in topics)
     assert (bag / "metadata.yaml").is_file()
@@ -57,3 +59,74 @@ def test_bad_scene_file_names_the_field(tmp_path: Path) -> None:
     assert result.returncode == 2
     assert result.stderr.count("\n") == 1
     assert "nodes[0].executable" in result.stderr and str(scene) in result.stderr
+
+
+def _node_pids(parent: int) -> list[int]:
+    """Pids of the node processes the launcher started: its children that run with --ros-args."""
+    pids = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            ppid = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
+            cmdline = (entry / "cmdline").read_bytes().decode(errors="replace")
+        except (OSError, IndexError, ValueError):
+            continue
+        if ppid == parent and "--ros-args" in cmdline:
+            pids.append(int(entry.name))
+    return pids
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return not Path(f"/proc/{pid}/status").read_text().count("State:\tZ")
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP, signal.SIGKILL])
+def test_launch_never_orphans_its_nodes(ros_domain: int, tmp_path: Path, sig: signal.Signals) -> None:
+    logs = tmp_path / "logs"
+    launch = subprocess.Popen(
+        [*FEEDER, "launch", str(ROOT / "feeder_cell/scenes/mems_only.yaml"), "--log-dir", str(logs)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 60
+    while len(_node_pids(launch.pid)) < 2 and time.monotonic() < deadline:
+        time.sleep(0.2)
+    pids = _node_pids(launch.pid)
+    assert len(pids) == 2, f"scene nodes not started: {pids}"
+    time.sleep(3.0)  # in the graph and past start-up
+    launch.send_signal(sig)
+    _, err = launch.communicate(timeout=60)
+    if sig != signal.SIGKILL:
+        assert launch.returncode == 0 and "Traceback" not in err, err
+    deadline = time.monotonic() + 15
+    while any(_alive(p) for p in pids) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert [p for p in pids if _alive(p)] == []
+
+
+@pytest.mark.ros
+def test_an_interrupt_during_start_up_ends_cleanly(ros_domain: int, tmp_path: Path) -> None:
+    logs = tmp_path / "logs"
+    launch = subprocess.Popen(
+        [*FEEDER, "launch", str(ROOT / "feeder_cell/scenes/mems_only.yaml"), "--log-dir", str(logs)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 60
+    while not _node_pids(launch.pid) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    pids = _node_pids(launch.pid)
+    assert pids, "no node process started"
+    launch.send_signal(signal.SIGINT)
+    _, err = launch.communicate(timeout=60)
+    assert launch.returncode == 0 and "Traceback" not in err, err
+    time.sleep(1.0)
+    assert [p for p in pids if _alive(p)] == []

@@ -25,10 +25,10 @@ def _graph_names(node: Any) -> set[str]:
     return {f"{ns.rstrip('/')}/{name}" for name, ns in node.get_node_names_and_namespaces()}
 
 
-def _wait_until_in_graph(node: Any, executor: Any, processes: list[NodeProcess]) -> None:
+def _wait_until_in_graph(node: Any, executor: Any, processes: list[NodeProcess], keep_going: Any) -> None:
     deadline = time.monotonic() + STARTUP_TIMEOUT_S
     wanted = {p.spec.fully_qualified_name for p in processes}
-    while True:
+    while keep_going():
         executor.spin_once(timeout_sec=0.1)
         dead = [p for p in processes if not p.alive()]
         if dead:
@@ -102,10 +102,19 @@ def _launch(args: argparse.Namespace) -> int:
         states: dict[str, str] = {}
         try:
             for spec in specs:
-                extra = {"use_sim_time": True} if sim_time and spec is not specs[0] else {}
+                if not keep_going():
+                    break  # interrupted during start-up: end what was started, no traceback
+                # On the cell clock every node follows /clock, and every device learns the factor it
+                # must keep up with (an undeclared parameter is ignored by the nodes without one).
+                extra = (
+                    {"use_sim_time": True, "real_time_factor": args.real_time_factor}
+                    if sim_time and spec is not specs[0]
+                    else {}
+                )
                 processes.append(start_node(spec, log_dir, extra_parameters=extra))
-            _wait_until_in_graph(node, executor, processes)
-            states = bring_up(node, executor, processes)
+            _wait_until_in_graph(node, executor, processes, keep_going)
+            if keep_going():
+                states = bring_up(node, executor, processes)
             started = time.monotonic()
             next_discovery = 0.0
             while keep_going() and (args.duration is None or time.monotonic() - started < args.duration):
