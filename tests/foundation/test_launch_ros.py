@@ -130,3 +130,72 @@ def test_an_interrupt_during_start_up_ends_cleanly(ros_domain: int, tmp_path: Pa
     assert launch.returncode == 0 and "Traceback" not in err, err
     time.sleep(1.0)
     assert [p for p in pids if _alive(p)] == []
+
+
+def _scene(tmp_path: Path, nodes: list[dict]) -> Path:
+    import yaml
+
+    path = tmp_path / "scene.yaml"
+    path.write_text(yaml.safe_dump({"name": "lifecycle", "nodes": nodes}))
+    return path
+
+
+@pytest.mark.ros
+def test_a_scene_can_leave_a_device_inactive_or_unconfigured(ros_domain: int, tmp_path: Path) -> None:
+    part = str(ROOT / "examples/mems/bracket.yaml")
+    scene = _scene(
+        tmp_path,
+        [
+            {
+                "package": "feeder_sim",
+                "executable": "mems_field_array",
+                "name": "array_a",
+                "lifecycle": "inactive",
+                "parameters": {"part_files": [part]},
+            },
+            {
+                "package": "feeder_sim",
+                "executable": "mems_field_array",
+                "name": "array_b",
+                "lifecycle": "unconfigured",
+                "parameters": {"part_files": [part]},
+            },
+            {
+                "package": "feeder_sim",
+                "executable": "mems_field_array",
+                "name": "array_c",
+                "parameters": {"part_files": [part]},
+            },
+        ],
+    )
+    result = subprocess.run(
+        [*FEEDER, "launch", str(scene), "--duration", "2", "--json"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 0, result.stderr
+    states = {n["name"]: n["lifecycle"] for n in json.loads(result.stdout)["nodes"]}
+    assert states == {"/array_a": "inactive", "/array_b": "unconfigured", "/array_c": "active"}
+
+
+@pytest.mark.ros
+def test_a_device_that_fails_to_configure_stops_the_launch_with_its_reason(
+    ros_domain: int, tmp_path: Path
+) -> None:
+    scene = _scene(
+        tmp_path,
+        [
+            {
+                "package": "feeder_sim",
+                "executable": "mems_field_array",
+                "parameters": {"part_files": [str(tmp_path / "missing.yaml")]},
+            }
+        ],
+    )
+    result = subprocess.run(
+        [*FEEDER, "launch", str(scene), "--duration", "2"], capture_output=True, text=True, timeout=120
+    )
+    assert result.returncode == 1
+    assert result.stderr.count("\n") == 1, result.stderr
+    assert "configure refused" in result.stderr and "missing.yaml" in result.stderr
