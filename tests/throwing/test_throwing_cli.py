@@ -5,6 +5,7 @@ input.
 import json
 import math
 
+import numpy as np
 import pytest
 from throwing_helpers import EXAMPLES, TRIANGLE_PARAMS
 
@@ -192,3 +193,50 @@ def test_cli_radius_check_is_the_core_domain_check_at_r_grasp(capsys):
     assert code == 2 and "--radius" in err and f"R_grasp = {r_grasp_cm:.6g} cm" in err
     with pytest.raises(InputError):
         throw(part, 1, float(below) * 0.01, ThrowParams(-0.0025, math.radians(320), -2.2, 0.5))
+
+
+BRACKET_DESIGN = ["--release-speeds", "320deg", "--gravity", "-220", "--mu", "0.5", "--goal-edge", "1"]
+
+
+def test_throw_design_refuses_an_offset_at_or_below_minus_d_min_up_front(capsys):
+    # Bracket (cm): d_min = 0.4295 cm. At h = -0.9 cm the centre of mass on edge 0 moves outward in
+    # flight, R grows without bound and the flight search used to fail with a traceback.
+    bracket = str(EXAMPLES / "bracket.yaml")
+    d_min_cm = arm_part(load_part(bracket)).d_min / 0.01
+    code, out, err = _run(capsys, ["throw-design", bracket, "--offsets", "-0.25", "-0.9", *BRACKET_DESIGN])
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert "--offsets" in err and "h = -0.9 cm" in err and f"-d_min = {-d_min_cm:.6g} cm" in err
+    code, _, err = _run(capsys, ["throw-design", bracket, "--offsets", repr(-d_min_cm), *BRACKET_DESIGN])
+    assert code == 2 and "--offsets" in err  # at -d_min exactly: refused too (Prop. IV.4: h > -d_min)
+    code, out, _ = _run(capsys, ["throw-design", bracket, "--offsets", "-0.25", *BRACKET_DESIGN, "--json"])
+    assert code == 0 and len(json.loads(out)["designs"]) == 1  # a design above -d_min still runs
+
+
+def test_limit_set_refuses_an_offset_at_or_below_minus_d_min_but_a_single_throw_runs(capsys):
+    bracket = str(EXAMPLES / "bracket.yaml")
+    flags = ["--release-speed", "320deg", "--gravity", "-220", "--mu", "0.5"]
+    code, out, err = _run(capsys, ["limit-set", bracket, "--offset", "-0.9", *flags, "--goal-edge", "1"])
+    assert code == 2 and out == "" and "--offset:" in err and "h = -0.9 cm" in err and "Traceback" not in err
+    # One throw is not a limit set: the throw map itself is defined for any offset.
+    code, out, _ = _run(
+        capsys, ["throw", bracket, "--edge", "1", "--radius", "2", "--offset", "-0.9", *flags]
+    )
+    assert code == 0 and "edge 1 at R=2" in out
+
+
+def test_core_limit_set_and_search_name_the_offset_field():
+    from feeder_planner.throwing import limit_set, search
+    from feeder_planner.throwing.limit_set import OffsetBelowDMinError
+
+    part = arm_part(load_part(EXAMPLES / "bracket.yaml"))
+    low = ThrowParams(-1.01 * part.d_min, math.radians(320), -2.2, 0.5)
+    with pytest.raises(OffsetBelowDMinError) as info:
+        limit_set(part, low, 1)
+    assert info.value.field == "offset" and "Prop. IV.4" in info.value.problem
+    with pytest.raises(OffsetBelowDMinError) as info:
+        search(part, 1, np.array([-0.0025, low.offset]), np.array([low.speed]), -2.2, 0.5)
+    assert info.value.field == "offsets"
+    with pytest.raises(InputError) as info:
+        search(part, 1, np.array([math.nan]), np.array([low.speed]), -2.2, 0.5)
+    assert info.value.field == "offsets" and "finite" in info.value.problem

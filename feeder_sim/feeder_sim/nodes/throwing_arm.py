@@ -184,10 +184,13 @@ class ThrowingArmNode(ManagedDevice):
     def _reset_run(self) -> None:
         """Forget the commands, the shown throw, the counters and the simulated time."""
         self.running, self.pending = False, 0
-        self.motion: tuple[float, ThrowOutcome, float] | None = None  # (start, outcome, W) while shown
-        self.last_throw = -math.inf
+        # (start ns, outcome, W released at) while a throw is shown
+        self.motion: tuple[int, ThrowOutcome, float] | None = None
+        self.last_throw: int | None = None  # simulated ns of the last throw
         self.throws = self.fault_count = self.presented = 0
-        self.simulated = 0.0  # the model's time (s): the node clock's at activation, then advanced per tick
+        # The model's time in integer ns (no rounding drift at epoch magnitudes): the node clock's at the
+        # first activation, then advanced per tick by the elapsed node-clock time, capped.
+        self.simulated = 0
         self.last_tick: Time | None = None
 
     # --- lifecycle hooks ---------------------------------------------------------------------------
@@ -232,9 +235,10 @@ class ThrowingArmNode(ManagedDevice):
 
     def activate_device(self) -> None:
         """Start the tick timer (main stream at sensor_rate on the node clock); simulated time resumes."""
+        now = self.get_clock().now()
         if not self.simulated:
-            self.simulated = self.sim_seconds()  # first activation: the model's time starts at the clock's
-        self.last_tick = None  # a paused span is not simulated: the physics was frozen
+            self.simulated = now.nanoseconds  # first activation: the model's time starts at the clock's
+        self.last_tick = now  # a paused span is not simulated: the physics was frozen
         self._tick_timer = self.create_timer(1.0 / self.p["sensor_rate"], self._tick)
 
     def deactivate_device(self) -> None:
@@ -377,22 +381,23 @@ class ThrowingArmNode(ManagedDevice):
             self._start_throw(now, t)
         self._publish_sensor(None if self.motion is None else pose)
         self._publish_joint_and_pose(now, pose, velocity)
-        self.record_tick(self.simulated)
+        self.record_tick(self.simulated * 1e-9)
 
     def _advance_clock(self, now: Time) -> None:
         """Advance the simulated time by the node-clock time since the last tick, capped per tick."""
         if self.last_tick is not None:
-            elapsed = max((now - self.last_tick).nanoseconds * 1e-9, 0.0)
-            self.simulated += min(elapsed, MAX_TICK_PERIODS / self.p["sensor_rate"])
+            elapsed = max((now - self.last_tick).nanoseconds, 0)
+            self.simulated += min(elapsed, _ns(MAX_TICK_PERIODS / self.p["sensor_rate"]))
         self.last_tick = now
 
-    def _throw_due(self, t: float) -> bool:
+    def _throw_due(self, t: int) -> bool:
         """Return whether a throw is wanted (running, or queued), allowed, and a period has passed."""
         wanted = self.running or self.pending > 0
         ready = self.state() in (DeviceState.IDLE, DeviceState.RUNNING)
-        return wanted and ready and t - self.last_throw >= self.p["period"]
+        waited = self.last_throw is None or t - self.last_throw >= _ns(self.p["period"])
+        return wanted and ready and waited
 
-    def _start_throw(self, now: Time, t: float) -> None:
+    def _start_throw(self, now: Time, t: int) -> None:
         """Throw once; show it over the motion window, or report a fault at once (FAULT_PART_LOST)."""
         arm, faults = self._model(), self._faults_model()
         if self.pending > 0:
@@ -413,10 +418,10 @@ class ThrowingArmNode(ManagedDevice):
             self.publish_status()
 
     def _advance_motion(
-        self, now: Time, t: float, rest: Pose, start: float, outcome: ThrowOutcome, speed: float
+        self, now: Time, t: int, rest: Pose, start: int, outcome: ThrowOutcome, speed: float
     ) -> tuple[Pose, float]:
         """Return the pose and joint velocity shown of the throw begun at ``start``; publish it at the end."""
-        window = self.p["period"] * self.p["motion_fraction"]
+        window = _ns(self.p["period"] * self.p["motion_fraction"])
         if t - start >= window:
             self.motion = None
             self._publish_event(now, outcome)
@@ -471,6 +476,11 @@ class ThrowingArmNode(ManagedDevice):
             self.presented += 1
         self.pub_event.publish(ev)
         self.publish_status()
+
+
+def _ns(seconds: float) -> int:
+    """Return a duration in integer nanoseconds."""
+    return int(round(seconds * 1e9))
 
 
 def _throw_params(p: dict[str, Any]) -> ThrowParams:
