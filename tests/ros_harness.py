@@ -54,11 +54,11 @@ def start_node(
 
 def bring_to(client: Any, node: NodeProcess, target: str) -> str:
     """Bring a managed node to a lifecycle state; an unmanaged node is left as it is ("unmanaged")."""
-    target = node.spec.fully_qualified_name
-    lifecycle = LifecycleClient(client, None, target)
+    name = node.spec.fully_qualified_name
+    lifecycle = LifecycleClient(client, None, name)
     # Every node serves its parameter services; once they are discovered, a managed node's lifecycle
     # services follow within a moment, so an unmanaged node costs a second here rather than a timeout.
-    wait_for_graph(client, node, services=[f"{target}/list_parameters"])
+    wait_for_graph(client, node, services=[f"{name}/list_parameters"])
     if not lifecycle.is_managed(timeout=1.0):
         return "unmanaged"
     try:
