@@ -49,6 +49,28 @@ def _trigger(ros_client):
     )
 
 
+def _status(ros_client, accept, device: str = "/throwing_arm", timeout: float = 30.0):
+    """Return the first ~/status of the device that ``accept`` takes (latched: the current one first)."""
+    from feeder_msgs.msg import DeviceStatus
+    from feeder_planner.node_kit import LATCHED
+
+    seen, done = [], threading.Event()
+
+    def on_status(msg):
+        seen.append(msg)
+        if accept(msg):
+            done.set()
+
+    sub = ros_client.create_subscription(DeviceStatus, f"{device}/status", on_status, LATCHED)
+    try:
+        assert done.wait(timeout), (
+            f"no accepted status within {timeout} s; last: {seen[-1] if seen else None}"
+        )
+    finally:
+        ros_client.destroy_subscription(sub)
+    return next(m for m in seen if accept(m))
+
+
 def _wait_for(condition, timeout: float, what: str):
     deadline = time.monotonic() + timeout
     while True:
@@ -180,8 +202,9 @@ def test_sensor_at_planned_radius_reads_true_only_on_goal_edge_and_every_cycle(
 def test_sim_faults_when_part_leaves_arm_and_runtime_parameters(ros_client, launch_node):
     from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
     from rcl_interfaces.srv import SetParameters
+    from std_srvs.srv import Trigger
 
-    from feeder_msgs.msg import ThrowEvent
+    from feeder_msgs.msg import DeviceStatus, ThrowEvent
     from feeder_msgs.srv import ArmCommand, ArmPlacePart
 
     sim = launch_node(
@@ -231,6 +254,24 @@ def test_sim_faults_when_part_leaves_arm_and_runtime_parameters(ros_client, laun
         ros_client.destroy_subscription(sub)
     faults = [ev for ev in got if ev.fault]
     assert faults and "left the arm" in faults[0].fault_reason and faults[0].kind == "fault"
+    assert len(faults) == 1 and got[-1].fault  # the fault stopped the arm: no throw after it
+    # The model's fault is the device's: FAULT_PART_LOST, throws refused until the part is placed again.
+    report = _status(ros_client, lambda s: s.state_name == "FAULT")
+    assert report.fault_code == DeviceStatus.FAULT_PART_LOST and "left the arm" in report.fault_text
+    counts = dict(zip(report.counter_names, report.counter_values, strict=True))
+    assert counts["faults"] == 1 and counts["throws"] == len(got)
+    refused = ros_harness.call_service(
+        ros_client, ArmCommand, "/throwing_arm/command", ArmCommand.Request(command="throw", count=1)
+    )
+    assert not refused.ok and "FAULT" in refused.error and "place_part" in refused.error
+    reset = ros_harness.call_service(ros_client, Trigger, "/throwing_arm/reset", Trigger.Request())
+    assert reset.success and reset.message == "reset: FAULT"  # ~/reset alone does not put the part back
+    ok = ros_harness.call_service(
+        ros_client, ArmPlacePart, "/throwing_arm/place_part", ArmPlacePart.Request(edge=1, radius=0.12)
+    )
+    assert ok.ok, ok.error
+    idle = _status(ros_client, lambda s: s.state_name == "IDLE")
+    assert idle.ready and idle.fault_code != DeviceStatus.FAULT_PART_LOST
 
     # Runtime parameters: a bad sensor radius is refused, a good one accepted; the node lives on.
     def set_param(name, value):
@@ -380,6 +421,22 @@ def test_planner_limit_set_and_design_services_match_the_cli_library(planner, ro
         60,
     )
     assert not bad.ok and "release_speed" in bad.error
+    low = ros_harness.call_service(
+        ros_client,
+        DesignSearch,
+        "/throw_planner/design_search",
+        DesignSearch.Request(
+            part=part_msg(),
+            goal_edge=GOAL,
+            offsets=[-0.005, -0.05],  # the triangle's d_min is 1.7 cm: -5 cm is below -d_min
+            release_speeds=[PAPER["release_speed"]],
+            gravity=PAPER["gravity"],
+            mu=PAPER["mu"],
+            sensing_height=HEIGHT,
+        ),
+        60,
+    )
+    assert not low.ok and "offsets" in low.error and "d_min" in low.error
 
 
 @pytest.mark.ros
