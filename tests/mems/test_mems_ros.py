@@ -79,16 +79,15 @@ def test_service_matches_mechanics(nodes, ros_client) -> None:
 
 
 @pytest.mark.ros
-def test_simulator_settles_at_a_planned_stable_equilibrium(nodes, ros_client) -> None:
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-
+def test_simulator_settles_at_a_planned_stable_equilibrium(nodes, ros_client, listen) -> None:
     from feeder_msgs.msg import EquilibriaPrediction, MemsPartStates
 
     stable = [e for e in compute(ros_client).equilibria if e.stable]
     deadline = time.monotonic() + 90
     previous = None
+    stream = listen(MemsPartStates, f"{SIM}/part_states")
     while time.monotonic() < deadline:
-        state = ros_harness.collect(ros_client, MemsPartStates, f"{SIM}/part_states", count=1)[-1].parts[0]
+        state = stream.next(1)[-1].parts[0]
         pose = (state.pose.position.x, state.pose.position.y, state.theta)
         if (
             previous is not None
@@ -106,13 +105,11 @@ def test_simulator_settles_at_a_planned_stable_equilibrium(nodes, ros_client) ->
     ]
     angle_gap, distance = min(gaps)
     assert angle_gap <= 1e-4 and distance <= 1e-7  # stated tolerance: 1e-4 rad, 0.1 um
-    latched = QoSProfile(
-        depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE
+    predictions = listen(EquilibriaPrediction, f"{PLANNER}/predicted_poses", latched=True)
+    prediction = predictions.wait(
+        lambda m: abs(math.remainder(m.theta[0] - pose[2], 2 * math.pi)) <= 1e-4, current=True
     )
-    prediction = ros_harness.collect(
-        ros_client, EquilibriaPrediction, f"{PLANNER}/predicted_poses", count=1, qos=latched
-    )[-1]
-    assert abs(math.remainder(prediction.theta[0] - pose[2], 2 * math.pi)) <= 1e-4
+    assert list(prediction.names) == ["bracket"]
 
 
 @pytest.mark.ros
@@ -158,19 +155,18 @@ def test_bad_program_and_placement(nodes, ros_client) -> None:
 
 
 @pytest.mark.ros
-def test_stamps_are_node_clock_time_and_cell_forces_are_latched(nodes, ros_client) -> None:
+def test_stamps_are_node_clock_time_and_cell_forces_are_latched(nodes, ros_client, listen) -> None:
     from feeder_msgs.msg import MemsCellForces, MemsPartStates
-    from feeder_planner.node_kit import LATCHED
 
     # The array publishes no /clock any more (the cell clock does): without use_sim_time its stamps
     # are the system clock's.
     assert not [i for i in ros_client.get_publishers_info_by_topic("/clock") if i.node_name == SIM[1:]]
-    states = ros_harness.collect(ros_client, MemsPartStates, f"{SIM}/part_states", count=3)
+    states = listen(MemsPartStates, f"{SIM}/part_states").next(3)
     times = [s.header.stamp.sec + 1e-9 * s.header.stamp.nanosec for s in states]
     assert times == sorted(times) and times[-1] > times[0]
     assert abs(times[-1] - time.time()) < 5.0
     assert states[-1].header.frame_id == "mems_array"
-    cells = ros_harness.collect(ros_client, MemsCellForces, f"{SIM}/cell_forces", count=1, qos=LATCHED)[-1]
+    cells = listen(MemsCellForces, f"{SIM}/cell_forces", latched=True).wait(current=True)
     assert cells.nx == 100 and len(cells.fx) == 100 * 100
     # the default combined field: every cell force has magnitude |(-r/|r|) - delta (0, 1)|,
     # in [1 - delta, 1 + delta]
