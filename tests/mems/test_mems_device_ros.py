@@ -353,6 +353,27 @@ def test_a_namespaced_array_and_its_planner_find_each_other(
         assert own and all(t.startswith(f"{namespace}/{node}/") for t in own), own
         served = {n for n, _ in ros_client.get_service_names_and_types_by_node(node, namespace)}
         assert all(s.startswith(f"{namespace}/{node}/") for s in served), served
+    # A second array under another name in the same namespace: a planner told its name (the read-only
+    # device parameter) follows that one, and the first planner keeps following its own.
+    launch_node(
+        "feeder_sim",
+        "mems_field_array",
+        {"part_files": [str(EXAMPLES / "washer.yaml")], "seed": 4, "time_step": 5e-4},
+        namespace=namespace,
+        name="left_array",
+        wait_topics=(f"{namespace}/left_array/part_states",),
+    )
+    launch_node(
+        "feeder_planner",
+        "field_equilibria_planner",
+        {"device": "left_array"},
+        namespace=namespace,
+        name="left_planner",
+        wait_topics=(f"{namespace}/left_planner/predicted_poses",),
+    )
+    left = listen(EquilibriaPrediction, f"{namespace}/left_planner/predicted_poses", True)
+    assert list(left.wait(lambda m: bool(m.names), current=True).names) == ["washer"]
+    assert list(predictions.wait(current=True).names) == ["bracket"]
 
 
 # --- one clock ------------------------------------------------------------------------------------

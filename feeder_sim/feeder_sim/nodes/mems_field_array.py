@@ -261,7 +261,7 @@ class MemsFieldArray(ManagedDevice):
         self.last_tick_ns = 0
         self.owed_ns = 0
         self.last_cells: tuple[Any, ...] | None = None
-        self.last_activity: tuple[bool, int] | None = None
+        self.last_activity: tuple[bool, int, bool] | None = None
         self.program_stamp = 0
         self.count = {"steps": 0, "steps_dropped": 0, "programs": 0, "placements": 0}
 
@@ -345,6 +345,9 @@ class MemsFieldArray(ManagedDevice):
         self.last_tick_ns = self.get_clock().now().nanoseconds
         self.owed_ns = 0
         self.last_activity = None
+        if self.program_stamp <= 0 < self.last_tick_ns:  # configured before the (sim) clock had started
+            self.program_stamp = self.last_tick_ns
+            self.publish_program()
         self.timer = self.create_timer(1.0 / self.p["publish_rate"], self.tick)
 
     def deactivate_device(self) -> None:
@@ -511,7 +514,9 @@ class MemsFieldArray(ManagedDevice):
             poses.poses.append(state.pose)
         self.state_pub.publish(states)
         self.pose_pub.publish(poses)
-        activity = (self.busy(), sum(scene.settled()))
+        # What a controller sees change between heartbeats: busy, parts at rest, falling behind (the
+        # counters alone go out with the 1 Hz heartbeat rather than at every tick).
+        activity = (self.busy(), sum(scene.settled()), self.rate_report().behind)
         if activity != self.last_activity:
             self.last_activity = activity
             self.publish_status()
