@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import fcntl
 import random
+import sys
 import tempfile
 import threading
 import time
@@ -126,20 +127,32 @@ class ClientNode:
         self.node = rclpy.create_node(name, context=self.context)
         self.executor = MultiThreadedExecutor(num_threads=2, context=self.context)
         self.executor.add_node(self.node)
+        self._stopping = False
         self._thread = threading.Thread(target=self._spin, daemon=True)
         self._thread.start()
 
     def _spin(self) -> None:
-        try:
-            self.executor.spin()
-        except Exception:  # the executor raises on shutdown of its context; nothing to do then
-            pass
+        # A subscription or client destroyed from the test thread can race the executor's wait set
+        # (InvalidHandle); that one wait is lost, not the client: keep spinning until shutdown.
+        from rclpy.executors import ExternalShutdownException
+
+        while self.context.ok() and not self._stopping:
+            try:
+                self.executor.spin_once(timeout_sec=0.1)
+            except (ExternalShutdownException, KeyboardInterrupt):
+                return
+            except Exception as error:  # noqa: BLE001 - reported, then the client keeps serving
+                if not self.context.ok():
+                    return
+                if type(error).__name__ != "InvalidHandle":
+                    print(f"ros_harness: client executor: {type(error).__name__}: {error}", file=sys.stderr)
 
     def close(self) -> None:
+        self._stopping = True
+        self._thread.join(timeout=5.0)
         self.executor.shutdown(timeout_sec=2.0)
         self.node.destroy_node()
         self._rclpy.try_shutdown(context=self.context)
-        self._thread.join(timeout=5.0)
 
 
 def call_service(client: Any, srv_type: Any, name: str, request: Any, timeout: float = 30.0) -> Any:

@@ -95,14 +95,19 @@ def test_launch_never_orphans_its_nodes(ros_domain: int, tmp_path: Path, sig: si
         stderr=subprocess.PIPE,
         text=True,
     )
-    deadline = time.monotonic() + 60
-    while len(_node_pids(launch.pid)) < 2 and time.monotonic() < deadline:
-        time.sleep(0.2)
-    pids = _node_pids(launch.pid)
-    assert len(pids) == 2, f"scene nodes not started: {pids}"
-    time.sleep(3.0)  # in the graph and past start-up
-    launch.send_signal(sig)
-    _, err = launch.communicate(timeout=60)
+    try:
+        deadline = time.monotonic() + 60
+        while len(_node_pids(launch.pid)) < 2 and time.monotonic() < deadline:
+            time.sleep(0.2)
+        pids = _node_pids(launch.pid)
+        assert len(pids) == 2, f"scene nodes not started: {pids}"
+        time.sleep(3.0)  # in the graph and past start-up
+        launch.send_signal(sig)
+        _, err = launch.communicate(timeout=60)
+    finally:
+        if launch.poll() is None:  # a failed assertion above must not leave the scene running
+            launch.kill()
+            launch.communicate(timeout=30)
     if sig != signal.SIGKILL:
         assert launch.returncode == 0 and "Traceback" not in err, err
     deadline = time.monotonic() + 15
@@ -120,13 +125,18 @@ def test_an_interrupt_during_start_up_ends_cleanly(ros_domain: int, tmp_path: Pa
         stderr=subprocess.PIPE,
         text=True,
     )
-    deadline = time.monotonic() + 60
-    while not _node_pids(launch.pid) and time.monotonic() < deadline:
-        time.sleep(0.05)
-    pids = _node_pids(launch.pid)
-    assert pids, "no node process started"
-    launch.send_signal(signal.SIGINT)
-    _, err = launch.communicate(timeout=60)
+    try:
+        deadline = time.monotonic() + 60
+        while not _node_pids(launch.pid) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        pids = _node_pids(launch.pid)
+        assert pids, "no node process started"
+        launch.send_signal(signal.SIGINT)
+        _, err = launch.communicate(timeout=60)
+    finally:
+        if launch.poll() is None:
+            launch.kill()
+            launch.communicate(timeout=30)
     assert launch.returncode == 0 and "Traceback" not in err, err
     time.sleep(1.0)
     assert [p for p in pids if _alive(p)] == []

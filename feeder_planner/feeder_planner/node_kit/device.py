@@ -32,7 +32,15 @@ from feeder_planner.node_kit.parameters import ParameterSpec, check_value, decla
 from feeder_planner.node_kit.qos import LATCHED
 from feeder_planner.node_kit.rate import RateMonitor, RateReport
 
-__all__ = ["DeviceState", "FaultSpec", "ActiveFault", "DeviceError", "ManagedDevice", "parse_fault_parameter"]
+__all__ = [
+    "DeviceState",
+    "FaultSpec",
+    "ActiveFault",
+    "DeviceError",
+    "ManagedDevice",
+    "FaultEntry",
+    "parse_fault_parameter",
+]
 
 # Heartbeat of ~/status and /diagnostics (Hz), on the steady clock so that a paused sim clock does not
 # silence a device: a controller must still see that the device is there and why it is not moving.
@@ -85,23 +93,62 @@ class DeviceError(FeederError):
     """A command the device refuses in its present state (not active, stopped, in fault)."""
 
 
-def parse_fault_parameter(entry: str, index: int) -> tuple[str, float]:
-    """Parse one ``inject_faults`` parameter entry: ``NAME`` or ``NAME=VALUE``."""
-    name, _, value = entry.partition("=")
+@dataclass(frozen=True)
+class FaultEntry:
+    """One parsed ``inject_faults`` entry: the fault and the InjectFault fields it sets."""
+
+    name: str
+    value: float = 0.0
+    state: bool = False
+    indices: tuple[int, ...] = ()
+    angle: float = 0.0
+
+
+def _number(text: str, field: str) -> float:
+    lowered = text.strip().lower()
+    if lowered in ("true", "false"):
+        return 1.0 if lowered == "true" else 0.0
+    try:
+        return float(lowered)
+    except ValueError:
+        raise InputError(field, f"must be a number, got {text!r}") from None
+
+
+def parse_fault_parameter(entry: str, index: int) -> FaultEntry:
+    """Parse one ``inject_faults`` entry: ``NAME``, ``NAME=VALUE``, then ``,KEY=VALUE`` for the other fields.
+
+    ``NAME=VALUE`` alone sets value, state (VALUE nonzero or ``true``) and angle, as one magnitude;
+    ``,state=``, ``,angle=`` and ``,indices=3;7;9`` set the fields one by one, e.g.
+    ``axis_stall,indices=1,angle=0.3``.
+    """
+    field = f"parameter inject_faults[{index}]"
+    head, *options = [part.strip() for part in entry.split(",")]
+    name, _, value_text = head.partition("=")
     name = name.strip()
     if not name:
-        raise InputError(f"parameter inject_faults[{index}]", f"needs a fault name, got {entry!r}")
-    if not value.strip():
-        return name, 0.0
-    text = value.strip().lower()
-    if text in ("true", "false"):
-        return name, 1.0 if text == "true" else 0.0
-    try:
-        return name, float(text)
-    except ValueError:
-        raise InputError(
-            f"parameter inject_faults[{index}]", f"value must be a number, got {value!r}"
-        ) from None
+        raise InputError(field, f"needs a fault name, got {entry!r}")
+    value = _number(value_text, field) if value_text.strip() else 0.0
+    state, angle = value != 0.0, value
+    indices: tuple[int, ...] = ()
+    for option in options:
+        key, _, text = option.partition("=")
+        key = key.strip()
+        if key == "indices":
+            try:
+                indices = tuple(int(i) for i in text.replace(";", " ").split())
+            except ValueError:
+                raise InputError(
+                    f"{field} (indices)", f"must be integers separated by ';', got {text!r}"
+                ) from None
+        elif key == "value":
+            value = _number(text, f"{field} (value)")
+        elif key == "angle":
+            angle = _number(text, f"{field} (angle)")
+        elif key == "state":
+            state = _number(text, f"{field} (state)") != 0.0
+        else:
+            raise InputError(field, f"unknown key {key!r} (expected value, state, angle or indices)")
+    return FaultEntry(name, value, state, indices, angle)
 
 
 DEVICE_PARAMETERS = (
@@ -251,11 +298,10 @@ class ManagedDevice(LifecycleNode):
     def expect_rate(self, rate: float) -> None:
         """Set the main stream's rate (Hz of the node clock) that status and diagnostics measure against.
 
-        Under a cell clock at real-time factor F a timer of ``rate`` Hz on the node clock fires F * rate
-        times per wall second, and simulated time should advance F seconds per wall second.
+        The device keeps up when it ticks at ``rate`` per second of its node clock and its simulated time
+        keeps pace with that clock; under a cell clock at factor F that is F * rate ticks per wall second.
         """
-        factor = float(self.p.get("real_time_factor", 1.0))
-        self.monitor.configure(rate * factor, factor)
+        self.monitor.configure(rate, float(self.p.get("real_time_factor", 1.0)))
 
     def frame(self, base: str) -> str:
         """Return a per-instance frame id: ``base`` under the node's namespace (``cell/feeder_a/base``)."""
@@ -264,11 +310,12 @@ class ManagedDevice(LifecycleNode):
 
     def record_tick(self, simulated: float | None = None) -> None:
         """Count one tick of the device's main stream for the rate and real-time-factor figures."""
-        self.monitor.tick(time.monotonic(), self.sim_seconds() if simulated is None else simulated)
+        clock = self.sim_seconds()
+        self.monitor.tick(time.monotonic(), clock, clock if simulated is None else simulated)
 
     def rate_report(self) -> RateReport:
         """Return the achieved figures over the monitor's window."""
-        return self.monitor.report(time.monotonic())
+        return self.monitor.report(time.monotonic(), self.sim_seconds())
 
     def publish_status(self, force: bool = False) -> None:
         """Publish ~/status when anything a controller sees changed (or when forced: the heartbeat)."""
@@ -314,8 +361,8 @@ class ManagedDevice(LifecycleNode):
     def _behind_text(report: RateReport) -> str:
         return (
             f"behind real time: rate {report.achieved_rate:.3g} of {report.configured_rate:.3g} Hz, "
-            f"real-time factor {report.achieved_real_time_factor:.3g} of "
-            f"{report.configured_real_time_factor:.3g}"
+            f"simulated {report.keeping_pace:.3g} s per clock second, real-time factor "
+            f"{report.achieved_real_time_factor:.3g} of {report.configured_real_time_factor:.3g}"
         )
 
     # --- lifecycle transitions -------------------------------------------------------------------
@@ -457,11 +504,19 @@ class ManagedDevice(LifecycleNode):
     def _inject_configured_faults(self, values: dict[str, Any]) -> None:
         self.faults.clear()
         for index, entry in enumerate(e for e in values.get("inject_faults", []) if e):
-            name, value = parse_fault_parameter(entry, index)
-            if name not in self.FAULTS:
-                raise InputError(f"parameter inject_faults[{index}]", self._unknown_fault(name))
-            spec = self.FAULTS[name]
-            fault = ActiveFault(spec, value, bool(value), (), value, int(values.get("fault_seed", 0)))
+            parsed = parse_fault_parameter(entry, index)
+            if parsed.name not in self.FAULTS:
+                raise InputError(f"parameter inject_faults[{index}]", self._unknown_fault(parsed.name))
+            spec = self.FAULTS[parsed.name]
+            name = parsed.name
+            fault = ActiveFault(
+                spec,
+                parsed.value,
+                parsed.state,
+                parsed.indices,
+                parsed.angle,
+                int(values.get("fault_seed", 0)),
+            )
             try:
                 self.apply_fault(fault)
             except InputError as error:
@@ -516,6 +571,7 @@ class ManagedDevice(LifecycleNode):
             "achieved_rate_hz": f"{report.achieved_rate:.6g}",
             "configured_real_time_factor": f"{report.configured_real_time_factor:.6g}",
             "achieved_real_time_factor": f"{report.achieved_real_time_factor:.6g}",
+            "keeping_pace": f"{report.keeping_pace:.6g}",
             "behind_real_time": str(behind).lower(),
             "active_faults": ", ".join(f.label for f in self.faults.values()),
             **{
