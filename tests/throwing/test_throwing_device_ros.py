@@ -13,7 +13,6 @@ effect of a parameter or a fault on a throw is an exact number the test computes
 from __future__ import annotations
 
 import math
-import threading
 import time
 from pathlib import Path
 from typing import Any, Callable
@@ -54,46 +53,28 @@ def local_arm(edge: int = EDGE, radius: float = RADIUS, speed: float = PAPER["re
 
 
 # --- helpers --------------------------------------------------------------------------------------
-def latched() -> Any:
-    from feeder_planner.node_kit import LATCHED
-
-    return LATCHED
-
-
 def wait_for(
-    client: Any,
+    listen: Callable[..., Any],
     msg_type: Any,
     topic: str,
     accept: Callable[[Any], bool] = lambda m: True,
     timeout: float = 30.0,
-    qos: Any = None,
+    latched: bool = False,
 ) -> Any:
-    """Return the first message on ``topic`` that ``accept`` takes; fail with the last one seen."""
-    seen: list[Any] = []
-    done = threading.Event()
-
-    def on_message(msg: Any) -> None:
-        seen.append(msg)
-        if accept(msg):
-            done.set()
-
-    sub = client.create_subscription(msg_type, topic, on_message, qos if qos is not None else 50)
-    try:
-        done.wait(timeout)
-    finally:
-        client.destroy_subscription(sub)
-    assert done.is_set(), (
-        f"no accepted message on {topic} within {timeout} s; last: {seen[-1] if seen else None}"
-    )
-    return next(m for m in seen if accept(m))
+    """Return the first message on ``topic`` from now on (for a latched topic, the current one too)."""
+    return listen(msg_type, topic, latched).wait(accept, timeout, current=latched)
 
 
 def status(
-    client: Any, device: str, accept: Callable[[Any], bool] = lambda s: True, timeout: float = 30.0
+    listen: Callable[..., Any],
+    device: str,
+    accept: Callable[[Any], bool] = lambda s: True,
+    timeout: float = 30.0,
 ) -> Any:
+    """Return the first status from the current one on that ``accept`` takes."""
     from feeder_msgs.msg import DeviceStatus
 
-    return wait_for(client, DeviceStatus, f"{device}/status", accept, timeout, latched())
+    return wait_for(listen, DeviceStatus, f"{device}/status", accept, timeout, latched=True)
 
 
 def no_fault(msg: Any) -> bool:
@@ -107,7 +88,9 @@ def counters(msg: Any) -> dict[str, int]:
     return dict(zip(msg.counter_names, msg.counter_values, strict=True))
 
 
-def diagnostics(client: Any, device: str, accept: Callable[[Any], bool] = lambda s: True) -> Any:
+def diagnostics(
+    listen: Callable[..., Any], device: str, accept: Callable[[Any], bool] = lambda s: True
+) -> Any:
     """Return the first DiagnosticStatus of ``device`` on /diagnostics that ``accept`` takes."""
     from diagnostic_msgs.msg import DiagnosticArray
 
@@ -115,7 +98,7 @@ def diagnostics(client: Any, device: str, accept: Callable[[Any], bool] = lambda
         return next((s for s in msg.status if s.name == device), None)
 
     array = wait_for(
-        client, DiagnosticArray, "/diagnostics", lambda m: mine(m) is not None and accept(mine(m)), timeout=30
+        listen, DiagnosticArray, "/diagnostics", lambda m: mine(m) is not None and accept(mine(m)), timeout=30
     )
     return mine(array)
 
@@ -125,38 +108,23 @@ def values(diagnostic: Any) -> dict[str, str]:
 
 
 class Recorder:
-    """Subscriptions that keep every message of some topics, in arrival order, until closed."""
+    """The session listeners of some topics, read from a mark: what arrived since the recorder began."""
 
-    def __init__(self, client: Any, topics: dict[str, Any]) -> None:
-        self.client, self.lock = client, threading.Lock()
-        self.messages: dict[str, list[Any]] = {topic: [] for topic in topics}
-        self.subs = [
-            client.create_subscription(msg_type, topic, self._keeper(topic), 200)
-            for topic, msg_type in topics.items()
-        ]
-
-    def _keeper(self, topic: str) -> Callable[[Any], None]:
-        def keep(msg: Any) -> None:
-            with self.lock:
-                self.messages[topic].append(msg)
-
-        return keep
+    def __init__(self, listen: Callable[..., Any], topics: dict[str, Any]) -> None:
+        self.listeners = {topic: listen(msg_type, topic) for topic, msg_type in topics.items()}
+        self.marks = {topic: listener.count() for topic, listener in self.listeners.items()}
 
     def get(self, topic: str) -> list[Any]:
-        with self.lock:
-            return list(self.messages[topic])
+        return self.listeners[topic].since(self.marks[topic])
 
     def clear(self) -> None:
-        with self.lock:
-            for kept in self.messages.values():
-                kept.clear()
+        self.marks = {topic: listener.count() for topic, listener in self.listeners.items()}
 
     def window(self, seconds: float) -> dict[str, list[Any]]:
         """Forget what came before, then return what arrives over the next ``seconds``."""
         self.clear()
         time.sleep(seconds)
-        with self.lock:
-            return {topic: list(kept) for topic, kept in self.messages.items()}
+        return {topic: self.get(topic) for topic in self.listeners}
 
     def wait(self, topic: str, count: int, timeout: float = 30.0) -> list[Any]:
         deadline = time.monotonic() + timeout
@@ -165,12 +133,8 @@ class Recorder:
             time.sleep(0.02)
         return self.get(topic)
 
-    def close(self) -> None:
-        for sub in self.subs:
-            self.client.destroy_subscription(sub)
 
-
-def streams(client: Any, device: str) -> Recorder:
+def streams(listen: Callable[..., Any], device: str) -> Recorder:
     from geometry_msgs.msg import PoseStamped
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Bool
@@ -178,7 +142,7 @@ def streams(client: Any, device: str) -> Recorder:
     from feeder_msgs.msg import ThrowEvent
 
     return Recorder(
-        client,
+        listen,
         {
             f"{device}/sensor": Bool,
             f"{device}/joint_states": JointState,
@@ -260,7 +224,7 @@ def readings(recorder: Recorder, device: str, seconds: float = 1.0) -> list[bool
     ],
 )
 def test_bad_configuration_fails_configure_naming_it_and_the_node_keeps_answering(
-    launch_node, ros_client, bad, named
+    launch_node, ros_client, listen, bad, named
 ) -> None:
     from feeder_cell.lifecycle_client import LifecycleError
     from feeder_msgs.msg import DeviceStatus
@@ -273,7 +237,7 @@ def test_bad_configuration_fails_configure_naming_it_and_the_node_keeps_answerin
     with pytest.raises(LifecycleError, match="configure refused"):
         client.change("configure")
     assert client.get_state() == "unconfigured" and node.alive()
-    report = status(ros_client, device, lambda s: s.fault_code == DeviceStatus.FAULT_CONFIGURATION)
+    report = status(listen, device, lambda s: s.fault_code == DeviceStatus.FAULT_CONFIGURATION)
     assert report.state_name == "UNCONFIGURED" and not report.ready
     assert named in report.fault_text, report.fault_text
     for response in (command(ros_client, device, "throw", 1), place(ros_client, device)):
@@ -283,7 +247,9 @@ def test_bad_configuration_fails_configure_naming_it_and_the_node_keeps_answerin
 
 
 @pytest.mark.ros
-def test_a_bad_runtime_parameter_can_be_corrected_before_configuring_again(launch_node, ros_client) -> None:
+def test_a_bad_runtime_parameter_can_be_corrected_before_configuring_again(
+    launch_node, ros_client, listen
+) -> None:
     from feeder_cell.lifecycle_client import LifecycleError
 
     device = "/fix/throwing_arm"
@@ -293,18 +259,18 @@ def test_a_bad_runtime_parameter_can_be_corrected_before_configuring_again(launc
     client = lifecycle(ros_client, device)
     with pytest.raises(LifecycleError, match="configure refused"):
         client.change("configure")
-    assert "parameter period" in status(ros_client, device, lambda s: s.fault_code == 1).fault_text
+    assert "parameter period" in status(listen, device, lambda s: s.fault_code == 1).fault_text
     assert not set_parameter(ros_client, device, "period", 0.0).successful  # still checked when set
     assert set_parameter(ros_client, device, "period", 0.2).successful
     assert client.change("configure") == "inactive"
-    assert status(ros_client, device, lambda s: s.state_name == "PAUSED").fault_code == 0
+    assert status(listen, device, lambda s: s.state_name == "PAUSED").fault_code == 0
     assert client.change("activate") == "active"
-    assert status(ros_client, device, lambda s: s.state_name == "IDLE").ready
+    assert status(listen, device, lambda s: s.state_name == "IDLE").ready
 
 
 @pytest.mark.ros
 def test_deactivate_freezes_a_throw_in_flight_activate_resumes_it_and_cleanup_releases(
-    launch_node, ros_client
+    launch_node, ros_client, listen
 ) -> None:
     from geometry_msgs.msg import PoseStamped
 
@@ -314,54 +280,53 @@ def test_deactivate_freezes_a_throw_in_flight_activate_resumes_it_and_cleanup_re
         "feeder_sim", "throwing_arm", arm_parameters(period=4.0, motion_fraction=0.9), namespace="/life"
     )
     rest = local_arm().rest_pose()
-    recorder = streams(ros_client, device)
+    recorder = streams(listen, device)
     poses, events = f"{device}/part_pose", f"{device}/throw_events"
-    try:
-        recorder.wait(poses, 5)
-        assert command(ros_client, device, "throw", 1).ok
-        assert status(ros_client, device, lambda s: s.state_name == "RUNNING").busy
-        time.sleep(1.0)
-        client = lifecycle(ros_client, device)
-        assert client.change("deactivate") == "inactive"
-        paused = status(ros_client, device, lambda s: s.state_name == "PAUSED")
-        assert not paused.ready and not paused.busy
-        time.sleep(0.5)
-        frozen = recorder.get(poses)[-1].pose.position
-        assert math.hypot(frozen.x - rest[0], frozen.y - rest[1]) > 5e-3  # mid-air, centimetres up
-        assert recorder.window(2.0) == {topic: [] for topic in recorder.messages}  # nothing while paused
-        assert not command(ros_client, device, "throw", 1).ok
-        assert client.change("activate") == "active"
-        activated = time.monotonic()
-        resumed = recorder.wait(poses, 1)[0].pose.position
-        assert math.hypot(resumed.x - frozen.x, resumed.y - frozen.y) < 1e-2  # from where it froze
-        event = recorder.wait(events, 1, timeout=30)[0]
-        # 2.6 s of the window were left when it froze: the 2.5 s paused were not simulated.
-        assert time.monotonic() - activated > 1.5
-    finally:
-        recorder.close()
+    recorder.wait(poses, 5)
+    assert command(ros_client, device, "throw", 1).ok
+    assert status(listen, device, lambda s: s.state_name == "RUNNING").busy
+    time.sleep(1.0)
+    client = lifecycle(ros_client, device)
+    assert client.change("deactivate") == "inactive"
+    paused = status(listen, device, lambda s: s.state_name == "PAUSED")
+    assert not paused.ready and not paused.busy
+    time.sleep(0.5)
+    frozen = recorder.get(poses)[-1].pose.position
+    assert math.hypot(frozen.x - rest[0], frozen.y - rest[1]) > 5e-3  # mid-air, centimetres up
+    assert recorder.window(2.0) == {topic: [] for topic in recorder.listeners}  # nothing while paused
+    assert not command(ros_client, device, "throw", 1).ok
+    assert client.change("activate") == "active"
+    activated = time.monotonic()
+    resumed = recorder.wait(poses, 1)[0].pose.position
+    assert math.hypot(resumed.x - frozen.x, resumed.y - frozen.y) < 1e-2  # from where it froze
+    event = recorder.wait(events, 1, timeout=30)[0]
+    # 2.6 s of the window were left when it froze: the 2.5 s paused were not simulated.
+    assert time.monotonic() - activated > 1.5
     expected = local_arm().throw()
     assert (event.index, event.edge_after, event.radius_after) == (
         1,
         expected.edge_after,
         expected.radius_after,
     )
-    assert counters(status(ros_client, device, lambda s: s.state_name == "IDLE"))["throws"] == 1
+    assert counters(status(listen, device, lambda s: s.state_name == "IDLE"))["throws"] == 1
     # cleanup releases the model: unconfigured, commands refused; configure again starts afresh
     client = lifecycle(ros_client, device)
     assert client.change("deactivate") == "inactive" and client.change("cleanup") == "unconfigured"
-    unconfigured = status(ros_client, device, lambda s: s.state_name == "UNCONFIGURED")
+    unconfigured = status(listen, device, lambda s: s.state_name == "UNCONFIGURED")
     assert unconfigured.fault_code == 0 and list(unconfigured.counter_names) == []
     assert "UNCONFIGURED" in command(ros_client, device, "throw", 1).error
     assert client.bring_to("active") == "active"
-    again = status(ros_client, device, lambda s: s.state_name == "IDLE")
+    again = status(listen, device, lambda s: s.state_name == "IDLE")
     assert counters(again) == {"throws": 0, "faults": 0, "parts_presented": 0}
-    pose = wait_for(ros_client, PoseStamped, poses).pose.position
+    pose = wait_for(listen, PoseStamped, poses).pose.position
     assert (pose.x, pose.y) == pytest.approx(rest[:2], abs=1e-12)  # back at the initial state
 
 
 # --- status, diagnostics, stop/reset, parameters ----------------------------------------------------
 @pytest.mark.ros
-def test_status_and_diagnostics_report_state_counters_and_the_achieved_rate(launch_node, ros_client) -> None:
+def test_status_and_diagnostics_report_state_counters_and_the_achieved_rate(
+    launch_node, ros_client, listen
+) -> None:
     from diagnostic_msgs.msg import DiagnosticStatus
 
     device = "/stat/throwing_arm"
@@ -371,11 +336,11 @@ def test_status_and_diagnostics_report_state_counters_and_the_achieved_rate(laun
         arm_parameters(autostart=True, hardware_id="arm-7"),
         namespace="/stat",
     )
-    first = status(ros_client, device, lambda s: s.state_name == "RUNNING" and counters(s)["throws"] >= 1)
+    first = status(listen, device, lambda s: s.state_name == "RUNNING" and counters(s)["throws"] >= 1)
     assert first.ready and first.busy and no_fault(first) and list(first.active_faults) == []
     assert list(first.counter_names) == ["throws", "faults", "parts_presented"]
     time.sleep(6.0)  # the rate window is 5 s
-    last = status(ros_client, device, lambda s: s.achieved_rate > 0)
+    last = status(listen, device, lambda s: s.achieved_rate > 0)
     assert last.configured_rate == 50.0 and abs(last.achieved_rate - 50.0) < 5.0, last.achieved_rate
     assert last.configured_real_time_factor == 1.0
     assert abs(last.achieved_real_time_factor - 1.0) < 0.1
@@ -384,7 +349,7 @@ def test_status_and_diagnostics_report_state_counters_and_the_achieved_rate(laun
     assert last.behind_real_time == slow and (last.fault_code == 2) == slow
     # 0.2 s between throws for about 6 s: about 30 throws, none of them a fault
     assert 20 <= counters(last)["throws"] - counters(first)["throws"] <= 40 and counters(last)["faults"] == 0
-    diag = diagnostics(ros_client, device, lambda s: values(s).get("state") == "RUNNING")
+    diag = diagnostics(listen, device, lambda s: values(s).get("state") == "RUNNING")
     kv = values(diag)
     assert diag.hardware_id == "arm-7"
     if kv["behind_real_time"] == "true":  # a loaded machine: a warning with the achieved figures
@@ -396,7 +361,9 @@ def test_status_and_diagnostics_report_state_counters_and_the_achieved_rate(laun
 
 
 @pytest.mark.ros
-def test_commanded_throws_are_counted_stop_halts_and_reset_returns_to_idle(launch_node, ros_client) -> None:
+def test_commanded_throws_are_counted_stop_halts_and_reset_returns_to_idle(
+    launch_node, ros_client, listen
+) -> None:
     from diagnostic_msgs.msg import DiagnosticStatus
 
     device = "/cmd/throwing_arm"
@@ -411,73 +378,65 @@ def test_commanded_throws_are_counted_stop_halts_and_reset_returns_to_idle(launc
         presented.append(check.sensor(sensor_radius, HEIGHT))
     assert 1 <= sum(presented) < 6
     launch_node("feeder_sim", "throwing_arm", arm_parameters(sensor_radius=sensor_radius), namespace="/cmd")
-    recorder = streams(ros_client, device)
-    try:
-        events = throw_events(ros_client, device, recorder, 6)
-        idle = status(ros_client, device, lambda s: s.state_name == "IDLE" and counters(s)["throws"] == 6)
-        assert counters(idle) == {"throws": 6, "faults": 0, "parts_presented": sum(presented)}
-        assert [e.sensor_at_rest for e in events] == presented and [e.index for e in events] == list(
-            range(1, 7)
-        )
-        assert [e.radius_after for e in events] == [r.radius_after for r in rests]
-        assert all(e.header.frame_id == "cmd/arm_pivot" for e in events)
-        # start throws every period until ~/stop halts the device
-        assert command(ros_client, device, "start").ok
-        assert status(ros_client, device, lambda s: s.state_name == "RUNNING").busy
-        stopped = trigger(ros_client, device, "stop")
-        assert stopped.success
-        halted = status(ros_client, device, lambda s: s.state_name == "STOPPED")
-        assert not halted.ready and not halted.busy
-        throws = counters(halted)["throws"]
-        time.sleep(1.0)
-        assert counters(status(ros_client, device))["throws"] == throws  # nothing thrown while stopped
-        refused = command(ros_client, device, "throw", 1)
-        assert not refused.ok and "STOPPED" in refused.error and "~/reset" in refused.error
-        diag = diagnostics(ros_client, device, lambda s: values(s).get("state") == "STOPPED")
-        assert diag.level == DiagnosticStatus.WARN
-        reset = trigger(ros_client, device, "reset")
-        assert reset.success and reset.message == "reset: IDLE"
-        assert not status(ros_client, device, lambda s: s.state_name == "IDLE").busy  # start not resumed
-        assert len(throw_events(ros_client, device, recorder, 1)) == 1
-    finally:
-        recorder.close()
+    recorder = streams(listen, device)
+    events = throw_events(ros_client, device, recorder, 6)
+    idle = status(listen, device, lambda s: s.state_name == "IDLE" and counters(s)["throws"] == 6)
+    assert counters(idle) == {"throws": 6, "faults": 0, "parts_presented": sum(presented)}
+    assert [e.sensor_at_rest for e in events] == presented and [e.index for e in events] == list(range(1, 7))
+    assert [e.radius_after for e in events] == [r.radius_after for r in rests]
+    assert all(e.header.frame_id == "cmd/arm_pivot" for e in events)
+    # start throws every period until ~/stop halts the device
+    assert command(ros_client, device, "start").ok
+    assert status(listen, device, lambda s: s.state_name == "RUNNING").busy
+    stopped = trigger(ros_client, device, "stop")
+    assert stopped.success
+    halted = status(listen, device, lambda s: s.state_name == "STOPPED")
+    assert not halted.ready and not halted.busy
+    throws = counters(halted)["throws"]
+    time.sleep(1.0)
+    assert counters(status(listen, device))["throws"] == throws  # nothing thrown while stopped
+    refused = command(ros_client, device, "throw", 1)
+    assert not refused.ok and "STOPPED" in refused.error and "~/reset" in refused.error
+    diag = diagnostics(listen, device, lambda s: values(s).get("state") == "STOPPED")
+    assert diag.level == DiagnosticStatus.WARN
+    reset = trigger(ros_client, device, "reset")
+    assert reset.success and reset.message == "reset: IDLE"
+    assert not status(listen, device, lambda s: s.state_name == "IDLE").busy  # start not resumed
+    assert len(throw_events(ros_client, device, recorder, 1)) == 1
 
 
 @pytest.mark.ros
-def test_runtime_parameters_are_applied_and_read_only_ones_refused(launch_node, ros_client) -> None:
+def test_runtime_parameters_are_applied_and_read_only_ones_refused(launch_node, ros_client, listen) -> None:
     device = "/param/throwing_arm"
     launch_node("feeder_sim", "throwing_arm", arm_parameters(), namespace="/param")
-    recorder = streams(ros_client, device)
-    try:
-        faster = PAPER["release_speed"] * 1.05
-        assert set_parameter(ros_client, device, "release_speed", faster).successful
-        event = throw_events(ros_client, device, recorder, 1)[0]
-        expected, nominal = local_arm(speed=faster).throw(), local_arm().throw()
-        assert (event.edge_after, event.radius_after) == (expected.edge_after, expected.radius_after)
-        assert event.radius_after != nominal.radius_after  # the new W, not the configured one
-        assert place(ros_client, device).ok
-        assert readings(recorder, device) and not any(readings(recorder, device))  # sensor at 35 cm
-        assert set_parameter(ros_client, device, "sensor_radius", SEES).successful
-        seen = readings(recorder, device)
-        assert len(seen) >= 10 and all(seen)  # the sensor moved under the part at once
-        refused = set_parameter(ros_client, device, "offset", -0.004)
-        assert not refused.successful and "read-only" in refused.reason
-        for name in ("gravity", "fidelity", "part_file", "sensor_rate", "inject_faults"):
-            value = {"gravity": -9.81, "fidelity": "dynamic", "part_file": "x.yaml", "sensor_rate": 10.0}.get(
-                name, ["motor_fault"]
-            )
-            assert not set_parameter(ros_client, device, name, value).successful, name
-        bad = set_parameter(ros_client, device, "sensing_height", -1.0)
-        assert not bad.successful and "sensing_height" in bad.reason
-        assert not set_parameter(ros_client, device, "release_speed", 0.0).successful
-        event = throw_events(ros_client, device, recorder, 1)[0]  # still at the applied W
-        assert event.radius_after == local_arm(speed=faster).throw().radius_after
-    finally:
-        recorder.close()
+    recorder = streams(listen, device)
+    faster = PAPER["release_speed"] * 1.05
+    assert set_parameter(ros_client, device, "release_speed", faster).successful
+    event = throw_events(ros_client, device, recorder, 1)[0]
+    expected, nominal = local_arm(speed=faster).throw(), local_arm().throw()
+    assert (event.edge_after, event.radius_after) == (expected.edge_after, expected.radius_after)
+    assert event.radius_after != nominal.radius_after  # the new W, not the configured one
+    assert place(ros_client, device).ok
+    assert readings(recorder, device) and not any(readings(recorder, device))  # sensor at 35 cm
+    assert set_parameter(ros_client, device, "sensor_radius", SEES).successful
+    seen = readings(recorder, device)
+    assert len(seen) >= 10 and all(seen)  # the sensor moved under the part at once
+    refused = set_parameter(ros_client, device, "offset", -0.004)
+    assert not refused.successful and "read-only" in refused.reason
+    for name in ("gravity", "fidelity", "part_file", "sensor_rate", "inject_faults"):
+        value = {"gravity": -9.81, "fidelity": "dynamic", "part_file": "x.yaml", "sensor_rate": 10.0}.get(
+            name, ["motor_fault"]
+        )
+        assert not set_parameter(ros_client, device, name, value).successful, name
+    bad = set_parameter(ros_client, device, "sensing_height", -1.0)
+    assert not bad.successful and "sensing_height" in bad.reason
+    assert not set_parameter(ros_client, device, "release_speed", 0.0).successful
+    event = throw_events(ros_client, device, recorder, 1)[0]  # still at the applied W
+    assert event.radius_after == local_arm(speed=faster).throw().radius_after
 
 
 @pytest.mark.ros
-def test_a_namespaced_arm_and_its_planner_keep_to_their_namespace(launch_node, ros_client) -> None:
+def test_a_namespaced_arm_and_its_planner_keep_to_their_namespace(launch_node, ros_client, listen) -> None:
     from feeder_msgs.srv import ThrowCompute
     from feeder_planner.node_kit.msg_parts import part_to_msg
 
@@ -490,12 +449,9 @@ def test_a_namespaced_arm_and_its_planner_keep_to_their_namespace(launch_node, r
         namespace=namespace,
         wait_services=(f"{namespace}/throw_planner/throw",),
     )
-    recorder = streams(ros_client, device)
-    try:
-        event = throw_events(ros_client, device, recorder, 1)[0]
-        pose = recorder.wait(f"{device}/part_pose", 1)[-1]
-    finally:
-        recorder.close()
+    recorder = streams(listen, device)
+    event = throw_events(ros_client, device, recorder, 1)[0]
+    pose = recorder.wait(f"{device}/part_pose", 1)[-1]
     assert event.header.frame_id == pose.header.frame_id == "cell/feeder_t/arm_pivot"
     import yaml
 
@@ -512,12 +468,14 @@ def test_a_namespaced_arm_and_its_planner_keep_to_their_namespace(launch_node, r
         assert f"{device}/{name}" in services
     assert not any(s.startswith("/throw_planner/") for s in services)
     assert ros_client.get_publishers_info_by_topic("/clock") == []  # no device publishes /clock
-    assert diagnostics(ros_client, device).hardware_id == f"sim:{device}"
+    assert diagnostics(listen, device).hardware_id == f"sim:{device}"
 
 
 # --- one clock --------------------------------------------------------------------------------------
 @pytest.mark.ros
-def test_node_clock_time_under_a_stepped_cell_clock_and_the_cap_per_tick(launch_node, ros_client) -> None:
+def test_node_clock_time_under_a_stepped_cell_clock_and_the_cap_per_tick(
+    launch_node, ros_client, listen
+) -> None:
     from builtin_interfaces.msg import Duration
 
     from feeder_msgs.srv import StepClock
@@ -546,7 +504,7 @@ def test_node_clock_time_under_a_stepped_cell_clock_and_the_cap_per_tick(launch_
         arm_parameters(use_sim_time=True, autostart=True, sensor_rate=20.0, motion_fraction=0.3),
         namespace="/clock",
     )
-    recorder = streams(ros_client, device)
+    recorder = streams(listen, device)
     joints, events = f"{device}/joint_states", f"{device}/throw_events"
 
     def tick(seconds: float) -> int:
@@ -558,22 +516,19 @@ def test_node_clock_time_under_a_stepped_cell_clock_and_the_cap_per_tick(launch_
             time.sleep(0.005)
         return now
 
-    try:
-        time.sleep(1.0)
-        assert recorder.get(joints) == []  # a held clock: no tick, nothing simulated
-        ticks = [tick(0.05) for _ in range(20)]
-        time.sleep(0.3)
-        stamps = [stamp(m) for m in recorder.get(joints)]
-        thrown = recorder.get(events)
-        # The cap: at most 10 periods (0.5 s here) of simulated time per tick. With a throw every 2 s,
-        # shown for 1.8 s, 5 s steps advance the model 0.5 s each: a throw and its landing take 5 ticks.
-        assert set_parameter(ros_client, device, "period", 2.0).successful
-        assert set_parameter(ros_client, device, "motion_fraction", 0.9).successful
-        big = [tick(5.0) for _ in range(14)]
-        time.sleep(0.3)
-        late = recorder.get(events)[len(thrown) :]
-    finally:
-        recorder.close()
+    time.sleep(1.0)
+    assert recorder.get(joints) == []  # a held clock: no tick, nothing simulated
+    ticks = [tick(0.05) for _ in range(20)]
+    time.sleep(0.3)
+    stamps = [stamp(m) for m in recorder.get(joints)]
+    thrown = recorder.get(events)
+    # The cap: at most 10 periods (0.5 s here) of simulated time per tick. With a throw every 2 s,
+    # shown for 1.8 s, 5 s steps advance the model 0.5 s each: a throw and its landing take 5 ticks.
+    assert set_parameter(ros_client, device, "period", 2.0).successful
+    assert set_parameter(ros_client, device, "motion_fraction", 0.9).successful
+    big = [tick(5.0) for _ in range(14)]
+    time.sleep(0.3)
+    late = recorder.get(events)[len(thrown) :]
     # Stamps are the stepped clock's, one tick per step, from its start (not from 0).
     assert (
         stamps == ticks
@@ -589,7 +544,7 @@ def test_node_clock_time_under_a_stepped_cell_clock_and_the_cap_per_tick(launch_
 
 # --- injected faults, one test each -----------------------------------------------------------------
 @pytest.mark.ros
-def test_sensor_stuck_reads_its_state_whatever_is_there(launch_node, ros_client) -> None:
+def test_sensor_stuck_reads_its_state_whatever_is_there(launch_node, ros_client, listen) -> None:
     device = "/stuck/throwing_arm"
     launch_node(
         "feeder_sim",
@@ -597,177 +552,157 @@ def test_sensor_stuck_reads_its_state_whatever_is_there(launch_node, ros_client)
         arm_parameters(inject_faults=["sensor_stuck=true"]),  # set at configure from the parameter
         namespace="/stuck",
     )
-    recorder = streams(ros_client, device)
-    try:
-        report = status(ros_client, device, lambda s: s.state_name == "IDLE")
-        assert list(report.active_faults) == ["sensor_stuck"] and no_fault(report) and report.ready
-        assert values(diagnostics(ros_client, device))["active_faults"] == "sensor_stuck"
-        seen = readings(recorder, device)
-        assert len(seen) >= 10 and all(seen)  # true though the sensor at 35 cm sees nothing
-        assert inject(ros_client, device, "sensor_stuck", clear=True).ok
-        assert list(status(ros_client, device, lambda s: not s.active_faults).active_faults) == []
-        assert not any(readings(recorder, device))
-        assert set_parameter(ros_client, device, "sensor_radius", SEES).successful
-        assert all(readings(recorder, device))  # the part is seen again
-        response = inject(ros_client, device, "sensor_stuck", state=False)
-        assert response.ok and list(response.active_faults) == ["sensor_stuck"]
-        assert not any(readings(recorder, device))  # stuck at false over the part
-        assert trigger(ros_client, device, "reset").success  # ~/reset clears it too
-        assert all(readings(recorder, device))
-    finally:
-        recorder.close()
+    recorder = streams(listen, device)
+    report = status(listen, device, lambda s: s.state_name == "IDLE")
+    assert list(report.active_faults) == ["sensor_stuck"] and no_fault(report) and report.ready
+    assert values(diagnostics(listen, device))["active_faults"] == "sensor_stuck"
+    seen = readings(recorder, device)
+    assert len(seen) >= 10 and all(seen)  # true though the sensor at 35 cm sees nothing
+    assert inject(ros_client, device, "sensor_stuck", clear=True).ok
+    assert list(status(listen, device, lambda s: not s.active_faults).active_faults) == []
+    assert not any(readings(recorder, device))
+    assert set_parameter(ros_client, device, "sensor_radius", SEES).successful
+    assert all(readings(recorder, device))  # the part is seen again
+    response = inject(ros_client, device, "sensor_stuck", state=False)
+    assert response.ok and list(response.active_faults) == ["sensor_stuck"]
+    assert not any(readings(recorder, device))  # stuck at false over the part
+    assert trigger(ros_client, device, "reset").success  # ~/reset clears it too
+    assert all(readings(recorder, device))
 
 
 @pytest.mark.ros
-def test_sensor_dropout_drops_samples_with_its_probability(launch_node, ros_client) -> None:
+def test_sensor_dropout_drops_samples_with_its_probability(launch_node, ros_client, listen) -> None:
     device = "/drop/throwing_arm"
     launch_node("feeder_sim", "throwing_arm", arm_parameters(sensor_radius=SEES), namespace="/drop")
-    recorder = streams(ros_client, device)
+    recorder = streams(listen, device)
     sensor, joints = f"{device}/sensor", f"{device}/joint_states"
-    try:
-        for bad, field in (({"value": 1.5}, "value"), ({"indices": [4]}, "indices")):
-            response = inject(ros_client, device, "sensor_dropout", **bad)
-            assert not response.ok and field in response.error and list(response.active_faults) == []
-        unknown = inject(ros_client, device, "wobble")
-        assert not unknown.ok and "fault" in unknown.error and "sensor_dropout" in unknown.error
-        assert inject(ros_client, device, "sensor_dropout", value=1.0).ok
-        time.sleep(0.2)
-        got = recorder.window(1.5)
-        assert got[sensor] == [] and len(got[joints]) >= 20  # every sample missing, the arm still ticks
-        assert inject(ros_client, device, "sensor_dropout", value=0.5, seed=7).ok
-        assert list(
-            status(ros_client, device, lambda s: "sensor_dropout(0.5)" in s.active_faults).active_faults
-        )
-        time.sleep(0.2)
-        got = recorder.window(3.0)
-        share = len(got[sensor]) / len(got[joints])
-        assert 0.3 < share < 0.7 and all(m.data for m in got[sensor]), share  # missing, never wrong
-        assert inject(ros_client, device, "sensor_dropout", clear=True).ok
-        time.sleep(0.2)
-        got = recorder.window(1.5)
-        assert len(got[sensor]) >= 0.9 * len(got[joints]) > 0
-    finally:
-        recorder.close()
+    for bad, field in (({"value": 1.5}, "value"), ({"indices": [4]}, "indices")):
+        response = inject(ros_client, device, "sensor_dropout", **bad)
+        assert not response.ok and field in response.error and list(response.active_faults) == []
+    unknown = inject(ros_client, device, "wobble")
+    assert not unknown.ok and "fault" in unknown.error and "sensor_dropout" in unknown.error
+    assert inject(ros_client, device, "sensor_dropout", value=1.0).ok
+    time.sleep(0.2)
+    got = recorder.window(1.5)
+    assert got[sensor] == [] and len(got[joints]) >= 20  # every sample missing, the arm still ticks
+    assert inject(ros_client, device, "sensor_dropout", value=0.5, seed=7).ok
+    assert list(status(listen, device, lambda s: "sensor_dropout(0.5)" in s.active_faults).active_faults)
+    time.sleep(0.2)
+    got = recorder.window(3.0)
+    share = len(got[sensor]) / len(got[joints])
+    assert 0.3 < share < 0.7 and all(m.data for m in got[sensor]), share  # missing, never wrong
+    assert inject(ros_client, device, "sensor_dropout", clear=True).ok
+    time.sleep(0.2)
+    got = recorder.window(1.5)
+    assert len(got[sensor]) >= 0.9 * len(got[joints]) > 0
 
 
 @pytest.mark.ros
-def test_sensor_bit_flip_inverts_the_published_bit(launch_node, ros_client) -> None:
+def test_sensor_bit_flip_inverts_the_published_bit(launch_node, ros_client, listen) -> None:
     device = "/flip/throwing_arm"
     launch_node("feeder_sim", "throwing_arm", arm_parameters(), namespace="/flip")
-    recorder = streams(ros_client, device)
-    try:
-        assert inject(ros_client, device, "sensor_bit_flip", value=1.0).ok
-        assert all(readings(recorder, device))  # nothing there: every bit reads true
-        assert set_parameter(ros_client, device, "sensor_radius", SEES).successful
-        assert not any(readings(recorder, device))  # the part there: every bit reads false (not stuck)
-        assert inject(ros_client, device, "sensor_bit_flip", value=0.3, seed=11).ok
-        seen = readings(recorder, device, 3.0)
-        share = seen.count(False) / len(seen)
-        assert 0.1 < share < 0.5, share
-        assert inject(ros_client, device, "sensor_bit_flip", clear=True).ok
-        assert all(readings(recorder, device))
-    finally:
-        recorder.close()
+    recorder = streams(listen, device)
+    assert inject(ros_client, device, "sensor_bit_flip", value=1.0).ok
+    assert all(readings(recorder, device))  # nothing there: every bit reads true
+    assert set_parameter(ros_client, device, "sensor_radius", SEES).successful
+    assert not any(readings(recorder, device))  # the part there: every bit reads false (not stuck)
+    assert inject(ros_client, device, "sensor_bit_flip", value=0.3, seed=11).ok
+    seen = readings(recorder, device, 3.0)
+    share = seen.count(False) / len(seen)
+    assert 0.1 < share < 0.5, share
+    assert inject(ros_client, device, "sensor_bit_flip", clear=True).ok
+    assert all(readings(recorder, device))
 
 
 @pytest.mark.ros
-def test_release_speed_error_scales_w_per_throw_fixed_or_drawn_with_its_seed(launch_node, ros_client) -> None:
+def test_release_speed_error_scales_w_per_throw_fixed_or_drawn_with_its_seed(
+    launch_node, ros_client, listen
+) -> None:
     device = "/speed/throwing_arm"
     launch_node("feeder_sim", "throwing_arm", arm_parameters(), namespace="/speed")
-    recorder = streams(ros_client, device)
-    try:
-        bad = inject(ros_client, device, "release_speed_error", value=-1.0, state=True)
-        assert not bad.ok and "value" in bad.error
-        response = inject(ros_client, device, "release_speed_error", value=0.1, state=True)
-        assert response.ok and list(response.active_faults) == ["release_speed_error(0.1)"]
-        fixed = throw_events(ros_client, device, recorder, 1)[0]
-        model = local_arm()
-        expected = model.throw(1.1)
-        assert (fixed.edge_after, fixed.radius_after) == (expected.edge_after, expected.radius_after)
-        assert fixed.radius_after != local_arm().throw().radius_after
-        # drawn: e ~ Normal(0, 0.05) per throw from the fault's seed, the same draws as the model's
-        assert inject(ros_client, device, "release_speed_error", value=0.05, seed=3).ok
-        drawn = throw_events(ros_client, device, recorder, 3)
-        faults = ArmFaults(model)
-        faults.inject("release_speed_error", 0.05, False, (), 3)
-        expected_drawn = [faults.throw() for _ in range(3)]
-        assert [e.radius_after for e in drawn] == [o.radius_after for o in expected_drawn]
-        assert inject(ros_client, device, "release_speed_error", clear=True).ok
-        after = throw_events(ros_client, device, recorder, 1)[0]
-        assert after.radius_after == model.throw().radius_after  # nominal W again
-    finally:
-        recorder.close()
+    recorder = streams(listen, device)
+    bad = inject(ros_client, device, "release_speed_error", value=-1.0, state=True)
+    assert not bad.ok and "value" in bad.error
+    response = inject(ros_client, device, "release_speed_error", value=0.1, state=True)
+    assert response.ok and list(response.active_faults) == ["release_speed_error(0.1)"]
+    fixed = throw_events(ros_client, device, recorder, 1)[0]
+    model = local_arm()
+    expected = model.throw(1.1)
+    assert (fixed.edge_after, fixed.radius_after) == (expected.edge_after, expected.radius_after)
+    assert fixed.radius_after != local_arm().throw().radius_after
+    # drawn: e ~ Normal(0, 0.05) per throw from the fault's seed, the same draws as the model's
+    assert inject(ros_client, device, "release_speed_error", value=0.05, seed=3).ok
+    drawn = throw_events(ros_client, device, recorder, 3)
+    faults = ArmFaults(model)
+    faults.inject("release_speed_error", 0.05, False, (), 3)
+    expected_drawn = [faults.throw() for _ in range(3)]
+    assert [e.radius_after for e in drawn] == [o.radius_after for o in expected_drawn]
+    assert inject(ros_client, device, "release_speed_error", clear=True).ok
+    after = throw_events(ros_client, device, recorder, 1)[0]
+    assert after.radius_after == model.throw().radius_after  # nominal W again
 
 
 @pytest.mark.ros
-def test_motor_fault_stops_the_arm_and_refuses_throws_until_cleared(launch_node, ros_client) -> None:
+def test_motor_fault_stops_the_arm_and_refuses_throws_until_cleared(launch_node, ros_client, listen) -> None:
     from diagnostic_msgs.msg import DiagnosticStatus
 
     from feeder_msgs.msg import DeviceStatus
 
     device = "/motor/throwing_arm"
     launch_node("feeder_sim", "throwing_arm", arm_parameters(autostart=True), namespace="/motor")
-    recorder = streams(ros_client, device)
-    try:
-        status(ros_client, device, lambda s: s.state_name == "RUNNING" and counters(s)["throws"] >= 2)
-        assert inject(ros_client, device, "motor_fault").ok
-        fault = status(
-            ros_client, device, lambda s: s.state_name == "FAULT" and not s.busy
-        )  # queue cancelled
-        assert fault.fault_code == DeviceStatus.FAULT_MOTOR and not fault.ready
-        assert "motor_fault" in fault.fault_text and list(fault.active_faults) == ["motor_fault"]
-        diag = diagnostics(ros_client, device, lambda s: values(s).get("state") == "FAULT")
-        assert diag.level == DiagnosticStatus.ERROR and "motor_fault" in diag.message
-        time.sleep(0.5)  # a throw already in the air lands
-        throws = counters(status(ros_client, device))["throws"]
-        got = recorder.window(1.5)
-        assert got[f"{device}/throw_events"] == [] and len(got[f"{device}/joint_states"]) >= 20
-        assert all(j.velocity[0] == 0.0 for j in got[f"{device}/joint_states"])  # the arm does not move
-        refused = command(ros_client, device, "throw", 1)
-        assert not refused.ok and "FAULT" in refused.error and "motor_fault" in refused.error
-        assert counters(status(ros_client, device))["throws"] == throws
-        assert inject(ros_client, device, "motor_fault", clear=True).ok
-        idle = status(ros_client, device, lambda s: s.state_name == "IDLE")
-        assert no_fault(idle) and counters(idle)["faults"] == 1 and not idle.busy  # start cancelled
-        assert len(throw_events(ros_client, device, recorder, 1)) == 1
-    finally:
-        recorder.close()
+    recorder = streams(listen, device)
+    status(listen, device, lambda s: s.state_name == "RUNNING" and counters(s)["throws"] >= 2)
+    assert inject(ros_client, device, "motor_fault").ok
+    fault = status(listen, device, lambda s: s.state_name == "FAULT" and not s.busy)  # queue cancelled
+    assert fault.fault_code == DeviceStatus.FAULT_MOTOR and not fault.ready
+    assert "motor_fault" in fault.fault_text and list(fault.active_faults) == ["motor_fault"]
+    diag = diagnostics(listen, device, lambda s: values(s).get("state") == "FAULT")
+    assert diag.level == DiagnosticStatus.ERROR and "motor_fault" in diag.message
+    time.sleep(0.5)  # a throw already in the air lands
+    throws = counters(status(listen, device))["throws"]
+    got = recorder.window(1.5)
+    assert got[f"{device}/throw_events"] == [] and len(got[f"{device}/joint_states"]) >= 20
+    assert all(j.velocity[0] == 0.0 for j in got[f"{device}/joint_states"])  # the arm does not move
+    refused = command(ros_client, device, "throw", 1)
+    assert not refused.ok and "FAULT" in refused.error and "motor_fault" in refused.error
+    assert counters(status(listen, device))["throws"] == throws
+    assert inject(ros_client, device, "motor_fault", clear=True).ok
+    idle = status(listen, device, lambda s: s.state_name == "IDLE")
+    assert no_fault(idle) and counters(idle)["faults"] == 1 and not idle.busy  # start cancelled
+    assert len(throw_events(ros_client, device, recorder, 1)) == 1
 
 
 @pytest.mark.ros
-def test_part_lost_takes_the_part_off_until_place_part_puts_it_back(launch_node, ros_client) -> None:
+def test_part_lost_takes_the_part_off_until_place_part_puts_it_back(launch_node, ros_client, listen) -> None:
     from feeder_msgs.msg import DeviceStatus
 
     device = "/lost/throwing_arm"
     launch_node("feeder_sim", "throwing_arm", arm_parameters(sensor_radius=SEES), namespace="/lost")
-    recorder = streams(ros_client, device)
+    recorder = streams(listen, device)
     sensor, poses, joints = f"{device}/sensor", f"{device}/part_pose", f"{device}/joint_states"
-    try:
-        assert all(readings(recorder, device))
-        assert inject(ros_client, device, "part_lost").ok
-        lost = status(ros_client, device, lambda s: s.state_name == "FAULT")
-        assert lost.fault_code == DeviceStatus.FAULT_PART_LOST and "part_lost" in lost.fault_text
-        time.sleep(0.2)
-        got = recorder.window(1.5)
-        assert got[sensor] and not any(m.data for m in got[sensor])  # nothing on the arm to sense
-        assert got[poses] == [] and len(got[joints]) >= 20  # no part to locate; the arm still reports
-        assert "FAULT" in command(ros_client, device, "throw", 1).error
-        # Clearing the injection or ~/reset does not put the part back: still FAULT_PART_LOST.
-        assert inject(ros_client, device, "part_lost", clear=True).ok
-        held = status(ros_client, device, lambda s: not s.active_faults)
-        assert held.state_name == "FAULT" and held.fault_code == DeviceStatus.FAULT_PART_LOST
-        assert "place_part" in held.fault_text
-        assert trigger(ros_client, device, "reset").success
-        held = status(ros_client, device)
-        assert held.state_name == "FAULT" and held.fault_code == DeviceStatus.FAULT_PART_LOST
-        assert not command(ros_client, device, "throw", 1).ok
-        bad = place(ros_client, device, EDGE, 0.001)
-        assert not bad.ok and "radius" in bad.error
-        assert place(ros_client, device).ok
-        idle = status(ros_client, device, lambda s: s.state_name == "IDLE")
-        assert no_fault(idle) and counters(idle)["faults"] == 1
-        assert all(readings(recorder, device)) and recorder.wait(poses, 1)
-        event = throw_events(ros_client, device, recorder, 1)[0]
-        assert not event.fault and event.radius_after == local_arm().throw().radius_after
-    finally:
-        recorder.close()
+    assert all(readings(recorder, device))
+    assert inject(ros_client, device, "part_lost").ok
+    lost = status(listen, device, lambda s: s.state_name == "FAULT")
+    assert lost.fault_code == DeviceStatus.FAULT_PART_LOST and "part_lost" in lost.fault_text
+    time.sleep(0.2)
+    got = recorder.window(1.5)
+    assert got[sensor] and not any(m.data for m in got[sensor])  # nothing on the arm to sense
+    assert got[poses] == [] and len(got[joints]) >= 20  # no part to locate; the arm still reports
+    assert "FAULT" in command(ros_client, device, "throw", 1).error
+    # Clearing the injection or ~/reset does not put the part back: still FAULT_PART_LOST.
+    assert inject(ros_client, device, "part_lost", clear=True).ok
+    held = status(listen, device, lambda s: not s.active_faults)
+    assert held.state_name == "FAULT" and held.fault_code == DeviceStatus.FAULT_PART_LOST
+    assert "place_part" in held.fault_text
+    assert trigger(ros_client, device, "reset").success
+    held = status(listen, device)
+    assert held.state_name == "FAULT" and held.fault_code == DeviceStatus.FAULT_PART_LOST
+    assert not command(ros_client, device, "throw", 1).ok
+    bad = place(ros_client, device, EDGE, 0.001)
+    assert not bad.ok and "radius" in bad.error
+    assert place(ros_client, device).ok
+    idle = status(listen, device, lambda s: s.state_name == "IDLE")
+    assert no_fault(idle) and counters(idle)["faults"] == 1
+    assert all(readings(recorder, device)) and recorder.wait(poses, 1)
+    event = throw_events(ros_client, device, recorder, 1)[0]
+    assert not event.fault and event.radius_after == local_arm().throw().radius_after

@@ -49,26 +49,11 @@ def _trigger(ros_client):
     )
 
 
-def _status(ros_client, accept, device: str = "/throwing_arm", timeout: float = 30.0):
-    """Return the first ~/status of the device that ``accept`` takes (latched: the current one first)."""
+def _status(listen, accept, device: str = "/throwing_arm", timeout: float = 30.0):
+    """Return the first ~/status of the device from the current one on that ``accept`` takes."""
     from feeder_msgs.msg import DeviceStatus
-    from feeder_planner.node_kit import LATCHED
 
-    seen, done = [], threading.Event()
-
-    def on_status(msg):
-        seen.append(msg)
-        if accept(msg):
-            done.set()
-
-    sub = ros_client.create_subscription(DeviceStatus, f"{device}/status", on_status, LATCHED)
-    try:
-        assert done.wait(timeout), (
-            f"no accepted status within {timeout} s; last: {seen[-1] if seen else None}"
-        )
-    finally:
-        ros_client.destroy_subscription(sub)
-    return next(m for m in seen if accept(m))
+    return listen(DeviceStatus, f"{device}/status", latched=True).wait(accept, timeout, current=True)
 
 
 def _wait_for(condition, timeout: float, what: str):
@@ -199,7 +184,7 @@ def test_sensor_at_planned_radius_reads_true_only_on_goal_edge_and_every_cycle(
 
 
 @pytest.mark.ros
-def test_sim_faults_when_part_leaves_arm_and_runtime_parameters(ros_client, launch_node):
+def test_sim_faults_when_part_leaves_arm_and_runtime_parameters(ros_client, launch_node, listen):
     from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
     from rcl_interfaces.srv import SetParameters
     from std_srvs.srv import Trigger
@@ -240,23 +225,22 @@ def test_sim_faults_when_part_leaves_arm_and_runtime_parameters(ros_client, laun
         ros_client, ArmPlacePart, "/throwing_arm/place_part", ArmPlacePart.Request(edge=1, radius=0.17)
     )
     assert ok.ok, ok.error
-    got = []
-    sub = ros_client.create_subscription(ThrowEvent, "/throwing_arm/throw_events", got.append, 50)
-    try:
-        reply = ros_harness.call_service(
-            ros_client, ArmCommand, "/throwing_arm/command", ArmCommand.Request(command="throw", count=20)
-        )
-        assert reply.ok, reply.error
-        deadline = time.monotonic() + 20
-        while time.monotonic() < deadline and not any(ev.fault for ev in got):
-            time.sleep(0.1)
-    finally:
-        ros_client.destroy_subscription(sub)
+    events = listen(ThrowEvent, "/throwing_arm/throw_events")
+    mark = events.count()
+    reply = ros_harness.call_service(
+        ros_client, ArmCommand, "/throwing_arm/command", ArmCommand.Request(command="throw", count=20)
+    )
+    assert reply.ok, reply.error
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline and not any(ev.fault for ev in events.since(mark)):
+        time.sleep(0.1)
+    time.sleep(0.5)  # a throw after the fault would show by now
+    got = events.since(mark)
     faults = [ev for ev in got if ev.fault]
     assert faults and "left the arm" in faults[0].fault_reason and faults[0].kind == "fault"
     assert len(faults) == 1 and got[-1].fault  # the fault stopped the arm: no throw after it
     # The model's fault is the device's: FAULT_PART_LOST, throws refused until the part is placed again.
-    report = _status(ros_client, lambda s: s.state_name == "FAULT")
+    report = _status(listen, lambda s: s.state_name == "FAULT")
     assert report.fault_code == DeviceStatus.FAULT_PART_LOST and "left the arm" in report.fault_text
     counts = dict(zip(report.counter_names, report.counter_values, strict=True))
     assert counts["faults"] == 1 and counts["throws"] == len(got)
@@ -270,7 +254,7 @@ def test_sim_faults_when_part_leaves_arm_and_runtime_parameters(ros_client, laun
         ros_client, ArmPlacePart, "/throwing_arm/place_part", ArmPlacePart.Request(edge=1, radius=0.12)
     )
     assert ok.ok, ok.error
-    idle = _status(ros_client, lambda s: s.state_name == "IDLE")
+    idle = _status(listen, lambda s: s.state_name == "IDLE")
     assert idle.ready and idle.fault_code != DeviceStatus.FAULT_PART_LOST
 
     # Runtime parameters: a bad sensor radius is refused, a good one accepted; the node lives on.
@@ -440,7 +424,7 @@ def test_planner_limit_set_and_design_services_match_the_cli_library(planner, ro
 
 
 @pytest.mark.ros
-def test_dynamic_fidelity_node_throws_on_command(ros_client, launch_node):
+def test_dynamic_fidelity_node_throws_on_command(ros_client, launch_node, listen):
     from feeder_msgs.msg import ThrowEvent
     from feeder_msgs.srv import ArmCommand
 
@@ -459,18 +443,16 @@ def test_dynamic_fidelity_node_throws_on_command(ros_client, launch_node):
         wait_services=("/throwing_arm/command",),
         wait_topics=("/throwing_arm/throw_events",),
     )
-    got = []
-    sub = ros_client.create_subscription(ThrowEvent, "/throwing_arm/throw_events", got.append, 50)
-    try:
-        reply = ros_harness.call_service(
-            ros_client, ArmCommand, "/throwing_arm/command", ArmCommand.Request(command="throw", count=3)
-        )
-        assert reply.ok and reply.pending == 3
-        deadline = time.monotonic() + 30
-        while time.monotonic() < deadline and len(got) < 3:
-            time.sleep(0.1)
-    finally:
-        ros_client.destroy_subscription(sub)
+    events = listen(ThrowEvent, "/throwing_arm/throw_events")
+    mark = events.count()
+    reply = ros_harness.call_service(
+        ros_client, ArmCommand, "/throwing_arm/command", ArmCommand.Request(command="throw", count=3)
+    )
+    assert reply.ok and reply.pending == 3
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline and len(events.since(mark)) < 3:
+        time.sleep(0.1)
+    got = events.since(mark)
     assert len(got) == 3
     assert all(ev.fidelity == "dynamic" and ev.kind in ("jog", "flip") and not ev.fault for ev in got)
     assert got[0].edge_before == 1 and abs(got[0].radius_before - 0.12) < 1e-12
