@@ -221,6 +221,11 @@ def readings(recorder: Recorder, device: str, seconds: float = 1.0) -> list[bool
         ({"initial_radius": 0.001}, "parameter initial_radius"),
         ({"inject_faults": ["sensor_dropout=2"]}, "parameter inject_faults[0] (value)"),
         ({"inject_faults": ["wobble"]}, "parameter inject_faults[0]"),
+        (
+            {"inject_faults": ["sensor_stuck", "sensor_bit_flip,indices=2"]},
+            "parameter inject_faults[1] (indices)",
+        ),
+        ({"inject_faults": ["release_speed_error=0.9,state=false"]}, "parameter inject_faults[0] (value)"),
     ],
 )
 def test_bad_configuration_fails_configure_naming_it_and_the_node_keeps_answering(
