@@ -294,6 +294,8 @@ class ThrowingArmNode(ManagedDevice):
         if fault.spec.stops_device:
             self._cancel_commands()
             self.fault_count += 1
+        if fault.spec.name == "part_lost":
+            self.motion = None  # a part in the air falls off with the rest: no landing to show
 
     def clear_fault(self, name: str) -> None:
         """Take the fault out of effect; a part lost stays lost (FAULT_PART_LOST) until ~/place_part."""
