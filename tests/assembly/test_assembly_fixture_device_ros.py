@@ -631,15 +631,22 @@ def test_fault_rate_limit_slows_the_axis_and_is_reported_without_stopping(
 def test_faults_from_the_inject_faults_parameter_act_from_configure(launch_node, ros_client) -> None:
     from feeder_msgs.msg import DeviceStatus
 
-    device = launch_fixture(
-        launch_node, "/preset", {"inject_faults": ["rate_limit=0.5", "encoder_offset=0.02"]}
-    )
+    entries = ["rate_limit=0.5,indices=0", "encoder_offset=0.02", "axis_stall,indices=1,angle=-0.25"]
+    device = launch_fixture(launch_node, "/preset", {"inject_faults": entries})
     report = status(ros_client, device, lambda s: s.state_name == "IDLE")
-    assert list(report.active_faults) == ["rate_limit", "encoder_offset"]
-    assert report.fault_code == DeviceStatus.FAULT_RATE_LIMIT
-    joints(ros_client, device, at((0.02, 0.02), tol=1e-12))  # empty indices: both axes
-    response = move(ros_client, device, (0.0, -0.2))
-    assert response.ok and response.duration == pytest.approx(0.2 / 0.5, rel=1e-9)
+    assert list(report.active_faults) == ["rate_limit", "encoder_offset", "axis_stall"]
+    assert report.fault_code == DeviceStatus.FAULT_RATE_LIMIT and "tilt_x limited to 0.5" in report.fault_text
+    joints(ros_client, device, at((0.02, 0.02), tol=1e-12))  # no indices: both axes read 0.02 rad off
+    # tilt_x at half its rate; tilt_y at its full rate until it stalls at -0.25
+    assert move(ros_client, device, (0.1, 0.0)).duration == pytest.approx(0.1 / 0.5, rel=1e-9)
+    joints(ros_client, device, at((0.12, 0.02), tol=1e-9))
+    assert move(ros_client, device, (0.1, -0.4)).duration == pytest.approx(0.4, rel=1e-6)
+    stalled = status(ros_client, device, lambda s: s.state_name == "FAULT")
+    assert (
+        stalled.fault_code == DeviceStatus.FAULT_AXIS_STALL
+        and "tilt_y stalled at -0.25" in stalled.fault_text
+    )
+    joints(ros_client, device, lambda m: m.position[1] == pytest.approx(-0.25 + 0.02, abs=1e-12))
     assert trigger(ros_client, device, "reset").success  # reset clears every fault
     cleared = status(ros_client, device, lambda s: not s.active_faults)
-    assert cleared.fault_code == 0
+    assert cleared.fault_code == 0 and cleared.state_name == "IDLE"

@@ -34,7 +34,11 @@ PARAMETERS = ASSEMBLY_PARAMETERS
 
 
 class StableRegionPlanner(Node):
-    """Services under /stable_region_planner/; the default assembly's region is latched on ~/region."""
+    """Serve ~/stable_region, ~/check_stability and ~/safe_path; latch its assembly's region on ~/region.
+
+    All names are private, so the planner moves whole with its namespace; it reads no device topic (requests
+    carry the gravity directions), so it needs no ``device`` parameter.
+    """
 
     def __init__(self) -> None:
         super().__init__("stable_region_planner")
