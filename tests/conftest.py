@@ -94,3 +94,19 @@ def launch_module_node(
     yield launch
     for node in mine:
         node.stop()
+
+
+@pytest.fixture(scope="session")
+def listen(ros_client: Any) -> Callable[..., ros_harness.Listener]:
+    """Return the session's listener of a topic (created at first use, never destroyed)."""
+    from feeder_planner.node_kit import LATCHED
+
+    listeners: dict[tuple[Any, str, bool], ros_harness.Listener] = {}
+
+    def get(msg_type: Any, topic: str, latched: bool = False) -> ros_harness.Listener:
+        key = (msg_type, topic, latched)
+        if key not in listeners:
+            listeners[key] = ros_harness.Listener(ros_client, msg_type, topic, LATCHED if latched else 200)
+        return listeners[key]
+
+    return get

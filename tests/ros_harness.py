@@ -9,7 +9,7 @@ import tempfile
 import threading
 import time
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable
 
 from feeder_cell import launcher
 from feeder_cell.launcher import NodeProcess
@@ -59,13 +59,16 @@ def bring_to(client: Any, node: NodeProcess, target: str) -> str:
     lifecycle = LifecycleClient(client, None, name)
     # Every node serves its parameter services; once they are discovered, a managed node's lifecycle
     # services follow within a moment, so an unmanaged node costs a second here rather than a timeout.
-    wait_for_graph(client, node, services=[f"{name}/list_parameters"])
-    if not lifecycle.is_managed(timeout=1.0):
-        return "unmanaged"
     try:
+        wait_for_graph(client, node, services=[f"{name}/list_parameters"])
+        if not lifecycle.is_managed(timeout=1.0):
+            return "unmanaged"
         return lifecycle.bring_to(target)
     except LifecycleError as error:
         raise AssertionError(f"{error}. Node log:\n{node.output()[-4000:]}") from None
+    finally:
+        # The session's one client node must not collect two clients per node started.
+        lifecycle.close()
 
 
 def wait_for_graph(
@@ -204,3 +207,64 @@ def collect(
     if count is not None and duration is None and len(result) < count:
         raise AssertionError(f"got {len(result)} of {count} messages on {topic} within {timeout:.0f} s")
     return result
+
+
+class Listener:
+    """One subscription of the test client for the whole session, with every message it received.
+
+    Tests that wait on streams use these rather than a subscription per wait: a subscription destroyed
+    from the test thread races the client's executor (the wait in flight is lost).
+    """
+
+    def __init__(self, client: Any, msg_type: Any, topic: str, qos: Any) -> None:
+        self.topic = topic
+        self.messages: list[Any] = []
+        self.arrived = threading.Condition()
+        client.create_subscription(msg_type, topic, self._on_message, qos)
+
+    def _on_message(self, msg: Any) -> None:
+        with self.arrived:
+            self.messages.append(msg)
+            self.arrived.notify_all()
+
+    def count(self) -> int:
+        """Return how many messages arrived so far (a mark for ``since``)."""
+        with self.arrived:
+            return len(self.messages)
+
+    def since(self, mark: int) -> list[Any]:
+        """Return the messages that arrived after ``mark``."""
+        with self.arrived:
+            return self.messages[mark:]
+
+    def wait(
+        self, accept: Callable[[Any], bool] = lambda m: True, timeout: float = 30.0, current: bool = False
+    ) -> Any:
+        """Return the first message from now on that ``accept`` takes; ``current``: the latest counts too."""
+        deadline = time.monotonic() + timeout
+        with self.arrived:
+            index = max(0, len(self.messages) - 1) if current else len(self.messages)
+            while True:
+                while index < len(self.messages):
+                    msg = self.messages[index]
+                    index += 1
+                    if accept(msg):
+                        return msg
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    last = self.messages[-1] if self.messages else None
+                    raise AssertionError(
+                        f"no accepted message on {self.topic} within {timeout} s; last: {last}"
+                    )
+                self.arrived.wait(remaining)
+
+    def next(self, count: int = 1, timeout: float = 30.0) -> list[Any]:
+        """Return the next ``count`` messages from now on."""
+        seen: list[Any] = []
+
+        def take(msg: Any) -> bool:
+            seen.append(msg)
+            return len(seen) >= count
+
+        self.wait(take, timeout)
+        return seen

@@ -75,6 +75,11 @@ class LifecycleClient:
         self._get = self.node.create_client(GetState, f"{self.target}/get_state")
         self._change = self.node.create_client(ChangeState, f"{self.target}/change_state")
 
+    def close(self) -> None:
+        """Destroy the two service clients (a long-lived node must not collect them)."""
+        self.node.destroy_client(self._get)
+        self.node.destroy_client(self._change)
+
     def is_managed(self, timeout: float = 2.0) -> bool:
         """Whether the node serves the lifecycle services (waits up to ``timeout`` for discovery)."""
         deadline = time.monotonic() + timeout

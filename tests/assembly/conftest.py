@@ -3,13 +3,11 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Iterator
 
 import numpy as np
 import pytest
 from scipy.optimize import nnls
 
-from feeder_cell.lifecycle_client import LifecycleClient
 from feeder_planner.assembly.model import assembly_from_document, load_assembly
 from feeder_planner.assembly.planner import prepare
 
@@ -43,38 +41,3 @@ def in_cone(generators: np.ndarray, target: np.ndarray, tolerance: float = 1e-9)
 def random_directions(count: int, seed: int) -> np.ndarray:
     g = np.random.default_rng(seed).normal(size=(count, 3))
     return g / np.linalg.norm(g, axis=1, keepdims=True)
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _lifecycle_clients_closed() -> Iterator[None]:
-    """Destroy the two service clients each ``ros_harness.bring_to`` makes (it leaves them on the client).
-
-    Left alive, each started node adds four endpoints to the session's one client node, and late in a
-    session a new node discovers them so slowly that it drops its first lifecycle answers ("failed to send
-    response (timeout): client will not receive response"). To be fixed in the harness; until then the
-    assembly tests close them here.
-    """
-    import ros_harness
-
-    original = ros_harness.bring_to
-
-    def bring_to(client: Any, node: Any, target: str) -> str:
-        made: list[Any] = []
-
-        class Closing(LifecycleClient):
-            def __post_init__(self) -> None:
-                super().__post_init__()
-                made.append(self)
-
-        with pytest.MonkeyPatch.context() as patch:
-            patch.setattr(ros_harness, "LifecycleClient", Closing)
-            try:
-                return original(client, node, target)
-            finally:
-                for lifecycle in made:
-                    client.destroy_client(lifecycle._get)
-                    client.destroy_client(lifecycle._change)
-
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(ros_harness, "bring_to", bring_to)
-        yield

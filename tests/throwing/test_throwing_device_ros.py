@@ -568,8 +568,8 @@ def test_sensor_stuck_reads_its_state_whatever_is_there(launch_node, ros_client,
     )
     recorder = streams(listen, device)
     report = status(listen, device, lambda s: s.state_name == "IDLE")
-    assert list(report.active_faults) == ["sensor_stuck"] and no_fault(report) and report.ready
-    assert values(diagnostics(listen, device))["active_faults"] == "sensor_stuck"
+    assert list(report.active_faults) == ["sensor_stuck(state=true)"] and no_fault(report) and report.ready
+    assert values(diagnostics(listen, device))["active_faults"] == "sensor_stuck(state=true)"
     seen = readings(recorder, device)
     assert len(seen) >= 10 and all(seen)  # true though the sensor at 35 cm sees nothing
     assert inject(ros_client, device, "sensor_stuck", clear=True).ok
@@ -578,7 +578,7 @@ def test_sensor_stuck_reads_its_state_whatever_is_there(launch_node, ros_client,
     assert set_parameter(ros_client, device, "sensor_radius", SEES).successful
     assert all(readings(recorder, device))  # the part is seen again
     response = inject(ros_client, device, "sensor_stuck", state=False)
-    assert response.ok and list(response.active_faults) == ["sensor_stuck"]
+    assert response.ok and list(response.active_faults) == ["sensor_stuck(state=false)"]
     assert not any(readings(recorder, device))  # stuck at false over the part
     assert trigger(ros_client, device, "reset").success  # ~/reset clears it too
     assert all(readings(recorder, device))
@@ -638,7 +638,7 @@ def test_release_speed_error_scales_w_per_throw_fixed_or_drawn_with_its_seed(
     bad = inject(ros_client, device, "release_speed_error", value=-1.0, state=True)
     assert not bad.ok and "value" in bad.error
     response = inject(ros_client, device, "release_speed_error", value=0.1, state=True)
-    assert response.ok and list(response.active_faults) == ["release_speed_error(0.1)"]
+    assert response.ok and list(response.active_faults) == ["release_speed_error(0.1, state=true)"]
     fixed = throw_events(ros_client, device, recorder, 1)[0]
     model = local_arm()
     expected = model.throw(1.1)

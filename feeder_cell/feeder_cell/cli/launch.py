@@ -21,6 +21,18 @@ STARTUP_TIMEOUT_S = 30.0
 CLOCK_NODE = NodeSpec("feeder_cell", "cell_clock")
 
 
+# /clock updates per wall second: a device can tick at most once per clock update, so at factor F the
+# clock must update at least F x the fastest device rate (the arm's 100 Hz sensor) per wall second, with
+# a margin of two against aliasing; past the ceiling the devices say they are behind.
+CLOCK_UPDATES_PER_CLOCK_SECOND = 200.0
+MAX_CLOCK_RATE = 2000.0
+
+
+def clock_rate(factor: float) -> float:
+    """Return the /clock publish rate (Hz, wall) for a cell clock at real-time factor ``factor``."""
+    return min(MAX_CLOCK_RATE, max(CLOCK_UPDATES_PER_CLOCK_SECOND, CLOCK_UPDATES_PER_CLOCK_SECOND * factor))
+
+
 def _graph_names(node: Any) -> set[str]:
     return {f"{ns.rstrip('/')}/{name}" for name, ns in node.get_node_names_and_namespaces()}
 
@@ -68,14 +80,16 @@ def bring_up(node: Any, executor: Any, processes: list[NodeProcess]) -> dict[str
     for process in processes:
         target = process.spec.fully_qualified_name
         client = LifecycleClient(node, executor, target)
-        if not client.is_managed():
-            states[target] = "unmanaged"
-            continue
         try:
+            if not client.is_managed():
+                states[target] = "unmanaged"
+                continue
             states[target] = client.bring_to(process.spec.lifecycle)
         except LifecycleError as error:
             reason = _configuration_error(node, executor, target)
             raise FeederError(f"{error}{': ' + reason if reason else ''}") from None
+        finally:
+            client.close()
     return states
 
 
@@ -90,7 +104,9 @@ def _launch(args: argparse.Namespace) -> int:
     specs = list(scene.nodes)
     if sim_time:
         clock = NodeSpec(
-            CLOCK_NODE.package, CLOCK_NODE.executable, {"real_time_factor": args.real_time_factor}
+            CLOCK_NODE.package,
+            CLOCK_NODE.executable,
+            {"real_time_factor": args.real_time_factor, "publish_rate": clock_rate(args.real_time_factor)},
         )
         specs.insert(0, clock)
 

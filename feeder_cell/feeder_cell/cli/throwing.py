@@ -16,6 +16,7 @@ from feeder_planner.throwing import (
     BelowGraspError,
     DesignSearch,
     LimitSet,
+    OffsetBelowDMinError,
     ThrowParams,
     ThrowResult,
     arm_part,
@@ -24,7 +25,6 @@ from feeder_planner.throwing import (
     search,
     throw,
 )
-from feeder_planner.throwing.limit_set import OffsetBelowDMinError
 from feeder_planner.throwing.tolerances import SENSING_HEIGHT_FRACTION
 from feeder_planner.units import LENGTH_UNITS
 

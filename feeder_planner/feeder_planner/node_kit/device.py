@@ -67,6 +67,8 @@ class FaultSpec:
     value_meaning: str = ""  # e.g. "probability in [0, 1]"; empty when the fault takes no value
     stops_device: bool = False  # the device goes to FAULT and refuses commands until ~/reset
     code: int = DeviceStatus.FAULT_NONE  # DeviceStatus fault code reported while it is active
+    indices_label: str = ""  # what request indices name in the label: "cells" (counted), "axes" (listed); "" hides
+    shows_state: bool = False  # the request's state matters (a stuck reading, a fixed error): show it
 
 
 @dataclass(frozen=True)
@@ -83,10 +85,16 @@ class ActiveFault:
     @property
     def label(self) -> str:
         """Name with the magnitude that matters, as status and diagnostics list it."""
-        if not self.spec.value_meaning:
-            return self.spec.name
-        detail = f"{len(self.indices)} cells" if self.indices else f"{self.value:g}"
-        return f"{self.spec.name}({detail})"
+        parts = []
+        if self.spec.value_meaning and not (self.indices and self.value == 0.0):
+            parts.append(f"{self.value:g}")
+        if self.indices and self.spec.indices_label:
+            label = self.spec.indices_label
+            listed = ";".join(str(i) for i in self.indices)
+            parts.append(f"{len(self.indices)} {label}" if label == "cells" else f"{label}={listed}")
+        if self.spec.shows_state:
+            parts.append(f"state={str(self.state).lower()}")
+        return f"{self.spec.name}({', '.join(parts)})" if parts else self.spec.name
 
 
 class DeviceError(FeederError):
@@ -273,6 +281,16 @@ class ManagedDevice(LifecycleNode):
                 return fault.spec.code, f"injected fault {fault.label}: {fault.spec.description}"
         return None
 
+    def warning_fault(self) -> tuple[int, str] | None:
+        """(code, text) of an injected fault in force that has a code but does not stop the device.
+
+        A device overrides this where a fault's code applies only once it acts (a stall that is armed).
+        """
+        for fault in self.faults.values():
+            if fault.spec.code and not fault.spec.stops_device:
+                return fault.spec.code, f"injected fault {fault.label}: {fault.spec.description}"
+        return None
+
     def raise_model_fault(self, code: int, text: str) -> None:
         """Enter FAULT because of the model itself (not an injection); ~/reset clears it."""
         self.model_fault = (code, text)
@@ -324,8 +342,11 @@ class ManagedDevice(LifecycleNode):
         behind = self.active and report.behind
         fault = self.stopping_fault()
         code, text = fault if fault is not None else (0, "")
+        warning = self.warning_fault() if self.lifecycle in ("inactive", "active") else None
         if not fault and self.configuration_error:
             code, text = DeviceStatus.FAULT_CONFIGURATION, self.configuration_error
+        elif not fault and warning is not None:
+            code, text = warning
         elif not fault and behind:
             code, text = DeviceStatus.FAULT_BEHIND_REAL_TIME, self._behind_text(report)
         configured = self.lifecycle in ("inactive", "active")
@@ -557,6 +578,8 @@ class ManagedDevice(LifecycleNode):
         behind = self.active and report.behind
         if fault is not None or self.configuration_error:
             level, message = DiagnosticStatus.ERROR, fault[1] if fault else self.configuration_error
+        elif self.lifecycle in ("inactive", "active") and (warning := self.warning_fault()) is not None:
+            level, message = DiagnosticStatus.WARN, warning[1]
         elif behind:
             level, message = DiagnosticStatus.WARN, self._behind_text(report)
         elif state in (DeviceState.UNCONFIGURED, DeviceState.PAUSED):

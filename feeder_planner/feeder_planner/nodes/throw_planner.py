@@ -43,12 +43,14 @@ PARAMETERS = (
         DEFAULT_STARTS_PER_EDGE,
         "grid starts per stable edge when a request leaves it 0",
         integer_at_least(1),
+        read_only=True,  # read once at start-up: declared so, never accepted and ignored
     ),
     ParameterSpec(
         "default_throws",
         DEFAULT_THROWS,
         "throws per start when a request leaves it 0",
         integer_at_least(3),
+        read_only=True,
     ),
 )
 

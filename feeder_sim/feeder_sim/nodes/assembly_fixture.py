@@ -20,9 +20,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Any, Callable
+from typing import Any
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.time import Time as RclTime
 from sensor_msgs.msg import JointState
@@ -180,20 +179,6 @@ class InterlockRefusedError(FeederError):
     """The interlock refused a commanded path."""
 
 
-class _PatchingPublisher:
-    """A publisher that lets the device amend each message before it goes out (see ``warning_fault``)."""
-
-    def __init__(self, publisher: Any, patch: Callable[[Any], None]) -> None:
-        self._publisher, self._patch = publisher, patch
-
-    def publish(self, msg: Any) -> None:
-        self._patch(msg)
-        self._publisher.publish(msg)
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._publisher, name)
-
-
 class AssemblyFixture(ManagedDevice):
     """Publishes ~/joint_states, ~/gravity and ~/stability at publish_rate; serves ~/move.
 
@@ -208,8 +193,6 @@ class AssemblyFixture(ManagedDevice):
         self._release()
         # Kit workaround: ManagedDevice reports a fault code only for a stopping fault; rate_limit has a code
         # (FAULT_RATE_LIMIT) but does not stop the fixture, so status and diagnostics are amended here.
-        self._status_pub = _PatchingPublisher(self._status_pub, self._patch_status)
-        self._diagnostics_pub = _PatchingPublisher(self._diagnostics_pub, self._patch_diagnostics)
         self.create_service(FixtureMove, "~/move", service_guard(self)(self.on_move))
 
     def _release(self) -> None:
@@ -335,29 +318,13 @@ class AssemblyFixture(ManagedDevice):
                 self.model_fault = None
 
     def warning_fault(self) -> tuple[int, str] | None:
-        """(code, text) of an injected fault in force that has a code but does not stop the fixture."""
+        """Return (code, text) of a coded fault in force that does not stop the fixture (rate_limit)."""
         for name, fault in self.faults.items():
             # axis_stall's code is reported once the joint has stalled (raise_model_fault), not before.
             if fault.spec.code and not FAULT_INFO[check_fault_name(name)].stops:
                 detail = self.table.faults.describe(name) if self.table is not None else ""
                 return fault.spec.code, f"injected fault {name}: {detail or fault.spec.description}"
         return None
-
-    def _patch_status(self, msg: DeviceStatus) -> None:
-        """Report a non-stopping coded fault (rate_limit) in fault_code, over 'behind real time'."""
-        warning = self.warning_fault()
-        if warning is not None and msg.fault_code in (
-            DeviceStatus.FAULT_NONE,
-            DeviceStatus.FAULT_BEHIND_REAL_TIME,
-        ):
-            msg.fault_code, msg.fault_text = warning
-
-    def _patch_diagnostics(self, msg: DiagnosticArray) -> None:
-        """Raise an OK diagnostic to WARN while a non-stopping coded fault (rate_limit) is in force."""
-        warning = self.warning_fault()
-        for status in msg.status:
-            if warning is not None and status.level == DiagnosticStatus.OK:
-                status.level, status.message = DiagnosticStatus.WARN, warning[1]
 
     # --- the move service ----------------------------------------------------------------------------
     def on_move(self, request: FixtureMove.Request, response: FixtureMove.Response) -> FixtureMove.Response:

@@ -207,11 +207,13 @@ FAULTS = {
         "dead_cells",
         "cells that push with no force (array fidelity)",
         "fraction of the cells in (0, 1], drawn with the seed; or explicit indices (i * ny + j)",
+        indices_label="cells",
     ),
     "stuck_cells": FaultSpec(
         "stuck_cells",
         "cells stuck pushing in direction angle (rad) at the field's magnitude (array fidelity)",
         "fraction of the cells in (0, 1], drawn with the seed; or explicit indices; angle: the direction",
+        indices_label="cells",
     ),
     "field_strength_error": FaultSpec(
         "field_strength_error",

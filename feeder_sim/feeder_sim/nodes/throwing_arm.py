@@ -159,7 +159,14 @@ PARAMETERS = (
 # The kit's specs of the model's faults (feeder_sim.throwing.faults), with their status codes.
 _CODES = {"motor_fault": DeviceStatus.FAULT_MOTOR, "part_lost": DeviceStatus.FAULT_PART_LOST}
 FAULTS = {
-    name: FaultSpec(name, info.description, info.value_meaning, info.stops, _CODES.get(name, 0))
+    name: FaultSpec(
+        name,
+        info.description,
+        info.value_meaning,
+        info.stops,
+        _CODES.get(name, 0),
+        shows_state=name in ("sensor_stuck", "release_speed_error"),  # the stuck bit; a fixed e
+    )
     for name, info in FAULT_INFO.items()
 }
 
