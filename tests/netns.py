@@ -42,7 +42,10 @@ class Host:
         """Bytes received on this host's veth end."""
         out = subprocess.run(
             self.command(["cat", f"/sys/class/net/{self.interface}/statistics/rx_bytes"]),
-            capture_output=True, text=True, timeout=10, check=True,
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
         )
         return int(out.stdout.strip())
 
@@ -58,8 +61,12 @@ class TwoHosts:
     def environment(self, domain: int) -> dict[str, str]:
         """Return the environment for ROS processes on either host: UDP only, discovery on the subnet."""
         env = dict(os.environ)
-        env.update(ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="SUBNET",
-                   FASTDDS_BUILTIN_TRANSPORTS="UDPv4", PYTHONUNBUFFERED="1")
+        env.update(
+            ROS_DOMAIN_ID=str(domain),
+            ROS_AUTOMATIC_DISCOVERY_RANGE="SUBNET",
+            FASTDDS_BUILTIN_TRANSPORTS="UDPv4",
+            PYTHONUNBUFFERED="1",
+        )
         env.pop("ROS_STATIC_PEERS", None)
         return env
 
@@ -81,14 +88,28 @@ def can_make_namespaces() -> str:
 
 def make_two_hosts(tag: str) -> TwoHosts:
     """Create namespaces ``fdr-a-TAG`` and ``fdr-b-TAG`` joined by a veth pair with their own addresses."""
-    hosts = TwoHosts(Host(f"fdr-a-{tag}", "veth-a", f"{SUBNET_PREFIX}.1"),
-                     Host(f"fdr-b-{tag}", "veth-b", f"{SUBNET_PREFIX}.2"))
+    hosts = TwoHosts(
+        Host(f"fdr-a-{tag}", "veth-a", f"{SUBNET_PREFIX}.1"),
+        Host(f"fdr-b-{tag}", "veth-b", f"{SUBNET_PREFIX}.2"),
+    )
     try:
         for host in (hosts.a, hosts.b):
             _must("netns", "add", host.namespace)
             hosts.made.append(host.namespace)
-        _must("link", "add", "veth-a", "netns", hosts.a.namespace, "type", "veth", "peer", "name", "veth-b",
-              "netns", hosts.b.namespace)
+        _must(
+            "link",
+            "add",
+            "veth-a",
+            "netns",
+            hosts.a.namespace,
+            "type",
+            "veth",
+            "peer",
+            "name",
+            "veth-b",
+            "netns",
+            hosts.b.namespace,
+        )
         for host in (hosts.a, hosts.b):
             ns = ["-n", host.namespace]
             _must(*ns, "addr", "add", f"{host.address}/30", "dev", host.interface)

@@ -67,7 +67,7 @@ class FaultSpec:
     value_meaning: str = ""  # e.g. "probability in [0, 1]"; empty when the fault takes no value
     stops_device: bool = False  # the device goes to FAULT and refuses commands until ~/reset
     code: int = DeviceStatus.FAULT_NONE  # DeviceStatus fault code reported while it is active
-    indices_label: str = ""  # what request indices name in the label: "cells" (counted), "axes" (listed); "" hides
+    indices_label: str = ""  # what indices name in the label: "cells" (counted), "axes" (listed); "" hides
     shows_state: bool = False  # the request's state matters (a stuck reading, a fixed error): show it
 
 
