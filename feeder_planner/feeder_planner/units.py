@@ -1,4 +1,4 @@
-"""Length units of input files and angle parsing of command-line values."""
+"""Units: length units of input files, angle parsing of command-line values, and standard gravity."""
 
 from __future__ import annotations
 
@@ -7,6 +7,11 @@ import math
 from feeder_planner.errors import InputError
 
 LENGTH_UNITS: dict[str, float] = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6}
+
+# Standard gravity (m/s^2, CGPM 1901, exact): the one value every model that needs a weight uses (the
+# assembly's contact forces in newtons, a MEMS part's normal force for Coulomb friction). The throwing
+# arm's gravity is a parameter of the design instead (the paper's examples use 9.66 m/s^2).
+STANDARD_GRAVITY = 9.80665
 
 
 def length_scale(unit: str, field: str = "length_unit") -> float:

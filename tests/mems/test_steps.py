@@ -40,6 +40,7 @@ from feeder_planner.mems.fields import FIELD_CLASSES
 from feeder_planner.mems.lifted import edge_endpoints
 from feeder_planner.mems.tolerances import EXTRA
 from feeder_planner.node_kit.msg_fields import field_spec_to_mapping, fill_field_spec, program_from_msg
+from feeder_planner.units import STANDARD_GRAVITY
 from feeder_sim.mems import FIDELITIES, Body, Fidelity, IdealForces, Scene, check_fidelity, random_poses
 from feeder_sim.mems.bodies import drag_coefficients, wrench_on
 from feeder_sim.mems.dynamic import DynamicWorld
@@ -384,7 +385,7 @@ def test_dynamic_world_needs_no_scene() -> None:
     start = np.array([2e-4, -1e-4, 0.5])
     scene = Scene([Body(part, start.copy())], program, "dynamic", damping=1e3, friction=0.1)
     alone = [Body(part, start.copy())]
-    world = DynamicWorld(alone, IdealForces(), damping=1e3, friction=0.1, gravity=9.81)
+    world = DynamicWorld(alone, IdealForces(), damping=1e3, friction=0.1, gravity=STANDARD_GRAVITY)
     for _ in range(20):
         scene.step(1e-4)
         world.step(1e-4, program[0].field)

@@ -12,6 +12,8 @@ import math
 
 import numpy as np
 
+from feeder_planner import units
+
 __all__ = [
     "ANGLE_TOLERANCE",
     "ANTIPODAL_ANGLE",
@@ -71,7 +73,7 @@ __all__ = [
 # --- Model constants ---
 
 # m/s^2: contact forces are reported in newtons for |g| = 1 standard gravity (the LP itself is scale-free).
-STANDARD_GRAVITY = 9.80665
+STANDARD_GRAVITY = units.STANDARD_GRAVITY
 # Facets K of the friction pyramid by default: the paper's square pyramid of eq. (9).
 DEFAULT_FACETS = 4
 # The fewest facets of a pyramid: with two the "pyramid" is a wedge and no longer a cone around the normal.

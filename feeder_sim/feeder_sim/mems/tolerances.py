@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from typing import Final
 
+from feeder_planner import units
+
 __all__ = [
     "DEFAULT_CELLS",
     "DEFAULT_PITCH",
@@ -31,7 +33,7 @@ DEFAULT_DAMPING: Final = 1.0
 # Coulomb friction coefficient with the surface ('dynamic'): none by default, like the paper's model.
 DEFAULT_FRICTION: Final = 0.0
 # Standard gravity (m/s^2): the normal force of a part on the array is its weight, for Coulomb friction.
-GRAVITY: Final = 9.81
+GRAVITY: Final = units.STANDARD_GRAVITY
 # Coulomb coefficient between touching parts (pymunk shape friction): a moderate dry-contact value; it
 # acts only while parts collide, and no planned equilibrium depends on it.
 COLLISION_FRICTION: Final = 0.5
