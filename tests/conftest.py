@@ -37,9 +37,15 @@ def started_processes() -> Iterator[list[ros_harness.NodeProcess]]:
     assert not survivors, f"node processes left running: {[(p.executable, p.pid) for p in survivors]}"
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def ros_client(ros_domain: int) -> Iterator[Any]:
-    """An rclpy node in the test process on the session's domain, spun on a background thread."""
+    """An rclpy node in the test process on the session's domain, spun on a background thread.
+
+    One per test module: every subscription and client the tests make is an endpoint each node started
+    later must discover before it can answer; a session-long client collects hundreds, and late in a
+    run a new node then answers a service before it has matched the caller ("client will not receive
+    response").
+    """
     client = ros_harness.ClientNode()
     yield client.node
     client.close()
@@ -96,9 +102,9 @@ def launch_module_node(
         node.stop()
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def listen(ros_client: Any) -> Callable[..., ros_harness.Listener]:
-    """Return the session's listener of a topic (created at first use, never destroyed)."""
+    """Return the module's listener of a topic (created at first use, gone with the module's client)."""
     from feeder_planner.node_kit import LATCHED
 
     listeners: dict[tuple[Any, str, bool], ros_harness.Listener] = {}

@@ -160,18 +160,21 @@ class ClientNode:
 
 def call_service(client: Any, srv_type: Any, name: str, request: Any, timeout: float = 30.0) -> Any:
     """Call a service from the client node (whose executor runs elsewhere) and return the response."""
-    service_client = client.create_client(srv_type, name)
-    try:
-        if not service_client.wait_for_service(timeout_sec=timeout):
-            raise AssertionError(f"service {name} not available within {timeout:.0f} s")
-        future = service_client.call_async(request)
-        done = threading.Event()
-        future.add_done_callback(lambda _: done.set())
-        if not done.wait(timeout):
-            raise AssertionError(f"service {name} did not answer within {timeout:.0f} s")
-        return future.result()
-    finally:
-        client.destroy_client(service_client)
+    # One client per service for the client node's life: a new client's reply reader must be discovered
+    # by the server before it can answer, and a server that answers first drops the reply.
+    clients = client.__dict__.setdefault("_feeder_service_clients", {})
+    key = (srv_type, name)
+    if key not in clients:
+        clients[key] = client.create_client(srv_type, name)
+    service_client = clients[key]
+    if not service_client.wait_for_service(timeout_sec=timeout):
+        raise AssertionError(f"service {name} not available within {timeout:.0f} s")
+    future = service_client.call_async(request)
+    done = threading.Event()
+    future.add_done_callback(lambda _: done.set())
+    if not done.wait(timeout):
+        raise AssertionError(f"service {name} did not answer within {timeout:.0f} s")
+    return future.result()
 
 
 def collect(
