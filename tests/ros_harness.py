@@ -185,8 +185,9 @@ def collect(
     duration: float | None = None,
     qos: Any = 10,
     timeout: float = 30.0,
+    stop: Callable[[Any], bool] | None = None,
 ) -> list[Any]:
-    """Collect messages from a topic until ``count`` arrived or ``duration`` elapsed (timeout bounds both)."""
+    """Collect messages on a topic until ``count`` arrived, ``stop`` accepts one, or ``duration`` is up."""
     if count is None and duration is None:
         raise ValueError("give count or duration")
     messages: list[Any] = []
@@ -196,7 +197,7 @@ def collect(
     def on_message(message: Any) -> None:
         with lock:
             messages.append(message)
-            if count is not None and len(messages) >= count:
+            if (count is not None and len(messages) >= count) or (stop is not None and stop(message)):
                 enough.set()
 
     subscription = client.create_subscription(msg_type, topic, on_message, qos)

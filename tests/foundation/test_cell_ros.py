@@ -179,14 +179,23 @@ def step_clock(client: Any, seconds: float) -> int:
     return int(response.now.sec) * 10**9 + int(response.now.nanosec)
 
 
+START_NS = 10**18  # the held cell clock's start: 1e9 s, well away from 0 (an unset clock)
+
+
+def on_the_held_clock(msg: Any) -> bool:
+    """Whether a message is stamped at the held clock's start (the parameter passes through a float)."""
+    return abs(_stamp(msg) - START_NS) < 1_000
+
+
 def lockstep_run(ros_client: Any, launch_node: Any, seed: int, steps: int) -> list[tuple[Any, ...]]:
     """Part states of a paused-and-stepped cell, one message per clock step, as comparable tuples."""
-    from feeder_msgs.msg import MemsPartStates
+    from feeder_msgs.msg import DeviceStatus, MemsPartStates
+    from feeder_planner.node_kit import LATCHED
 
     clock = launch_node(
         "feeder_cell",
         "cell_clock",
-        {"start_paused": True, "start_time": 1.0e9},
+        {"start_paused": True, "start_time": START_NS / 1e9},
         wait_services=("/cell_clock/step",),
     )
     received: list[Any] = []
@@ -197,6 +206,8 @@ def lockstep_run(ros_client: Any, launch_node: Any, seed: int, steps: int) -> li
             received.append(msg)
             arrived.notify_all()
 
+    # Subscribed before the array starts: its first tick, at the held clock's start, must not be missed.
+    sub = ros_client.create_subscription(MemsPartStates, "/mems_field_array/part_states", on_states, 100)
     array = launch_node(
         "feeder_sim",
         "mems_field_array",
@@ -212,8 +223,18 @@ def lockstep_run(ros_client: Any, launch_node: Any, seed: int, steps: int) -> li
         },
         wait_topics=("/mems_field_array/part_states",),
     )
-    sub = ros_client.create_subscription(MemsPartStates, "/mems_field_array/part_states", on_states, 100)
     try:
+        # Lockstep starts once the device has heard the held clock (its status heartbeat is stamped with
+        # the clock's start): a step sent before that would be a step it never saw.
+        heard = ros_harness.collect(
+            ros_client,
+            DeviceStatus,
+            "/mems_field_array/status",
+            duration=10.0,
+            qos=LATCHED,
+            stop=lambda m: _stamp(m) == START_NS,
+        )
+        assert heard and _stamp(heard[-1]) == START_NS, f"the array never ran on the held clock: {heard[-1:]}"
         rows = []
         for _ in range(steps):
             now = step_clock(ros_client, 0.05)

@@ -20,7 +20,8 @@ from typing import Any, Mapping, Sequence
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.clock import Clock, ClockType
+from rclpy.clock import Clock, ClockType, JumpThreshold
+from rclpy.duration import Duration
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.parameter import Parameter
 from std_srvs.srv import Trigger
@@ -214,6 +215,13 @@ class ManagedDevice(LifecycleNode):
         self.create_service(Trigger, "~/reset", self._on_reset)
         self.create_service(InjectFault, "~/inject_fault", self._on_inject_fault)
         self.add_on_set_parameters_callback(self._on_set_parameters)
+        # Under use_sim_time the node clock reads 0 until the first /clock arrives; the device's model
+        # starts from that first reading, whatever the order in which the clock and the device came up.
+        self.clock_start_ns = 0
+        threshold = JumpThreshold(
+            min_forward=Duration(nanoseconds=1), min_backward=None, on_clock_change=True
+        )
+        self._clock_jump = self.get_clock().create_jump_callback(threshold, post_callback=self._on_clock_jump)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(1.0 / HEARTBEAT_RATE, self._heartbeat, clock=steady)
         self.publish_status(force=True)
@@ -308,6 +316,21 @@ class ManagedDevice(LifecycleNode):
             elif state is DeviceState.STOPPED:
                 why = " (~/reset returns it to IDLE)"
             raise DeviceError(f"{what} refused: device is {state.name}{why}")
+
+    def _on_clock_jump(self, jump: object) -> None:
+        self.clock_origin_ns()
+
+    def clock_origin_ns(self) -> int:
+        """Return the node clock's first non-zero reading (ns), or 0 while the clock has not started.
+
+        A device whose model has no start time yet (activated before the first /clock) starts it here,
+        not at its first tick: the clock may have moved on by then, and that time is the model's too.
+        """
+        if self.clock_start_ns == 0:
+            now = self.get_clock().now().nanoseconds
+            if now > 0:
+                self.clock_start_ns = now
+        return self.clock_start_ns
 
     def sim_seconds(self) -> float:
         """Node clock (simulated time under use_sim_time) in seconds."""

@@ -378,8 +378,8 @@ class AssemblyFixture(ManagedDevice):
         table = self.table
         if table is None or not self.active:
             return
-        if self.last_tick_ns <= 0:  # the node clock had not started (no /clock yet): start from now
-            self.last_tick_ns = now_ns
+        if self.last_tick_ns <= 0:  # activated before the node clock started: from its first reading
+            self.last_tick_ns = self.clock_origin_ns() or now_ns
         elapsed = max(0, now_ns - self.last_tick_ns) / NANOSECONDS  # a clock set back simulates nothing
         self.last_tick_ns = now_ns
         cap = self._max_advance()

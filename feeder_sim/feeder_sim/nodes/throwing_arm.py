@@ -395,7 +395,9 @@ class ThrowingArmNode(ManagedDevice):
     def _advance_clock(self, now: Time) -> None:
         """Advance the simulated time by the node-clock time since the last tick, capped per tick."""
         if self.last_tick is not None:
-            elapsed = max((now - self.last_tick).nanoseconds, 0)
+            # Activated before the node clock started: the model starts at the clock's first reading.
+            last = self.last_tick.nanoseconds or self.clock_origin_ns() or now.nanoseconds
+            elapsed = max(now.nanoseconds - last, 0)
             self.simulated += min(elapsed, _ns(MAX_TICK_PERIODS / self.p["sensor_rate"]))
         self.last_tick = now
 
