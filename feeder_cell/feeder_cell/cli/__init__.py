@@ -1,1 +1,16 @@
 """The ``feeder`` command: one module per group of subcommands, each with ``register(subparsers)``."""
+
+__all__ = ["SUBCOMMAND_MODULES"]
+
+# The subcommand modules, in the order `feeder --help` lists them (cli.main imports each for its parser).
+SUBCOMMAND_MODULES = (
+    "feeder_cell.cli.doctor",
+    "feeder_cell.cli.run",
+    "feeder_cell.cli.bag",
+    "feeder_cell.cli.launch",
+    "feeder_cell.cli.lifecycle",
+    "feeder_cell.cli.clock",
+    "feeder_cell.cli.equilibria",
+    "feeder_cell.cli.throwing",
+    "feeder_cell.cli.assembly",
+)

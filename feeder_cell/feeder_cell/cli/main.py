@@ -7,20 +7,8 @@ import importlib
 import sys
 from typing import NoReturn, Sequence
 
+from feeder_cell.cli import SUBCOMMAND_MODULES
 from feeder_planner.errors import FeederError, InputError, SolverError
-
-# Each module defines register(subparsers); a subparser sets ``handler`` via set_defaults.
-SUBCOMMAND_MODULES = (
-    "feeder_cell.cli.doctor",
-    "feeder_cell.cli.run",
-    "feeder_cell.cli.bag",
-    "feeder_cell.cli.launch",
-    "feeder_cell.cli.lifecycle",
-    "feeder_cell.cli.clock",
-    "feeder_cell.cli.equilibria",
-    "feeder_cell.cli.throwing",
-    "feeder_cell.cli.assembly",
-)
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_NOT_CERTIFIED = 0, 1, 2, 3
 
