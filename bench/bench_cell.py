@@ -34,6 +34,7 @@ def _listen(seconds: float) -> dict[str, list[dict[str, float]]]:
     """Diagnostics of every device for ``seconds``: name -> list of figure dicts, one per heartbeat."""
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.executors import SingleThreadedExecutor
 
     context = rclpy.Context()
     rclpy.init(context=context)
@@ -60,9 +61,12 @@ def _listen(seconds: float) -> dict[str, list[dict[str, float]]]:
                 )
 
     node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 50)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
     end = time.monotonic() + seconds
     while time.monotonic() < end:
-        rclpy.spin_once(node, timeout_sec=0.1)
+        executor.spin_once(timeout_sec=0.1)
+    executor.shutdown()
     node.destroy_node()
     rclpy.try_shutdown(context=context)
     return seen
