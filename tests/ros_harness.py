@@ -272,3 +272,45 @@ class Listener:
 
         self.wait(take, timeout)
         return seen
+
+
+# --- what every device test asks of a managed device ------------------------------------------------
+
+
+def counters(status: Any) -> dict[str, int]:
+    """Return a DeviceStatus's counters as a mapping."""
+    return dict(zip(status.counter_names, status.counter_values, strict=True))
+
+
+def stamp_ns(msg: Any) -> int:
+    """Return a stamped message's header time in integer nanoseconds."""
+    return int(msg.header.stamp.sec) * 10**9 + int(msg.header.stamp.nanosec)
+
+
+def inject_fault(client: Any, device: str, fault: str, **fields: Any) -> Any:
+    """Call ``device``'s ~/inject_fault with the given InjectFault fields; return the response."""
+    from feeder_msgs.srv import InjectFault
+
+    request = InjectFault.Request(fault=fault, **fields)
+    return call_service(client, InjectFault, f"{device}/inject_fault", request)
+
+
+def trigger(client: Any, device: str, service: str) -> Any:
+    """Call a std_srvs/Trigger service of ``device`` (``stop``, ``reset``)."""
+    from std_srvs.srv import Trigger
+
+    return call_service(client, Trigger, f"{device}/{service}", Trigger.Request())
+
+
+def set_parameter(client: Any, node: str, name: str, value: Any) -> Any:
+    """Set one parameter of ``node`` over its parameter service; return the SetParametersResult."""
+    from rcl_interfaces.srv import SetParameters
+    from rclpy.parameter import Parameter
+
+    request = SetParameters.Request(parameters=[Parameter(name, value=value).to_parameter_msg()])
+    return call_service(client, SetParameters, f"{node}/set_parameters", request).results[0]
+
+
+def lifecycle_of(client: Any, node: str) -> LifecycleClient:
+    """Return a lifecycle client of ``node`` on the (background-spun) test client node."""
+    return LifecycleClient(client, None, node)

@@ -20,6 +20,9 @@ from typing import Any, Callable
 import numpy as np
 import pytest
 import ros_harness
+from ros_harness import counters, set_parameter, trigger
+from ros_harness import inject_fault as inject
+from ros_harness import lifecycle_of as lifecycle
 
 from feeder_sim.fixture import FixtureFaults, TableLimits, gravity_of
 
@@ -82,10 +85,6 @@ def status(
     return wait_for(client, DeviceStatus, f"{device}/status", accept, timeout, latched())
 
 
-def counters(msg: Any) -> dict[str, int]:
-    return dict(zip(msg.counter_names, msg.counter_values, strict=True))
-
-
 def joints(
     client: Any, device: str, accept: Callable[[Any], bool] = lambda m: True, timeout: float = 30.0
 ) -> Any:
@@ -114,33 +113,6 @@ def move(client: Any, device: str, *targets: tuple[float, float]) -> Any:
     waypoints = [Vector3(x=g[0], y=g[1], z=g[2]) for g in (gravity_of(np.array(t)).tolist() for t in targets)]
     request = FixtureMove.Request(waypoints=waypoints)
     return ros_harness.call_service(client, FixtureMove, f"{device}/move", request)
-
-
-def inject(client: Any, device: str, fault: str, **fields: Any) -> Any:
-    from feeder_msgs.srv import InjectFault
-
-    request = InjectFault.Request(fault=fault, **fields)
-    return ros_harness.call_service(client, InjectFault, f"{device}/inject_fault", request)
-
-
-def trigger(client: Any, device: str, service: str) -> Any:
-    from std_srvs.srv import Trigger
-
-    return ros_harness.call_service(client, Trigger, f"{device}/{service}", Trigger.Request())
-
-
-def set_parameter(client: Any, device: str, name: str, value: Any) -> Any:
-    from rcl_interfaces.srv import SetParameters
-    from rclpy.parameter import Parameter
-
-    request = SetParameters.Request(parameters=[Parameter(name, value=value).to_parameter_msg()])
-    return ros_harness.call_service(client, SetParameters, f"{device}/set_parameters", request).results[0]
-
-
-def lifecycle(client: Any, device: str) -> Any:
-    from feeder_cell.lifecycle_client import LifecycleClient
-
-    return LifecycleClient(client, None, device)
 
 
 def diagnostic(client: Any, device: str, accept: Callable[[Any], bool] = lambda s: True) -> Any:
@@ -430,8 +402,7 @@ def test_stepped_cell_clock_moves_the_table_by_elapsed_time_up_to_the_cap(launch
             received.append(msg)
             arrived.notify_all()
 
-    def stamp(msg: Any) -> int:
-        return int(msg.header.stamp.sec) * 10**9 + int(msg.header.stamp.nanosec)
+    stamp = ros_harness.stamp_ns
 
     def step(seconds: float) -> tuple[int, float]:
         ns = int(round(seconds * 1e9))

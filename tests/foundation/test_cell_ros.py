@@ -253,8 +253,7 @@ def lockstep_run(ros_client: Any, launch_node: Any, seed: int, steps: int) -> li
         clock.stop()
 
 
-def _stamp(msg: Any) -> int:
-    return int(msg.header.stamp.sec) * 10**9 + int(msg.header.stamp.nanosec)
+_stamp = ros_harness.stamp_ns
 
 
 @pytest.mark.ros
@@ -307,8 +306,7 @@ def test_launch_real_time_factor_runs_every_device_on_the_cell_clock(ros_client:
         summary = launch.stop()
     assert [n["executable"] for n in summary["nodes"]] == ["cell_clock", "throwing_arm"]
     assert summary["real_time_factor"] == 4.0
-    throws = dict(zip(last.counter_names, last.counter_values, strict=True))["throws"]
-    before = dict(zip(first.counter_names, first.counter_values, strict=True))["throws"]
+    throws, before = ros_harness.counters(last)["throws"], ros_harness.counters(first)["throws"]
     # A 0.5 s throw period at 4x: about 8 throws per wall second, far more than at real time (2 per second).
     assert throws - before >= 6.0 * 4
     assert last.configured_real_time_factor == 4.0

@@ -20,6 +20,7 @@ from typing import Any, Callable
 import pytest
 import ros_harness
 import yaml
+from ros_harness import counters
 
 from feeder_planner.parts import load_part
 from feeder_sim.mems.faults import draw_cells
@@ -49,8 +50,6 @@ def device_parameters(directory: Path, **overrides: Any) -> dict[str, Any]:
 
 
 # --- helpers --------------------------------------------------------------------------------------
-def counters(msg: Any) -> dict[str, int]:
-    return dict(zip(msg.counter_names, msg.counter_values, strict=True))
 
 
 def force_y(msg: Any) -> float:
@@ -402,8 +401,7 @@ def test_stepped_cell_clock_advances_the_physics_by_elapsed_time_up_to_the_cap(
         namespace="/simclock",
     )
 
-    def stamp(msg: Any) -> int:
-        return int(msg.header.stamp.sec) * 10**9 + int(msg.header.stamp.nanosec)
+    stamp = ros_harness.stamp_ns
 
     def step(seconds: float) -> tuple[int, float]:
         ns = int(round(seconds * 1e9))

@@ -19,6 +19,9 @@ from typing import Any, Callable
 
 import pytest
 import ros_harness
+from ros_harness import counters, set_parameter, trigger
+from ros_harness import inject_fault as inject
+from ros_harness import lifecycle_of as lifecycle
 
 from feeder_planner.parts import load_part
 from feeder_planner.throwing import ThrowParams, arm_part
@@ -82,10 +85,6 @@ def no_fault(msg: Any) -> bool:
     from feeder_msgs.msg import DeviceStatus
 
     return msg.fault_code in (DeviceStatus.FAULT_NONE, DeviceStatus.FAULT_BEHIND_REAL_TIME)
-
-
-def counters(msg: Any) -> dict[str, int]:
-    return dict(zip(msg.counter_names, msg.counter_values, strict=True))
 
 
 def diagnostics(
@@ -164,33 +163,6 @@ def place(client: Any, device: str, edge: int = EDGE, radius: float = RADIUS) ->
 
     request = ArmPlacePart.Request(edge=edge, radius=radius)
     return ros_harness.call_service(client, ArmPlacePart, f"{device}/place_part", request)
-
-
-def inject(client: Any, device: str, fault: str, **fields: Any) -> Any:
-    from feeder_msgs.srv import InjectFault
-
-    request = InjectFault.Request(fault=fault, **fields)
-    return ros_harness.call_service(client, InjectFault, f"{device}/inject_fault", request)
-
-
-def trigger(client: Any, device: str, service: str) -> Any:
-    from std_srvs.srv import Trigger
-
-    return ros_harness.call_service(client, Trigger, f"{device}/{service}", Trigger.Request())
-
-
-def set_parameter(client: Any, device: str, name: str, value: Any) -> Any:
-    from rcl_interfaces.srv import SetParameters
-    from rclpy.parameter import Parameter
-
-    request = SetParameters.Request(parameters=[Parameter(name, value=value).to_parameter_msg()])
-    return ros_harness.call_service(client, SetParameters, f"{device}/set_parameters", request).results[0]
-
-
-def lifecycle(client: Any, device: str) -> Any:
-    from feeder_cell.lifecycle_client import LifecycleClient
-
-    return LifecycleClient(client, None, device)
 
 
 def throw_events(
@@ -493,8 +465,7 @@ def test_node_clock_time_under_a_stepped_cell_clock_and_the_cap_per_tick(
         assert response.ok, response.error
         return int(response.now.sec) * 10**9 + int(response.now.nanosec)
 
-    def stamp(msg: Any) -> int:
-        return int(msg.header.stamp.sec) * 10**9 + int(msg.header.stamp.nanosec)
+    stamp = ros_harness.stamp_ns
 
     launch_node(
         "feeder_cell",
