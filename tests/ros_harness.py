@@ -314,3 +314,16 @@ def set_parameter(client: Any, node: str, name: str, value: Any) -> Any:
 def lifecycle_of(client: Any, node: str) -> LifecycleClient:
     """Return a lifecycle client of ``node`` on the (background-spun) test client node."""
     return LifecycleClient(client, None, node)
+
+
+def step_clock(client: Any, seconds: float, clock: str = "/cell_clock") -> int:
+    """Advance a paused cell clock by ``seconds``; return the clock's time after the step (ns)."""
+    from builtin_interfaces.msg import Duration
+
+    from feeder_msgs.srv import StepClock
+
+    ns = int(round(seconds * 1e9))
+    request = StepClock.Request(duration=Duration(sec=ns // 10**9, nanosec=ns % 10**9))
+    response = call_service(client, StepClock, f"{clock}/step", request)
+    assert response.ok, response.error
+    return int(response.now.sec) * 10**9 + int(response.now.nanosec)

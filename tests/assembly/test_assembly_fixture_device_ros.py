@@ -380,10 +380,7 @@ def test_namespaced_fixture_and_planner_keep_everything_under_the_namespace(laun
 
 # --- one clock ------------------------------------------------------------------------------------
 def test_stepped_cell_clock_moves_the_table_by_elapsed_time_up_to_the_cap(launch_node, ros_client) -> None:
-    from builtin_interfaces.msg import Duration
     from sensor_msgs.msg import JointState
-
-    from feeder_msgs.srv import StepClock
 
     start_ns = 1_000_000_000 * 10**9  # the clock starts at 1e9 s: stamps are the clock's, not from 0
     launch_node(
@@ -405,11 +402,7 @@ def test_stepped_cell_clock_moves_the_table_by_elapsed_time_up_to_the_cap(launch
     stamp = ros_harness.stamp_ns
 
     def step(seconds: float) -> tuple[int, float]:
-        ns = int(round(seconds * 1e9))
-        request = StepClock.Request(duration=Duration(sec=ns // 10**9, nanosec=ns % 10**9))
-        response = ros_harness.call_service(ros_client, StepClock, "/simclock/cell_clock/step", request)
-        assert response.ok, response.error
-        now = int(response.now.sec) * 10**9 + int(response.now.nanosec)
+        now = ros_harness.step_clock(ros_client, seconds, "/simclock/cell_clock")
         with arrived:
             assert arrived.wait_for(lambda: any(stamp(m) == now for m in received), timeout=30), (
                 f"no joint state stamped {now}; last {[stamp(m) for m in received[-3:]]}"

@@ -167,16 +167,7 @@ def test_two_arms_and_two_arrays_in_namespaces_never_cross(ros_client: Any, tmp_
     assert all(n["lifecycle"] in ("active", "unmanaged") and not n["died_early"] for n in summary["nodes"])
 
 
-def step_clock(client: Any, seconds: float) -> int:
-    from builtin_interfaces.msg import Duration
-
-    from feeder_msgs.srv import StepClock
-
-    nanoseconds = int(round(seconds * 1e9))
-    request = StepClock.Request(duration=Duration(sec=nanoseconds // 10**9, nanosec=nanoseconds % 10**9))
-    response = ros_harness.call_service(client, StepClock, "/cell_clock/step", request)
-    assert response.ok, response.error
-    return int(response.now.sec) * 10**9 + int(response.now.nanosec)
+step_clock = ros_harness.step_clock
 
 
 START_NS = 10**18  # the held cell clock's start: 1e9 s, well away from 0 (an unset clock)

@@ -380,9 +380,6 @@ def test_a_namespaced_array_and_its_planner_find_each_other(
 def test_stepped_cell_clock_advances_the_physics_by_elapsed_time_up_to_the_cap(
     launch_node, ros_client, listen, tmp_path
 ) -> None:
-    from builtin_interfaces.msg import Duration
-
-    from feeder_msgs.srv import StepClock
 
     start_ns = 1_000_000_000 * 10**9  # the clock starts at 1e9 s: stamps are the clock's, not from 0
     launch_node(
@@ -404,11 +401,7 @@ def test_stepped_cell_clock_advances_the_physics_by_elapsed_time_up_to_the_cap(
     stamp = ros_harness.stamp_ns
 
     def step(seconds: float) -> tuple[int, float]:
-        ns = int(round(seconds * 1e9))
-        request = StepClock.Request(duration=Duration(sec=ns // 10**9, nanosec=ns % 10**9))
-        response = ros_harness.call_service(ros_client, StepClock, "/simclock/cell_clock/step", request)
-        assert response.ok, response.error
-        now = int(response.now.sec) * 10**9 + int(response.now.nanosec)
+        now = ros_harness.step_clock(ros_client, seconds, "/simclock/cell_clock")
         msg = stream.wait(lambda m: stamp(m) == now, current=True)
         return now, msg.parts[0].pose.position.y
 

@@ -453,17 +453,11 @@ def test_a_namespaced_arm_and_its_planner_keep_to_their_namespace(launch_node, r
 def test_node_clock_time_under_a_stepped_cell_clock_and_the_cap_per_tick(
     launch_node, ros_client, listen
 ) -> None:
-    from builtin_interfaces.msg import Duration
 
     from feeder_msgs.msg import DeviceStatus
-    from feeder_msgs.srv import StepClock
 
     def step(seconds: float) -> int:
-        ns = int(round(seconds * 1e9))
-        request = StepClock.Request(duration=Duration(sec=ns // 10**9, nanosec=ns % 10**9))
-        response = ros_harness.call_service(ros_client, StepClock, "/cell_clock/step", request)
-        assert response.ok, response.error
-        return int(response.now.sec) * 10**9 + int(response.now.nanosec)
+        return ros_harness.step_clock(ros_client, seconds, "/cell_clock")
 
     stamp = ros_harness.stamp_ns
 
