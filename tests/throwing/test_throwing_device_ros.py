@@ -176,8 +176,21 @@ def throw_events(
     return recorder.wait(topic, before + count, timeout)[before:]
 
 
-def readings(recorder: Recorder, device: str, seconds: float = 1.0, settle: float = 0.2) -> list[bool]:
+def readings(
+    recorder: Recorder, device: str, seconds: float = 1.0, settle: float = 0.2, expect: bool | None = None
+) -> list[bool]:
+    """Return the sensor bits of a ``seconds`` window, after what came before has drained.
+
+    With ``expect``, the window opens once a sample reads ``expect``: on a loaded machine the samples
+    published before a change can sit in the queues for longer than any fixed settle time.
+    """
     time.sleep(settle)  # samples already in flight belong to what came before
+    if expect is not None:
+        topic, deadline = f"{device}/sensor", time.monotonic() + 15.0
+        recorder.clear()
+        while not any(m.data == expect for m in recorder.get(topic)):
+            assert time.monotonic() < deadline, f"no sensor sample read {expect} within 15 s"
+            time.sleep(0.01)
     seen = [m.data for m in recorder.window(seconds)[f"{device}/sensor"]]
     assert len(seen) >= 5, f"only {len(seen)} sensor samples in {seconds} s"  # never judged on nothing
     return seen
@@ -394,9 +407,9 @@ def test_runtime_parameters_are_applied_and_read_only_ones_refused(launch_node, 
     assert (event.edge_after, event.radius_after) == (expected.edge_after, expected.radius_after)
     assert event.radius_after != nominal.radius_after  # the new W, not the configured one
     assert place(ros_client, device).ok
-    assert readings(recorder, device) and not any(readings(recorder, device))  # sensor at 35 cm
+    assert not any(readings(recorder, device, expect=False))  # sensor at 35 cm
     assert set_parameter(ros_client, device, "sensor_radius", SEES).successful
-    seen = readings(recorder, device)
+    seen = readings(recorder, device, expect=True)
     assert len(seen) >= 10 and all(seen)  # the sensor moved under the part at once
     refused = set_parameter(ros_client, device, "offset", -0.004)
     assert not refused.successful and "read-only" in refused.reason
@@ -488,7 +501,10 @@ def test_node_clock_time_under_a_stepped_cell_clock_and_the_cap_per_tick(
             time.sleep(0.005)
         return now
 
-    time.sleep(1.0)
+    # Steps count once the arm has heard the held clock (its heartbeat stamped with the clock's start):
+    # the first time it hears is its origin, and a step sent before that is a step it never saw.
+    statuses.wait(lambda s: stamp(s) == 10**18, 30.0, current=True)
+    time.sleep(0.5)
     assert recorder.get(joints) == []  # a held clock: no tick, nothing simulated
     ticks = [tick(0.05) for _ in range(20)]
     time.sleep(0.3)
@@ -539,14 +555,14 @@ def test_sensor_stuck_reads_its_state_whatever_is_there(launch_node, ros_client,
     assert len(seen) >= 10 and all(seen)  # true though the sensor at 35 cm sees nothing
     assert inject(ros_client, device, "sensor_stuck", clear=True).ok
     assert list(status(listen, device, lambda s: not s.active_faults).active_faults) == []
-    assert not any(readings(recorder, device))
+    assert not any(readings(recorder, device, expect=False))
     assert set_parameter(ros_client, device, "sensor_radius", SEES).successful
-    assert all(readings(recorder, device))  # the part is seen again
+    assert all(readings(recorder, device, expect=True))  # the part is seen again
     response = inject(ros_client, device, "sensor_stuck", state=False)
     assert response.ok and list(response.active_faults) == ["sensor_stuck(state=false)"]
-    assert not any(readings(recorder, device))  # stuck at false over the part
+    assert not any(readings(recorder, device, expect=False))  # stuck at false over the part
     assert trigger(ros_client, device, "reset").success  # ~/reset clears it too
-    assert all(readings(recorder, device))
+    assert all(readings(recorder, device, expect=True))
 
 
 @pytest.mark.ros
@@ -582,16 +598,18 @@ def test_sensor_bit_flip_inverts_the_published_bit(launch_node, ros_client, list
     launch_node("feeder_sim", "throwing_arm", arm_parameters(), namespace="/flip")
     recorder = streams(listen, device)
     assert inject(ros_client, device, "sensor_bit_flip", value=1.0).ok
-    assert all(readings(recorder, device))  # nothing there: every bit reads true
+    assert all(readings(recorder, device, expect=True))  # nothing there: every bit reads true
     assert set_parameter(ros_client, device, "sensor_radius", SEES).successful
-    assert not any(readings(recorder, device))  # the part there: every bit reads false (not stuck)
+    assert not any(
+        readings(recorder, device, expect=False)
+    )  # the part there: every bit reads false (not stuck)
     assert inject(ros_client, device, "sensor_bit_flip", value=0.3, seed=11).ok
     seen = readings(recorder, device, 3.0)
     share = seen.count(False) / len(seen)
     assert 0.1 < share < 0.5, share
     assert inject(ros_client, device, "sensor_bit_flip", clear=True).ok
     # A loaded machine can hold flipped samples in the queues for a while: let them drain first.
-    assert all(readings(recorder, device, settle=1.0))
+    assert all(readings(recorder, device, settle=1.0, expect=True))
 
 
 @pytest.mark.ros
@@ -664,7 +682,7 @@ def test_part_lost_takes_the_part_off_until_place_part_puts_it_back(launch_node,
     assert inject(ros_client, device, "part_lost").ok
     lost = status(listen, device, lambda s: s.state_name == "FAULT")
     assert lost.fault_code == DeviceStatus.FAULT_PART_LOST and "part_lost" in lost.fault_text
-    time.sleep(0.2)
+    assert not any(readings(recorder, device, expect=False))  # what came before has drained
     got = recorder.window(1.5)
     assert got[sensor] and not any(m.data for m in got[sensor])  # nothing on the arm to sense
     assert got[poses] == [] and len(got[joints]) >= 20  # no part to locate; the arm still reports
@@ -683,6 +701,6 @@ def test_part_lost_takes_the_part_off_until_place_part_puts_it_back(launch_node,
     assert place(ros_client, device).ok
     idle = status(listen, device, lambda s: s.state_name == "IDLE")
     assert no_fault(idle) and counters(idle)["faults"] == 1
-    assert all(readings(recorder, device)) and recorder.wait(poses, 1)
+    assert all(readings(recorder, device, expect=True)) and recorder.wait(poses, 1)
     event = throw_events(ros_client, device, recorder, 1)[0]
     assert not event.fault and event.radius_after == local_arm().throw().radius_after

@@ -24,6 +24,7 @@ from rclpy.clock import Clock, ClockType, JumpThreshold
 from rclpy.duration import Duration
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.parameter import Parameter
+from rclpy.task import Future
 from std_srvs.srv import Trigger
 
 from feeder_msgs.msg import DeviceStatus
@@ -218,10 +219,14 @@ class ManagedDevice(LifecycleNode):
         # Under use_sim_time the node clock reads 0 until the first /clock arrives; the device's model
         # starts from that first reading, whatever the order in which the clock and the device came up.
         self.clock_start_ns = 0
+        self.last_tick_due_ns = 0
+        self.tick_waiters: list[Future] = []
+        self.last_goal_rejection = ""
         threshold = JumpThreshold(
             min_forward=Duration(nanoseconds=1), min_backward=None, on_clock_change=True
         )
         self._clock_jump = self.get_clock().create_jump_callback(threshold, post_callback=self._on_clock_jump)
+        self.clock_origin_ns()  # the wall clock (or a /clock already heard) starts the model now
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(1.0 / HEARTBEAT_RATE, self._heartbeat, clock=steady)
         self.publish_status(force=True)
@@ -332,6 +337,21 @@ class ManagedDevice(LifecycleNode):
                 self.clock_start_ns = now
         return self.clock_start_ns
 
+    def tick_due(self, now_ns: int) -> bool:
+        """Return whether a tick of the main stream at ``now_ns`` (node clock) should simulate and publish.
+
+        Not while the clock has not started (0), and not at an instant already ticked or at the clock
+        origin itself: rclpy fires a sim-time timer when the first /clock jumps the clock forward, and
+        whether that happens depends on whether the device activated before or after the first /clock.
+        A held clock must show no tick either way, or lockstep runs would differ. A clock set back
+        ticks (it simulates nothing: the caller's elapsed time is clipped at zero).
+        """
+        reference = self.last_tick_due_ns or self.clock_origin_ns()
+        if now_ns <= 0 or now_ns == reference:
+            return False
+        self.last_tick_due_ns = now_ns
+        return True
+
     def sim_seconds(self) -> float:
         """Node clock (simulated time under use_sim_time) in seconds."""
         return self.get_clock().now().nanoseconds * 1e-9
@@ -350,9 +370,37 @@ class ManagedDevice(LifecycleNode):
         return f"{namespace}/{base}" if namespace else base
 
     def record_tick(self, simulated: float | None = None) -> None:
-        """Count one tick of the device's main stream for the rate and real-time-factor figures."""
+        """Count one tick of the device's main stream for the rate and real-time-factor figures.
+
+        The tick is over when this is called: the goals waiting in ``next_tick`` resume and read it.
+        """
         clock = self.sim_seconds()
         self.monitor.tick(time.monotonic(), clock, clock if simulated is None else simulated)
+        self._wake_tick_waiters()
+
+    def next_tick(self) -> Future:
+        """Return a future done after the device's next tick, or when it stops being active.
+
+        An action's ``execute`` coroutine awaits it (node_kit.actions): the goal advances with the node
+        clock and never blocks the executor. After waking, the goal must check ``self.active``.
+        """
+        waiter = Future()
+        if not self.active:
+            waiter.set_result(False)
+        else:
+            self.tick_waiters.append(waiter)
+        return waiter
+
+    def _wake_tick_waiters(self) -> None:
+        waiters, self.tick_waiters = self.tick_waiters, []
+        for waiter in waiters:
+            if not waiter.done():
+                waiter.set_result(self.active)
+
+    def record_goal_rejection(self, action: str, reason: str) -> None:
+        """Log a goal refused at goal time (ROS 2 has no field for the reason) and keep it for diagnostics."""
+        self.last_goal_rejection = f"{action}: {reason}"
+        self.get_logger().warning(f"goal rejected: {self.last_goal_rejection}")
 
     def rate_report(self) -> RateReport:
         """Return the achieved figures over the monitor's window."""
@@ -444,6 +492,7 @@ class ManagedDevice(LifecycleNode):
         """Freeze the physics where it is; latched descriptions stay with their late-joining subscribers."""
         self.deactivate_device()
         self.lifecycle = "inactive"
+        self._wake_tick_waiters()  # a goal must not outlive the device's activity
         result = super().on_deactivate(state)
         self.publish_status()
         return result
@@ -465,6 +514,7 @@ class ManagedDevice(LifecycleNode):
         if self.lifecycle in ("active", "inactive"):
             self.cleanup_device()
         self.lifecycle = "finalized"
+        self._wake_tick_waiters()
         self.publish_status()
         return TransitionCallbackReturn.SUCCESS
 
@@ -475,6 +525,7 @@ class ManagedDevice(LifecycleNode):
             self.cleanup_device()
         finally:
             self.lifecycle = "unconfigured"
+            self._wake_tick_waiters()
             self.publish_status()
         return TransitionCallbackReturn.SUCCESS
 
@@ -620,6 +671,7 @@ class ManagedDevice(LifecycleNode):
             "keeping_pace": f"{report.keeping_pace:.6g}",
             "behind_real_time": str(behind).lower(),
             "active_faults": ", ".join(f.label for f in self.faults.values()),
+            "last_goal_rejection": self.last_goal_rejection,
             **{
                 name: str(value)
                 for name, value in (

@@ -401,6 +401,8 @@ class AssemblyFixture(ManagedDevice):
         if table is None or prepared is None or not self.active:
             return
         now = self.get_clock().now().nanoseconds
+        if not self.tick_due(now):
+            return
         self._advance_to(now)
         self.record_tick(table.time)
         header = Header(stamp=RclTime(nanoseconds=now).to_msg(), frame_id=self.frame_id)

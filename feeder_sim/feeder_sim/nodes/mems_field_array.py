@@ -484,6 +484,8 @@ class MemsFieldArray(ManagedDevice):
         if scene is None or not self.active:
             return
         now = self.get_clock().now().nanoseconds
+        if not self.tick_due(now):
+            return
         if self.last_tick_ns <= 0:  # activated before the node clock started: from its first reading
             self.last_tick_ns = self.clock_origin_ns() or now
         elapsed = max(0, now - self.last_tick_ns)  # a clock set back simulates nothing, never negative

@@ -381,6 +381,8 @@ class ThrowingArmNode(ManagedDevice):
         if self.arm is None:
             return
         now = self.get_clock().now()
+        if not self.tick_due(now.nanoseconds):
+            return
         self._advance_clock(now)
         t = self.simulated
         pose, velocity = self.arm.rest_pose(), 0.0
