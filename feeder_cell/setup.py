@@ -11,7 +11,7 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
-        (f"share/{PACKAGE}/scenes", ["scenes/demo.yaml", "scenes/mems_only.yaml"]),
+        (f"share/{PACKAGE}/scenes", ["scenes/demo.yaml", "scenes/mems_only.yaml", "scenes/cell.yaml"]),
     ],
     install_requires=["setuptools"],
     zip_safe=True,
@@ -24,6 +24,8 @@ setup(
         "console_scripts": [
             "feeder = feeder_cell.cli.main:main",
             "cell_clock = feeder_cell.nodes.cell_clock:main",
+            "cell_controller = feeder_cell.nodes.cell_controller:main",
+            "opcua_gateway = feeder_cell.nodes.opcua_gateway:main",
         ],
     },
 )
