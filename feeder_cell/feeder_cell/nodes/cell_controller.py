@@ -1,0 +1,583 @@
+"""ROS 2 node: the reference cell controller, the example a user copies to drive the feeder cell.
+
+Written only against standard ROS 2 client interfaces: the devices' lifecycle services, their action
+servers (``~/run_program``, ``~/feed_part``, ``~/follow_path``), their services (``~/place_parts``,
+``~/place_part``, ``~/reset``), their latched ``~/status`` and ``/diagnostics``, and the region planner's
+``~/safe_path``. It imports no device or planner node: swap the simulators for hardware with the same
+interfaces and it runs unchanged. Device names are relative, so the controller moves with its namespace
+(started in ``/cell`` it drives ``/cell/throwing_arm``...).
+
+The cycle and the fault policy are the ROS-free ``feeder_cell.controller.CellMachine`` (two tables you
+can read in one screen); this node performs the work of each state and hands the machine the outcome.
+Every wait is bounded twice: on the node clock (``step_timeout``, so a bound scales with the cell clock's
+real-time factor) and on the wall clock (``wall_timeout``, so a held ``/clock`` cannot hang it).
+
+Threads: rclpy spins on a background thread (answers, results, status messages); the cycle runs as a
+plain loop in the main thread and waits on futures. That keeps the cycle readable top to bottom.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import threading
+import time
+from typing import Any
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Vector3
+from rclpy.action import ActionClient
+from rclpy.clock import Clock, ClockType
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from std_srvs.srv import Trigger
+
+from feeder_cell.controller import CellMachine, Outcome, State, Transition
+from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError
+from feeder_msgs.action import FeedPart, FollowPath, RunProgram
+from feeder_msgs.msg import CellStatus, DeviceStatus, FieldProgram, FieldSpec
+from feeder_msgs.srv import ArmPlacePart, MemsPlaceParts, StablePath
+from feeder_planner.errors import FeederError, InputError
+from feeder_planner.fields_io import load_yaml_mapping
+from feeder_planner.mems import program_from_mapping
+from feeder_planner.node_kit import (
+    LATCHED,
+    ParameterSpec,
+    declare_parameters,
+    in_range,
+    integer,
+    integer_at_least,
+    non_empty_string,
+    non_negative,
+    positive,
+)
+from feeder_planner.node_kit.msg_fields import fill_field_spec
+
+__all__ = ["PARAMETERS", "CellController", "main"]
+
+NODE_NAME = "cell_controller"
+HEARTBEAT_RATE = 1.0  # Hz (steady clock) of ~/status and /diagnostics besides every transition
+POLL_S = 0.02  # wall seconds between looks at a pending future
+EXIT_FINISHED, EXIT_STOPPED, EXIT_BAD_CONFIGURATION = 0, 1, 2
+
+
+def _directions(value: Any) -> str | None:
+    """Check a flattened list of gravity directions: x, y, z per direction, finite, not zero."""
+    values = list(value) if isinstance(value, (list, tuple)) else None
+    if not values or len(values) % 3 or not all(isinstance(v, (int, float)) for v in values):
+        return f"must be gravity directions as x, y, z triples (a multiple of 3 numbers), got {value!r}"
+    for i in range(0, len(values), 3):
+        triple = values[i : i + 3]
+        if not all(math.isfinite(v) for v in triple) or math.hypot(*triple) == 0.0:
+            return f"direction {i // 3} must be finite and non-zero, got {triple}"
+    return None
+
+
+PARAMETERS = (
+    # The devices and the planner, by name relative to the controller's namespace.
+    ParameterSpec("mems_device", "mems_field_array", "MEMS array node", non_empty_string("a node"), True),
+    ParameterSpec("arm_device", "throwing_arm", "throwing arm node", non_empty_string("a node"), True),
+    ParameterSpec(
+        "fixture_device", "assembly_fixture", "assembly fixture node", non_empty_string("a node"), True
+    ),
+    ParameterSpec(
+        "region_planner", "stable_region_planner", "stable region planner", non_empty_string("a node"), True
+    ),
+    ParameterSpec("cycles", 1, "production cycles to run (0: until stopped)", integer_at_least(0), True),
+    ParameterSpec(
+        "max_retries",
+        2,
+        "times one step may be retried in a cycle before the cell stops",
+        integer_at_least(0),
+        True,
+    ),
+    ParameterSpec(
+        "bring_up", True, "configure and activate the devices first (false: they must be active)", None, True
+    ),
+    # ORIENT: the MEMS array.
+    ParameterSpec(
+        "orient_program_file",
+        "",
+        "field program YAML for ~/run_program ({steps: [{field, duration}]}, metres); "
+        "empty: one combined field with orient_delta, forever",
+        None,
+        True,
+    ),
+    ParameterSpec(
+        "orient_delta",
+        0.2,
+        "delta of the default combined field (0 <= delta < 1)",
+        in_range(0.0, 1.0, include_high=False),
+        True,
+    ),
+    ParameterSpec("orient_timeout", 20.0, "run_program timeout (s, node clock)", positive, True),
+    ParameterSpec(
+        "orient_tolerance", 0.0, "run_program settle tolerance (0: the array's default)", non_negative, True
+    ),
+    ParameterSpec(
+        "orient_dwell", 0.0, "run_program settle dwell (s; 0: the array's default)", non_negative, True
+    ),
+    ParameterSpec(
+        "new_batch",
+        True,
+        "~/place_parts reset before each program: a new batch at the initial poses",
+        None,
+        True,
+    ),
+    # INFEED and FEED: the throwing arm.
+    ParameterSpec("infeed_edge", 2, "hull edge a new part arrives on (~/place_part)", integer, True),
+    ParameterSpec("infeed_radius", 0.12, "R (m) a new part arrives at (~/place_part)", positive, True),
+    ParameterSpec("feed_max_throws", 40, "feed_part max_throws", integer_at_least(1), True),
+    ParameterSpec(
+        "feed_timeout", 60.0, "feed_part timeout (s, node clock; 0: max_throws only)", non_negative, True
+    ),
+    # TILT and RETURN: the fixture and the planner.
+    ParameterSpec(
+        "fixture_route",
+        [-0.5, 0.0, -0.8660254037844386],
+        "the commanded route to the target orientation: gravity directions (x, y, z per waypoint, "
+        "assembly frame); the last one is the target",
+        _directions,
+        True,
+    ),
+    ParameterSpec(
+        "fixture_home",
+        [0.0, 0.0, -1.0],
+        "gravity direction the fixture returns to (x, y, z)",
+        _directions,
+        True,
+    ),
+    ParameterSpec("path_step", 0.0, "safe_path step (rad; 0: the planner's 1 degree)", non_negative, True),
+    # Bounds on every wait.
+    ParameterSpec(
+        "step_timeout",
+        120.0,
+        "most one step may take beyond its goal's own timeout (s, node clock)",
+        positive,
+        True,
+    ),
+    ParameterSpec(
+        "wall_timeout",
+        300.0,
+        "most any one wait may take on the wall clock, whatever the cell clock does (s)",
+        positive,
+        True,
+    ),
+    ParameterSpec(
+        "answer_timeout",
+        10.0,
+        "wall seconds for a server to appear, accept a goal or answer a call",
+        positive,
+        True,
+    ),
+    ParameterSpec(
+        "exit_when_done", False, "end the process when the machine ends (0 FINISHED, 1 STOPPED)", None, True
+    ),
+)
+
+
+class ShutdownError(FeederError):
+    """The node is shutting down (Ctrl-C): the cycle ends where it is."""
+
+
+class CellController(Node):
+    """Bring the cell up, run production cycles, handle faults by the machine's policy, report."""
+
+    def __init__(self) -> None:
+        super().__init__(NODE_NAME)
+        self.p = declare_parameters(self, PARAMETERS)
+        for name in ("fixture_route", "fixture_home"):
+            self.p[name] = [float(v) for v in self.p[name]]
+        self.program = self._program()
+        self.machine = CellMachine(cycles=self.p["cycles"], max_retries=self.p["max_retries"])
+        self.devices = {
+            "mems": self.p["mems_device"],
+            "arm": self.p["arm_device"],
+            "fixture": self.p["fixture_device"],
+        }
+        planner = self.p["region_planner"]
+        # Latest status per device (latched: the current one arrives at once) and diagnostics values.
+        self.status: dict[str, DeviceStatus] = {}
+        self.diagnostics: dict[str, dict[str, str]] = {}
+        for key, name in self.devices.items():
+            self.create_subscription(DeviceStatus, f"{name}/status", self._status_callback(key), LATCHED)
+        self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
+        # Every client is made once, here: a server must discover a client before it can answer it.
+        self.run_program = ActionClient(self, RunProgram, f"{self.devices['mems']}/run_program")
+        self.feed_part = ActionClient(self, FeedPart, f"{self.devices['arm']}/feed_part")
+        self.follow_path = ActionClient(self, FollowPath, f"{self.devices['fixture']}/follow_path")
+        self.place_parts = self.create_client(MemsPlaceParts, f"{self.devices['mems']}/place_parts")
+        self.place_part = self.create_client(ArmPlacePart, f"{self.devices['arm']}/place_part")
+        self.resets = {k: self.create_client(Trigger, f"{n}/reset") for k, n in self.devices.items()}
+        self.safe_path = self.create_client(StablePath, f"{planner}/safe_path")
+        self.lifecycle = {k: LifecycleClient(self, None, n) for k, n in self.devices.items()}
+        self.status_pub = self.create_publisher(CellStatus, "~/status", LATCHED)
+        self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.create_timer(1.0 / HEARTBEAT_RATE, self.publish_status, clock=steady)
+        self.last: Transition | None = None
+        self.stood = Vector3()  # where the fixture stands (gravity), from its last follow_path result
+        self.safe: list[Vector3] = []  # the planner's last path
+        self.throws = 0  # throws the feeds of this cycle used
+        self.publish_status()
+
+    # --- the cycle ------------------------------------------------------------------------------
+    def run(self) -> int:
+        """Run the machine to its end; return the exit code (0 FINISHED, 1 STOPPED)."""
+        work = {
+            State.BRING_UP: self.bring_up,
+            State.ORIENT: self.orient,
+            State.INFEED: self.infeed,
+            State.FEED: self.feed,
+            State.TILT: lambda: self.tilt(self._route(self.p["fixture_route"])),
+            State.PLAN_TILT: lambda: self.plan(self._route(self.p["fixture_route"])[-1]),
+            State.TILT_SAFE: lambda: self.tilt(self.safe),
+            State.RETURN: lambda: self.tilt(self._route(self.p["fixture_home"])),
+            State.PLAN_RETURN: lambda: self.plan(self._route(self.p["fixture_home"])[-1]),
+            State.RETURN_SAFE: lambda: self.tilt(self.safe),
+            State.RECOVER: self.recover,
+        }
+        try:
+            while not self.machine.finished:
+                outcome = work[self.machine.state]()
+                self.on_transition(self.machine.advance(outcome, self.now()))
+        except ShutdownError:
+            self.on_transition(self.machine.stop("the controller was shut down"))
+        return EXIT_FINISHED if self.machine.state is State.FINISHED else EXIT_STOPPED
+
+    def on_transition(self, t: Transition) -> None:
+        """Log the transition (a cycle in one line), publish the status."""
+        self.last = t
+        log = self.get_logger()
+        m = self.machine.metrics
+        if t.source in (State.RETURN, State.RETURN_SAFE) and t.policy is None:
+            log.info(
+                f"cycle {self.machine.cycle - (t.target is State.ORIENT)}: {m.last_cycle_time:.2f} s, "
+                f"{self.throws} throws; {m.cycles_completed} cycles, {m.parts_presented} parts, "
+                f"{m.parts_per_minute(self.now()):.2f} parts/min, faults seen {m.faults_seen} handled "
+                f"{m.faults_handled}, reroutes {m.reroutes}"
+            )
+            self.throws = 0
+        elif t.policy is not None and t.target is not State.STOPPED:
+            log.warning(f"{t.source.value}: {t.outcome.label()} -> {t.policy.value}: {t.note}")
+        elif t.target is State.STOPPED:
+            log.error(f"cell STOPPED: {self.machine.stop_reason}")
+        elif t.note:
+            log.info(f"{t.source.value} -> {t.target.value}: {t.note}")
+        if t.target is State.FINISHED:
+            log.info(f"cell FINISHED: {m.cycles_completed} cycles, {m.parts_presented} parts")
+        self.publish_status()
+
+    # --- the work of each state -------------------------------------------------------------------
+    def bring_up(self) -> Outcome:
+        """Configure and activate each device (one already active is left so); wait until it is ready."""
+        if not self.p["bring_up"]:
+            return self._all_ready()
+        for key, client in self.lifecycle.items():
+            try:
+                client.bring_to("active")
+            except LifecycleError as error:
+                status = self.status.get(key)
+                why = status.fault_text if status is not None and status.fault_text else ""
+                return Outcome(
+                    "ERROR", DeviceStatus.FAULT_CONFIGURATION, f"{error}{': ' + why if why else ''}"
+                )
+        return self._all_ready()
+
+    def orient(self) -> Outcome:
+        """Place a new batch on the MEMS array and run the field program until every part has settled."""
+        if self.p["new_batch"]:
+            response = self.call("mems", self.place_parts, MemsPlaceParts.Request(reset=True))
+            if isinstance(response, Outcome):
+                return response
+        goal = RunProgram.Goal(
+            program=self.program,
+            timeout=self.p["orient_timeout"],
+            tolerance=self.p["orient_tolerance"],
+            dwell=self.p["orient_dwell"],
+        )
+        result = self.action("mems", self.run_program, "run_program", goal, self.p["orient_timeout"])
+        return (
+            result
+            if isinstance(result, Outcome)
+            else Outcome(result.outcome_name, result.fault_code, result.message)
+        )
+
+    def infeed(self) -> Outcome:
+        """Put a new part on the arm at the infeed pose (the presented one was taken)."""
+        request = ArmPlacePart.Request(edge=self.p["infeed_edge"], radius=self.p["infeed_radius"])
+        response = self.call("arm", self.place_part, request)
+        return response if isinstance(response, Outcome) else Outcome("DONE")
+
+    def feed(self) -> Outcome:
+        """Throw until the arm's sensor says the part is presented (or max throws, timeout, a fault)."""
+        goal = FeedPart.Goal(max_throws=self.p["feed_max_throws"], timeout=self.p["feed_timeout"])
+        result = self.action("arm", self.feed_part, "feed_part", goal, self.p["feed_timeout"])
+        if isinstance(result, Outcome):
+            return result
+        self.throws += result.throws
+        return Outcome(result.outcome_name, result.fault_code, f"{result.throws} throws; {result.message}")
+
+    def tilt(self, waypoints: list[Vector3]) -> Outcome:
+        """Follow gravity waypoints; a refusal names the first unstable sample and its bodies."""
+        goal = FollowPath.Goal(gravity_waypoints=waypoints)
+        result = self.action("fixture", self.follow_path, "follow_path", goal, 0.0)
+        if isinstance(result, Outcome):
+            return result
+        self.stood = result.gravity
+        message = result.message
+        if result.outcome_name == "REFUSED":
+            bodies = ", ".join(result.unbalanced_bodies) or "none named"
+            message = f"sample {result.first_unstable_sample} unstable ({bodies}); {result.message}"
+        return Outcome(result.outcome_name, result.fault_code, message)
+
+    def plan(self, goal: Vector3) -> Outcome:
+        """Ask the region planner for a certified path from where the fixture stands to ``goal``."""
+        request = StablePath.Request(start=self.stood, goal=goal, step=self.p["path_step"])
+        response = self.call("planner", self.safe_path, request)
+        if isinstance(response, Outcome):
+            return Outcome("NO_PATH", 0, response.message) if response.event == "ERROR" else response
+        self.safe = list(response.path[1:]) or [goal]
+        return Outcome(
+            "PLANNED", 0, f"{len(response.path)} samples, min margin {response.min_margin:.3f} rad"
+        )
+
+    def recover(self) -> Outcome:
+        """~/reset the device that failed (the arm: then a fresh part at the infeed); wait until ready."""
+        key = self.machine.device
+        if key == "planner":
+            return Outcome("DONE")  # the planner holds no state to reset
+        response = self.call(key, self.resets[key], Trigger.Request())
+        if isinstance(response, Outcome):
+            return response
+        if not response.success:
+            return Outcome("ERROR", 0, f"{self.devices[key]}/reset: {response.message}")
+        if key == "arm":
+            placed = self.infeed()
+            if placed.event != "DONE":
+                return placed
+        return self._ready(key)
+
+    # --- bounded waits ------------------------------------------------------------------------------
+    def now(self) -> float:
+        """Node-clock seconds (the cell clock under use_sim_time)."""
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def wait(self, future: Any, sim_timeout: float) -> bool:
+        """Wait for a future: at most ``sim_timeout`` s of node clock and ``wall_timeout`` s of wall clock."""
+        sim_deadline = self.now() + sim_timeout
+        wall_deadline = time.monotonic() + self.p["wall_timeout"]
+        while not future.done():
+            if not rclpy.ok(context=self.context):
+                raise ShutdownError("shutdown")
+            if time.monotonic() > wall_deadline or self.now() > sim_deadline:
+                return False
+            time.sleep(POLL_S)
+        return True
+
+    def wait_wall(self, future: Any) -> bool:
+        """Wait for a server's answer: at most ``answer_timeout`` wall seconds."""
+        deadline = time.monotonic() + self.p["answer_timeout"]
+        while not future.done():
+            if not rclpy.ok(context=self.context):
+                raise ShutdownError("shutdown")
+            if time.monotonic() > deadline:
+                return False
+            time.sleep(POLL_S)
+        return True
+
+    def call(self, key: str, client: Any, request: Any) -> Any:
+        """Call a device service; an answer with ok false or none in time becomes an Outcome."""
+        if not client.wait_for_service(timeout_sec=self.p["answer_timeout"]):
+            return Outcome("NO_ANSWER", 0, f"service {client.srv_name} not available")
+        future = client.call_async(request)
+        if not self.wait_wall(future):
+            return Outcome(
+                "NO_ANSWER", 0, f"{client.srv_name} did not answer in {self.p['answer_timeout']:g} s"
+            )
+        response = future.result()
+        if getattr(response, "ok", True):
+            return response
+        return self._refusal(key, f"{client.srv_name}: {response.error}")
+
+    def action(self, key: str, client: ActionClient, action: str, goal: Any, goal_timeout: float) -> Any:
+        """Send a goal and wait for its result (bounded); a rejection or no result becomes an Outcome."""
+        name = f"{self.devices[key]}/{action}"
+        if not client.wait_for_server(timeout_sec=self.p["answer_timeout"]):
+            return Outcome("NO_ANSWER", 0, f"action {name} not available")
+        sent = client.send_goal_async(goal)
+        if not self.wait_wall(sent):
+            return Outcome("NO_ANSWER", 0, f"{name}: goal not answered in {self.p['answer_timeout']:g} s")
+        handle = sent.result()
+        if not handle.accepted:
+            why = self.diagnostics.get(self._qualified(self.devices[key]), {}).get("last_goal_rejection", "")
+            return self._refusal(key, f"{name}: goal rejected{': ' + why if why else ''}")
+        result = handle.get_result_async()
+        if not self.wait(result, goal_timeout + self.p["step_timeout"]):
+            handle.cancel_goal_async()  # not waited on: the step has failed either way
+            return Outcome("NO_ANSWER", 0, f"{name}: no result within the step's bound; goal canceled")
+        return result.result().result
+
+    def _refusal(self, key: str, message: str) -> Outcome:
+        """Return a refusal as FAULT with the device's code when its status says FAULT, else as ERROR."""
+        status = self.status.get(key)
+        if status is not None and status.state == DeviceStatus.FAULT:
+            return Outcome("FAULT", status.fault_code, f"{status.fault_text} ({message})")
+        return Outcome("ERROR", 0, message)
+
+    def _ready(self, key: str) -> Outcome:
+        """Wait (answer_timeout, wall) until the device's status says ready; else say its state."""
+        deadline = time.monotonic() + self.p["answer_timeout"]
+        while time.monotonic() < deadline:
+            status = self.status.get(key)
+            if status is not None and status.ready:
+                return Outcome("DONE")
+            if not rclpy.ok(context=self.context):
+                raise ShutdownError("shutdown")
+            time.sleep(POLL_S)
+        status = self.status.get(key)
+        if status is None:
+            return Outcome("NO_ANSWER", 0, f"no status from {self.devices[key]}")
+        if status.state == DeviceStatus.FAULT:
+            return Outcome("FAULT", status.fault_code, f"{self.devices[key]}: {status.fault_text}")
+        return Outcome(
+            "ERROR", status.fault_code, f"{self.devices[key]} is {status.state_name}: {status.fault_text}"
+        )
+
+    def _all_ready(self) -> Outcome:
+        for key in self.devices:
+            outcome = self._ready(key)
+            if outcome.event != "DONE":
+                return outcome
+        # Under use_sim_time the node clock reads 0 until the first /clock: cycle times start after.
+        deadline = time.monotonic() + self.p["answer_timeout"]
+        while self.now() <= 0.0:
+            if time.monotonic() > deadline:
+                return Outcome("NO_ANSWER", 0, "no /clock (use_sim_time is set)")
+            time.sleep(POLL_S)
+        return Outcome("DONE")
+
+    # --- inputs and outputs ---------------------------------------------------------------------------
+    def _program(self) -> FieldProgram:
+        """Return the program ORIENT runs: the file's, or one combined field (orient_delta) forever."""
+        program = FieldProgram(name="cell_controller")
+        path = self.p["orient_program_file"]
+        if not path:
+            program.steps = [FieldSpec(type="combined", delta=self.p["orient_delta"], strength=1.0)]
+            return program
+        try:
+            steps = program_from_mapping(load_yaml_mapping(path), "program")
+        except InputError as error:
+            raise InputError("parameter orient_program_file", str(error)) from None
+        program.steps = [fill_field_spec(FieldSpec(), step) for step in steps]
+        return program
+
+    @staticmethod
+    def _route(flat: list[float]) -> list[Vector3]:
+        return [Vector3(x=flat[i], y=flat[i + 1], z=flat[i + 2]) for i in range(0, len(flat), 3)]
+
+    def _qualified(self, name: str) -> str:
+        namespace = self.get_namespace().rstrip("/")
+        return name if name.startswith("/") else f"{namespace}/{name}"
+
+    def _status_callback(self, key: str) -> Any:
+        def on_status(msg: DeviceStatus) -> None:
+            self.status[key] = msg
+
+        return on_status
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            self.diagnostics[status.name] = {kv.key: kv.value for kv in status.values}
+
+    def status_msg(self) -> CellStatus:
+        """Return the controller's status now."""
+        machine, m, t = self.machine, self.machine.metrics, self.last
+        msg = CellStatus()
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.state = machine.state.value
+        msg.previous_state = t.source.value if t else ""
+        msg.device = machine.device
+        msg.last_outcome = t.outcome.label() if t else ""
+        msg.last_policy = t.policy.value if t and t.policy else ""
+        msg.cycle, msg.cycles = machine.cycle, machine.cycles
+        msg.cycles_completed, msg.parts_presented = m.cycles_completed, m.parts_presented
+        msg.faults_seen, msg.faults_handled = m.faults_seen, m.faults_handled
+        msg.retries, msg.reroutes = m.retries, m.reroutes
+        msg.last_cycle_time, msg.mean_cycle_time = m.last_cycle_time, m.mean_cycle_time
+        msg.parts_per_minute = m.parts_per_minute(self.now())
+        msg.last_fault = m.last_fault
+        msg.finished = machine.finished
+        msg.stopped = machine.state is State.STOPPED
+        msg.stop_reason = machine.stop_reason
+        msg.fault_code = t.outcome.fault_code if msg.stopped and t else 0
+        return msg
+
+    def publish_status(self) -> None:
+        """Publish ~/status (latched) and the controller's /diagnostics entry."""
+        msg = self.status_msg()
+        self.status_pub.publish(msg)
+        entry = DiagnosticStatus(name=self.get_fully_qualified_name(), hardware_id=f"sim:{self.get_name()}")
+        if msg.stopped:
+            entry.level, entry.message = DiagnosticStatus.ERROR, f"STOPPED: {msg.stop_reason}"
+        elif msg.last_policy:
+            entry.level, entry.message = DiagnosticStatus.WARN, f"{msg.state}: {msg.last_outcome}"
+        else:
+            entry.level, entry.message = DiagnosticStatus.OK, msg.state
+        values = {
+            "state": msg.state,
+            "cycle": msg.cycle,
+            "cycles_completed": msg.cycles_completed,
+            "parts_presented": msg.parts_presented,
+            "faults_seen": msg.faults_seen,
+            "faults_handled": msg.faults_handled,
+            "retries": msg.retries,
+            "reroutes": msg.reroutes,
+            "last_cycle_time": f"{msg.last_cycle_time:.6g}",
+            "parts_per_minute": f"{msg.parts_per_minute:.6g}",
+            "last_fault": msg.last_fault,
+        }
+        entry.values = [KeyValue(key=k, value=str(v)) for k, v in values.items()]
+        self.diagnostics_pub.publish(DiagnosticArray(header=msg.header, status=[entry]))
+
+
+def main(args: list[str] | None = None) -> None:
+    """Run the controller: spin on a thread, run the cycles here; exit 0 FINISHED, 1 STOPPED."""
+    rclpy.init(args=args)
+    try:
+        node = CellController()
+    except InputError as error:
+        rclpy.logging.get_logger(NODE_NAME).fatal(f"bad configuration: {error}")
+        rclpy.try_shutdown()
+        raise SystemExit(EXIT_BAD_CONFIGURATION) from None
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+
+    def spin() -> None:
+        try:
+            executor.spin()
+        except (KeyboardInterrupt, ExternalShutdownException):
+            pass
+
+    spinner = threading.Thread(target=spin, daemon=True)
+    spinner.start()
+    code = EXIT_STOPPED
+    try:
+        code = node.run()
+        if not node.p["exit_when_done"]:
+            while rclpy.ok():  # keep serving the latched status until Ctrl-C
+                time.sleep(0.1)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        if rclpy.ok():
+            node.publish_status()
+        executor.shutdown(timeout_sec=2.0)
+        node.destroy_node()
+        rclpy.try_shutdown()
+    sys.exit(code)
+
+
+if __name__ == "__main__":
+    main()
