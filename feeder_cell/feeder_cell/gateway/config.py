@@ -1,0 +1,207 @@
+"""The gateway's configuration, checked before anything starts: devices, endpoint, security, PackML states.
+
+ROS-free: the node reads its parameters and hands them here; every error names the parameter (and the
+entry) so that a bad start-up is one FATAL line, never a traceback or a silently weaker server.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import os
+import re
+from dataclasses import dataclass
+from urllib.parse import urlparse
+
+from feeder_planner.errors import InputError
+
+__all__ = [
+    "KINDS",
+    "POLICIES",
+    "PACKML",
+    "PACKML_UNDEFINED",
+    "DeviceEntry",
+    "Endpoint",
+    "SecurityConfig",
+    "parse_device_entry",
+    "parse_devices",
+    "parse_endpoint",
+    "is_loopback",
+    "check_security",
+    "packml_state",
+]
+
+# Device kinds the gateway knows, by the executable (and default node name) of each simulator.
+KINDS = ("throwing_arm", "mems_field_array", "assembly_fixture")
+
+# Security policies a client may use, as the parameter security_policies names them.
+POLICIES = ("None", "Basic256Sha256_Sign", "Basic256Sha256_SignAndEncrypt")
+
+# feeder_msgs/DeviceStatus state -> (PackML state name, PackML StateCurrent number, ISA-TR88.00.02).
+# UNCONFIGURED shows as Stopped: not producing and not commandable; unlike a device STOPPED, Reset does
+# not bring it to Idle (it needs the lifecycle configure and activate). PAUSED (lifecycle inactive, the
+# physics frozen by the cell controller) is Suspended: held by a condition outside the device.
+PACKML: dict[int, tuple[str, int]] = {
+    0: ("Stopped", 2),  # UNCONFIGURED
+    1: ("Idle", 4),  # IDLE
+    2: ("Execute", 6),  # RUNNING
+    3: ("Suspended", 5),  # PAUSED
+    4: ("Aborted", 9),  # FAULT
+    5: ("Stopped", 2),  # STOPPED
+}
+# No current status from the device (never heard, or its 1 Hz heartbeat missed): PackTags' Undefined.
+PACKML_UNDEFINED = ("Undefined", 0)
+
+_NAME = re.compile(r"^(/[A-Za-z_][A-Za-z0-9_]*)+$")
+
+
+@dataclass(frozen=True)
+class DeviceEntry:
+    """One device the gateway exposes: its kind and fully qualified node name."""
+
+    kind: str
+    node: str  # e.g. /cell/throwing_arm
+
+    @property
+    def key(self) -> str:
+        """The device's name in the address space (NodeId prefix): the node name, dots for slashes."""
+        return self.node.strip("/").replace("/", ".")
+
+
+def parse_device_entry(entry: str, index: int) -> DeviceEntry:
+    """Parse ``[KIND:]NODE``; without KIND the node's own name (its executable's) must be a kind."""
+    field = f"parameter devices[{index}]"
+    text = entry.strip()
+    kind, sep, node = text.rpartition(":")
+    if not sep:
+        kind, node = "", text
+    if not _NAME.match(node):
+        raise InputError(
+            field, f"must be a fully qualified node name such as /cell/throwing_arm, got {entry!r}"
+        )
+    if not kind:
+        kind = node.rsplit("/", 1)[1]
+        if kind not in KINDS:
+            raise InputError(
+                field,
+                f"node name {kind!r} is not a device kind ({', '.join(KINDS)}); "
+                f"give the kind explicitly as KIND:{node}",
+            )
+    elif kind not in KINDS:
+        raise InputError(field, f"unknown device kind {kind!r} (expected one of {', '.join(KINDS)})")
+    return DeviceEntry(kind, node)
+
+
+def parse_devices(entries: list[str]) -> tuple[DeviceEntry, ...]:
+    """Parse the devices parameter (empty strings are skipped); a device listed twice is refused."""
+    devices: list[DeviceEntry] = []
+    for index, entry in enumerate(entries):
+        if not entry.strip():
+            continue
+        device = parse_device_entry(entry, index)
+        if any(d.key == device.key for d in devices):
+            raise InputError(f"parameter devices[{index}]", f"{device.node} is listed twice")
+        devices.append(device)
+    return tuple(devices)
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    """The OPC UA endpoint the server listens on."""
+
+    url: str
+    host: str
+    port: int
+
+
+def parse_endpoint(url: str) -> Endpoint:
+    """Parse ``opc.tcp://HOST:PORT[/path]``; errors name the parameter endpoint."""
+    field = "parameter endpoint"
+    parsed = urlparse(url.strip())
+    if parsed.scheme != "opc.tcp":
+        raise InputError(field, f"must be an opc.tcp://HOST:PORT URL, got {url!r}")
+    try:
+        port = parsed.port
+    except ValueError:
+        raise InputError(field, f"has a bad port in {url!r}") from None
+    if not parsed.hostname or port is None or not 0 < port < 65536:
+        raise InputError(field, f"needs a host and a port in 1..65535, got {url!r}")
+    return Endpoint(url.strip(), parsed.hostname, port)
+
+
+def is_loopback(host: str) -> bool:
+    """Whether the host is a loopback address (``localhost`` counts; any other name does not)."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False  # a host name that might resolve anywhere: not provably loopback
+
+
+@dataclass(frozen=True)
+class SecurityConfig:
+    """Checked security settings: policies, the server's certificate and key, and who may log in."""
+
+    policies: tuple[str, ...]
+    certificate_file: str
+    private_key_file: str
+    allow_anonymous: bool
+    users_file: str
+
+
+def _readable(path: str, field: str) -> None:
+    if not os.path.isfile(path) or not os.access(path, os.R_OK):
+        raise InputError(field, f"cannot read {path!r}")
+
+
+def check_security(
+    endpoint: Endpoint,
+    policies: list[str],
+    certificate_file: str,
+    private_key_file: str,
+    allow_anonymous: bool,
+    allow_anonymous_remote: bool,
+    users_file: str,
+) -> SecurityConfig:
+    """Check the security parameters against each other and the endpoint; errors name the parameter.
+
+    Anonymous clients are allowed on a loopback endpoint only, unless ``allow_anonymous_remote`` says so
+    explicitly: a gateway bound to a factory network must not take commands from anyone by default.
+    """
+    chosen = tuple(p.strip() for p in policies if p.strip())
+    if not chosen:
+        raise InputError("parameter security_policies", f"needs at least one of {', '.join(POLICIES)}")
+    for index, policy in enumerate(chosen):
+        if policy not in POLICIES:
+            raise InputError(
+                f"parameter security_policies[{index}]",
+                f"unknown policy {policy!r} (expected one of {', '.join(POLICIES)})",
+            )
+    if len(set(chosen)) != len(chosen):
+        raise InputError("parameter security_policies", f"lists a policy twice: {list(chosen)}")
+    if any(p != "None" for p in chosen):
+        for name, path in (("certificate_file", certificate_file), ("private_key_file", private_key_file)):
+            if not path:
+                raise InputError(f"parameter {name}", "is required by the Basic256Sha256 security policies")
+            _readable(path, f"parameter {name}")
+    if users_file:
+        _readable(users_file, "parameter users_file")
+    if not allow_anonymous and not users_file:
+        raise InputError(
+            "parameter allow_anonymous", "is false and no users_file is given: no client could log in"
+        )
+    if allow_anonymous and not allow_anonymous_remote and not is_loopback(endpoint.host):
+        raise InputError(
+            "parameter allow_anonymous",
+            f"anonymous clients are allowed on a loopback endpoint only, and {endpoint.url} is not one; "
+            "set allow_anonymous false (with a users_file), or allow_anonymous_remote true to allow "
+            "anonymous access from the network explicitly",
+        )
+    return SecurityConfig(chosen, certificate_file, private_key_file, allow_anonymous, users_file)
+
+
+def packml_state(state: int | None) -> tuple[str, int]:
+    """Return the PackML (name, number) of a DeviceStatus state; None (no current status): Undefined."""
+    if state is None:
+        return PACKML_UNDEFINED
+    return PACKML.get(state, PACKML_UNDEFINED)

@@ -1,0 +1,338 @@
+"""The asyncua side of the gateway: the server, its security, the address space, values and method calls.
+
+ROS-free. It runs on an asyncio loop (the main thread of the node process). Two hand-offs cross threads:
+
+- **Values in.** ``post`` may be called from any thread (the rclpy executor's): it keeps the newest value
+  per variable under a lock and schedules one flush on the loop (``call_soon_threadsafe``), which writes
+  every pending value with its source timestamp. A value equal to the last one written is not written
+  again: its SourceTimestamp stays that of the sample that changed it, and no notification is sent.
+- **Calls out.** A method call is a coroutine on the loop: the arguments are checked here (``arguments``),
+  then handed to a ``Handler`` (the ROS bridge), whose answer is a status code name and a message.
+
+A Bad call returns its status code, the bad argument's own status in InputArgumentResults with the
+message in that argument's InputArgumentDiagnosticInfos (AdditionalInfo), the message as the Message
+output argument, and the message in the device's Command.LastMessage (a PLC that reads no diagnostics
+reads that variable).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import threading
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from typing import Any, Protocol
+
+from asyncua import Server, ua
+from asyncua.crypto.permission_rules import User, UserRole
+from asyncua.server.user_managers import UserManager
+
+from feeder_cell.gateway import arguments, layout
+from feeder_cell.gateway.config import DeviceEntry, Endpoint, SecurityConfig
+from feeder_cell.gateway.users import Users
+
+__all__ = ["Handler", "GatewayServer", "GatewayUsers", "POLICY_TYPES"]
+
+POLICY_TYPES = {
+    "None": ua.SecurityPolicyType.NoSecurity,
+    "Basic256Sha256_Sign": ua.SecurityPolicyType.Basic256Sha256_Sign,
+    "Basic256Sha256_SignAndEncrypt": ua.SecurityPolicyType.Basic256Sha256_SignAndEncrypt,
+}
+
+# Variables written by the gateway itself start Good; those mirrored from DDS start
+# BadWaitingForInitialData until the device's first sample.
+_OWN_PREFIXES = ("Kind", "NodeName", "Command.", "Status.Online", "Status.PackMLState")
+
+
+class Handler(Protocol):
+    """What executes a checked method call (the ROS bridge)."""
+
+    async def call(self, device: DeviceEntry, method: str, goal: Any) -> tuple[str, str]:
+        """Run ``method`` on ``device`` with a checked goal; return (status code name, message)."""
+        ...
+
+
+class GatewayUsers(UserManager):
+    """Who may open a session: anonymous (when allowed) and the users file's names with their passwords."""
+
+    def __init__(self, users: Users | None, allow_anonymous: bool) -> None:
+        self.users = users
+        self.allow_anonymous = allow_anonymous
+
+    def get_user(
+        self, iserver: Any, username: str | None = None, password: str | None = None, certificate: Any = None
+    ) -> User | None:
+        """Return the session's user, or None (BadUserAccessDenied)."""
+        if username is None and password is None:
+            return User(role=UserRole.User, name="anonymous") if self.allow_anonymous else None
+        if self.users is not None and self.users.check(username, password):
+            return User(role=UserRole.User, name=username)
+        return None
+
+
+@dataclass
+class _Pending:
+    value: Any
+    stamp_ns: int
+
+
+def _stamp(ns: int) -> datetime:
+    return datetime.fromtimestamp(ns / 1e9, tz=timezone.utc) if ns > 0 else datetime.now(timezone.utc)
+
+
+class GatewayServer:
+    """The OPC UA server of the gateway: one object per device under Objects/Cell/Devices."""
+
+    def __init__(
+        self,
+        endpoint: Endpoint,
+        security: SecurityConfig,
+        users: Users | None,
+        devices: tuple[DeviceEntry, ...],
+        handler: Handler,
+        program_dir: str = "",
+        logger: logging.Logger | None = None,
+    ) -> None:
+        self.endpoint, self.security, self.users = endpoint, security, users
+        self.devices, self.handler, self.program_dir = devices, handler, program_dir
+        self.log = logger or logging.getLogger("opcua_gateway")
+        self.server: Server | None = None
+        self.idx = 0
+        self._types: dict[str, ua.VariantType] = {}
+        self._lock = threading.Lock()
+        self._pending: dict[str, _Pending] = {}
+        self._written: dict[str, Any] = {}
+        self._scheduled = False
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._flushing: asyncio.Task[None] | None = None
+
+    # --- start and stop --------------------------------------------------------------------------
+    async def start(self) -> None:
+        """Build the address space and listen on the endpoint (OSError when it cannot bind)."""
+        self._loop = asyncio.get_running_loop()
+        server = Server(user_manager=GatewayUsers(self.users, self.security.allow_anonymous))
+        await server.init()
+        server.set_endpoint(self.endpoint.url)
+        server.set_server_name("feeder cell OPC UA gateway")
+        await server.set_application_uri(layout.APPLICATION_URI)
+        server.set_security_policy([POLICY_TYPES[p] for p in self.security.policies])
+        tokens: list[type] = []
+        if self.security.allow_anonymous:
+            tokens.append(ua.AnonymousIdentityToken)
+        if self.users is not None:
+            tokens.append(ua.UserNameIdentityToken)
+        server.set_identity_tokens(tokens)
+        if self.security.certificate_file:
+            await server.load_certificate(self.security.certificate_file)
+            await server.load_private_key(self.security.private_key_file)
+        self.idx = await server.register_namespace(layout.NAMESPACE_URI)
+        await self._build(server)
+        await server.start()
+        self.server = server
+        self._schedule()  # values posted before the server existed
+
+    async def stop(self) -> None:
+        """Stop listening and release the server."""
+        if self.server is not None:
+            server, self.server = self.server, None
+            await server.stop()
+
+    # --- address space ---------------------------------------------------------------------------
+    def _id(self, identifier: str) -> ua.NodeId:
+        return ua.NodeId(identifier, self.idx)
+
+    def _name(self, name: str) -> ua.QualifiedName:
+        return ua.QualifiedName(name, self.idx)
+
+    async def _build(self, server: Server) -> None:
+        cell = await server.nodes.objects.add_object(self._id(layout.CELL), self._name("Cell"))
+        folder = await cell.add_folder(self._id(layout.DEVICES_FOLDER), self._name("Devices"))
+        for device in self.devices:
+            await self._build_device(server, folder, device)
+
+    async def _build_device(self, server: Server, folder: Any, device: DeviceEntry) -> None:
+        key = device.key
+        obj = await folder.add_object(self._id(key), self._name(key))
+        await self._describe(obj, f"{device.kind} {device.node}")
+        parents: dict[str, Any] = {"": obj}
+        for spec in layout.variables(device.kind):
+            *folders, name = spec.path.split(".")
+            parent = await self._folder(parents, key, folders)
+            vtype = ua.VariantType[spec.type]
+            vid = layout.variable_id(key, spec.path)
+            initial = [] if spec.array else _default(vtype)
+            node = await parent.add_variable(self._id(vid), self._name(name), ua.Variant(initial, vtype))
+            if spec.array:
+                await node.write_attribute(
+                    ua.AttributeIds.ValueRank,
+                    ua.DataValue(ua.Variant(ua.ValueRank.OneDimension, ua.VariantType.Int32)),
+                )
+            await self._describe(node, spec.description)
+            self._types[vid] = vtype
+            if not spec.path.startswith(_OWN_PREFIXES):
+                await server.write_attribute_value(
+                    node.nodeid,
+                    ua.DataValue(StatusCode=ua.StatusCode(ua.StatusCodes.BadWaitingForInitialData)),
+                )
+        self.post(key, "Kind", device.kind)
+        self.post(key, "NodeName", device.node)
+        self.post(key, "Status.PackMLState", "Undefined")
+        for spec_m in layout.methods(device.kind):
+            await obj.add_method(
+                self._id(layout.method_id(key, spec_m.name)),
+                self._name(spec_m.name),
+                self._method(device, spec_m),
+                [_argument(a) for a in spec_m.inputs],
+                [_argument(layout.ArgumentSpec("Message", "String", "what the gateway or the device says"))],
+            )
+
+    async def _folder(self, parents: dict[str, Any], key: str, folders: list[str]) -> Any:
+        path = ""
+        for name in folders:
+            child = f"{path}.{name}" if path else name
+            if child not in parents:
+                parents[child] = await parents[path].add_folder(self._id(f"{key}.{child}"), self._name(name))
+            path = child
+        return parents[path]
+
+    @staticmethod
+    async def _describe(node: Any, text: str) -> None:
+        await node.write_attribute(
+            ua.AttributeIds.Description,
+            ua.DataValue(ua.Variant(ua.LocalizedText(text), ua.VariantType.LocalizedText)),
+        )
+
+    # --- values ----------------------------------------------------------------------------------
+    def post(self, key: str, path: str, value: Any, stamp_ns: int = 0) -> None:
+        """Set a device variable (any thread); written on the loop's next turn unless unchanged."""
+        vid = layout.variable_id(key, path)
+        with self._lock:
+            if self._written.get(vid, _UNSET) == value and vid not in self._pending:
+                return
+            self._pending[vid] = _Pending(value, stamp_ns)
+            if self._scheduled or self._loop is None:
+                return
+            self._scheduled = True
+        self._loop.call_soon_threadsafe(self._start_flush)
+
+    def _schedule(self) -> None:
+        with self._lock:
+            if self._scheduled or not self._pending:
+                return
+            self._scheduled = True
+        self._start_flush()
+
+    def _start_flush(self) -> None:
+        self._flushing = asyncio.ensure_future(self._flush())
+
+    async def _flush(self) -> None:
+        with self._lock:
+            pending, self._pending = self._pending, {}
+            self._scheduled = False
+            for vid, item in pending.items():
+                self._written[vid] = item.value
+        if self.server is None:
+            with self._lock:  # not listening yet: keep them for start()
+                self._pending = {**pending, **self._pending}
+            return
+        now = datetime.now(timezone.utc)
+        for vid, item in pending.items():
+            vtype = self._types[vid]
+            dv = ua.DataValue(
+                ua.Variant(item.value, vtype),
+                StatusCode=ua.StatusCode(ua.StatusCodes.Good),
+                SourceTimestamp=_stamp(item.stamp_ns),
+                ServerTimestamp=now,
+            )
+            await self.server.write_attribute_value(self._id(vid), dv)
+
+    def read(self, key: str, path: str) -> Any:
+        """Return the last value set of a variable (for the handler's own bookkeeping)."""
+        vid = layout.variable_id(key, path)
+        with self._lock:
+            if vid in self._pending:
+                return self._pending[vid].value
+            return self._written.get(vid)
+
+    # --- methods ---------------------------------------------------------------------------------
+    def _method(self, device: DeviceEntry, spec: layout.MethodSpec) -> Any:
+        async def call(parent: ua.NodeId, *variants: ua.Variant) -> ua.CallMethodResult:
+            count = len(variants)
+            try:
+                goal = self._check(device, spec, [_from_variant(v) for v in variants])
+            except arguments.ArgumentError as error:
+                return self._result(device, spec, count, error.status, error.message, error.index)
+            try:
+                status, message = await self.handler.call(device, spec.name, goal)
+            except Exception as error:  # noqa: BLE001 - a PLC gets a Bad code, the gateway keeps serving
+                self.log.exception("%s.%s failed", device.key, spec.name)
+                status, message = (
+                    "BadInternalError",
+                    f"{spec.name}: gateway error {type(error).__name__}: {error}",
+                )
+            return self._result(device, spec, count, status, message, -1)
+
+        return call
+
+    def _check(self, device: DeviceEntry, spec: layout.MethodSpec, args: list[arguments.Argument]) -> Any:
+        if spec.name == "FeedPart":
+            return arguments.check_feed_part(spec, args)
+        if spec.name == "RunProgram":
+            return arguments.check_run_program(spec, args, self.program_dir)
+        if spec.name == "FollowPath":
+            return arguments.check_follow_path(spec, args)
+        arguments.check_count(spec, args)
+        return None
+
+    def _result(
+        self, device: DeviceEntry, spec: layout.MethodSpec, count: int, status: str, message: str, index: int
+    ) -> ua.CallMethodResult:
+        self.post(device.key, "Command.LastStatus", status)
+        self.post(device.key, "Command.LastMessage", message)
+        code = ua.StatusCode(getattr(ua.StatusCodes, status, ua.StatusCodes.BadInternalError))
+        result = ua.CallMethodResult()
+        result.StatusCode = code
+        result.OutputArguments = [ua.Variant(message, ua.VariantType.String)]
+        result.InputArgumentResults = [ua.StatusCode(ua.StatusCodes.Good) for _ in range(count)]
+        if code.is_bad():
+            self.log.warning("%s.%s: %s: %s", device.key, spec.name, status, message)
+            result.InputArgumentDiagnosticInfos = [ua.DiagnosticInfo() for _ in range(count)]
+            targets = [index] if 0 <= index < count else list(range(count))
+            for i in targets:
+                if index >= 0:
+                    result.InputArgumentResults[i] = code
+                result.InputArgumentDiagnosticInfos[i] = ua.DiagnosticInfo(AdditionalInfo=message)
+        return result
+
+
+_UNSET = object()
+
+
+def _default(vtype: ua.VariantType) -> Any:
+    if vtype == ua.VariantType.Boolean:
+        return False
+    if vtype == ua.VariantType.String:
+        return ""
+    if vtype in (ua.VariantType.Double, ua.VariantType.Float):
+        return 0.0
+    return 0
+
+
+def _argument(spec: layout.ArgumentSpec) -> ua.Argument:
+    arg = ua.Argument()
+    arg.Name = spec.name
+    arg.DataType = ua.NodeId(ua.VariantType[spec.type].value)
+    arg.ValueRank = ua.ValueRank.OneDimension if spec.array else ua.ValueRank.Scalar
+    arg.ArrayDimensions = [0] if spec.array else []
+    arg.Description = ua.LocalizedText(spec.description)
+    return arg
+
+
+def _from_variant(variant: Any) -> arguments.Argument:
+    if not isinstance(variant, ua.Variant):  # a client library that passed a bare value
+        variant = ua.Variant(variant)
+    value = variant.Value
+    return arguments.Argument(
+        value, variant.VariantType.name, isinstance(value, list) or bool(variant.is_array)
+    )

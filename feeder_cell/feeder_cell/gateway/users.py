@@ -1,0 +1,110 @@
+"""User/password logins of the gateway: a YAML users file with salted PBKDF2-SHA256 hashes, no passwords.
+
+The file maps user names to hashes made by ``python -m feeder_cell.gateway.users NAME`` (it asks for the
+password and prints the line to add)::
+
+    users:
+      plc: pbkdf2_sha256$200000$<salt, base64>$<hash, base64>
+
+Each hash carries its own salt and iteration count; a check compares in constant time.
+"""
+
+from __future__ import annotations
+
+import base64
+import getpass
+import hashlib
+import hmac
+import os
+import sys
+from dataclasses import dataclass
+
+from feeder_planner.errors import InputError
+from feeder_planner.fields_io import load_yaml_mapping
+
+__all__ = ["ITERATIONS", "hash_password", "verify_password", "Users", "load_users", "main"]
+
+ITERATIONS = 200_000  # PBKDF2 rounds of a new hash: about 0.1 s per login check on one core
+_SCHEME = "pbkdf2_sha256"
+
+
+def _b64(data: bytes) -> str:
+    return base64.b64encode(data).decode("ascii")
+
+
+def hash_password(password: str, iterations: int = ITERATIONS, salt: bytes | None = None) -> str:
+    """Return ``pbkdf2_sha256$ITERATIONS$SALT$HASH`` for a password (a fresh 16-byte salt by default)."""
+    salt = os.urandom(16) if salt is None else salt
+    digest = hashlib.pbkdf2_hmac("sha256", password.encode("utf-8"), salt, iterations)
+    return f"{_SCHEME}${iterations}${_b64(salt)}${_b64(digest)}"
+
+
+def _parse_hash(text: str, field: str) -> tuple[int, bytes, bytes]:
+    parts = text.split("$") if isinstance(text, str) else []
+    if len(parts) != 4 or parts[0] != _SCHEME:
+        raise InputError(
+            field, f"must be {_SCHEME}$ITERATIONS$SALT$HASH (python -m feeder_cell.gateway.users)"
+        )
+    try:
+        iterations = int(parts[1])
+        salt, digest = base64.b64decode(parts[2], validate=True), base64.b64decode(parts[3], validate=True)
+    except ValueError:
+        raise InputError(field, "has a bad iteration count or base64 salt/hash") from None
+    if iterations < 1 or not salt or len(digest) != hashlib.sha256().digest_size:
+        raise InputError(field, "has a bad iteration count, an empty salt or a hash of the wrong length")
+    return iterations, salt, digest
+
+
+def verify_password(password: str, stored: str) -> bool:
+    """Return whether ``password`` matches a stored hash (constant-time comparison)."""
+    iterations, salt, digest = _parse_hash(stored, "hash")
+    candidate = hashlib.pbkdf2_hmac("sha256", password.encode("utf-8"), salt, iterations)
+    return hmac.compare_digest(candidate, digest)
+
+
+@dataclass(frozen=True)
+class Users:
+    """The users allowed to log in with a password, name -> stored hash."""
+
+    hashes: dict[str, str]
+
+    def check(self, name: str | None, password: str | None) -> bool:
+        """Return whether the name is a user and the password is theirs."""
+        stored = self.hashes.get(name or "")
+        return stored is not None and password is not None and verify_password(password, stored)
+
+
+def load_users(path: str) -> Users:
+    """Read a users file; errors name the file and the user's entry."""
+    try:
+        document = load_yaml_mapping(path)
+        users = document.get("users")
+        if not isinstance(users, dict) or not users:
+            raise InputError("users", "expected a non-empty mapping of user names to password hashes")
+        hashes: dict[str, str] = {}
+        for name, stored in users.items():
+            if not isinstance(name, str) or not name:
+                raise InputError("users", f"user names must be non-empty strings, got {name!r}")
+            _parse_hash(stored, f"users.{name}")
+            hashes[name] = stored
+    except InputError as error:
+        raise InputError("parameter users_file", str(error.with_source(path))) from None
+    return Users(hashes)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Ask for a password and print the users-file line for the user named on the command line."""
+    args = sys.argv[1:] if argv is None else argv
+    if len(args) != 1 or not args[0]:
+        print("usage: python -m feeder_cell.gateway.users NAME  (asks for the password)", file=sys.stderr)
+        return 2
+    password = getpass.getpass(f"password for {args[0]}: ")
+    if not password or password != getpass.getpass("again: "):
+        print("the passwords are empty or differ", file=sys.stderr)
+        return 1
+    print(f"  {args[0]}: {hash_password(password)}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,189 @@
+"""ROS 2 node: the OPC UA gateway for PLC cell controllers (asyncua server, devices over DDS).
+
+A thin adapter: parameters are read and checked here (``feeder_cell.gateway.config``), the address space
+and method calls live in ``feeder_cell.gateway.server`` and the ROS side in ``feeder_cell.gateway.bridge``.
+The asyncua server runs on an asyncio loop in the main thread; rclpy spins in a background thread (see
+the bridge's docstring for the hand-offs). A bad parameter is one FATAL line naming it and exit code 2;
+an endpoint that cannot be bound, exit code 2 naming the endpoint. SIGINT or SIGTERM stops it cleanly.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import signal
+import threading
+from typing import Any
+
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+
+from feeder_cell.gateway.bridge import RosBridge
+from feeder_cell.gateway.config import check_security, parse_devices, parse_endpoint
+from feeder_cell.gateway.server import GatewayServer
+from feeder_cell.gateway.users import load_users
+from feeder_planner.errors import InputError
+from feeder_planner.node_kit import ParameterSpec, declare_parameters, positive
+
+__all__: list[str] = []
+
+NODE_NAME = "opcua_gateway"
+EXIT_BAD_CONFIGURATION = 2
+
+
+def _strings(value: Any) -> str | None:
+    ok = isinstance(value, list) and all(isinstance(v, str) for v in value)
+    return None if ok else f"must be a list of strings, got {value!r}"
+
+
+PARAMETERS = (
+    ParameterSpec(
+        "endpoint",
+        "opc.tcp://127.0.0.1:4840",
+        "OPC UA endpoint URL the server listens on (opc.tcp://HOST:PORT)",
+        read_only=True,
+    ),
+    ParameterSpec(
+        "devices",
+        [""],
+        "device nodes exposed, each [KIND:]NODE (e.g. /cell/throwing_arm; KIND, one of throwing_arm, "
+        "mems_field_array, assembly_fixture, when the node's name is not its kind)",
+        _strings,
+        read_only=True,
+    ),
+    ParameterSpec(
+        "security_policies",
+        ["None"],
+        "endpoints offered: None, Basic256Sha256_Sign, Basic256Sha256_SignAndEncrypt",
+        _strings,
+        read_only=True,
+    ),
+    ParameterSpec(
+        "certificate_file", "", "server certificate (DER or PEM), required by Basic256Sha256", read_only=True
+    ),
+    ParameterSpec(
+        "private_key_file", "", "server private key (PEM), required by Basic256Sha256", read_only=True
+    ),
+    ParameterSpec(
+        "allow_anonymous", True, "accept anonymous sessions (on a loopback endpoint only)", read_only=True
+    ),
+    ParameterSpec(
+        "allow_anonymous_remote",
+        False,
+        "also accept anonymous sessions on a non-loopback endpoint (explicitly; refused otherwise)",
+        read_only=True,
+    ),
+    ParameterSpec(
+        "users_file",
+        "",
+        "YAML users file with salted password hashes (python -m feeder_cell.gateway.users NAME); empty: none",
+        read_only=True,
+    ),
+    ParameterSpec(
+        "program_dir",
+        "",
+        "folder of the field program files RunProgram may name (empty: inline only)",
+        read_only=True,
+    ),
+    ParameterSpec(
+        "call_timeout",
+        10.0,
+        "s (wall) a method call waits for the device's answer (a service reply, a goal acceptance)",
+        positive,
+        read_only=True,
+    ),
+)
+
+
+def _build(node: Node, executor: SingleThreadedExecutor) -> tuple[GatewayServer, RosBridge]:
+    """Check every parameter and build the server and the bridge; InputError names the parameter."""
+    p = declare_parameters(node, PARAMETERS)
+    endpoint = parse_endpoint(p["endpoint"])
+    devices = parse_devices(p["devices"])
+    security = check_security(
+        endpoint,
+        p["security_policies"],
+        p["certificate_file"],
+        p["private_key_file"],
+        p["allow_anonymous"],
+        p["allow_anonymous_remote"],
+        p["users_file"],
+    )
+    users = load_users(security.users_file) if security.users_file else None
+    logger = logging.getLogger(NODE_NAME)
+    holder: dict[str, RosBridge] = {}
+
+    class _Handler:
+        async def call(self, device: Any, method: str, goal: Any) -> tuple[str, str]:
+            return await holder["bridge"].call(device, method, goal)
+
+    server = GatewayServer(endpoint, security, users, devices, _Handler(), p["program_dir"], logger)
+    bridge = RosBridge(node, executor, server, float(p["call_timeout"]))
+    holder["bridge"] = bridge
+    return server, bridge
+
+
+async def _serve(node: Node, server: GatewayServer) -> int:
+    loop = asyncio.get_running_loop()
+    stop = asyncio.Event()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(signum, stop.set)
+    try:
+        await server.start()
+    except OSError as error:
+        node.get_logger().fatal(
+            f"parameter endpoint: cannot listen on {server.endpoint.url}: {error.strerror or error}"
+        )
+        return EXIT_BAD_CONFIGURATION
+    names = ", ".join(d.node for d in server.devices) or "no devices"
+    node.get_logger().info(
+        f"OPC UA server on {server.endpoint.url} ({', '.join(server.security.policies)}; "
+        f"anonymous {'allowed' if server.security.allow_anonymous else 'refused'}; "
+        f"users {'from ' + server.security.users_file if server.users else 'none'}): {names}"
+    )
+    await stop.wait()
+    await server.stop()
+    return 0
+
+
+def main(args: list[str] | None = None) -> None:
+    """Run the opcua_gateway node until SIGINT or SIGTERM."""
+    # The asyncio loop owns the signals: rclpy's handlers would end the context under a running server.
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    logging.basicConfig(level=logging.WARNING, format="[%(levelname)s] [%(name)s]: %(message)s")
+    logging.getLogger("asyncua").setLevel(logging.ERROR)  # its per-request INFO lines would flood the log
+    node = rclpy.create_node(NODE_NAME)
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    try:
+        server, _bridge = _build(node, executor)
+    except InputError as error:
+        node.get_logger().fatal(f"bad configuration: {error}")
+        node.destroy_node()
+        rclpy.try_shutdown()
+        raise SystemExit(EXIT_BAD_CONFIGURATION) from None
+
+    def spin() -> None:
+        try:
+            executor.spin()
+        except ExternalShutdownException:
+            pass
+
+    thread = threading.Thread(target=spin, name="rclpy", daemon=True)
+    thread.start()
+    code = 1
+    try:
+        code = asyncio.run(_serve(node, server))
+    finally:
+        executor.shutdown(timeout_sec=2.0)
+        thread.join(timeout=5.0)
+        node.destroy_node()
+        rclpy.try_shutdown()
+    if code:
+        raise SystemExit(code)
+
+
+if __name__ == "__main__":
+    main()

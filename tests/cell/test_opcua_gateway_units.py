@@ -1,0 +1,246 @@
+"""The gateway's ROS-free parts: device entries, endpoint and security, PackML states, users, arguments."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from feeder_cell.gateway import layout
+from feeder_cell.gateway.arguments import (
+    Argument,
+    ArgumentError,
+    check_feed_part,
+    check_follow_path,
+    check_run_program,
+)
+from feeder_cell.gateway.config import (
+    check_security,
+    is_loopback,
+    packml_state,
+    parse_device_entry,
+    parse_devices,
+    parse_endpoint,
+)
+from feeder_cell.gateway.users import Users, hash_password, load_users, verify_password
+from feeder_planner.errors import InputError
+
+ROOT = Path(__file__).resolve().parents[2]
+FEED = layout.ACTIONS["throwing_arm"]
+RUN = layout.ACTIONS["mems_field_array"]
+FOLLOW = layout.ACTIONS["assembly_fixture"]
+
+
+def d(value: float) -> Argument:
+    return Argument(value, "Double")
+
+
+def u(value: int) -> Argument:
+    return Argument(value, "UInt32")
+
+
+# --- devices, endpoint, security ---------------------------------------------------------------------
+
+
+def test_device_kind_from_the_node_name_or_given() -> None:
+    arm = parse_device_entry("/cell/throwing_arm", 0)
+    assert (arm.kind, arm.node, arm.key) == ("throwing_arm", "/cell/throwing_arm", "cell.throwing_arm")
+    named = parse_device_entry("assembly_fixture:/cell/tilt_a", 1)
+    assert (named.kind, named.key) == ("assembly_fixture", "cell.tilt_a")
+
+
+@pytest.mark.parametrize(
+    "entry, words",
+    [
+        ("/cell/feeder_a", "give the kind explicitly"),
+        ("robot:/cell/x", "unknown device kind 'robot'"),
+        ("cell/throwing_arm", "fully qualified node name"),
+        ("/cell/bad-name", "fully qualified node name"),
+    ],
+)
+def test_bad_device_entries_name_the_entry(entry: str, words: str) -> None:
+    with pytest.raises(InputError) as error:
+        parse_devices(["", entry])
+    assert str(error.value).startswith("parameter devices[1]:")
+    assert words in str(error.value)
+
+
+def test_a_device_listed_twice_is_refused() -> None:
+    with pytest.raises(InputError, match=r"devices\[1\].*listed twice"):
+        parse_devices(["/a/throwing_arm", "throwing_arm:/a/throwing_arm"])
+
+
+def test_endpoint_parsing() -> None:
+    endpoint = parse_endpoint("opc.tcp://127.0.0.1:4840")
+    assert (endpoint.host, endpoint.port) == ("127.0.0.1", 4840)
+    for bad in ("http://127.0.0.1:4840", "opc.tcp://127.0.0.1", "opc.tcp://:4840", "opc.tcp://h:99999"):
+        with pytest.raises(InputError, match="parameter endpoint"):
+            parse_endpoint(bad)
+
+
+def test_loopback() -> None:
+    assert is_loopback("127.0.0.1") and is_loopback("::1") and is_loopback("localhost")
+    assert not is_loopback("0.0.0.0") and not is_loopback("10.1.2.3") and not is_loopback("plc-gateway")
+
+
+def _security(url: str, **overrides: object) -> object:
+    values: dict = dict(
+        policies=["None"],
+        certificate_file="",
+        private_key_file="",
+        allow_anonymous=True,
+        allow_anonymous_remote=False,
+        users_file="",
+    )
+    values.update(overrides)
+    return check_security(parse_endpoint(url), **values)  # type: ignore[arg-type]
+
+
+def test_anonymous_on_a_non_loopback_endpoint_is_refused_unless_allowed_explicitly() -> None:
+    assert _security("opc.tcp://127.0.0.1:4840").allow_anonymous  # type: ignore[attr-defined]
+    with pytest.raises(InputError) as error:
+        _security("opc.tcp://0.0.0.0:4840")
+    assert str(error.value).startswith("parameter allow_anonymous:")
+    assert "allow_anonymous_remote" in str(error.value)
+    assert _security("opc.tcp://0.0.0.0:4840", allow_anonymous_remote=True)
+
+
+def test_security_combinations_name_the_parameter(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match=r"parameter security_policies\[0\]: unknown policy 'Basic128'"):
+        _security("opc.tcp://127.0.0.1:1", policies=["Basic128"])
+    with pytest.raises(InputError, match="parameter certificate_file: is required"):
+        _security("opc.tcp://127.0.0.1:1", policies=["Basic256Sha256_SignAndEncrypt"])
+    with pytest.raises(InputError, match="parameter allow_anonymous: is false and no users_file"):
+        _security("opc.tcp://127.0.0.1:1", allow_anonymous=False)
+    with pytest.raises(InputError, match="parameter users_file: cannot read"):
+        _security("opc.tcp://127.0.0.1:1", users_file=str(tmp_path / "missing.yaml"))
+
+
+def test_packml_mapping() -> None:
+    names = {state: packml_state(state) for state in range(6)}
+    assert names == {
+        0: ("Stopped", 2),
+        1: ("Idle", 4),
+        2: ("Execute", 6),
+        3: ("Suspended", 5),
+        4: ("Aborted", 9),
+        5: ("Stopped", 2),
+    }
+    assert packml_state(None) == ("Undefined", 0)
+    assert packml_state(17) == ("Undefined", 0)
+
+
+# --- users --------------------------------------------------------------------------------------------
+
+
+def test_password_hashes_are_salted_and_checked(tmp_path: Path) -> None:
+    first, second = hash_password("secret", iterations=1000), hash_password("secret", iterations=1000)
+    assert first != second  # a fresh salt each time
+    assert verify_password("secret", first) and not verify_password("Secret", first)
+    path = tmp_path / "users.yaml"
+    path.write_text(f"users:\n  plc: {first}\n")
+    users = load_users(str(path))
+    assert users.check("plc", "secret")
+    assert (
+        not users.check("plc", "wrong") and not users.check("other", "secret") and not users.check(None, None)
+    )
+
+
+def test_a_bad_users_file_names_the_entry(tmp_path: Path) -> None:
+    path = tmp_path / "users.yaml"
+    path.write_text("users:\n  plc: plaintext\n")
+    with pytest.raises(InputError) as error:
+        load_users(str(path))
+    assert "parameter users_file" in str(error.value) and "users.plc" in str(error.value)
+    assert isinstance(Users({}), Users)
+
+
+# --- arguments ----------------------------------------------------------------------------------------
+
+
+def _refused(call: object, *args: object) -> ArgumentError:
+    with pytest.raises(ArgumentError) as error:
+        call(*args)  # type: ignore[operator]
+    return error.value
+
+
+def test_feed_part_arguments() -> None:
+    goal = check_feed_part(FEED, [u(5), d(2.5)])
+    assert (goal.max_throws, goal.timeout) == (5, 2.5)
+    assert check_feed_part(FEED, [Argument(3, "Int64"), Argument(0, "Int64")]).timeout == 0.0
+    error = _refused(check_feed_part, FEED, [u(0), d(1.0)])
+    assert (error.status, error.index) == ("BadInvalidArgument", 0) and "MaxThrows" in error.message
+    error = _refused(check_feed_part, FEED, [u(1), d(math.nan)])
+    assert (error.status, error.index) == ("BadInvalidArgument", 1) and "Timeout" in error.message
+    error = _refused(check_feed_part, FEED, [u(1), Argument("soon", "String")])
+    assert (error.status, error.index) == ("BadTypeMismatch", 1) and "Timeout" in error.message
+    error = _refused(check_feed_part, FEED, [u(1)])
+    assert error.status == "BadArgumentsMissing" and "Timeout" in error.message
+    error = _refused(check_feed_part, FEED, [u(1), d(1.0), d(2.0)])
+    assert error.status == "BadTooManyArguments"
+
+
+def test_run_program_inline_and_files(tmp_path: Path) -> None:
+    inline = "{steps: [{field: {type: radial, center: [0, 0]}, duration: .inf}]}"
+    goal = check_run_program(RUN, [Argument(inline, "String"), d(5.0), d(0.0), d(0.0)], "")
+    assert goal.name == "inline" and len(goal.steps) == 1 and goal.timeout == 5.0
+    programs = ROOT / "examples" / "mems"
+    named = check_run_program(
+        RUN, [Argument("program_squeeze_then_orient", "String"), d(5.0), d(0.0), d(0.0)], str(programs)
+    )
+    assert named.name == "program_squeeze_then_orient" and len(named.steps) == 3
+    for text, words in (
+        ("", "Program: is empty"),
+        ("{steps: []}", "Program.steps"),
+        ("{steps: [{field: {type: spiral}}]}", "Program.steps[0].field"),
+        ("../secrets.yaml", "inside program_dir"),
+        ("/etc/passwd", "inside program_dir"),
+        ("missing", "no program 'missing'"),
+    ):
+        error = _refused(
+            check_run_program, RUN, [Argument(text, "String"), d(5.0), d(0.0), d(0.0)], str(programs)
+        )
+        assert (error.status, error.index) == ("BadInvalidArgument", 0), text
+        assert words in error.message, (text, error.message)
+    error = _refused(check_run_program, RUN, [Argument(inline, "String"), d(0.0), d(0.0), d(0.0)], "")
+    assert error.index == 1 and "Timeout: must be > 0" in error.message
+    error = _refused(check_run_program, RUN, [Argument(inline, "String"), d(1.0), d(-1.0), d(0.0)], "")
+    assert error.index == 2 and "Tolerance" in error.message
+    error = _refused(check_run_program, RUN, [Argument("x", "String"), d(1.0), d(0.0), d(0.0)], "")
+    assert "program_dir is empty" in error.message
+
+
+def test_follow_path_arguments() -> None:
+    tilt = check_follow_path(
+        FOLLOW, [Argument([0.1, 0.0, 0.0, 0.0], "Double", True), Argument([], "Null", True)]
+    )
+    assert tilt.tilt == (0.1, 0.0, 0.0, 0.0) and tilt.gravity == ()
+    gravity = check_follow_path(FOLLOW, [Argument(None, "Null"), Argument([0.0, 0.0, -1.0], "Double", True)])
+    assert gravity.gravity == ((0.0, 0.0, -1.0),)
+    cases = [
+        ([Argument([], "Double", True), Argument([], "Double", True)], 1, "both are empty"),
+        (
+            [Argument([0.1, 0.2], "Double", True), Argument([0.0, 0.0, -1.0], "Double", True)],
+            0,
+            "both are given",
+        ),
+        ([Argument([0.1], "Double", True), Argument([], "Double", True)], 0, "pairs"),
+        ([Argument([], "Double", True), Argument([0.0, -1.0], "Double", True)], 1, "triples"),
+        ([Argument([], "Double", True), Argument([0.0, 0.0, 0.0], "Double", True)], 1, "zero vector"),
+        ([Argument([0.1, math.nan], "Double", True), Argument([], "Double", True)], 0, "TiltWaypoints[1]"),
+    ]
+    for args, index, words in cases:
+        error = _refused(check_follow_path, FOLLOW, args)
+        assert (error.status, error.index) == ("BadInvalidArgument", index) and words in error.message, words
+    error = _refused(check_follow_path, FOLLOW, [Argument(0.5, "Double"), Argument([], "Double", True)])
+    assert error.status == "BadTypeMismatch" and "TiltWaypoints" in error.message
+
+
+def test_layout_ids_are_unique_per_device() -> None:
+    for kind in layout.COUNTERS:
+        paths = [v.path for v in layout.variables(kind)]
+        assert len(paths) == len(set(paths))
+        assert {"Status.PackMLState", "Status.FaultCode", "Command.LastOutcome", "Command.Busy"} <= set(paths)
+        assert [m.name for m in layout.methods(kind)] == [layout.ACTIONS[kind].name, "Stop", "Reset"]
+    assert layout.variable_id("cell.throwing_arm", "Signals.Sensor") == "cell.throwing_arm.Signals.Sensor"
