@@ -24,6 +24,10 @@ PR_SET_PDEATHSIG = 1
 
 LifecycleTarget = Literal["active", "inactive", "unconfigured"]
 LIFECYCLE_TARGETS: tuple[str, ...] = ("active", "inactive", "unconfigured")
+# What a node's own exit does to the scene, as ROS launch's on_exit: "" (a node that ends is reported
+# and ends the scene as a failure) or "shutdown" (the scene ends with that node's exit code).
+OnExit = Literal["", "shutdown"]
+ON_EXIT_ACTIONS: tuple[str, ...] = ("shutdown",)
 
 
 @dataclass(frozen=True)
@@ -37,6 +41,7 @@ class NodeSpec:
     namespace: str = ""  # e.g. /cell/feeder_a; empty: the root namespace
     remappings: tuple[tuple[str, str], ...] = ()  # (from, to) name remappings, as -r from:=to
     lifecycle: LifecycleTarget = "active"  # where `feeder launch` brings a managed node
+    on_exit: OnExit = ""  # "shutdown": when this node exits, the scene ends with its exit code
 
     @property
     def node_name(self) -> str:
@@ -85,6 +90,7 @@ def scene_from_mapping(document: dict[str, Any], base_dir: Path) -> Scene:
                 _namespace(optional(entry, "namespace", ""), f"{where}.namespace"),
                 _remappings(optional(entry, "remappings", {}), f"{where}.remappings"),
                 _lifecycle(optional(entry, "lifecycle", "active"), f"{where}.lifecycle"),
+                _on_exit(optional(entry, "on_exit", ""), f"{where}.on_exit"),
             )
         )
     return Scene(str(optional(document, "name", "scene")), tuple(nodes))
@@ -111,6 +117,12 @@ def _lifecycle(value: Any, field: str) -> LifecycleTarget:
     if value not in LIFECYCLE_TARGETS:
         raise InputError(field, f"must be one of {', '.join(LIFECYCLE_TARGETS)}, got {value!r}")
     return cast(LifecycleTarget, value)
+
+
+def _on_exit(value: Any, field: str) -> OnExit:
+    if value not in ("", *ON_EXIT_ACTIONS):
+        raise InputError(field, f"must be one of {', '.join(ON_EXIT_ACTIONS)} (or absent), got {value!r}")
+    return cast(OnExit, value)
 
 
 def _resolve_path(key: str, value: Any, base_dir: Path) -> Any:

@@ -16,6 +16,8 @@ from feeder_cell.ros_session import with_node
 from feeder_planner.errors import FeederError, InputError
 
 STARTUP_TIMEOUT_S = 30.0
+# Primary lifecycle states in the order `feeder launch` walks them (anything else is a transition state).
+RANK = {"unconfigured": 0, "inactive": 1, "active": 2}
 
 # The cell clock `--real-time-factor` starts; every node of the scene then runs on sim time.
 CLOCK_NODE = NodeSpec("feeder_cell", "cell_clock")
@@ -73,8 +75,9 @@ def _configuration_error(node: Any, executor: Any, target: str) -> str:
 def bring_up(node: Any, executor: Any, processes: list[NodeProcess]) -> dict[str, str]:
     """Bring every managed node to its scene's lifecycle target, in scene order; return the states.
 
-    A node without lifecycle services is left as it is ("unmanaged"). A refused transition stops the
-    launch with the node's own reason.
+    A node without lifecycle services is left as it is ("unmanaged"), and so is one already at or past
+    its target, or in a transition (another client of the scene is moving it). A refused transition
+    stops the launch with the node's own reason.
     """
     states: dict[str, str] = {}
     for process in processes:
@@ -83,6 +86,12 @@ def bring_up(node: Any, executor: Any, processes: list[NodeProcess]) -> dict[str
         try:
             if not client.is_managed():
                 states[target] = "unmanaged"
+                continue
+            state = client.get_state()
+            if RANK.get(state, len(RANK)) >= RANK[process.spec.lifecycle]:
+                # Forward only: a node already at or past its target (a controller of the scene brought
+                # it up, or is doing so now) is left to it, never taken back.
+                states[target] = state
                 continue
             states[target] = client.bring_to(process.spec.lifecycle)
         except LifecycleError as error:
@@ -138,7 +147,9 @@ def _launch(args: argparse.Namespace) -> int:
                     recorder.discover()
                     next_discovery = time.monotonic() + 0.5
                 if any(not p.alive() for p in processes):
-                    break  # a node that dies mid-run ends the scene; its exit code is reported below
+                    # A node that ends mid-run ends the scene: on_exit shutdown (a controller done with
+                    # its cycles) by design, any other as a failure; exit codes are reported below.
+                    break
                 executor.spin_once(timeout_sec=0.05)
         finally:
             stats = recorder.close() if recorder else {}
@@ -154,7 +165,9 @@ def _launch(args: argparse.Namespace) -> int:
                     "name": p.spec.fully_qualified_name,
                     "pid": p.pid,
                     "lifecycle": states.get(p.spec.fully_qualified_name, "unmanaged"),
-                    "died_early": not alive,
+                    "on_exit": p.spec.on_exit,
+                    "ended_scene": not alive and p.spec.on_exit == "shutdown",
+                    "died_early": not alive and p.spec.on_exit != "shutdown",
                     "exit_code": code,
                 }
                 for p, alive, code in codes
@@ -169,13 +182,26 @@ def _launch(args: argparse.Namespace) -> int:
 
     result = with_node("feeder_launch", work)
     emit(args, result, _summary)
-    return 1 if any(n["died_early"] for n in result["nodes"]) else 0
+    return exit_code(result["nodes"])
+
+
+def exit_code(nodes: list[dict[str, Any]]) -> int:
+    """Return the launch's exit code: the code of an on_exit node that ended the scene, else 1 if any died.
+
+    A node ended by a signal (negative code) gives 1; a node that died early makes a 0 a 1.
+    """
+    failed = 1 if any(n["died_early"] for n in nodes) else 0
+    for node in nodes:
+        if node["ended_scene"]:
+            code = node["exit_code"]
+            return (code if isinstance(code, int) and code >= 0 else 1) or failed
+    return failed
 
 
 def _summary(result: dict[str, Any]) -> str:
     lines = [f"scene {result['scene']}: logs in {result['log_dir']}"]
     for n in result["nodes"]:
-        state = "DIED EARLY" if n["died_early"] else "stopped"
+        state = "DIED EARLY" if n["died_early"] else "ended the scene" if n["ended_scene"] else "stopped"
         lines.append(
             f"  {n['name']} ({n['package']}/{n['executable']}) pid {n['pid']}: {n['lifecycle']}, "
             f"then {state}, exit code {n['exit_code']}"
@@ -191,11 +217,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "launch",
         help="run the nodes of a scene file together (optionally recording a bag)",
         description="Start every node a scene file names (YAML: name, nodes: [{package, executable, name, "
-        "namespace, remappings, parameters, lifecycle}]; parameters ending in _file/_files are paths "
-        "relative to the scene file), wait until all are in the ROS graph, bring each managed node to its "
-        "lifecycle target (active by default; inactive or unconfigured on request), run for --duration "
-        "seconds or until Ctrl-C, then end each by pid (SIGINT, then SIGKILL). A scene runs only the models "
-        "it names.",
+        "namespace, remappings, parameters, lifecycle, on_exit}]; parameters ending in _file/_files are "
+        "paths relative to the scene file), wait until all are in the ROS graph, bring each managed node to "
+        "its lifecycle target (active by default; inactive or unconfigured on request), run for --duration "
+        "seconds, until Ctrl-C or until a node with on_exit: shutdown exits (the launch then exits with that "
+        "node's exit code), then end each by pid (SIGINT, then SIGKILL). A scene runs only the models it "
+        "names.",
     )
     parser.add_argument("scene", help="scene file, e.g. feeder_cell/scenes/demo.yaml")
     parser.add_argument("--duration", type=finite_float, help="seconds to run (default: until Ctrl-C)")

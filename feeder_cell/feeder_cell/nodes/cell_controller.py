@@ -59,6 +59,8 @@ __all__ = ["PARAMETERS", "CellController", "main"]
 NODE_NAME = "cell_controller"
 HEARTBEAT_RATE = 1.0  # Hz (steady clock) of ~/status and /diagnostics besides every transition
 POLL_S = 0.02  # wall seconds between looks at a pending future
+# A transition refused while another client moves the same device is looked at again after a moment.
+BRING_UP_ATTEMPTS, BRING_UP_SETTLE_S = 3, 0.5
 EXIT_FINISHED, EXIT_STOPPED, EXIT_BAD_CONFIGURATION = 0, 1, 2
 
 
@@ -220,6 +222,7 @@ class CellController(Node):
         self.stood = Vector3()  # where the fixture stands (gravity), from its last follow_path result
         self.safe: list[Vector3] = []  # the planner's last path
         self.throws = 0  # throws the feeds of this cycle used
+        self.step_times: dict[str, float] = {}  # s of node clock per state in this cycle
         self.publish_status()
 
     # --- the cycle ------------------------------------------------------------------------------
@@ -240,7 +243,9 @@ class CellController(Node):
         }
         try:
             while not self.machine.finished:
-                outcome = work[self.machine.state]()
+                state, started = self.machine.state, self.now()
+                outcome = work[state]()
+                self.step_times[state.value] = self.step_times.get(state.value, 0.0) + self.now() - started
                 self.on_transition(self.machine.advance(outcome, self.now()))
         except ShutdownError:
             self.on_transition(self.machine.stop("the controller was shut down"))
@@ -252,13 +257,14 @@ class CellController(Node):
         log = self.get_logger()
         m = self.machine.metrics
         if t.source in (State.RETURN, State.RETURN_SAFE) and t.policy is None:
+            steps = " ".join(f"{k.lower()} {v:.1f}" for k, v in self.step_times.items() if k != "BRING_UP")
             log.info(
-                f"cycle {self.machine.cycle - (t.target is State.ORIENT)}: {m.last_cycle_time:.2f} s, "
-                f"{self.throws} throws; {m.cycles_completed} cycles, {m.parts_presented} parts, "
+                f"cycle {self.machine.cycle - (t.target is State.ORIENT)}: {m.last_cycle_time:.2f} s "
+                f"({steps}), {self.throws} throws; {m.cycles_completed} cycles, {m.parts_presented} parts, "
                 f"{m.parts_per_minute(self.now()):.2f} parts/min, faults seen {m.faults_seen} handled "
                 f"{m.faults_handled}, reroutes {m.reroutes}"
             )
-            self.throws = 0
+            self.throws, self.step_times = 0, {}
         elif t.policy is not None and t.target is not State.STOPPED:
             log.warning(f"{t.source.value}: {t.outcome.label()} -> {t.policy.value}: {t.note}")
         elif t.target is State.STOPPED:
@@ -275,19 +281,31 @@ class CellController(Node):
         if not self.p["bring_up"]:
             return self._all_ready()
         for key, client in self.lifecycle.items():
-            try:
-                client.bring_to("active")
-            except LifecycleError as error:
-                status = self.status.get(key)
-                why = status.fault_text if status is not None and status.fault_text else ""
-                return Outcome(
-                    "ERROR", DeviceStatus.FAULT_CONFIGURATION, f"{error}{': ' + why if why else ''}"
-                )
+            for attempt in range(BRING_UP_ATTEMPTS):
+                try:
+                    client.bring_to("active")
+                    break
+                except LifecycleError as error:
+                    # Someone else (a launcher, an operator) may be moving the same device: look again.
+                    if attempt + 1 < BRING_UP_ATTEMPTS and self._moved_elsewhere(client):
+                        continue
+                    status = self.status.get(key)
+                    why = status.fault_text if status is not None and status.fault_text else ""
+                    message = f"{error}{': ' + why if why else ''}"
+                    return Outcome("ERROR", DeviceStatus.FAULT_CONFIGURATION, message)
         return self._all_ready()
+
+    def _moved_elsewhere(self, client: LifecycleClient) -> bool:
+        """Return whether a refused transition was a race (the device moved on), not a failed configure."""
+        time.sleep(BRING_UP_SETTLE_S)
+        try:
+            return client.get_state() in ("inactive", "active")
+        except LifecycleError:
+            return False
 
     def orient(self) -> Outcome:
         """Place a new batch on the MEMS array and run the field program until every part has settled."""
-        if self.p["new_batch"]:
+        if self.p["new_batch"] and self.machine.attempts == 0:  # a retry goes on from where they are
             response = self.call("mems", self.place_parts, MemsPlaceParts.Request(reset=True))
             if isinstance(response, Outcome):
                 return response
@@ -573,7 +591,9 @@ def main(args: list[str] | None = None) -> None:
     finally:
         if rclpy.ok():
             node.publish_status()
+        # The spinning thread must be gone before the node is destroyed and the process exits.
         executor.shutdown(timeout_sec=2.0)
+        spinner.join(timeout=5.0)
         node.destroy_node()
         rclpy.try_shutdown()
     sys.exit(code)
