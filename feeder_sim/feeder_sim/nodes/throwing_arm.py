@@ -5,6 +5,12 @@ node kit's ManagedDevice) whose streams and services are private names (``~/sens
 stamped with the node clock (``use_sim_time`` honoured). The simulated time advances at each tick by the
 elapsed node-clock time, at most MAX_TICK_PERIODS sensor periods per tick: a node that cannot keep up
 lags visibly in its status, never silently.
+
+``~/feed_part`` (feeder_msgs/FeedPart) throws until the one-bit sensor reads true with the part at rest,
+decided by ``feeder_sim.throwing.feeding`` from what the device itself delivers; its throws go through
+the same queue, period and motion as ``~/command throw``. While a goal executes, ``~/command throw`` and
+``start`` and ``~/place_part`` are refused, ``~/command stop`` ends the goal after the throw in flight
+(CANCELED), and ``~/stop`` lands the throw at once and ends the goal (CANCELED, aborted).
 """
 
 from __future__ import annotations
@@ -13,11 +19,15 @@ import math
 from typing import Any
 
 from geometry_msgs.msg import PoseStamped
+from rclpy.action.server import ServerGoalHandle
+from rclpy.clock import Clock, ClockType
+from rclpy.task import Future
 from rclpy.time import Time
 from rclpy.timer import Timer
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool
 
+from feeder_msgs.action import FeedPart
 from feeder_msgs.msg import DeviceStatus, ThrowEvent
 from feeder_msgs.srv import ArmCommand, ArmPlacePart
 from feeder_planner.errors import InputError
@@ -37,6 +47,7 @@ from feeder_planner.node_kit import (
     service_guard,
     yaw_quaternion,
 )
+from feeder_planner.node_kit.actions import serve_device_action
 from feeder_planner.node_kit.device import ActiveFault, DeviceError, DeviceState, FaultSpec, ManagedDevice
 from feeder_planner.parts import load_part
 from feeder_planner.throwing import ArmPart, ThrowParams, arm_part, lowest_radius
@@ -50,6 +61,7 @@ from feeder_sim.throwing import (
     ThrowOutcome,
     parse_command,
 )
+from feeder_sim.throwing.feeding import FeedGoal, check_feed_goal
 
 __all__ = ["PARAMETERS", "FAULTS", "ThrowingArmNode", "main"]
 
@@ -61,6 +73,8 @@ DEFAULT_RADIUS_FACTOR = 1.5
 FLIGHT_SHOWN = 0.8
 RELEASE_SHOWN = 0.05
 BASE_FRAME = "arm_pivot"
+# Steady-clock period (s) at which a goal notices a cancel while the node clock is held (no ticks).
+CANCEL_POLL = 0.05
 Pose = tuple[float, float, float]
 
 PARAMETERS = (
@@ -187,6 +201,7 @@ class ThrowingArmNode(ManagedDevice):
         # Served from the start; refused unless the device is ready (require_ready names the state).
         self.create_service(ArmCommand, "~/command", guard(self._command))
         self.create_service(ArmPlacePart, "~/place_part", guard(self._place))
+        serve_device_action(self, FeedPart, "~/feed_part", self._validate_feed, self._execute_feed)
 
     def _reset_run(self) -> None:
         """Forget the commands, the shown throw, the counters and the simulated time."""
@@ -195,6 +210,9 @@ class ThrowingArmNode(ManagedDevice):
         self.motion: tuple[int, ThrowOutcome, float] | None = None
         self.last_throw: int | None = None  # simulated ns of the last throw
         self.throws = self.fault_count = self.presented = 0
+        self.feed: FeedGoal[ThrowEvent] | None = None  # the ~/feed_part goal executing
+        self.feed_goals = self.feeds_presented = 0
+        self._feed_waiter: Future | None = None
         # The model's time in integer ns (no rounding drift at epoch magnitudes): the node clock's at the
         # first activation, then advanced per tick by the elapsed node-clock time, capped.
         self.simulated = 0
@@ -265,12 +283,18 @@ class ThrowingArmNode(ManagedDevice):
 
     # --- status -------------------------------------------------------------------------------------
     def busy(self) -> bool:
-        """Throwing: running every period, throws queued, or a throw being shown."""
-        return self.running or self.pending > 0 or self.motion is not None
+        """Throwing: running every period, throws queued, a throw being shown, or a feed goal executing."""
+        return self.running or self.pending > 0 or self.motion is not None or self.feed is not None
 
     def counters(self) -> dict[str, int]:
-        """Throws made, faults entered, and parts presented (rests with the true sensor reading true)."""
-        return {"throws": self.throws, "faults": self.fault_count, "parts_presented": self.presented}
+        """Throws, faults entered, parts presented (true sensor at rest), feed goals run and presented."""
+        return {
+            "throws": self.throws,
+            "faults": self.fault_count,
+            "parts_presented": self.presented,
+            "feed_goals": self.feed_goals,
+            "feeds_presented": self.feeds_presented,
+        }
 
     # --- parameters, stop, reset, faults --------------------------------------------------------------
     def apply_parameter(self, name: str, value: Any) -> None:
@@ -283,12 +307,18 @@ class ThrowingArmNode(ManagedDevice):
         # which the kit updates once this returns.
 
     def stop_device(self) -> None:
-        """Cancel the queue and the running cycle; a throw being shown lands at once (it was thrown)."""
+        """Cancel the queue and the running cycle; a throw being shown lands at once (it was thrown).
+
+        A feed goal ends at once: CANCELED (aborted, not asked by its client), its last throw reported.
+        """
         self._cancel_commands()
         if self.motion is not None:
             _, outcome, _ = self.motion
             self.motion = None
             self._publish_event(self.get_clock().now(), outcome)
+        if self.feed is not None:
+            self.feed.end_now("CANCELED", f"stopped by ~/stop after {self.feed.throws} throw(s)")
+            self._wake_feed()
 
     def reset_device(self) -> None:
         """Back to IDLE, except that a part that is off the arm (or faulted) still needs ~/place_part."""
@@ -335,6 +365,16 @@ class ThrowingArmNode(ManagedDevice):
         """Queue throws, or start or stop throwing every period (refused unless the device is ready)."""
         command = parse_command(request.command)
         self.require_ready(f"command {command}")
+        if self.feed is not None:
+            # The goal owns the queue: extra throws would be neither its own nor a command's.
+            if command != "stop":
+                raise DeviceError(
+                    f"command {command} refused: a ~/feed_part goal is executing "
+                    "(cancel it, or ~/command stop, first)"
+                )
+            self.feed.cancel("stopped by ~/command stop")
+            self._feed_tick(self.get_clock().now())
+            self._wake_feed()
         if command == "throw":
             if request.count < 1:
                 raise InputError("count", f"must be >= 1 for 'throw', got {request.count}")
@@ -350,6 +390,8 @@ class ThrowingArmNode(ManagedDevice):
     def _place(self, request: ArmPlacePart.Request, response: ArmPlacePart.Response) -> ArmPlacePart.Response:
         """Put the part at rest at (edge, R), ending any throw being shown; this ends FAULT_PART_LOST."""
         self._require_place_ready()
+        if self.feed is not None:
+            raise DeviceError("place_part refused: a ~/feed_part goal is executing (cancel it first)")
         if not math.isfinite(request.radius):
             raise InputError("radius", f"must be finite, got {request.radius!r}")
         self._model().place(request.edge, request.radius)
@@ -388,10 +430,11 @@ class ThrowingArmNode(ManagedDevice):
         pose, velocity = self.arm.rest_pose(), 0.0
         if self.motion is not None:
             pose, velocity = self._advance_motion(now, t, pose, *self.motion)
-        elif self._throw_due(t):
+        elif self._throw_due(t, now.nanoseconds):
             self._start_throw(now, t)
         self._publish_sensor(None if self.motion is None else pose)
         self._publish_joint_and_pose(now, pose, velocity)
+        self._feed_tick(now)  # before record_tick: the goal's coroutine wakes to a decided tick
         self.record_tick(self.simulated * 1e-9)
 
     def _advance_clock(self, now: Time) -> None:
@@ -403,9 +446,10 @@ class ThrowingArmNode(ManagedDevice):
             self.simulated += min(elapsed, _ns(MAX_TICK_PERIODS / self.p["sensor_rate"]))
         self.last_tick = now
 
-    def _throw_due(self, t: int) -> bool:
-        """Return whether a throw is wanted (running, or queued), allowed, and a period has passed."""
-        wanted = self.running or self.pending > 0
+    def _throw_due(self, t: int, now_ns: int) -> bool:
+        """Return whether a throw is wanted (running, queued, or a feed goal's), allowed, and due."""
+        feed = self.feed is not None and self.feed.wants_throw(now_ns)
+        wanted = self.running or self.pending > 0 or feed
         ready = self.state() in (DeviceState.IDLE, DeviceState.RUNNING)
         waited = self.last_throw is None or t - self.last_throw >= _ns(self.p["period"])
         return wanted and ready and waited
@@ -418,6 +462,8 @@ class ThrowingArmNode(ManagedDevice):
         self.last_throw = t
         outcome = faults.throw()
         self.throws += 1
+        if self.feed is not None:
+            self.feed.throw_started()
         if outcome.kind == "fault":
             self._cancel_commands()
             self.fault_count += 1
@@ -447,6 +493,8 @@ class ThrowingArmNode(ManagedDevice):
         delivered = self._faults_model().sensor(reading)
         if delivered is not None:
             self.pub_sensor.publish(Bool(data=delivered))
+        if pose is None and self.feed is not None:
+            self.feed.sample(delivered)  # the bit as published decides, faults and all
 
     def _publish_joint_and_pose(self, now: Time, pose: Pose, velocity: float) -> None:
         """Publish the arm joint state, and the part pose in the arm frame while the part is on the arm."""
@@ -488,7 +536,142 @@ class ThrowingArmNode(ManagedDevice):
         if ev.sensor_at_rest and not ev.fault:
             self.presented += 1
         self.pub_event.publish(ev)
+        if self.feed is not None:
+            self.feed.landed(now.nanoseconds, *self._ground_truth(), ev)
         self.publish_status()
+
+    # --- ~/feed_part ----------------------------------------------------------------------------------
+    def _validate_feed(self, goal: FeedPart.Goal) -> None:
+        """Refuse a bad goal naming the field, or a goal while ~/command keeps the arm busy."""
+        check_feed_goal(int(goal.max_throws), float(goal.timeout))
+        if self.running or self.pending > 0 or self.motion is not None:
+            doing = (
+                "throwing every period"
+                if self.running
+                else f"{self.pending} throw(s) queued"
+                if self.pending
+                else "a throw in flight"
+            )
+            raise DeviceError(
+                f"~/feed_part goal refused: ~/command keeps the arm busy ({doing}); "
+                "~/command stop, or wait for IDLE"
+            )
+
+    async def _execute_feed(self, handle: ServerGoalHandle) -> FeedPart.Result:
+        """Run an accepted goal tick by tick until it ends; never outlives the device's activity."""
+        goal = handle.request
+        request = check_feed_goal(int(goal.max_throws), float(goal.timeout))
+        now = self.get_clock().now()
+        feed: FeedGoal[ThrowEvent] = FeedGoal(
+            request, now.nanoseconds, self._rest_window_ns(), *self._ground_truth()
+        )
+        self.feed = feed
+        self.feed_goals += 1
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        poll = self.create_timer(CANCEL_POLL, lambda: self._poll_cancel(handle), clock=steady)
+        self.get_logger().info(
+            f"~/feed_part: goal accepted (max_throws {request.max_throws}, timeout {request.timeout:g} s)"
+        )
+        self.publish_status()
+        try:
+            while True:
+                self._send_feedback(handle, feed)
+                if feed.done:
+                    break
+                if not self.active or self.arm is None:
+                    feed.end_now(
+                        "FAULT",
+                        f"device {self.state().name} (deactivated) during the goal: the physics is frozen "
+                        "and no throw can land; activate it and send a new goal",
+                        DeviceStatus.FAULT_NONE,
+                        f"device {self.state().name}",
+                    )
+                    continue
+                if handle.is_cancel_requested and not feed.cancel_reason:
+                    feed.cancel("canceled by its client")
+                    self._feed_tick(self.get_clock().now())  # at rest it ends now, held clock or not
+                    continue
+                self._feed_waiter = self.next_tick()
+                await self._feed_waiter
+        finally:
+            self.destroy_timer(poll)
+            self._feed_waiter = None
+            self.feed = None
+        return self._feed_result(handle, feed)
+
+    def _feed_tick(self, now: Time) -> None:
+        """Tell the goal the tick is over (judge the bit, end, or ask for a throw)."""
+        if self.feed is not None:
+            self.feed.tick(now.nanoseconds, self.stopping_fault(), self.motion is not None)
+
+    def _poll_cancel(self, handle: ServerGoalHandle) -> None:
+        """Wake the goal for a cancel (under a held node clock no tick would)."""
+        if handle.is_cancel_requested:
+            self._wake_feed()
+
+    def _wake_feed(self) -> None:
+        waiter = self._feed_waiter
+        if waiter is not None and not waiter.done():
+            waiter.set_result(self.active)
+
+    def _send_feedback(self, handle: ServerGoalHandle, feed: FeedGoal[ThrowEvent]) -> None:
+        """Publish one feedback per throw the goal has judged, in order."""
+        reports, feed.reports = feed.reports, []
+        for report in reports:
+            handle.publish_feedback(
+                FeedPart.Feedback(
+                    throws=report.throws,
+                    sensor_at_rest=report.sensor_at_rest,
+                    edge=report.edge,
+                    radius=report.radius,
+                    event=report.event if report.event is not None else ThrowEvent(),
+                )
+            )
+
+    def _feed_result(self, handle: ServerGoalHandle, feed: FeedGoal[ThrowEvent]) -> FeedPart.Result:
+        """Set the goal's terminal state and return its result (the outcome's code and name)."""
+        outcome = feed.outcome
+        assert outcome is not None  # the loop above only leaves once the goal ended
+        result = FeedPart.Result(
+            outcome=outcome.code,
+            outcome_name=outcome.name,
+            message=outcome.message,
+            throws=outcome.throws,
+            sensor_at_rest=outcome.sensor_at_rest,
+            edge=outcome.edge,
+            radius=outcome.radius,
+            fault_code=outcome.fault_code,
+            fault_text=outcome.fault_text,
+        )
+        if outcome.name == "PRESENTED":
+            self.feeds_presented += 1
+            handle.succeed()
+        elif outcome.name == "CANCELED" and handle.is_cancel_requested:
+            handle.canceled()
+        else:
+            handle.abort()
+        # rclpy refuses one call site logging at two severities: one call each.
+        if outcome.name == "PRESENTED":
+            self.get_logger().info(f"~/feed_part: {outcome.name}: {outcome.message}")
+        else:
+            self.get_logger().warning(f"~/feed_part: {outcome.name}: {outcome.message}")
+        return result
+
+    def _rest_window_ns(self) -> int:
+        """Return the longest wait (ns) for a delivered sensor sample once the part is at rest.
+
+        The rest time between throws less one sample: an unread bit then asks for the next throw in
+        time for it to start a period after the last one, as if the bit had been read.
+        """
+        rest = self.p["period"] * (1.0 - self.p["motion_fraction"]) - 1.0 / self.p["sensor_rate"]
+        return _ns(max(rest, 0.0))
+
+    def _ground_truth(self) -> tuple[int, float]:
+        """Return (edge, R) of the part at rest, or (-1, NaN) when it is not on the arm (for logging)."""
+        arm = self.arm
+        if arm is None or not arm.on_arm:
+            return -1, math.nan
+        return arm.edge, arm.radius
 
 
 def _ns(seconds: float) -> int:
