@@ -307,7 +307,13 @@ def test_deactivate_freezes_a_throw_in_flight_activate_resumes_it_and_cleanup_re
     assert "UNCONFIGURED" in command(ros_client, device, "throw", 1).error
     assert client.bring_to("active") == "active"
     again = status(listen, device, lambda s: s.state_name == "IDLE")
-    assert counters(again) == {"throws": 0, "faults": 0, "parts_presented": 0}
+    assert counters(again) == {
+        "throws": 0,
+        "faults": 0,
+        "parts_presented": 0,
+        "feed_goals": 0,
+        "feeds_presented": 0,
+    }
     pose = wait_for(listen, PoseStamped, poses).pose.position
     assert (pose.x, pose.y) == pytest.approx(rest[:2], abs=1e-12)  # back at the initial state
 
@@ -328,7 +334,13 @@ def test_status_and_diagnostics_report_state_counters_and_the_achieved_rate(
     )
     first = status(listen, device, lambda s: s.state_name == "RUNNING" and counters(s)["throws"] >= 1)
     assert first.ready and first.busy and no_fault(first) and list(first.active_faults) == []
-    assert list(first.counter_names) == ["throws", "faults", "parts_presented"]
+    assert list(first.counter_names) == [
+        "throws",
+        "faults",
+        "parts_presented",
+        "feed_goals",
+        "feeds_presented",
+    ]
     time.sleep(6.0)  # the rate window is 5 s
     last = status(listen, device, lambda s: s.achieved_rate > 0)
     assert last.configured_rate == 50.0 and abs(last.achieved_rate - 50.0) < 5.0, last.achieved_rate
@@ -371,7 +383,13 @@ def test_commanded_throws_are_counted_stop_halts_and_reset_returns_to_idle(
     recorder = streams(listen, device)
     events = throw_events(ros_client, device, recorder, 6)
     idle = status(listen, device, lambda s: s.state_name == "IDLE" and counters(s)["throws"] == 6)
-    assert counters(idle) == {"throws": 6, "faults": 0, "parts_presented": sum(presented)}
+    assert counters(idle) == {
+        "throws": 6,
+        "faults": 0,
+        "parts_presented": sum(presented),
+        "feed_goals": 0,
+        "feeds_presented": 0,
+    }
     assert [e.sensor_at_rest for e in events] == presented and [e.index for e in events] == list(range(1, 7))
     assert [e.radius_after for e in events] == [r.radius_after for r in rests]
     assert all(e.header.frame_id == "cmd/arm_pivot" for e in events)
