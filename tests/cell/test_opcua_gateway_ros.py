@@ -1,0 +1,421 @@
+"""The OPC UA gateway against running devices, driven by an independent OPC UA client (asyncua's).
+
+The three devices run as real processes under /gw, the gateway on a free loopback port; each test opens
+its own client session. Waits are bounded polls of OPC UA values or subscriptions, never fixed sleeps.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import socket
+import time
+from pathlib import Path
+from typing import Any, Awaitable, Callable
+
+import pytest
+import ros_harness
+from asyncua import Client, ua
+from asyncua.ua.uaerrors import BadUserAccessDenied, UaError
+
+from feeder_cell.gateway import layout
+from feeder_cell.gateway.users import hash_password
+
+pytestmark = pytest.mark.ros
+
+ROOT = Path(__file__).resolve().parents[2]
+NS = "/gw"
+ARM, MEMS, FIXTURE = f"{NS}/throwing_arm", f"{NS}/mems_field_array", f"{NS}/assembly_fixture"
+KEYS = {"arm": "gw.throwing_arm", "mems": "gw.mems_field_array", "fixture": "gw.assembly_fixture"}
+DEVICES = {
+    "throwing_arm": {"part_file": str(ROOT / "examples/throwing/triangle.yaml"), "period": 0.2},
+    "mems_field_array": {
+        "fidelity": "ideal",
+        "part_files": [str(ROOT / "examples/mems/plus.yaml")],
+        "seed": 7,
+        "time_step": 5.0e-4,
+    },
+    "assembly_fixture": {},
+}
+RADIAL = "{steps: [{field: {type: radial, center: [0, 0], strength: 1.0}}]}"
+
+
+def free_port() -> int:
+    """A TCP port free on loopback now (never 4840, the OPC UA default another server may hold)."""
+    while True:
+        with socket.socket() as sock:
+            sock.bind(("127.0.0.1", 0))
+            port = sock.getsockname()[1]
+        if port != 4840:
+            return port
+
+
+@pytest.fixture(scope="module")
+def gateway(launch_module_node: Callable[..., Any]) -> str:
+    """The three devices and a gateway exposing them; returns the endpoint URL."""
+    for executable, parameters in DEVICES.items():
+        launch_module_node(
+            "feeder_sim", executable, parameters, namespace=NS, wait_topics=(f"{NS}/{executable}/status",)
+        )
+    url = f"opc.tcp://127.0.0.1:{free_port()}"
+    launch_module_node(
+        "feeder_cell",
+        "opcua_gateway",
+        {"endpoint": url, "devices": [ARM, MEMS, FIXTURE], "program_dir": str(ROOT / "examples/mems")},
+    )
+    asyncio.run(_wait_until_serving(url))
+    return url
+
+
+async def _wait_until_serving(url: str, timeout: float = 30.0) -> None:
+    deadline = time.monotonic() + timeout
+    while True:
+        client = Client(url, timeout=5)
+        try:
+            await client.connect()
+            await client.disconnect()
+            return
+        except (OSError, UaError, asyncio.TimeoutError):
+            if time.monotonic() > deadline:
+                raise AssertionError(f"no OPC UA server on {url} within {timeout:.0f} s") from None
+            await asyncio.sleep(0.2)
+
+
+class Session:
+    """An asyncua client session with the gateway's namespace resolved."""
+
+    def __init__(self, client: Client, idx: int) -> None:
+        self.client, self.idx = client, idx
+
+    def node(self, key: str, path: str) -> Any:
+        return self.client.get_node(ua.NodeId(layout.variable_id(key, path), self.idx))
+
+    async def read(self, key: str, path: str) -> Any:
+        return await self.node(key, path).read_value()
+
+    async def wait_for(
+        self, key: str, path: str, accept: Callable[[Any], bool], timeout: float = 20.0
+    ) -> Any:
+        """Poll a variable until ``accept`` takes its value; fail naming the last one."""
+        deadline = time.monotonic() + timeout
+        while True:
+            dv = await self.node(key, path).read_data_value(raise_on_bad_status=False)
+            value = dv.Value.Value if dv.Value is not None else None
+            if dv.StatusCode.is_good() and accept(value):
+                return value
+            if time.monotonic() > deadline:
+                raise AssertionError(f"{key}.{path} never accepted within {timeout:.0f} s; last {value!r}")
+            await asyncio.sleep(0.05)
+
+    async def call(self, key: str, method: str, *args: ua.Variant) -> ua.CallMethodResult:
+        """Call a device method and return the whole CallMethodResult (Bad codes included)."""
+        request = ua.CallMethodRequest()
+        request.ObjectId = ua.NodeId(key, self.idx)
+        request.MethodId = ua.NodeId(layout.method_id(key, method), self.idx)
+        request.InputArguments = list(args)
+        return (await self.client.uaclient.call([request]))[0]
+
+    async def good(self, key: str, method: str, *args: ua.Variant) -> str:
+        result = await self.call(key, method, *args)
+        assert result.StatusCode.is_good(), (method, result)
+        return result.OutputArguments[0].Value
+
+    async def run(self, key: str, method: str, *args: ua.Variant, timeout: float = 60.0) -> str:
+        """Start an action method, wait until its result is in, return LastOutcome."""
+        before = await self.read(key, "Command.ResultCount")
+        await self.good(key, method, *args)
+        await self.wait_for(key, "Command.ResultCount", lambda n: n > before, timeout)
+        assert await self.read(key, "Command.Busy") is False
+        return await self.read(key, "Command.LastOutcome")
+
+
+def session(url: str, scenario: Callable[[Session], Awaitable[None]], **login: str) -> None:
+    """Run ``scenario`` in a fresh client session (anonymous unless user/password are given)."""
+
+    async def main() -> None:
+        client = Client(url, timeout=10)
+        if login:
+            client.set_user(login["user"])
+            client.set_password(login["password"])
+        await client.connect()
+        try:
+            await scenario(Session(client, await client.get_namespace_index(layout.NAMESPACE_URI)))
+        finally:
+            await client.disconnect()
+
+    asyncio.run(main())
+
+
+def u32(value: int) -> ua.Variant:
+    return ua.Variant(value, ua.VariantType.UInt32)
+
+
+def dbl(value: float) -> ua.Variant:
+    return ua.Variant(value, ua.VariantType.Double)
+
+
+def dbls(values: list[float]) -> ua.Variant:
+    return ua.Variant(values, ua.VariantType.Double, is_array=True)
+
+
+def text(value: str) -> ua.Variant:
+    return ua.Variant(value, ua.VariantType.String)
+
+
+async def idle(s: Session, key: str) -> None:
+    await s.wait_for(key, "Status.PackMLState", lambda v: v == "Idle")
+
+
+# --- the address space ---------------------------------------------------------------------------------
+
+
+def test_address_space_has_one_object_per_device_with_its_variables_and_methods(gateway: str) -> None:
+    async def scenario(s: Session) -> None:
+        folder = s.client.get_node(ua.NodeId(layout.DEVICES_FOLDER, s.idx))
+        assert (await folder.read_browse_name()).Name == "Devices"
+        cell = s.client.get_node(ua.NodeId(layout.CELL, s.idx))
+        assert folder.nodeid in [c.nodeid for c in await cell.get_children()]
+        assert (
+            await s.client.nodes.objects.get_child([f"{s.idx}:Cell", f"{s.idx}:Devices"])
+        ).nodeid == folder.nodeid
+        devices = {(await c.read_browse_name()).Name: c for c in await folder.get_children()}
+        assert sorted(devices) == sorted(KEYS.values())
+        for key, kind in zip(
+            KEYS.values(), ("throwing_arm", "mems_field_array", "assembly_fixture"), strict=True
+        ):
+            for spec in layout.variables(kind):
+                node = s.node(key, spec.path)
+                assert (await node.read_browse_name()).Name == spec.path.rsplit(".", 1)[-1]
+                assert await node.read_node_class() == ua.NodeClass.Variable
+            methods = await devices[key].get_methods()
+            names = [(await m.read_browse_name()).Name for m in methods]
+            assert sorted(names) == sorted(m.name for m in layout.methods(kind))
+            assert await s.read(key, "Kind") == kind
+            await s.wait_for(key, "Status.Online", lambda v: v is True)
+            await idle(s, key)
+            assert await s.read(key, "Status.StateName") == "IDLE"
+            assert await s.read(key, "Status.PackMLStateCode") == 4
+            assert await s.read(key, "Status.Ready") is True
+        # Per kind: the arm's sensor bit, the fixture's angles and margin, the MEMS parts' orientations.
+        assert isinstance(
+            await s.wait_for(KEYS["arm"], "Signals.Sensor", lambda v: isinstance(v, bool)), bool
+        )
+        margin = await s.wait_for(KEYS["fixture"], "Signals.StabilityMargin", lambda v: v is not None)
+        assert math.isfinite(margin) and margin > 0
+        assert await s.read(KEYS["fixture"], "Signals.TiltX") == pytest.approx(0.0, abs=1e-6)
+        gravity = await s.read(KEYS["fixture"], "Signals.Gravity")
+        assert len(gravity) == 3 and math.hypot(*gravity) == pytest.approx(1.0)
+        orientations = await s.wait_for(KEYS["mems"], "Signals.PartOrientations", lambda v: len(v or []) == 1)
+        assert 0.0 <= orientations[0] < 2 * math.pi
+        assert len(await s.read(KEYS["mems"], "Signals.PartNames")) == 1
+        # Values carry the DDS sample's stamp as SourceTimestamp (the device's clock, here the wall's).
+        dv = await s.node(KEYS["arm"], "Status.State").read_data_value()
+        assert abs(dv.SourceTimestamp.timestamp() - time.time()) < 600
+
+    session(gateway, scenario)
+
+
+def test_a_stop_over_ros_shows_as_a_data_change_and_the_reset_method_clears_it(
+    gateway: str, ros_client: Any
+) -> None:
+    async def scenario(s: Session) -> None:
+        await idle(s, KEYS["arm"])
+        changes: asyncio.Queue[tuple[Any, float]] = asyncio.Queue()
+
+        class Handler:
+            def datachange_notification(self, node: Any, value: Any, data: Any) -> None:
+                changes.put_nowait((value, time.monotonic()))
+
+        subscription = await s.client.create_subscription(0, Handler())
+        await subscription.subscribe_data_change(s.node(KEYS["arm"], "Status.PackMLState"))
+        assert (await asyncio.wait_for(changes.get(), 10))[0] == "Idle"  # the initial value
+        started = time.monotonic()
+        response = await asyncio.to_thread(ros_harness.trigger, ros_client, ARM, "stop")
+        assert response.success, response.message
+        value, at = await asyncio.wait_for(changes.get(), 5)
+        assert value == "Stopped" and at - started < 5
+        assert await s.read(KEYS["arm"], "Status.StateName") == "STOPPED"
+        message = await s.good(KEYS["arm"], "Reset")
+        assert "IDLE" in message
+        value, _ = await asyncio.wait_for(changes.get(), 5)
+        assert value == "Idle"
+        await subscription.delete()
+
+    session(gateway, scenario)
+
+
+# --- a fault, bad arguments, rejections -----------------------------------------------------------------
+
+
+def test_a_motor_fault_shows_in_the_variables_refuses_commands_and_reset_clears_it(
+    gateway: str, ros_client: Any
+) -> None:
+    async def scenario(s: Session) -> None:
+        key = KEYS["arm"]
+        await idle(s, key)
+        response = await asyncio.to_thread(ros_harness.inject_fault, ros_client, ARM, "motor_fault")
+        assert response.ok, response.error
+        await s.wait_for(key, "Status.FaultCode", lambda v: v == 101)
+        assert await s.read(key, "Status.PackMLState") == "Aborted"
+        assert await s.read(key, "Status.PackMLStateCode") == 9
+        assert await s.read(key, "Status.Ready") is False
+        assert "motor_fault" in await s.read(key, "Status.FaultText")
+        assert "motor_fault" in await s.read(key, "Status.ActiveFaults")
+        result = await s.call(key, "FeedPart", u32(3), dbl(5.0))
+        assert result.StatusCode.value == ua.StatusCodes.BadInvalidState
+        assert "FAULT" in result.OutputArguments[0].Value and "Reset" in result.OutputArguments[0].Value
+        assert await s.read(key, "Command.LastStatus") == "BadInvalidState"
+        await s.good(key, "Reset")
+        await s.wait_for(key, "Status.FaultCode", lambda v: v == 0)
+        await idle(s, key)
+        assert await s.read(key, "Status.ActiveFaults") == []
+
+    session(gateway, scenario)
+
+
+def _diagnostic(result: ua.CallMethodResult, index: int) -> str:
+    return result.InputArgumentDiagnosticInfos[index].AdditionalInfo or ""
+
+
+def test_bad_arguments_return_bad_codes_naming_the_argument_and_the_gateway_keeps_serving(
+    gateway: str,
+) -> None:
+    async def scenario(s: Session) -> None:
+        arm, mems, fixture = KEYS["arm"], KEYS["mems"], KEYS["fixture"]
+        for key in KEYS.values():
+            await idle(s, key)
+        result = await s.call(arm, "FeedPart", u32(0), dbl(5.0))
+        assert result.StatusCode.value == ua.StatusCodes.BadInvalidArgument
+        assert result.InputArgumentResults[0].value == ua.StatusCodes.BadInvalidArgument
+        assert result.InputArgumentResults[1].is_good()
+        assert "MaxThrows" in _diagnostic(result, 0)
+        assert "MaxThrows" in await s.read(arm, "Command.LastMessage")
+        result = await s.call(arm, "FeedPart", u32(2), dbl(math.nan))
+        assert result.StatusCode.value == ua.StatusCodes.BadInvalidArgument and "Timeout" in _diagnostic(
+            result, 1
+        )
+        result = await s.call(arm, "FeedPart", u32(2))
+        assert result.StatusCode.value == ua.StatusCodes.BadArgumentsMissing
+        assert "Timeout" in result.OutputArguments[0].Value
+        result = await s.call(arm, "FeedPart", text("three"), dbl(1.0))
+        assert result.StatusCode.value == ua.StatusCodes.BadTypeMismatch and "MaxThrows" in _diagnostic(
+            result, 0
+        )
+        result = await s.call(mems, "RunProgram", text("{steps: []}"), dbl(5.0), dbl(0.0), dbl(0.0))
+        assert result.StatusCode.value == ua.StatusCodes.BadInvalidArgument
+        assert "Program.steps" in _diagnostic(result, 0)
+        result = await s.call(mems, "RunProgram", text(RADIAL), dbl(-1.0), dbl(0.0), dbl(0.0))
+        assert result.StatusCode.value == ua.StatusCodes.BadInvalidArgument and "Timeout" in _diagnostic(
+            result, 1
+        )
+        result = await s.call(fixture, "FollowPath", dbls([0.1, math.nan]), dbls([]))
+        assert result.StatusCode.value == ua.StatusCodes.BadInvalidArgument
+        assert "TiltWaypoints[1]" in _diagnostic(result, 0)
+        # A goal only the device can judge (a tilt beyond the joint limits): rejected, with its reason.
+        result = await s.call(fixture, "FollowPath", dbls([3.0, 0.0]), dbls([]))
+        assert result.StatusCode.is_bad(), result
+        message = result.OutputArguments[0].Value
+        assert "rejected by the device" in message and "tilt" in message, message
+        assert await s.read(fixture, "Command.Busy") is False
+        # Still serving: a good call works at once.
+        assert "IDLE" in await s.good(arm, "Reset")
+        assert await s.read(arm, "Command.LastStatus") == "Good"
+
+    session(gateway, scenario)
+
+
+# --- a whole cycle through OPC UA ------------------------------------------------------------------------
+
+
+def test_a_cycle_driven_by_method_calls(gateway: str) -> None:
+    async def scenario(s: Session) -> None:
+        arm, mems, fixture = KEYS["arm"], KEYS["mems"], KEYS["fixture"]
+        for key in KEYS.values():
+            await idle(s, key)
+        goals = await s.read(mems, "Command.GoalCount")
+        outcome = await s.run(mems, "RunProgram", text(RADIAL), dbl(20.0), dbl(0.0), dbl(0.0))
+        assert outcome in ("SETTLED", "TIMEOUT"), await s.read(mems, "Command.LastMessage")
+        assert await s.read(mems, "Command.GoalCount") == goals + 1
+        assert await s.read(mems, "Command.Action") == "RunProgram"
+        outcome = await s.run(arm, "FeedPart", u32(30), dbl(60.0))
+        assert outcome in ("PRESENTED", "MAX_THROWS"), await s.read(arm, "Command.LastMessage")
+        throws = await s.read(arm, "Command.Result.Throws")
+        assert outcome == "PRESENTED" or throws == 30
+        if outcome == "PRESENTED":
+            assert await s.read(arm, "Command.Result.SensorAtRest") is True
+        outcome = await s.run(fixture, "FollowPath", dbls([0.1, 0.0, 0.0, 0.0]), dbls([]))
+        assert outcome == "REACHED", await s.read(fixture, "Command.LastMessage")
+        assert await s.read(fixture, "Command.LastOutcomeCode") == 1
+        assert await s.read(fixture, "Command.Result.Tilt") == pytest.approx([0.0, 0.0], abs=1e-6)
+        for key in KEYS.values():
+            await idle(s, key)
+
+    session(gateway, scenario)
+
+
+# --- security -----------------------------------------------------------------------------------------------
+
+
+def test_anonymous_on_a_non_loopback_endpoint_is_refused_at_start(ros_client: Any, tmp_path: Path) -> None:
+    node = ros_harness.start_node(
+        "feeder_cell", "opcua_gateway", {"endpoint": f"opc.tcp://0.0.0.0:{free_port()}"}, tmp_path
+    )
+    try:
+        code = node.process.wait(timeout=30)
+    finally:
+        node.stop()
+    log = node.output()
+    assert code == 2, log
+    assert "parameter allow_anonymous" in log and "allow_anonymous_remote" in log, log
+    assert "Traceback" not in log
+
+
+def test_user_and_password(launch_node: Callable[..., Any], tmp_path: Path) -> None:
+    users = tmp_path / "users.yaml"
+    users.write_text(f"users:\n  plc: {hash_password('line-7', iterations=20_000)}\n")
+    url = f"opc.tcp://127.0.0.1:{free_port()}"
+    launch_node(
+        "feeder_cell",
+        "opcua_gateway",
+        {"endpoint": url, "devices": [ARM], "users_file": str(users), "allow_anonymous": False},
+        namespace="/gw_login",
+    )
+
+    async def connects(**login: str) -> bool:
+        client = Client(url, timeout=10)
+        if login:
+            client.set_user(login["user"])
+            client.set_password(login["password"])
+        try:
+            await client.connect()
+        except (BadUserAccessDenied, UaError) as error:
+            assert "Bad" in type(error).__name__ or "denied" in str(error).lower() or str(error), error
+            return False
+        try:
+            idx = await client.get_namespace_index(layout.NAMESPACE_URI)
+            kind = await client.get_node(
+                ua.NodeId(layout.variable_id("gw.throwing_arm", "Kind"), idx)
+            ).read_value()
+            assert kind == "throwing_arm"
+            return True
+        finally:
+            await client.disconnect()
+
+    async def main() -> None:
+        deadline = time.monotonic() + 30
+        while not await _try(connects(user="plc", password="line-7")):
+            assert time.monotonic() < deadline, "the right password never got in"
+            await asyncio.sleep(0.2)
+        assert not await connects(user="plc", password="line-8")
+        assert not await connects(user="someone", password="line-7")
+        assert not await connects()  # anonymous, refused by allow_anonymous false
+        assert await connects(user="plc", password="line-7")
+
+    asyncio.run(main())
+
+
+async def _try(attempt: Awaitable[bool]) -> bool:
+    try:
+        return await attempt
+    except (OSError, asyncio.TimeoutError):
+        return False  # not listening yet
