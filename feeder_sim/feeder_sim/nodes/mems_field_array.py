@@ -13,6 +13,11 @@ tick, falls behind the clock) and never silently runs slower.
 
 Injected faults (``~/inject_fault`` or the ``inject_faults`` parameter) act through the force model
 (``feeder_sim.mems.faults``); this node only wires them.
+
+``~/run_program`` (feeder_msgs/RunProgram) installs a field program when its goal is accepted, exactly
+as ``~/set_program`` does, and follows it tick by tick until every part has settled or the timeout
+(node clock) passes; when parts settled and which predicted equilibrium each reached is
+``feeder_sim.mems.settling``. Feedback goes out at most every ``FEEDBACK_PERIOD`` of node clock.
 """
 
 from __future__ import annotations
@@ -24,8 +29,12 @@ from typing import Any
 import numpy as np
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Pose, PoseArray
+from rclpy.action.server import ServerGoalHandle
+from rclpy.clock import Clock, ClockType
+from rclpy.task import Future
 from rclpy.time import Time as RclTime
 
+from feeder_msgs.action import RunProgram
 from feeder_msgs.msg import (
     DeviceStatus,
     FieldProgram,
@@ -53,11 +62,23 @@ from feeder_planner.node_kit import (
     run_node,
     service_guard,
 )
-from feeder_planner.node_kit.device import ActiveFault, FaultSpec, ManagedDevice
+from feeder_planner.node_kit.actions import serve_device_action
+from feeder_planner.node_kit.device import ActiveFault, DeviceError, FaultSpec, ManagedDevice
 from feeder_planner.node_kit.msg_fields import fill_field_spec, program_from_msg
 from feeder_planner.node_kit.msg_parts import part_to_msg
 from feeder_planner.parts import Part, load_part
 from feeder_sim.mems import FIDELITIES, Body, Grid, Scene, random_poses
+from feeder_sim.mems.settling import (
+    Match,
+    Prediction,
+    SettlingDetector,
+    check_timeout,
+    holding_start,
+    holding_step,
+    match,
+    predict,
+    settling_criterion,
+)
 from feeder_sim.mems.tolerances import DEFAULT_CELLS, DEFAULT_DAMPING, DEFAULT_FRICTION, DEFAULT_PITCH
 
 __all__ = ["PARAMETERS", "FAULTS", "MemsFieldArray", "main"]
@@ -72,6 +93,13 @@ BASE_FRAME = "mems_array"
 AUTO_CATCH_UP_TICKS = 4
 
 NANOSECONDS = 1_000_000_000
+
+# ~/run_program feedback at most this often (s of node clock): 10 Hz, every other tick at the default
+# 20 Hz, enough to follow a part without doubling the traffic of ~/part_states.
+FEEDBACK_PERIOD = 0.1
+# A cancel is looked at this often (Hz, steady clock) besides at every tick, so that a goal under a
+# held /clock can still be cancelled: cancelling moves nothing, it needs no tick.
+CANCEL_POLL_RATE = 10.0
 
 
 def _array_size(value: Sequence[object]) -> str | None:
@@ -237,8 +265,9 @@ def _stamp(nanoseconds: int) -> Time:
 class MemsFieldArray(ManagedDevice):
     """Publishes ~/part_states, ~/part_poses at publish_rate and ~/field_program, ~/cell_forces, ~/parts.
 
-    Serves ~/set_program and ~/place_parts (refused unless the device is ready), plus the device
-    services of ``ManagedDevice`` (~/stop, ~/reset, ~/inject_fault; ~/status, /diagnostics).
+    Serves ~/set_program and ~/place_parts (refused unless the device is ready), the action
+    ~/run_program, plus the device services of ``ManagedDevice`` (~/stop, ~/reset, ~/inject_fault;
+    ~/status, /diagnostics).
     """
 
     FAULTS = FAULTS
@@ -246,9 +275,14 @@ class MemsFieldArray(ManagedDevice):
     def __init__(self) -> None:
         super().__init__(NODE_NAME, PARAMETERS, rate=20.0)
         self.scene: Scene | None = None
+        self.goal_running = False
+        self.goal_wake: Future | None = None
         self._release()
         self.create_service(FieldSetProgram, "~/set_program", service_guard(self)(self.on_set_program))
         self.create_service(MemsPlaceParts, "~/place_parts", service_guard(self)(self.on_place_parts))
+        serve_device_action(
+            self, RunProgram, "~/run_program", self.validate_run_program, self.execute_run_program
+        )
 
     def _release(self) -> None:
         """Forget the scene and everything configure or activate made (publishers, timer)."""
@@ -265,7 +299,8 @@ class MemsFieldArray(ManagedDevice):
         self.last_cells: tuple[Any, ...] | None = None
         self.last_activity: tuple[bool, int, bool] | None = None
         self.program_stamp = 0
-        self.count = {"steps": 0, "steps_dropped": 0, "programs": 0, "placements": 0}
+        self.count = {"steps": 0, "steps_dropped": 0, "programs": 0, "placements": 0, "program_goals": 0}
+        self.predictions: dict[tuple[int, Field], Prediction] = {}
 
     # --- configure / activate / deactivate / cleanup ----------------------------------------------
     def configure_device(self, p: dict[str, Any]) -> None:
@@ -383,13 +418,15 @@ class MemsFieldArray(ManagedDevice):
         # max_steps_per_tick is read from self.p at every tick, which the kit updates after this returns
 
     def busy(self) -> bool:
-        """Whether a program is still before its last step or a part is still moving."""
+        """Whether a ~/run_program goal executes, a program is before its last step or a part moves."""
+        if self.goal_running:
+            return True
         if self.scene is None or not self.scene.switched_on or self.scene.faults.power_loss:
             return False
         return not self.scene.on_last_step() or not all(self.scene.settled())
 
     def counters(self) -> dict[str, int]:
-        """Return steps simulated and dropped, programs set, placements and parts now at rest."""
+        """Return steps simulated and dropped, programs set, placements, program goals, parts at rest."""
         settled = sum(self.scene.settled()) if self.scene is not None else 0
         return {**self.count, "parts_settled": settled}
 
@@ -502,20 +539,11 @@ class MemsFieldArray(ManagedDevice):
         self.count["steps"] += steps
         self.record_tick(scene.time)
         self.publish_cells()
-        states = MemsPartStates()
+        states = MemsPartStates(parts=self.part_states())
         states.header.stamp = _stamp(now)
         states.header.frame_id = self.frame_id
-        poses = PoseArray()
+        poses = PoseArray(poses=[state.pose for state in states.parts])
         poses.header = states.header
-        for name, body in zip(self.names, scene.bodies, strict=True):
-            state = MemsPartState(name=name, theta=float(body.pose[2]))
-            state.pose = self._pose(body.pose)
-            state.twist.linear.x, state.twist.linear.y = float(body.velocity[0]), float(body.velocity[1])
-            state.twist.angular.z = float(body.velocity[2])
-            state.wrench.force.x, state.wrench.force.y = float(body.wrench[0]), float(body.wrench[1])
-            state.wrench.torque.z = float(body.wrench[2])
-            states.parts.append(state)
-            poses.poses.append(state.pose)
         self.state_pub.publish(states)
         self.pose_pub.publish(poses)
         # What a controller sees change between heartbeats: busy, parts at rest, falling behind (the
@@ -524,6 +552,19 @@ class MemsFieldArray(ManagedDevice):
         if activity != self.last_activity:
             self.last_activity = activity
             self.publish_status()
+
+    def part_states(self) -> list[MemsPartState]:
+        """Return every part's state now: pose, twist, and the field's wrench on it."""
+        states = []
+        for name, body in zip(self.names, self.scene.bodies if self.scene else [], strict=True):
+            state = MemsPartState(name=name, theta=float(body.pose[2]))
+            state.pose = self._pose(body.pose)
+            state.twist.linear.x, state.twist.linear.y = float(body.velocity[0]), float(body.velocity[1])
+            state.twist.angular.z = float(body.velocity[2])
+            state.wrench.force.x, state.wrench.force.y = float(body.wrench[0]), float(body.wrench[1])
+            state.wrench.torque.z = float(body.wrench[2])
+            states.append(state)
+        return states
 
     @staticmethod
     def _pose(pose: np.ndarray) -> Pose:
@@ -534,17 +575,23 @@ class MemsFieldArray(ManagedDevice):
     def on_set_program(
         self, request: FieldSetProgram.Request, response: FieldSetProgram.Response
     ) -> FieldSetProgram.Response:
-        """Start the requested field program now."""
+        """Start the requested field program now (refused while a ~/run_program goal executes)."""
         self.require_ready("set_program")
-        assert self.scene is not None  # ready implies configured
+        if self.goal_running:
+            raise DeviceError("set_program refused: a ~/run_program goal is executing; cancel it first")
         program = program_from_msg(request.program)
-        self.scene.set_program(program)
-        self.program_stamp = self.get_clock().now().nanoseconds
+        self.install_program(program)
         self.count["programs"] += 1
-        self.publish_program()
-        self.publish_cells()
         self.publish_status()
         return response
+
+    def install_program(self, program: tuple[ProgramStep, ...]) -> None:
+        """Start ``program`` now and publish it (latched, stamped with its start) and the cells' forces."""
+        assert self.scene is not None  # ready implies configured
+        self.scene.set_program(program)
+        self.program_stamp = self.get_clock().now().nanoseconds
+        self.publish_program()
+        self.publish_cells()
 
     def on_place_parts(
         self, request: MemsPlaceParts.Request, response: MemsPlaceParts.Response
@@ -577,6 +624,179 @@ class MemsFieldArray(ManagedDevice):
         self.count["placements"] += 1
         self.publish_status()
         return response
+
+    # --- ~/run_program --------------------------------------------------------------------------------
+    def validate_run_program(self, goal: RunProgram.Goal) -> None:
+        """Check a goal's fields (the kit has checked that the device is ready and free).
+
+        The program is checked by the one validation ``~/set_program`` uses, so both refuse the same
+        programs naming the same fields (``program.steps[1].delta``).
+        """
+        program_from_msg(goal.program)
+        check_timeout(goal.timeout)
+        settling_criterion(goal.tolerance, goal.dwell)
+
+    def prediction(self, index: int, field: Field) -> Prediction:
+        """Return the planner's stable equilibria of part ``index`` in ``field`` (computed once per field)."""
+        assert self.scene is not None
+        key = (index, field)
+        if key not in self.predictions:
+            self.predictions[key] = predict(self.scene.bodies[index].part, field)
+        return self.predictions[key]
+
+    def wait_tick_or_cancel(self) -> Future:
+        """Return a future done after the next tick, on deactivation, or when a cancel is requested."""
+        wake = Future()
+        self.next_tick().add_done_callback(lambda _: wake.done() or wake.set_result(True))
+        self.goal_wake = wake
+        return wake
+
+    async def execute_run_program(self, goal_handle: ServerGoalHandle) -> RunProgram.Result:
+        """Install the goal's program and follow it, tick by tick, until it ends (see RunProgram.action)."""
+        goal = goal_handle.request
+        program = program_from_msg(goal.program)
+        criterion = settling_criterion(goal.tolerance, goal.dwell)
+        timeout = check_timeout(goal.timeout)
+        scene = self.scene
+        assert scene is not None  # accepted goals are on a ready, so configured, device
+        self.install_program(program)
+        self.count["program_goals"] += 1
+        start_ns = self.program_stamp
+        field = program[holding_step(program)].field
+        judging_from = holding_start(program)
+        predictions = [self.prediction(i, field) for i in range(len(scene.bodies))]
+        detector = SettlingDetector(len(scene.bodies), criterion)
+        settled = False
+        elapsed = 0.0
+        last_feedback = -math.inf
+        self.goal_running = True
+        self.publish_status()
+
+        def poll_cancel() -> None:
+            wake = self.goal_wake
+            if goal_handle.is_cancel_requested and wake is not None and not wake.done():
+                wake.set_result(True)
+
+        poll = self.create_timer(
+            1.0 / CANCEL_POLL_RATE, poll_cancel, clock=Clock(clock_type=ClockType.STEADY_TIME)
+        )
+
+        def end(outcome: int, text: str, fault: tuple[int, str] = (0, "")) -> RunProgram.Result:
+            result = self.program_result(outcome, text, settled, predictions, fault)
+            if outcome == RunProgram.Result.SETTLED:
+                goal_handle.succeed()
+            elif outcome == RunProgram.Result.CANCELED:
+                goal_handle.canceled()
+            else:
+                goal_handle.abort()
+            self.get_logger().info(f"run_program {result.outcome_name}: {result.message}")
+            return result
+
+        try:
+            while True:
+                await self.wait_tick_or_cancel()
+                if not self.active or self.scene is not scene:
+                    return end(
+                        RunProgram.Result.FAULT,
+                        f"the device was deactivated ({self.state().name}) {elapsed:.3g} s into the goal; "
+                        "the physics is frozen where it was",
+                    )
+                fault = self.stopping_fault()
+                if fault is not None:
+                    return end(RunProgram.Result.FAULT, f"the device faulted: {fault[1]}", fault)
+                if self.stopped:
+                    return end(
+                        RunProgram.Result.FAULT,
+                        "the device was stopped by ~/stop (cells off, parts where they are; "
+                        "~/reset returns it to IDLE)",
+                    )
+                if goal_handle.is_cancel_requested:
+                    return end(
+                        RunProgram.Result.CANCELED,
+                        f"canceled {elapsed:.3g} s into the goal: the program stays on (its last step "
+                        "holds) and the parts were left where they are",
+                    )
+                now = self.last_tick_ns
+                if start_ns <= 0:  # accepted before the node clock started: count from its first tick
+                    start_ns = now
+                elapsed = (now - start_ns) / NANOSECONDS
+                judging = scene.time - scene.program_start >= judging_from
+                flags = detector.update(elapsed, np.array([b.pose for b in scene.bodies]), judging)
+                settled = judging and detector.all_settled
+                if settled:
+                    return end(RunProgram.Result.SETTLED, f"every part settled {elapsed:.3g} s into the goal")
+                if elapsed >= timeout:
+                    moving = [n for n, done in zip(self.names, flags, strict=True) if not done]
+                    why = "the program had not reached its last step" if not judging else ""
+                    return end(
+                        RunProgram.Result.TIMEOUT,
+                        f"timeout {timeout:g} s passed with {len(moving)} of {len(flags)} parts not settled "
+                        f"({', '.join(moving)}){'; ' + why if why else ''}",
+                    )
+                if elapsed - last_feedback >= FEEDBACK_PERIOD - 1e-9:
+                    last_feedback = elapsed
+                    matches = [match(p, b.pose) for p, b in zip(predictions, scene.bodies, strict=True)]
+                    goal_handle.publish_feedback(
+                        RunProgram.Feedback(
+                            time=elapsed,
+                            parts=self.part_states(),
+                            settled=list(flags),
+                            equilibrium_distance=[m.distance for m in matches],
+                        )
+                    )
+        finally:
+            self.destroy_timer(poll)
+            self.goal_wake = None
+            self.goal_running = False
+
+    def program_result(
+        self,
+        outcome: int,
+        text: str,
+        settled: bool,
+        predictions: list[Prediction],
+        fault: tuple[int, str],
+    ) -> RunProgram.Result:
+        """Return the result of a goal: final states, and per part the predicted equilibrium reached."""
+        names = {
+            RunProgram.Result.SETTLED: "SETTLED",
+            RunProgram.Result.TIMEOUT: "TIMEOUT",
+            RunProgram.Result.FAULT: "FAULT",
+            RunProgram.Result.CANCELED: "CANCELED",
+        }
+        bodies = self.scene.bodies if self.scene is not None else []
+        matches = [match(p, b.pose) for p, b in zip(predictions, bodies, strict=True)]
+        summary = [
+            self._equilibrium_summary(name, prediction, found)
+            for name, prediction, found in zip(self.names, predictions, matches, strict=True)
+        ]
+        return RunProgram.Result(
+            outcome=outcome,
+            outcome_name=names[outcome],
+            message="; ".join([text, *summary]),
+            settled=settled,
+            parts=self.part_states(),
+            equilibrium=[m.index for m in matches],
+            equilibrium_theta=[m.theta for m in matches],
+            equilibrium_distance=[m.distance for m in matches],
+            fault_code=int(fault[0]),
+            fault_text=fault[1],
+        )
+
+    @staticmethod
+    def _equilibrium_summary(name: str, prediction: Prediction, found: Match) -> str:
+        """Say where a part ended against its prediction, for the result's message."""
+        if not prediction.predicted:
+            return f"{name}: {prediction.reason}"
+        if found.at:
+            return (
+                f"{name}: at predicted equilibrium {found.index} (theta {found.theta:.6g} rad, "
+                f"{found.distance:.2g} rad and {found.position_distance:.2g} m off)"
+            )
+        return (
+            f"{name}: at no predicted equilibrium (the nearest, theta {found.theta:.6g} rad, is "
+            f"{found.distance:.2g} rad and {found.position_distance:.2g} m off)"
+        )
 
 
 def main(args: list[str] | None = None) -> None:
