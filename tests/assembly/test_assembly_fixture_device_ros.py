@@ -242,6 +242,9 @@ def test_status_and_diagnostics_report_state_counters_and_rate(launch_node, ros_
         "moves_completed": 0,
         "stalls": 0,
         "capped_ticks": 0,
+        "path_goals": 0,
+        "path_goals_reached": 0,
+        "path_goals_refused": 0,
     }
     assert first.configured_rate == 20.0 and first.configured_real_time_factor == 1.0
     assert move(ros_client, device, (0.0, -0.5)).ok

@@ -170,11 +170,20 @@ def test_progress_under_a_rate_limit_follows_the_position_not_the_clock() -> Non
     faults = FixtureFaults()
     table = Table(np.zeros(2), LIMITS, faults)
     planned = plan_path(table, [gravity_of(np.array([0.0, -0.5]))], STEP)
-    faults.inject("rate_limit", LIMITS, value=0.5, indices=(1,))  # after planning: the move takes twice as long
+    faults.inject("rate_limit", LIMITS, value=0.5, indices=(1,))  # after planning: it takes twice as long
     seen = _follow(table, planned, 0.01)
     assert seen[-1][1] == 1.0
     t, p = seen[len(seen) // 2]
     assert p == pytest.approx(t / (2 * planned.path.duration), abs=1e-9)
+
+
+def test_a_clock_stepped_by_exactly_the_duration_finds_the_table_at_the_end() -> None:
+    table = Table(np.zeros(2), LIMITS)
+    planned = plan_path(table, [gravity_of(np.array([0.0, -0.5]))], STEP)  # 0.5 s at 1 rad/s
+    table.start(planned.path)
+    for _ in range(10):  # whole node-clock steps of 0.05 s, as a stepped cell clock gives them
+        table.advance(50_000_000 / 1e9)
+    assert not table.moving and np.array_equal(table.joints, planned.path.joints[-1])
 
 
 # --- cancel ---------------------------------------------------------------------------------------

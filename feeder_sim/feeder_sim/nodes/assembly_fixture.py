@@ -14,19 +14,27 @@ that cannot keep up lags visibly (its simulated time, recorded at every tick, fa
 Injected faults (``~/inject_fault`` or the ``inject_faults`` parameter) act through the table model
 (``feeder_sim.fixture.faults``); this node only wires them. The encoder faults change what ``~/joint_states``
 and ``~/gravity`` report; ``~/stability`` is the model's ground truth: the true gravity and its verdict.
+
+Motion: ``~/move`` (service, no feedback) and the ``~/follow_path`` action (feedback, cancel, result codes)
+plan on one code path (``feeder_sim.fixture.follow.plan_path``); one of them moves the table at a time. A
+goal is advanced by the ticks (it awaits ``next_tick``), so a held clock holds it.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+import traceback
+from dataclasses import dataclass, replace
 from typing import Any
 
+import numpy as np
 from geometry_msgs.msg import Vector3Stamped
+from rclpy.action.server import ServerGoalHandle
 from rclpy.time import Time as RclTime
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 
+from feeder_msgs.action import FollowPath
 from feeder_msgs.msg import DeviceStatus, StabilityStatus
 from feeder_msgs.srv import FixtureMove
 from feeder_planner.assembly import PreparedAssembly, check_result, prepare
@@ -43,7 +51,8 @@ from feeder_planner.node_kit import (
     service_guard,
     vec,
 )
-from feeder_planner.node_kit.device import ActiveFault, FaultSpec, ManagedDevice
+from feeder_planner.node_kit.actions import serve_device_action
+from feeder_planner.node_kit.device import ActiveFault, DeviceError, FaultSpec, ManagedDevice
 from feeder_planner.node_kit.msg_assembly import ASSEMBLY_PARAMETERS, force_msgs, load_assembly_parameter
 from feeder_sim.fixture import (
     CATCH_UP_PERIODS,
@@ -54,19 +63,33 @@ from feeder_sim.fixture import (
     MAX_RATE,
     TILT_X_RANGE,
     TILT_Y_RANGE,
+    GoalWaypoints,
+    PathVerdict,
+    PlannedPath,
     Table,
     TableLimits,
     certify,
     check_fault_name,
+    goal_waypoints,
     gravity_of,
-    sample_waypoints,
+    plan_goal,
+    plan_path,
 )
+from feeder_sim.fixture.tolerances import ON_SAMPLE
 
 __all__ = ["PARAMETERS", "FAULTS", "AssemblyFixture", "InterlockRefusedError", "main"]
 
 NODE_NAME = "assembly_fixture"
 BASE_FRAME = "assembly"
 NANOSECONDS = 1_000_000_000
+FOLLOW_PATH = "~/follow_path"
+OUTCOME_NAMES = {
+    FollowPath.Result.REACHED: "REACHED",
+    FollowPath.Result.REFUSED: "REFUSED",
+    FollowPath.Result.STALLED: "STALLED",
+    FollowPath.Result.CANCELED: "CANCELED",
+    FollowPath.Result.FAULT: "FAULT",
+}
 
 
 def _angle(limits: tuple[float, float]) -> Check:
@@ -136,6 +159,13 @@ PARAMETERS = ASSEMBLY_PARAMETERS + (
         "publish_rate", 20.0, "rate of joint_states, gravity and stability (Hz)", positive, read_only=True
     ),
     ParameterSpec(
+        "feedback_rate",
+        10.0,
+        "most ~/follow_path feedback messages per second of the node clock: one every "
+        "ceil(publish_rate / feedback_rate) ticks, and always the first and the last; read at every tick",
+        positive,
+    ),
+    ParameterSpec(
         "path_step",
         INTERLOCK_STEP,
         "angle between certified path samples (rad); applies to the next move",
@@ -179,6 +209,21 @@ class InterlockRefusedError(FeederError):
     """The interlock refused a commanded path."""
 
 
+@dataclass
+class _PathGoal:
+    """A ~/follow_path goal in progress: its planned path and verdict, feedback and cancel bookkeeping."""
+
+    planned: PlannedPath
+    verdict: PathVerdict
+    waypoints: GoalWaypoints
+    warning: str
+    stalls_at_start: int
+    ticks: int = 0
+    stop_sample: int = -1  # where a cancel stops (-1: not canceled)
+    stop_certified: bool = True
+    progress: float = 0.0
+
+
 class AssemblyFixture(ManagedDevice):
     """Publishes ~/joint_states, ~/gravity and ~/stability at publish_rate; serves ~/move.
 
@@ -194,6 +239,7 @@ class AssemblyFixture(ManagedDevice):
         # Kit workaround: ManagedDevice reports a fault code only for a stopping fault; rate_limit has a code
         # (FAULT_RATE_LIMIT) but does not stop the fixture, so status and diagnostics are amended here.
         self.create_service(FixtureMove, "~/move", service_guard(self)(self.on_move))
+        serve_device_action(self, FollowPath, FOLLOW_PATH, self._validate_follow, self._execute_follow)
 
     def _release(self) -> None:
         """Forget the model and everything configure or activate made (publishers, timer)."""
@@ -204,7 +250,21 @@ class AssemblyFixture(ManagedDevice):
         self.timer: Any = None
         self.publishers_made: list[Any] = []
         self.last_tick_ns = 0
-        self.count = {"moves": 0, "refused_moves": 0, "moves_completed": 0, "stalls": 0, "capped_ticks": 0}
+        self.count = {
+            "moves": 0,
+            "refused_moves": 0,
+            "moves_completed": 0,
+            "stalls": 0,
+            "capped_ticks": 0,
+            "path_goals": 0,
+            "path_goals_reached": 0,
+            "path_goals_refused": 0,
+        }
+        self.goal: _PathGoal | None = None
+        # The last tick's encoder reading and stability verdict: the goal's feedback and result say what the
+        # streams said (a second reading would draw the encoder noise again and change the streams' sequence).
+        self.last_reading: np.ndarray | None = None
+        self.last_stability = (False, math.nan)
 
     # --- configure / activate / deactivate / cleanup ----------------------------------------------
     def configure_device(self, p: dict[str, Any]) -> None:
@@ -278,11 +338,15 @@ class AssemblyFixture(ManagedDevice):
         self.limits = self.table.limits = limits
 
     def busy(self) -> bool:
-        """Whether a move is in progress."""
-        return self.table is not None and self.table.moving
+        """Whether a move is in progress or a ~/follow_path goal executes."""
+        return self.goal is not None or (self.table is not None and self.table.moving)
 
     def counters(self) -> dict[str, int]:
-        """Return moves accepted, refused, completed, axis stalls and ticks whose elapsed time was capped."""
+        """Return moves accepted, refused, completed, axis stalls, capped ticks, and path goals.
+
+        ``path_goals`` counts accepted ~/follow_path goals, ``path_goals_reached`` those that reached the last
+        waypoint and ``path_goals_refused`` those the interlock refused; the ``moves`` counters are ~/move's.
+        """
         return dict(self.count)
 
     def stop_device(self) -> None:
@@ -344,26 +408,242 @@ class AssemblyFixture(ManagedDevice):
         """Plan, certify and start a move (raise InputError / InterlockRefusedError to refuse it)."""
         table, prepared = self.table, self.prepared
         assert table is not None and prepared is not None  # require_ready: configured
+        if self.goal is not None:
+            raise DeviceError(f"move refused: a {FOLLOW_PATH} goal is executing; cancel it first")
         if not request.waypoints:
             raise InputError("waypoints", "needs at least one gravity direction")
         waypoints = [from_vec(w, f"waypoints[{i}]") for i, w in enumerate(request.waypoints)]
         self._advance_to(self.get_clock().now().nanoseconds)
         self.require_ready("move")  # the table may have stalled on its way here
-        samples = sample_waypoints(table.gravity(), waypoints, self.p["path_step"])
         # Joint limits are checked before anything moves; the timing is at the rates the axes reach now.
-        path = table.plan(samples[1:])
-        verdict = certify(prepared, samples)
-        response.samples = len(samples)
+        planned = plan_path(table, waypoints, self.p["path_step"])
+        verdict = certify(prepared, planned.samples)
+        response.samples = len(planned.samples)
         response.first_unstable_sample = verdict.first_unstable
         response.unbalanced_bodies = list(verdict.unbalanced_bodies)
-        response.duration = path.duration
+        response.duration = planned.path.duration
         if not verdict.stable:
             what = verdict.problem()
             if self.p["interlock"]:
                 raise InterlockRefusedError(f"refused by the interlock: {what}")
             response.warning = f"interlock off, moving anyway: {what}"
             self.get_logger().warning(response.warning)
-        table.start(path)
+        table.start(planned.path)
+
+    # --- the follow_path action ----------------------------------------------------------------------
+    def _plan_follow(self, goal: FollowPath.Goal) -> tuple[GoalWaypoints, PlannedPath]:
+        """Check a goal's waypoints and plan its path from where the table is (InputError names the field)."""
+        table = self.table
+        assert table is not None  # require_ready: configured
+        if table.moving:
+            raise DeviceError(f"{FOLLOW_PATH} goal refused: a ~/move is in progress; wait for it or ~/stop")
+        waypoints = goal_waypoints(
+            [(v.x, v.y, v.z) for v in goal.gravity_waypoints], list(goal.tilt_waypoints), self.limits
+        )
+        return waypoints, plan_goal(table, waypoints, self.p["path_step"])
+
+    def _validate_follow(self, goal: FollowPath.Goal) -> None:
+        """Goal-time check: the waypoints and the joint ranges along the path (not the interlock)."""
+        self._plan_follow(goal)
+
+    async def _execute_follow(self, handle: ServerGoalHandle) -> FollowPath.Result:
+        """Run an accepted goal: certify the path, follow it tick by tick, end it with an outcome."""
+        self.count["path_goals"] += 1
+        result = FollowPath.Result(first_unstable_sample=-1)
+        try:
+            return await self._run_follow(handle, result)
+        except Exception as error:  # a bug (or an LP that cannot certify) ends the goal, never the node
+            if self.table is not None:
+                self.table.halt()
+            if isinstance(error, FeederError):
+                message = f"not certified: {error}"
+            else:
+                self.get_logger().error(f"{FOLLOW_PATH} failed:\n{traceback.format_exc()}")
+                message = f"internal error: {type(error).__name__}: {error}"
+            return self._finish(handle, result, FollowPath.Result.FAULT, f"{message}; the table halted")
+        finally:
+            self.goal = None
+
+    async def _run_follow(self, handle: ServerGoalHandle, result: FollowPath.Result) -> FollowPath.Result:
+        """Plan and certify the goal's path (REFUSED by the interlock, or started), then follow it."""
+        prepared = self.prepared
+        try:
+            self.require_ready(f"{FOLLOW_PATH} goal")  # the device may have changed since acceptance
+            self._advance_to(self.get_clock().now().nanoseconds)
+            self.require_ready(f"{FOLLOW_PATH} goal")  # the table may have stalled on its way here
+            waypoints, planned = self._plan_follow(handle.request)
+        except FeederError as error:
+            return self._finish(handle, result, FollowPath.Result.FAULT, f"not started: {error}")
+        assert self.table is not None and prepared is not None
+        verdict = certify(prepared, planned.samples)
+        warning = ""
+        if not verdict.stable:
+            result.first_unstable_sample = verdict.first_unstable
+            result.first_unstable_gravity = vec(planned.samples[verdict.first_unstable])
+            result.unbalanced_bodies = list(verdict.unbalanced_bodies)
+            if self.p["interlock"]:
+                self.count["path_goals_refused"] += 1
+                return self._finish(
+                    handle,
+                    result,
+                    FollowPath.Result.REFUSED,
+                    f"refused by the interlock: {verdict.problem()}; nothing moved",
+                )
+            warning = f"interlock off, moving anyway: {verdict.problem()}"
+            self.get_logger().warning(f"{FOLLOW_PATH}: {warning}")
+        goal = self.goal = _PathGoal(planned, verdict, waypoints, warning, self.count["stalls"])
+        self.table.start(planned.path)
+        self.publish_status()
+        self._send_feedback(handle, goal)
+        while True:
+            await self.next_tick()
+            ended = self._follow_tick(handle, goal, result)
+            if ended is not None:
+                return ended
+
+    def _follow_tick(
+        self, handle: ServerGoalHandle, goal: _PathGoal, result: FollowPath.Result
+    ) -> FollowPath.Result | None:
+        """After a tick (or deactivation): end the goal with its outcome, or send feedback and go on."""
+        table = self.table
+        if not self.active or table is None:
+            if table is not None:
+                table.halt()  # the goal ends with the device's activity: nothing moves on a later activate
+            state = self.state().name
+            return self._finish(
+                handle,
+                result,
+                FollowPath.Result.FAULT,
+                f"device {state} mid-goal (deactivated): the table stopped where it was; the rest of the "
+                f"path is dropped",
+                fault_text=f"device {state}",
+            )
+        fault = self.stopping_fault()
+        if fault is not None:
+            code, text = fault
+            outcome = (
+                FollowPath.Result.STALLED
+                if code == DeviceStatus.FAULT_AXIS_STALL
+                else FollowPath.Result.FAULT
+            )
+            table.halt()
+            return self._finish(handle, result, outcome, text, code, text)
+        if self.stopped:
+            table.halt()
+            return self._finish(
+                handle, result, FollowPath.Result.FAULT, "stopped by ~/stop: the table halted where it was"
+            )
+        goal.ticks += 1
+        if handle.is_cancel_requested and goal.stop_sample < 0 and table.moving:
+            stop = goal.planned.cancel_stop(table.joints, table.remaining, lambda j: self._certified(goal, j))
+            table.truncate(stop.keep)
+            goal.stop_sample, goal.stop_certified = stop.sample, stop.certified
+        if table.moving:
+            goal.progress = goal.planned.progress(table.joints, table.remaining)
+            every = max(1, math.ceil(float(self.p["publish_rate"]) / float(self.p["feedback_rate"]) - 1e-9))
+            if goal.ticks % every == 0:
+                self._send_feedback(handle, goal)
+            return None
+        return self._follow_ended(handle, goal, result)
+
+    def _follow_ended(
+        self, handle: ServerGoalHandle, goal: _PathGoal, result: FollowPath.Result
+    ) -> FollowPath.Result:
+        """End a goal whose table stopped with no fault in force: at the end, the cancel's stop, or short."""
+        table = self.table
+        assert table is not None
+        path = goal.planned.path
+        n = len(goal.planned.samples)
+        if self.count["stalls"] > goal.stalls_at_start:  # stalled, and the fault cleared before this tick
+            return self._finish(
+                handle,
+                result,
+                FollowPath.Result.STALLED,
+                "an axis stalled (the fault was cleared since): the table stopped short of the path's end",
+                DeviceStatus.FAULT_AXIS_STALL,
+            )
+        if goal.stop_sample >= 0 or handle.is_cancel_requested:
+            stop = goal.stop_sample if goal.stop_sample >= 0 else n - 1
+            goal.progress = float(path.times[stop] / path.duration) if path.duration > 0 else 1.0
+            self._send_feedback(handle, goal)
+            certified = "certified stable" if goal.stop_certified else "NOT certified stable (interlock off)"
+            return self._finish(
+                handle,
+                result,
+                FollowPath.Result.CANCELED,
+                f"canceled: stopped at path sample {stop} of {n}, {certified}",
+            )
+        if not np.all(np.abs(table.joints - path.joints[-1]) <= ON_SAMPLE):
+            return self._finish(
+                handle,
+                result,
+                FollowPath.Result.FAULT,
+                "the table halted short of the path's end (stopped and reset since)",
+            )
+        goal.progress = 1.0
+        self._send_feedback(handle, goal)
+        self.count["path_goals_reached"] += 1
+        message = f"reached the last of {goal.waypoints.describe()} ({n} path samples, {path.duration:.6g} s)"
+        if goal.warning:
+            message += f"; {goal.warning}"
+        return self._finish(handle, result, FollowPath.Result.REACHED, message)
+
+    def _certified(self, goal: _PathGoal, sample: int) -> bool:
+        """Whether the LP certifies a sample of the goal's path stable (asked only past the first failure)."""
+        if goal.verdict.stable or sample < goal.verdict.first_unstable:
+            return True
+        assert self.prepared is not None
+        return bool(self.prepared.check(goal.planned.samples[sample]).stable)
+
+    def _send_feedback(self, handle: ServerGoalHandle, goal: _PathGoal) -> None:
+        """Publish progress, gravity as the encoders read it, and the last tick's stability verdict."""
+        stable, margin = self.last_stability
+        handle.publish_feedback(
+            FollowPath.Feedback(
+                progress=goal.progress, gravity=vec(gravity_of(self._reading())), stable=stable, margin=margin
+            )
+        )
+
+    def _reading(self) -> np.ndarray:
+        """Return the last tick's encoder reading (the table's before the first tick)."""
+        if self.last_reading is not None:
+            return self.last_reading
+        assert self.table is not None
+        return self.table.reading()
+
+    def _finish(
+        self,
+        handle: ServerGoalHandle,
+        result: FollowPath.Result,
+        outcome: int,
+        message: str,
+        fault_code: int = 0,
+        fault_text: str = "",
+    ) -> FollowPath.Result:
+        """Fill the result (where the table is, as the encoders read it), end the goal, log the outcome."""
+        result.outcome = outcome
+        result.outcome_name = OUTCOME_NAMES[outcome]
+        result.message = message
+        result.fault_code = fault_code
+        result.fault_text = fault_text
+        if self.table is not None:
+            reading = self._reading()
+            result.tilt = [float(a) for a in reading]
+            result.gravity = vec(gravity_of(reading))
+        if not handle.is_active:
+            pass  # already ended (a failure after its end): the result stands as sent
+        elif outcome == FollowPath.Result.REACHED:
+            handle.succeed()
+        elif outcome == FollowPath.Result.CANCELED:
+            handle.canceled()
+        else:
+            handle.abort()
+        # Two call sites: rclpy refuses one call site logging at two severities.
+        if outcome == FollowPath.Result.REACHED:
+            self.get_logger().info(f"{FOLLOW_PATH} {result.outcome_name}: {message}")
+        else:
+            self.get_logger().warning(f"{FOLLOW_PATH} {result.outcome_name}: {message}")
+        return result
 
     # --- time and the streams ------------------------------------------------------------------------
     def _max_advance(self) -> float:
@@ -392,7 +672,8 @@ class AssemblyFixture(ManagedDevice):
             self.count["stalls"] += 1
             self.raise_model_fault(DeviceStatus.FAULT_AXIS_STALL, stall.describe())
         elif was_moving and not table.moving:
-            self.count["moves_completed"] += 1
+            if self.goal is None:  # a goal's end is counted by the goal (path_goals_reached)
+                self.count["moves_completed"] += 1
             self.publish_status()
 
     def tick(self) -> None:
@@ -404,9 +685,9 @@ class AssemblyFixture(ManagedDevice):
         if not self.tick_due(now):
             return
         self._advance_to(now)
-        self.record_tick(table.time)
         header = Header(stamp=RclTime(nanoseconds=now).to_msg(), frame_id=self.frame_id)
         reading = table.reading()
+        self.last_reading = reading
         self.joint_pub.publish(
             JointState(
                 header=header,
@@ -429,6 +710,9 @@ class AssemblyFixture(ManagedDevice):
             status.margin = math.nan
             status.unbalanced_bodies = [f"(not certified: {error})"]
         self.stability_pub.publish(status)
+        self.last_stability = (bool(status.stable), float(status.margin))
+        # Last: a goal waiting in next_tick resumes after this and reads what this tick published.
+        self.record_tick(table.time)
 
 
 def main(args: list[str] | None = None) -> None:
