@@ -226,7 +226,7 @@ def test_a_stop_over_ros_shows_as_a_data_change_and_the_reset_method_clears_it(
             def datachange_notification(self, node: Any, value: Any, data: Any) -> None:
                 changes.put_nowait((value, time.monotonic()))
 
-        subscription = await s.client.create_subscription(0, Handler())
+        subscription = await s.client.create_subscription(20, Handler())
         await subscription.subscribe_data_change(s.node(KEYS["arm"], "Status.PackMLState"))
         assert (await asyncio.wait_for(changes.get(), 10))[0] == "Idle"  # the initial value
         started = time.monotonic()
@@ -419,3 +419,86 @@ async def _try(attempt: Awaitable[bool]) -> bool:
         return await attempt
     except (OSError, asyncio.TimeoutError):
         return False  # not listening yet
+
+
+def test_certificate_security_basic256sha256_sign_and_encrypt_with_trusted_clients(
+    launch_node: Callable[..., Any], tmp_path: Path
+) -> None:
+    from asyncua.crypto.cert_gen import setup_self_signed_certificate
+    from cryptography.x509.oid import ExtendedKeyUsageOID
+
+    async def certificates() -> None:
+        for who, uri, use in (
+            ("server", layout.APPLICATION_URI, ExtendedKeyUsageOID.SERVER_AUTH),
+            ("client", "urn:feeder:test:plc", ExtendedKeyUsageOID.CLIENT_AUTH),
+            ("stranger", "urn:feeder:test:stranger", ExtendedKeyUsageOID.CLIENT_AUTH),
+        ):
+            await setup_self_signed_certificate(
+                tmp_path / f"{who}_key.pem",
+                tmp_path / f"{who}_cert.der",
+                uri,
+                "localhost",
+                [use],
+                {"commonName": who},
+            )
+
+    asyncio.run(certificates())
+    trusted = tmp_path / "trusted"
+    trusted.mkdir()
+    (trusted / "client_cert.der").write_bytes((tmp_path / "client_cert.der").read_bytes())
+    url = f"opc.tcp://127.0.0.1:{free_port()}"
+    launch_node(
+        "feeder_cell",
+        "opcua_gateway",
+        {
+            "endpoint": url,
+            "devices": [ARM],
+            "security_policies": ["Basic256Sha256_SignAndEncrypt"],
+            "certificate_file": str(tmp_path / "server_cert.der"),
+            "private_key_file": str(tmp_path / "server_key.pem"),
+            "trusted_certificates_dir": str(trusted),
+        },
+        namespace="/gw_cert",
+    )
+
+    async def main() -> None:
+        await _wait_for_endpoints(url)
+        plain = Client(url, timeout=10)
+        endpoints = await plain.connect_and_get_server_endpoints()
+        assert {e.SecurityPolicyUri.rsplit("#", 1)[-1] for e in endpoints} == {"Basic256Sha256"}
+        assert {e.SecurityMode for e in endpoints} == {ua.MessageSecurityMode.SignAndEncrypt}
+        with pytest.raises((UaError, OSError, asyncio.TimeoutError)):
+            await plain.connect()  # no security: no endpoint offers it
+        stranger = Client(url, timeout=4)
+        stranger.application_uri = "urn:feeder:test:stranger"
+        await stranger.set_security_string(
+            f"Basic256Sha256,SignAndEncrypt,{tmp_path / 'stranger_cert.der'},{tmp_path / 'stranger_key.pem'}"
+        )
+        with pytest.raises((UaError, OSError, asyncio.TimeoutError)):
+            await stranger.connect()  # a certificate the gateway does not trust
+        secure = Client(url, timeout=10)
+        secure.application_uri = "urn:feeder:test:plc"
+        await secure.set_security_string(
+            f"Basic256Sha256,SignAndEncrypt,{tmp_path / 'client_cert.der'},{tmp_path / 'client_key.pem'}"
+        )
+        await secure.connect()
+        try:
+            idx = await secure.get_namespace_index(layout.NAMESPACE_URI)
+            node = secure.get_node(ua.NodeId(layout.variable_id("gw.throwing_arm", "Kind"), idx))
+            assert await node.read_value() == "throwing_arm"
+        finally:
+            await secure.disconnect()
+
+    asyncio.run(main())
+
+
+async def _wait_for_endpoints(url: str, timeout: float = 30.0) -> None:
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            await Client(url, timeout=5).connect_and_get_server_endpoints()
+            return
+        except (OSError, UaError, asyncio.TimeoutError):
+            if time.monotonic() > deadline:
+                raise AssertionError(f"no OPC UA server on {url} within {timeout:.0f} s") from None
+            await asyncio.sleep(0.2)

@@ -115,6 +115,8 @@ def test_security_combinations_name_the_parameter(tmp_path: Path) -> None:
         _security("opc.tcp://127.0.0.1:1", allow_anonymous=False)
     with pytest.raises(InputError, match="parameter users_file: cannot read"):
         _security("opc.tcp://127.0.0.1:1", users_file=str(tmp_path / "missing.yaml"))
+    with pytest.raises(InputError, match="parameter trusted_certificates_dir: applies to the Basic256Sha256"):
+        _security("opc.tcp://127.0.0.1:1", trusted_certificates_dir=str(tmp_path))
 
 
 def test_packml_mapping() -> None:

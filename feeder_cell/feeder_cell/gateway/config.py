@@ -147,6 +147,7 @@ class SecurityConfig:
     private_key_file: str
     allow_anonymous: bool
     users_file: str
+    trusted_certificates_dir: str = ""  # empty: any client certificate opens a secure channel
 
 
 def _readable(path: str, field: str) -> None:
@@ -162,6 +163,7 @@ def check_security(
     allow_anonymous: bool,
     allow_anonymous_remote: bool,
     users_file: str,
+    trusted_certificates_dir: str = "",
 ) -> SecurityConfig:
     """Check the security parameters against each other and the endpoint; errors name the parameter.
 
@@ -186,6 +188,16 @@ def check_security(
             _readable(path, f"parameter {name}")
     if users_file:
         _readable(users_file, "parameter users_file")
+    if trusted_certificates_dir:
+        if all(p == "None" for p in chosen):
+            raise InputError(
+                "parameter trusted_certificates_dir",
+                "applies to the Basic256Sha256 policies only, and security_policies has none",
+            )
+        if not os.path.isdir(trusted_certificates_dir):
+            raise InputError(
+                "parameter trusted_certificates_dir", f"is not a folder: {trusted_certificates_dir!r}"
+            )
     if not allow_anonymous and not users_file:
         raise InputError(
             "parameter allow_anonymous", "is false and no users_file is given: no client could log in"
@@ -197,7 +209,9 @@ def check_security(
             "set allow_anonymous false (with a users_file), or allow_anonymous_remote true to allow "
             "anonymous access from the network explicitly",
         )
-    return SecurityConfig(chosen, certificate_file, private_key_file, allow_anonymous, users_file)
+    return SecurityConfig(
+        chosen, certificate_file, private_key_file, allow_anonymous, users_file, trusted_certificates_dir
+    )
 
 
 def packml_state(state: int | None) -> tuple[str, int]:

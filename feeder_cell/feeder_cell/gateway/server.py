@@ -22,10 +22,13 @@ import logging
 import threading
 from dataclasses import dataclass
 from datetime import datetime, timezone
+from pathlib import Path
 from typing import Any, Protocol
 
 from asyncua import Server, ua
 from asyncua.crypto.permission_rules import User, UserRole
+from asyncua.crypto.truststore import TrustStore
+from asyncua.crypto.validator import CertificateValidator, CertificateValidatorOptions
 from asyncua.server.user_managers import UserManager
 
 from feeder_cell.gateway import arguments, layout
@@ -126,6 +129,11 @@ class GatewayServer:
         if self.security.certificate_file:
             await server.load_certificate(self.security.certificate_file)
             await server.load_private_key(self.security.private_key_file)
+        if self.security.trusted_certificates_dir:
+            store = TrustStore([Path(self.security.trusted_certificates_dir)], [])
+            await store.load()
+            options = CertificateValidatorOptions.TRUSTED_VALIDATION | CertificateValidatorOptions.PEER_CLIENT
+            server.set_certificate_validator(CertificateValidator(options, store))
         self.idx = await server.register_namespace(layout.NAMESPACE_URI)
         await self._build(server)
         await server.start()

@@ -67,6 +67,13 @@ PARAMETERS = (
         "private_key_file", "", "server private key (PEM), required by Basic256Sha256", read_only=True
     ),
     ParameterSpec(
+        "trusted_certificates_dir",
+        "",
+        "folder of trusted client certificates (or their CAs; PEM or DER) for the Basic256Sha256 "
+        "policies; empty: any client certificate opens a secure channel",
+        read_only=True,
+    ),
+    ParameterSpec(
         "allow_anonymous", True, "accept anonymous sessions (on a loopback endpoint only)", read_only=True
     ),
     ParameterSpec(
@@ -110,6 +117,7 @@ def _build(node: Node, executor: SingleThreadedExecutor) -> tuple[GatewayServer,
         p["allow_anonymous"],
         p["allow_anonymous_remote"],
         p["users_file"],
+        p["trusted_certificates_dir"],
     )
     users = load_users(security.users_file) if security.users_file else None
     logger = logging.getLogger(NODE_NAME)
@@ -148,12 +156,30 @@ async def _serve(node: Node, server: GatewayServer) -> int:
     return 0
 
 
+class _OneLine(logging.Filter):
+    """Log asyncua's errors as their one-line message: a refused client is not a gateway traceback."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        record.exc_info, record.exc_text, record.stack_info = None, None, None
+        return True
+
+
+def _log_to_stderr() -> None:
+    handler = logging.StreamHandler()
+    handler.setFormatter(logging.Formatter("[%(levelname)s] [%(name)s]: %(message)s"))
+    handler.addFilter(_OneLine())
+    logging.basicConfig(level=logging.WARNING, handlers=[handler])
+    # asyncua's per-request INFO and WARNING lines would flood the log; its errors stay (a refused
+    # certificate, a bad login).
+    for name in ("asyncua", "asyncuagds"):
+        logging.getLogger(name).setLevel(logging.ERROR)
+
+
 def main(args: list[str] | None = None) -> None:
     """Run the opcua_gateway node until SIGINT or SIGTERM."""
     # The asyncio loop owns the signals: rclpy's handlers would end the context under a running server.
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    logging.basicConfig(level=logging.WARNING, format="[%(levelname)s] [%(name)s]: %(message)s")
-    logging.getLogger("asyncua").setLevel(logging.ERROR)  # its per-request INFO lines would flood the log
+    _log_to_stderr()
     node = rclpy.create_node(NODE_NAME)
     executor = SingleThreadedExecutor()
     executor.add_node(node)
