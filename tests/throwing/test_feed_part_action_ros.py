@@ -300,6 +300,27 @@ def test_timeout_ends_the_goal_by_node_clock(arm, ros_client, listen) -> None:
     check_feedback(goal, result, events_since(listen, mark))
 
 
+@pytest.mark.ros
+def test_a_dropped_sample_is_waited_for_over_the_rest_window_never_longer(arm, ros_client, listen) -> None:
+    from feeder_msgs.action import FeedPart
+
+    # Every sample dropped: each bit at rest is unread (not presented), and the goal still ends.
+    fresh(ros_client, listen, SEES)
+    assert inject(ros_client, DEVICE, "sensor_dropout", value=1.0).ok
+    mark = event_mark(listen)
+    goal = arm.send(max_throws=3)
+    _, result = goal.result()
+    assert result.outcome == FeedPart.Result.MAX_THROWS and result.throws == 3
+    check_feedback(goal, result, events_since(listen, mark))
+    assert not any(f.sensor_at_rest for f in goal.feedback) and not result.sensor_at_rest
+    assert all(e.sensor_at_rest for e in events_since(listen, mark))  # the part was there all along
+    # Half the samples dropped: the next delivered one, well within the rest window, decides.
+    assert inject(ros_client, DEVICE, "sensor_dropout", value=0.5, seed=5).ok
+    assert place(ros_client, DEVICE).ok
+    _, result = arm.send(max_throws=3).result()
+    assert result.outcome == FeedPart.Result.PRESENTED and result.throws == 0
+
+
 # --- faults, cancel, stop ---------------------------------------------------------------------------
 @pytest.mark.ros
 def test_a_motor_fault_mid_goal_ends_it_faulted_and_after_reset_a_goal_succeeds(
@@ -328,6 +349,27 @@ def test_a_motor_fault_mid_goal_ends_it_faulted_and_after_reset_a_goal_succeeds(
     again = arm.send(max_throws=1)
     state, result = again.result()
     assert state == GoalStatus.STATUS_SUCCEEDED and result.outcome == FeedPart.Result.PRESENTED
+
+
+@pytest.mark.ros
+def test_a_part_lost_mid_goal_ends_it_with_fault_102(arm, ros_client, listen) -> None:
+    from feeder_msgs.action import FeedPart
+    from feeder_msgs.msg import DeviceStatus
+
+    fresh(ros_client, listen, BLIND)
+    mark = event_mark(listen)
+    goal = arm.send(max_throws=1000)
+    goal.wait_feedback(1)
+    assert inject(ros_client, DEVICE, "part_lost").ok
+    _, result = goal.result()
+    assert result.outcome == FeedPart.Result.FAULT and result.fault_code == DeviceStatus.FAULT_PART_LOST
+    assert "part_lost" in result.fault_text
+    time.sleep(0.3)
+    events = events_since(listen, mark)
+    # A throw in the air when the part fell off never lands: no event and no feedback for it.
+    assert len(goal.feedback) == len(events) and result.throws - len(events) in (0, 1)
+    assert (result.edge, math.isnan(result.radius)) == (-1, True)  # ground truth: off the arm
+    assert status(listen, DEVICE, lambda s: not s.busy).fault_code == DeviceStatus.FAULT_PART_LOST
 
 
 @pytest.mark.ros

@@ -632,14 +632,17 @@ class ThrowingArmNode(ManagedDevice):
         """Set the goal's terminal state and return its result (the outcome's code and name)."""
         outcome = feed.outcome
         assert outcome is not None  # the loop above only leaves once the goal ended
+        # The arm's state now is the ground truth after the goal's last throw, and says (-1, NaN)
+        # when the part has left the arm, which the goal itself never saw land.
+        edge, radius = self._ground_truth()
         result = FeedPart.Result(
             outcome=outcome.code,
             outcome_name=outcome.name,
             message=outcome.message,
             throws=outcome.throws,
             sensor_at_rest=outcome.sensor_at_rest,
-            edge=outcome.edge,
-            radius=outcome.radius,
+            edge=edge,
+            radius=radius,
             fault_code=outcome.fault_code,
             fault_text=outcome.fault_text,
         )
