@@ -100,6 +100,12 @@ FEEDBACK_PERIOD = 0.1
 # A cancel is looked at this often (Hz, steady clock) besides at every tick, so that a goal under a
 # held /clock can still be cancelled: cancelling moves nothing, it needs no tick.
 CANCEL_POLL_RATE = 10.0
+OUTCOME_NAMES = {
+    RunProgram.Result.SETTLED: "SETTLED",
+    RunProgram.Result.TIMEOUT: "TIMEOUT",
+    RunProgram.Result.FAULT: "FAULT",
+    RunProgram.Result.CANCELED: "CANCELED",
+}
 
 
 def _array_size(value: Sequence[object]) -> str | None:
@@ -553,10 +559,15 @@ class MemsFieldArray(ManagedDevice):
             self.last_activity = activity
             self.publish_status()
 
-    def part_states(self) -> list[MemsPartState]:
-        """Return every part's state now: pose, twist, and the field's wrench on it."""
+    def part_states(self, scene: Scene | None = None, names: list[str] | None = None) -> list[MemsPartState]:
+        """Return every part's state now: pose, twist, field wrench (of the node's scene by default).
+
+        A goal passes the scene and names it started with: a cleanup may have released the node's.
+        """
+        scene = scene or self.scene
+        names = self.names if names is None else names
         states = []
-        for name, body in zip(self.names, self.scene.bodies if self.scene else [], strict=True):
+        for name, body in zip(names, scene.bodies if scene else [], strict=True):
             state = MemsPartState(name=name, theta=float(body.pose[2]))
             state.pose = self._pose(body.pose)
             state.twist.linear.x, state.twist.linear.y = float(body.velocity[0]), float(body.velocity[1])
@@ -657,7 +668,7 @@ class MemsFieldArray(ManagedDevice):
         program = program_from_msg(goal.program)
         criterion = settling_criterion(goal.tolerance, goal.dwell)
         timeout = check_timeout(goal.timeout)
-        scene = self.scene
+        scene, names = self.scene, list(self.names)
         assert scene is not None  # accepted goals are on a ready, so configured, device
         self.install_program(program)
         self.count["program_goals"] += 1
@@ -682,7 +693,7 @@ class MemsFieldArray(ManagedDevice):
         )
 
         def end(outcome: int, text: str, fault: tuple[int, str] = (0, "")) -> RunProgram.Result:
-            result = self.program_result(outcome, text, settled, predictions, fault)
+            result = self.program_result(scene, names, outcome, text, settled, predictions, fault)
             if outcome == RunProgram.Result.SETTLED:
                 goal_handle.succeed()
             elif outcome == RunProgram.Result.CANCELED:
@@ -726,7 +737,7 @@ class MemsFieldArray(ManagedDevice):
                 if settled:
                     return end(RunProgram.Result.SETTLED, f"every part settled {elapsed:.3g} s into the goal")
                 if elapsed >= timeout:
-                    moving = [n for n, done in zip(self.names, flags, strict=True) if not done]
+                    moving = [n for n, done in zip(names, flags, strict=True) if not done]
                     why = "the program had not reached its last step" if not judging else ""
                     return end(
                         RunProgram.Result.TIMEOUT,
@@ -739,7 +750,7 @@ class MemsFieldArray(ManagedDevice):
                     goal_handle.publish_feedback(
                         RunProgram.Feedback(
                             time=elapsed,
-                            parts=self.part_states(),
+                            parts=self.part_states(scene, names),
                             settled=list(flags),
                             equilibrium_distance=[m.distance for m in matches],
                         )
@@ -751,6 +762,8 @@ class MemsFieldArray(ManagedDevice):
 
     def program_result(
         self,
+        scene: Scene,
+        names: list[str],
         outcome: int,
         text: str,
         settled: bool,
@@ -758,24 +771,17 @@ class MemsFieldArray(ManagedDevice):
         fault: tuple[int, str],
     ) -> RunProgram.Result:
         """Return the result of a goal: final states, and per part the predicted equilibrium reached."""
-        names = {
-            RunProgram.Result.SETTLED: "SETTLED",
-            RunProgram.Result.TIMEOUT: "TIMEOUT",
-            RunProgram.Result.FAULT: "FAULT",
-            RunProgram.Result.CANCELED: "CANCELED",
-        }
-        bodies = self.scene.bodies if self.scene is not None else []
-        matches = [match(p, b.pose) for p, b in zip(predictions, bodies, strict=True)]
+        matches = [match(p, b.pose) for p, b in zip(predictions, scene.bodies, strict=True)]
         summary = [
             self._equilibrium_summary(name, prediction, found)
-            for name, prediction, found in zip(self.names, predictions, matches, strict=True)
+            for name, prediction, found in zip(names, predictions, matches, strict=True)
         ]
         return RunProgram.Result(
             outcome=outcome,
-            outcome_name=names[outcome],
+            outcome_name=OUTCOME_NAMES[outcome],
             message="; ".join([text, *summary]),
             settled=settled,
-            parts=self.part_states(),
+            parts=self.part_states(scene, names),
             equilibrium=[m.index for m in matches],
             equilibrium_theta=[m.theta for m in matches],
             equilibrium_distance=[m.distance for m in matches],
