@@ -180,13 +180,24 @@ def status_names() -> dict[int, str]:
     }
 
 
-def check_feedback(goal: Goal, result: Any, events: list[Any]) -> None:
-    """One feedback per throw, numbered, each with its landing's event; as many events as throws."""
+def check_feedback(goal: Goal, result: Any, listen: Callable[..., Any], mark: int) -> list[Any]:
+    """One feedback per throw, numbered, each with its landing's event; as many events as throws.
+
+    The result, the feedback and the events travel apart: the last ones may arrive after the result.
+    Returns the goal's events.
+    """
+    goal.wait_feedback(result.throws)
+    deadline = time.monotonic() + WAIT
+    while len(events_since(listen, mark)) < result.throws:
+        assert time.monotonic() < deadline, f"{len(events_since(listen, mark))} of {result.throws} events"
+        time.sleep(0.01)
+    events = events_since(listen, mark)
     assert [f.throws for f in goal.feedback] == list(range(1, result.throws + 1))
     assert len(events) == result.throws
     assert [f.event.index for f in goal.feedback] == [e.index for e in events]
     for f, e in zip(goal.feedback, events, strict=True):
         assert (f.edge, f.radius) == (e.edge_after, e.radius_after)  # the ground truth, logged
+    return events
 
 
 # --- outcomes ---------------------------------------------------------------------------------------
@@ -206,7 +217,7 @@ def test_a_feed_with_the_paper_trigger_presents_the_part_on_edge_1(arm, ros_clie
     assert state == GoalStatus.STATUS_SUCCEEDED, status_names().get(state, state)
     assert (result.outcome, result.outcome_name) == (FeedPart.Result.PRESENTED, "PRESENTED")
     assert result.throws == expected and len(goal.feedback) == expected
-    check_feedback(goal, result, events_since(listen, mark))
+    check_feedback(goal, result, listen, mark)
     assert [f.sensor_at_rest for f in goal.feedback] == [False] * (expected - 1) + [True]
     # The paper's claim, checked on the ground truth: detected in the trigger range means edge 1.
     assert result.sensor_at_rest and result.edge == 1 == goal.feedback[-1].edge
@@ -244,7 +255,7 @@ def test_max_throws_with_a_sensor_where_the_part_never_is(arm, ros_client, liste
     state, result = goal.result()
     assert state == GoalStatus.STATUS_ABORTED and result.outcome == FeedPart.Result.MAX_THROWS
     assert result.outcome_name == "MAX_THROWS" and result.throws == 3 and not result.sensor_at_rest
-    check_feedback(goal, result, events_since(listen, mark))
+    check_feedback(goal, result, listen, mark)
     assert not any(f.sensor_at_rest for f in goal.feedback)
     assert status(listen, DEVICE, lambda s: not s.busy).state_name == "IDLE"
 
@@ -259,8 +270,7 @@ def test_a_sensor_stuck_false_decides_max_throws_though_the_part_is_there(arm, r
     goal = arm.send(max_throws=2)
     _, result = goal.result()
     assert result.outcome == FeedPart.Result.MAX_THROWS and result.throws == 2
-    events = events_since(listen, mark)
-    check_feedback(goal, result, events)
+    events = check_feedback(goal, result, listen, mark)
     # The true sensor saw the part after each throw; the faulty bit, which decides, never did.
     assert all(e.sensor_at_rest for e in events) and not any(f.sensor_at_rest for f in goal.feedback)
 
@@ -297,7 +307,7 @@ def test_timeout_ends_the_goal_by_node_clock(arm, ros_client, listen) -> None:
     assert took >= 0.5 and "timeout of 0.5 s" in result.message
     # a throw every 0.2 s from the goal's start; the one in flight at the deadline lands first
     assert 1 <= result.throws <= 4
-    check_feedback(goal, result, events_since(listen, mark))
+    check_feedback(goal, result, listen, mark)
 
 
 @pytest.mark.ros
@@ -311,7 +321,7 @@ def test_a_dropped_sample_is_waited_for_over_the_rest_window_never_longer(arm, r
     goal = arm.send(max_throws=3)
     _, result = goal.result()
     assert result.outcome == FeedPart.Result.MAX_THROWS and result.throws == 3
-    check_feedback(goal, result, events_since(listen, mark))
+    check_feedback(goal, result, listen, mark)
     assert not any(f.sensor_at_rest for f in goal.feedback) and not result.sensor_at_rest
     assert all(e.sensor_at_rest for e in events_since(listen, mark))  # the part was there all along
     # Half the samples dropped: the next delivered one, well within the rest window, decides.
@@ -341,7 +351,7 @@ def test_a_motor_fault_mid_goal_ends_it_faulted_and_after_reset_a_goal_succeeds(
     assert result.fault_code == DeviceStatus.FAULT_MOTOR == 101 and "motor_fault" in result.fault_text
     assert "motor_fault" in result.message
     time.sleep(0.3)  # nothing thrown after the fault: a late event would show by now
-    check_feedback(goal, result, events_since(listen, mark))
+    check_feedback(goal, result, listen, mark)
     assert status(listen, DEVICE, lambda s: not s.busy).state_name == "FAULT"
     refused = arm.send(max_throws=1)
     assert not refused.accepted
@@ -364,10 +374,16 @@ def test_a_part_lost_mid_goal_ends_it_with_fault_102(arm, ros_client, listen) ->
     _, result = goal.result()
     assert result.outcome == FeedPart.Result.FAULT and result.fault_code == DeviceStatus.FAULT_PART_LOST
     assert "part_lost" in result.fault_text
-    time.sleep(0.3)
-    events = events_since(listen, mark)
+
     # A throw in the air when the part fell off never lands: no event and no feedback for it.
-    assert len(goal.feedback) == len(events) and result.throws - len(events) in (0, 1)
+    def consistent() -> bool:
+        events = events_since(listen, mark)
+        return len(goal.feedback) == len(events) and result.throws - len(events) in (0, 1)
+
+    deadline = time.monotonic() + WAIT
+    while not consistent():
+        assert time.monotonic() < deadline, (result.throws, len(goal.feedback), events_since(listen, mark))
+        time.sleep(0.01)
     assert (result.edge, math.isnan(result.radius)) == (-1, True)  # ground truth: off the arm
     assert status(listen, DEVICE, lambda s: not s.busy).fault_code == DeviceStatus.FAULT_PART_LOST
 
@@ -390,7 +406,7 @@ def test_cancel_mid_goal_stops_after_the_throw_in_flight(arm, ros_client, listen
     idle = status(listen, DEVICE, lambda s: not s.busy)
     assert idle.state_name == "IDLE" and idle.ready
     time.sleep(0.5)  # more than a period: a throw after the cancel would show by now
-    check_feedback(goal, result, events_since(listen, mark))
+    check_feedback(goal, result, listen, mark)
     assert result.throws >= 2
     sensor_radius = trigger_radius()
     fresh(ros_client, listen, sensor_radius)
@@ -417,7 +433,7 @@ def test_stop_and_command_stop_end_a_goal_and_commands_wait_for_it(arm, ros_clie
     assert "~/stop" in result.message
     assert status(listen, DEVICE, lambda s: not s.busy).state_name == "STOPPED"
     time.sleep(0.3)
-    check_feedback(goal, result, events_since(listen, mark))
+    check_feedback(goal, result, listen, mark)
     fresh(ros_client, listen, BLIND)
     mark = event_mark(listen)
     goal = arm.send(max_throws=1000)
@@ -428,7 +444,7 @@ def test_stop_and_command_stop_end_a_goal_and_commands_wait_for_it(arm, ros_clie
     assert "~/command stop" in result.message
     assert status(listen, DEVICE, lambda s: not s.busy).state_name == "IDLE"
     time.sleep(0.5)
-    check_feedback(goal, result, events_since(listen, mark))
+    check_feedback(goal, result, listen, mark)
 
 
 @pytest.mark.ros
