@@ -524,3 +524,12 @@ def test_a_held_cell_clock_holds_the_goal_and_steps_advance_it(launch_node, ros_
     progress = [f.progress for f in sent.feedback_now()]
     assert all(abs(p * 10 - round(p * 10)) < 1e-9 for p in progress), progress
     assert progress == sorted(progress) and len(progress) >= 3
+    # a cancel under the held clock: the table stands on the path's first sample, so it stops there at once
+    back = held.send(held.goal(tilt=[0.0, 0.0]))
+    assert back.accepted
+    wait_feedback(back, lambda f: f.progress == 0.0)
+    held.cancel(back)
+    status, result = held.result(back, timeout=10)
+    assert status == goal_status("CANCELED") and result.outcome == FollowPath.Result.CANCELED
+    assert "stopped at path sample 0 of" in result.message, result.message
+    assert np.allclose(result.tilt, [0.0, -0.5], atol=POSITION_TOL)

@@ -30,6 +30,8 @@ from typing import Any
 import numpy as np
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.action.server import ServerGoalHandle
+from rclpy.clock import Clock, ClockType
+from rclpy.task import Future
 from rclpy.time import Time as RclTime
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
@@ -83,6 +85,10 @@ NODE_NAME = "assembly_fixture"
 BASE_FRAME = "assembly"
 NANOSECONDS = 1_000_000_000
 FOLLOW_PATH = "~/follow_path"
+# A running goal looks for a cancel this often (Hz, steady clock) besides at every tick: a table standing on a
+# path sample (a goal not yet moved under a held /clock) stops there at once; one between samples needs clock
+# time to reach the next, so under a held clock its cancel completes when the clock moves on.
+CANCEL_POLL_RATE = 10.0
 OUTCOME_NAMES = {
     FollowPath.Result.REACHED: "REACHED",
     FollowPath.Result.REFUSED: "REFUSED",
@@ -495,16 +501,39 @@ class AssemblyFixture(ManagedDevice):
         self.table.start(planned.path)
         self.publish_status()
         self._send_feedback(handle, goal)
-        while True:
-            await self.next_tick()
-            ended = self._follow_tick(handle, goal, result)
-            if ended is not None:
-                return ended
+        wake: list[Future] = []
+
+        def poll_cancel() -> None:
+            if handle.is_cancel_requested and goal.stop_sample < 0 and wake and not wake[-1].done():
+                wake[-1].set_result(False)
+
+        poll = self.create_timer(
+            1.0 / CANCEL_POLL_RATE, poll_cancel, clock=Clock(clock_type=ClockType.STEADY_TIME)
+        )
+        try:
+            while True:
+                wake.append(self._tick_or_cancel())
+                ticked = bool(await wake[-1])
+                wake.clear()
+                ended = self._follow_tick(handle, goal, result, ticked)
+                if ended is not None:
+                    return ended
+        finally:
+            self.destroy_timer(poll)
+
+    def _tick_or_cancel(self) -> Future:
+        """Return a future done with True after the next tick or on deactivation; a cancel poll sets False."""
+        wake = Future()
+        self.next_tick().add_done_callback(lambda _: wake.done() or wake.set_result(True))
+        return wake
 
     def _follow_tick(
-        self, handle: ServerGoalHandle, goal: _PathGoal, result: FollowPath.Result
+        self, handle: ServerGoalHandle, goal: _PathGoal, result: FollowPath.Result, ticked: bool = True
     ) -> FollowPath.Result | None:
-        """After a tick (or deactivation): end the goal with its outcome, or send feedback and go on."""
+        """After a tick, deactivation or a cancel request: end the goal with its outcome, or go on.
+
+        Feedback goes out on ticks only (``ticked``), every ceil(publish_rate / feedback_rate) of them.
+        """
         table = self.table
         if not self.active or table is None:
             if table is not None:
@@ -533,7 +562,7 @@ class AssemblyFixture(ManagedDevice):
             return self._finish(
                 handle, result, FollowPath.Result.FAULT, "stopped by ~/stop: the table halted where it was"
             )
-        goal.ticks += 1
+        goal.ticks += int(ticked)
         if handle.is_cancel_requested and goal.stop_sample < 0 and table.moving:
             stop = goal.planned.cancel_stop(table.joints, table.remaining, lambda j: self._certified(goal, j))
             table.truncate(stop.keep)
@@ -541,7 +570,7 @@ class AssemblyFixture(ManagedDevice):
         if table.moving:
             goal.progress = goal.planned.progress(table.joints, table.remaining)
             every = max(1, math.ceil(float(self.p["publish_rate"]) / float(self.p["feedback_rate"]) - 1e-9))
-            if goal.ticks % every == 0:
+            if ticked and goal.ticks % every == 0:
                 self._send_feedback(handle, goal)
             return None
         return self._follow_ended(handle, goal, result)
