@@ -560,7 +560,8 @@ def test_under_a_held_stepped_cell_clock_the_timeout_follows_the_clock(
     assert not pending.done() and goal.feedback == []
     for _ in range(19):
         tick()
-    time.sleep(0.5)
+    goal.wait_feedback(4)  # landings at 0.2, 0.4, 0.6, 0.8 s
+    time.sleep(0.5)  # a result (or a fifth feedback) sent by mistake would show by now
     assert not pending.done() and len(goal.feedback) == 4
     tick()  # 20 steps of 0.05 s: the deadline, as the fifth throw (at 0.9 s) lands at 1.0 s
     state, result = goal.result()
