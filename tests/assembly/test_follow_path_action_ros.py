@@ -328,13 +328,18 @@ def test_an_axis_stall_mid_goal_ends_it_stalled_and_after_reset_a_goal_succeeds(
     from feeder_msgs.action import FollowPath
     from feeder_msgs.msg import DeviceStatus
 
-    assert inject(ros_client, FOLLOW, "axis_stall", indices=[1], angle=-0.3).ok
-    sent, status, result = goals.run(goals.goal(tilt=[0.0, -0.6]))
+    assert set_parameter(ros_client, FOLLOW, "max_rate_y", 0.3).successful  # 2 s to tilt_y = -0.6
+    sent = goals.send(goals.goal(tilt=[0.0, -0.6]))
+    assert sent.accepted
+    wait_feedback(sent, lambda f: f.progress > 0.05)
+    # injected mid-goal, ahead of the table: armed until tilt_y gets there
+    assert inject(ros_client, FOLLOW, "axis_stall", indices=[1], angle=-0.45).ok
+    status, result = goals.result(sent)
     assert status == GoalStatus.STATUS_ABORTED
     assert result.outcome == FollowPath.Result.STALLED and result.outcome_name == "STALLED", result.message
     assert result.fault_code == DeviceStatus.FAULT_AXIS_STALL == 301
-    assert "tilt_y stalled at -0.3 rad" in result.fault_text
-    assert result.tilt[1] == pytest.approx(-0.3, abs=1e-12)
+    assert "tilt_y stalled at -0.45 rad" in result.fault_text and result.message == result.fault_text
+    assert result.tilt[1] == pytest.approx(-0.45, abs=1e-12)
     progress = [f.progress for f in sent.feedback_now()]
     assert progress and max(progress) < 1.0 and all(f.stable for f in sent.feedback_now())
     faulted = status_of(listen, FOLLOW, lambda s: s.state_name == "FAULT")
@@ -348,6 +353,27 @@ def test_an_axis_stall_mid_goal_ends_it_stalled_and_after_reset_a_goal_succeeds(
     _, status, result = goals.run(goals.goal(tilt=[0.0, -0.6]))  # the stall was cleared by the reset
     assert status == succeeded() and result.outcome == FollowPath.Result.REACHED, result.message
     joint_state(listen, FOLLOW, at_rest((0.0, -0.6)))
+
+
+def test_stop_mid_goal_ends_it_as_a_fault_where_the_table_halted(goals, home, ros_client, listen) -> None:
+    from action_msgs.msg import GoalStatus
+
+    from feeder_msgs.action import FollowPath
+
+    assert set_parameter(ros_client, FOLLOW, "max_rate_y", 0.3).successful
+    sent = goals.send(goals.goal(tilt=[0.0, -0.6]))
+    assert sent.accepted
+    wait_feedback(sent, lambda f: f.progress > 0.05)
+    assert trigger(ros_client, FOLLOW, "stop").success
+    status, result = goals.result(sent)
+    assert status == GoalStatus.STATUS_ABORTED
+    assert result.outcome == FollowPath.Result.FAULT and "stopped by ~/stop" in result.message
+    stopped = status_of(listen, FOLLOW, lambda s: s.state_name == "STOPPED")
+    assert not stopped.busy
+    joint_state(listen, FOLLOW, at_rest(result.tilt))
+    assert -0.6 < result.tilt[1] < 0.0
+    assert not goals.send(goals.goal(tilt=[0.0, 0.0])).accepted
+    assert "device is STOPPED" in rejection(listen, FOLLOW, "device is STOPPED")
 
 
 # --- cancel ----------------------------------------------------------------------------------------
@@ -429,6 +455,13 @@ def test_a_second_goal_and_a_move_are_refused_while_a_goal_runs(goals, home, ros
     status, result = goals.result(first)  # the first goal was not disturbed
     assert status == succeeded(), result.message
     assert np.allclose(result.tilt, [0.0, -0.6], atol=POSITION_TOL)
+    # and the other way round: no goal while a ~/move is in progress
+    request = FixtureMove.Request(waypoints=[Vector3(x=0.0, y=0.0, z=-1.0)])
+    move = ros_harness.call_service(ros_client, FixtureMove, f"{FOLLOW}/move", request)
+    assert move.ok, move.error
+    assert not goals.send(goals.goal(tilt=[0.0, -0.3])).accepted
+    assert "a ~/move is in progress" in rejection(listen, FOLLOW, "a ~/move is in progress")
+    joint_state(listen, FOLLOW, at_rest((0.0, 0.0)))
 
 
 # --- lifecycle and clock (their own nodes) -------------------------------------------------------------
