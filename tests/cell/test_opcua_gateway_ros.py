@@ -20,6 +20,7 @@ from asyncua.ua.uaerrors import BadUserAccessDenied, UaError
 
 from feeder_cell.gateway import layout
 from feeder_cell.gateway.users import hash_password
+from feeder_msgs.msg import DeviceStatus
 
 pytestmark = pytest.mark.ros
 
@@ -133,7 +134,7 @@ def session(url: str, scenario: Callable[[Session], Awaitable[None]], **login: s
     """Run ``scenario`` in a fresh client session (anonymous unless user/password are given)."""
 
     async def main() -> None:
-        client = Client(url, timeout=10)
+        client = Client(url, timeout=30)
         if login:
             client.set_user(login["user"])
             client.set_password(login["password"])
@@ -216,15 +217,17 @@ def test_address_space_has_one_object_per_device_with_its_variables_and_methods(
 
 
 def test_a_stop_over_ros_shows_as_a_data_change_and_the_reset_method_clears_it(
-    gateway: str, ros_client: Any
+    gateway: str, ros_client: Any, listen: Callable[..., Any]
 ) -> None:
+    statuses = listen(DeviceStatus, f"{ARM}/status", latched=True)
+
     async def scenario(s: Session) -> None:
         await idle(s, KEYS["arm"])
-        changes: asyncio.Queue[tuple[Any, float]] = asyncio.Queue()
+        changes: asyncio.Queue[tuple[Any, float, Any]] = asyncio.Queue()
 
         class Handler:
             def datachange_notification(self, node: Any, value: Any, data: Any) -> None:
-                changes.put_nowait((value, time.monotonic()))
+                changes.put_nowait((value, time.monotonic(), data.monitored_item.Value.SourceTimestamp))
 
         subscription = await s.client.create_subscription(20, Handler())
         await subscription.subscribe_data_change(s.node(KEYS["arm"], "Status.PackMLState"))
@@ -232,12 +235,15 @@ def test_a_stop_over_ros_shows_as_a_data_change_and_the_reset_method_clears_it(
         started = time.monotonic()
         response = await asyncio.to_thread(ros_harness.trigger, ros_client, ARM, "stop")
         assert response.success, response.message
-        value, at = await asyncio.wait_for(changes.get(), 5)
+        value, at, source = await asyncio.wait_for(changes.get(), 5)
         assert value == "Stopped" and at - started < 5
         assert await s.read(KEYS["arm"], "Status.StateName") == "STOPPED"
+        # The value carries the stamp of the DDS sample that changed it (OPC UA keeps 100 ns).
+        stopped = await asyncio.to_thread(statuses.wait, lambda m: m.state == DeviceStatus.STOPPED, 10, True)
+        assert abs(source.timestamp() * 1e9 - ros_harness.stamp_ns(stopped)) < 1e3
         message = await s.good(KEYS["arm"], "Reset")
         assert "IDLE" in message
-        value, _ = await asyncio.wait_for(changes.get(), 5)
+        value, _, _ = await asyncio.wait_for(changes.get(), 5)
         assert value == "Idle"
         await subscription.delete()
 
@@ -337,20 +343,84 @@ def test_a_cycle_driven_by_method_calls(gateway: str) -> None:
         assert outcome in ("SETTLED", "TIMEOUT"), await s.read(mems, "Command.LastMessage")
         assert await s.read(mems, "Command.GoalCount") == goals + 1
         assert await s.read(mems, "Command.Action") == "RunProgram"
+        assert await s.read(mems, "Command.Feedback.Time") > 0
+        assert len(await s.read(mems, "Command.Result.Equilibrium")) == 1
+        assert (await s.read(mems, "Command.Result.Settled")) is (outcome == "SETTLED")
         outcome = await s.run(arm, "FeedPart", u32(30), dbl(60.0))
         assert outcome in ("PRESENTED", "MAX_THROWS"), await s.read(arm, "Command.LastMessage")
         throws = await s.read(arm, "Command.Result.Throws")
+        assert throws >= 1 and await s.read(arm, "Command.Feedback.Throws") == throws
         assert outcome == "PRESENTED" or throws == 30
         if outcome == "PRESENTED":
             assert await s.read(arm, "Command.Result.SensorAtRest") is True
         outcome = await s.run(fixture, "FollowPath", dbls([0.1, 0.0, 0.0, 0.0]), dbls([]))
         assert outcome == "REACHED", await s.read(fixture, "Command.LastMessage")
         assert await s.read(fixture, "Command.LastOutcomeCode") == 1
+        assert 0 < await s.read(fixture, "Command.Feedback.Progress") <= 1
+        assert await s.read(fixture, "Command.Result.FirstUnstableSample") == -1
         assert await s.read(fixture, "Command.Result.Tilt") == pytest.approx([0.0, 0.0], abs=1e-6)
         for key in KEYS.values():
             await idle(s, key)
 
     session(gateway, scenario)
+
+
+def test_stop_ends_a_long_goal_and_the_device_is_commandable_after_reset(
+    gateway: str, ros_client: Any
+) -> None:
+    async def scenario(s: Session) -> None:
+        arm = KEYS["arm"]
+        await idle(s, arm)
+        results = await s.read(arm, "Command.ResultCount")
+        # The triangle is often presented within a few throws: a sensor stuck false keeps the goal
+        # throwing until Stop ends it (Reset clears the fault).
+        response = await asyncio.to_thread(
+            ros_harness.inject_fault, ros_client, ARM, "sensor_stuck", state=False
+        )
+        assert response.ok, response.error
+        await s.good(arm, "FeedPart", u32(10_000), dbl(0.0))
+        await s.wait_for(arm, "Command.Feedback.Throws", lambda n: n >= 1)
+        assert await s.read(arm, "Command.Busy") is True
+        assert "Stop" in await s.good(arm, "Stop")
+        await s.wait_for(arm, "Command.ResultCount", lambda n: n == results + 1)
+        assert await s.read(arm, "Command.Busy") is False
+        assert await s.read(arm, "Command.LastOutcome") == "CANCELED"
+        assert "stop" in (await s.read(arm, "Command.LastMessage")).lower()
+        await s.wait_for(arm, "Status.PackMLState", lambda v: v == "Stopped")
+        await s.good(arm, "Reset")
+        await idle(s, arm)
+        assert await s.read(arm, "Status.ActiveFaults") == []
+        assert await s.run(arm, "FeedPart", u32(1), dbl(0.0)) in ("PRESENTED", "MAX_THROWS")
+
+    session(gateway, scenario)
+
+
+def test_a_device_that_stops_reporting_goes_offline(launch_node: Callable[..., Any]) -> None:
+    namespace = "/gw_offline"
+    arm = launch_node(
+        "feeder_sim",
+        "throwing_arm",
+        DEVICES["throwing_arm"],
+        namespace=namespace,
+        wait_topics=(f"{namespace}/throwing_arm/status",),
+    )
+    url = f"opc.tcp://127.0.0.1:{free_port()}"
+    launch_node("feeder_cell", "opcua_gateway", {"endpoint": url, "devices": [f"{namespace}/throwing_arm"]})
+    asyncio.run(_wait_until_serving(url))
+    key = "gw_offline.throwing_arm"
+
+    async def scenario(s: Session) -> None:
+        await s.wait_for(key, "Status.Online", lambda v: v is True)
+        await idle(s, key)
+        await asyncio.to_thread(arm.stop)
+        await s.wait_for(key, "Status.Online", lambda v: v is False, timeout=15)
+        assert await s.read(key, "Status.PackMLState") == "Undefined"
+        assert await s.read(key, "Status.PackMLStateCode") == 0
+        result = await s.call(key, "FeedPart", u32(1), dbl(0.0))
+        assert result.StatusCode.value == ua.StatusCodes.BadInvalidState
+        assert "reports no status" in result.OutputArguments[0].Value
+
+    session(url, scenario)
 
 
 # --- security -----------------------------------------------------------------------------------------------
@@ -382,7 +452,7 @@ def test_user_and_password(launch_node: Callable[..., Any], tmp_path: Path) -> N
     )
 
     async def connects(**login: str) -> bool:
-        client = Client(url, timeout=10)
+        client = Client(url, timeout=30)
         if login:
             client.set_user(login["user"])
             client.set_password(login["password"])
@@ -463,7 +533,7 @@ def test_certificate_security_basic256sha256_sign_and_encrypt_with_trusted_clien
 
     async def main() -> None:
         await _wait_for_endpoints(url)
-        plain = Client(url, timeout=10)
+        plain = Client(url, timeout=30)
         endpoints = await plain.connect_and_get_server_endpoints()
         assert {e.SecurityPolicyUri.rsplit("#", 1)[-1] for e in endpoints} == {"Basic256Sha256"}
         assert {e.SecurityMode for e in endpoints} == {ua.MessageSecurityMode.SignAndEncrypt}
@@ -476,7 +546,7 @@ def test_certificate_security_basic256sha256_sign_and_encrypt_with_trusted_clien
         )
         with pytest.raises((UaError, OSError, asyncio.TimeoutError)):
             await stranger.connect()  # a certificate the gateway does not trust
-        secure = Client(url, timeout=10)
+        secure = Client(url, timeout=30)
         secure.application_uri = "urn:feeder:test:plc"
         await secure.set_security_string(
             f"Basic256Sha256,SignAndEncrypt,{tmp_path / 'client_cert.der'},{tmp_path / 'client_key.pem'}"

@@ -42,8 +42,10 @@ from feeder_planner.node_kit.msg_fields import fill_field_spec
 __all__ = ["STATUS_TIMEOUT", "REJECTION_WAIT", "DeviceLink", "RosBridge"]
 
 # A device whose ~/status (1 Hz heartbeat) is not heard for this long is offline (Online false, PackML
-# Undefined); three missed heartbeats, so that one late sample on a loaded host does not flap it.
-STATUS_TIMEOUT = 3.0
+# Undefined); five missed heartbeats, so that a starved process on a loaded host does not flap it. A goal
+# in progress is given up (LOST) only once the device's action server has left the graph as well: a
+# device that is merely slow still delivers its result.
+STATUS_TIMEOUT = 5.0
 # How long a rejected goal waits for the device's reason on /rosout (logged just before it answers).
 REJECTION_WAIT = 2.0
 
@@ -208,20 +210,20 @@ class RosBridge:
         now = time.monotonic()
         for link in self.links.values():
             with link.lock:
-                if not link.online or now - link.heard <= STATUS_TIMEOUT:
-                    continue
-                link.online = False
-                lost = link.goal
-                link.goal = None
-            self._post(link, "Status.Online", False)
-            self._post(link, "Status.PackMLState", "Undefined")
-            self._post(link, "Status.PackMLStateCode", 0)
-            if lost is not None:
+                silent = now - link.heard > STATUS_TIMEOUT
+                went_offline = link.online and silent
+                if went_offline:
+                    link.online = False
+                lost = silent and link.goal is not None and not link.action.server_is_ready()
+                if lost:
+                    link.goal = None
+            if went_offline:
+                self._post(link, "Status.Online", False)
+                self._post(link, "Status.PackMLState", "Undefined")
+                self._post(link, "Status.PackMLStateCode", 0)
+            if lost:
                 self._finish(
-                    link,
-                    "LOST",
-                    0,
-                    f"the device stopped reporting (no ~/status for {STATUS_TIMEOUT:g} s) during the goal",
+                    link, "LOST", 0, "the device stopped reporting and its action server left the graph"
                 )
 
     # --- method calls (on the asyncio loop) ------------------------------------------------------

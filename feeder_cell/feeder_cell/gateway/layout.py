@@ -68,7 +68,7 @@ def _v(path: str, type_: str, description: str, array: bool = False) -> Variable
 
 
 STATUS = (
-    _v("Status.Online", "Boolean", "a ~/status heard within the last 3 s (the device's heartbeat is 1 Hz)"),
+    _v("Status.Online", "Boolean", "a ~/status heard within the last 5 s (the device's heartbeat is 1 Hz)"),
     _v("Status.State", "Byte", "feeder_msgs/DeviceStatus state (0 UNCONFIGURED ... 5 STOPPED)"),
     _v(
         "Status.StateName",
