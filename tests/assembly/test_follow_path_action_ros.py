@@ -395,6 +395,10 @@ def test_cancel_mid_goal_stops_at_rest_on_a_certified_sample_and_a_follow_up_suc
     assert status == GoalStatus.STATUS_CANCELED
     assert result.outcome == FollowPath.Result.CANCELED and result.outcome_name == "CANCELED"
     assert "certified stable" in result.message and "NOT" not in result.message
+    # feedback went on rising to the stop, short of the end
+    stopped = wait_feedback(sent, lambda f: f.progress == pytest.approx(result.tilt[1] / target, abs=1e-9))
+    progress = [f.progress for f in sent.feedback_now()]
+    assert progress == sorted(progress) and progress[-1] == stopped.progress < 1.0, progress
     # at rest on a path sample: the arc about tilt_y alone has samples at tilt_y = target * k / count
     count = math.ceil(abs(target) / INTERLOCK_STEP)
     k = result.tilt[1] / (target / count)

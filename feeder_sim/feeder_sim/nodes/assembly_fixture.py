@@ -227,6 +227,7 @@ class _PathGoal:
     ticks: int = 0
     stop_sample: int = -1  # where a cancel stops (-1: not canceled)
     stop_certified: bool = True
+    dropped: int = 0  # waypoints of the path a cancel took off its end (the table's count no longer has them)
     progress: float = 0.0
 
 
@@ -567,8 +568,9 @@ class AssemblyFixture(ManagedDevice):
             stop = goal.planned.cancel_stop(table.joints, table.remaining, lambda j: self._certified(goal, j))
             table.truncate(stop.keep)
             goal.stop_sample, goal.stop_certified = stop.sample, stop.certified
+            goal.dropped = len(goal.planned.samples) - 1 - stop.sample
         if table.moving:
-            goal.progress = goal.planned.progress(table.joints, table.remaining)
+            goal.progress = goal.planned.progress(table.joints, table.remaining + goal.dropped)
             every = max(1, math.ceil(float(self.p["publish_rate"]) / float(self.p["feedback_rate"]) - 1e-9))
             if ticked and goal.ticks % every == 0:
                 self._send_feedback(handle, goal)
