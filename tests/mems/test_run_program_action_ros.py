@@ -11,6 +11,7 @@ cell clock shows the goal waiting with the clock.
 from __future__ import annotations
 
 import math
+import re
 import threading
 import time
 from pathlib import Path
@@ -249,13 +250,16 @@ def test_a_part_settles_at_the_equilibrium_the_planner_predicts(device: Array) -
     assert abs(math.remainder(final.theta - reached.theta, 2 * math.pi)) < REACHED_TOLERANCE
     assert math.hypot(final.pose.position.x - reached.x, final.pose.position.y - reached.y) < 1e-6
     assert f"at predicted equilibrium {index}" in result.message
-    # feedback: node-clock time since the start, at most every 0.1 s, the distance shrinking to ~0
+    # feedback: node-clock time since the start, at most every 0.1 s, the distance to the equilibrium
     times = [f.time for f in goal.feedback]
     assert len(times) >= 5 and times == sorted(times) and times[0] >= 0.0
     assert min(b - a for a, b in zip(times, times[1:], strict=False)) >= 0.1 - 1e-6
     assert all(len(f.parts) == 1 and len(f.settled) == 1 for f in goal.feedback)
-    assert goal.feedback[0].equilibrium_distance[0] > 0.1  # started 1 rad from theta 1.0...
-    assert goal.feedback[-1].equilibrium_distance[0] < 1e-3  # ... and ended at the equilibrium
+    # (a loaded client may lose the oldest feedback from its queue: judged message by message)
+    for f in goal.feedback:
+        turn = abs(math.remainder(f.parts[0].theta - reached.theta, 2 * math.pi))
+        assert f.equilibrium_distance[0] == pytest.approx(turn, abs=1e-12)
+    assert goal.feedback[-1].equilibrium_distance[0] < 1e-3  # it ended at the equilibrium
     device.status(lambda s: s.state_name == "IDLE" and not s.busy)
     # A goal on parts already at rest is RUNNING for its whole dwell, though nothing moves.
     goal = device.program.send(run_goal(dwell=1.5))
@@ -263,7 +267,8 @@ def test_a_part_settles_at_the_equilibrium_the_planner_predicts(device: Array) -
     assert busy.state_name == "RUNNING" and counters(busy)["parts_settled"] == 1
     status, result = goal.result()
     assert status == GoalStatus.STATUS_SUCCEEDED and list(result.equilibrium) == [index]
-    assert goal.feedback[-1].time >= 1.5 - 0.1  # it took the dwell
+    took = re.search(r"every part settled ([0-9.e+-]+) s into the goal", result.message)
+    assert took and float(took.group(1)) >= 1.5, result.message  # it took the dwell
     device.status(lambda s: s.state_name == "IDLE")
 
 
@@ -488,6 +493,7 @@ def test_under_a_held_clock_the_goal_waits_with_the_clock(launch_node, ros_clien
         {"start_paused": True, "start_time": 100.0},
         namespace=namespace,
         wait_services=(f"{namespace}/cell_clock/step",),
+        timeout=60.0,  # a second node start in one test: slow on a loaded machine
     )
     launch_node(
         "feeder_sim",
@@ -495,6 +501,7 @@ def test_under_a_held_clock_the_goal_waits_with_the_clock(launch_node, ros_clien
         device_parameters(use_sim_time=True),
         namespace=namespace,
         wait_topics=(f"{namespace}/mems_field_array/part_states",),
+        timeout=60.0,
     )
     from feeder_msgs.msg import MemsPartStates
 
