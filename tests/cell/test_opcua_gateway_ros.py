@@ -440,6 +440,27 @@ def test_anonymous_on_a_non_loopback_endpoint_is_refused_at_start(ros_client: An
     assert "Traceback" not in log
 
 
+def test_a_bad_device_entry_or_a_busy_endpoint_fails_the_start_naming_the_parameter(tmp_path: Path) -> None:
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        for parameters, words in (
+            (
+                {"endpoint": f"opc.tcp://127.0.0.1:{free_port()}", "devices": ["/cell/feeder_a"]},
+                "parameter devices[0]",
+            ),
+            ({"endpoint": f"opc.tcp://127.0.0.1:{port}"}, "parameter endpoint: cannot listen"),
+        ):
+            node = ros_harness.start_node("feeder_cell", "opcua_gateway", parameters, tmp_path)
+            try:
+                code = node.process.wait(timeout=30)
+            finally:
+                node.stop()
+            log = node.output()
+            assert code == 2 and words in log and "Traceback" not in log, log
+
+
 def test_user_and_password(launch_node: Callable[..., Any], tmp_path: Path) -> None:
     users = tmp_path / "users.yaml"
     users.write_text(f"users:\n  plc: {hash_password('line-7', iterations=20_000)}\n")

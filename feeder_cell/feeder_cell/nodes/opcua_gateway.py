@@ -21,7 +21,7 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 from feeder_cell.gateway.bridge import RosBridge
-from feeder_cell.gateway.config import check_security, parse_devices, parse_endpoint
+from feeder_cell.gateway.config import check_security, is_loopback, parse_devices, parse_endpoint
 from feeder_cell.gateway.server import GatewayServer
 from feeder_cell.gateway.users import load_users
 from feeder_planner.errors import InputError
@@ -145,6 +145,12 @@ async def _serve(node: Node, server: GatewayServer) -> int:
             f"parameter endpoint: cannot listen on {server.endpoint.url}: {error.strerror or error}"
         )
         return EXIT_BAD_CONFIGURATION
+    security = server.security
+    if server.users is not None and security.policies == ("None",) and not is_loopback(server.endpoint.host):
+        node.get_logger().warning(
+            "parameter users_file: passwords cross the network in plain text on a non-loopback endpoint "
+            "with security_policies [None]; add Basic256Sha256_SignAndEncrypt"
+        )
     names = ", ".join(d.node for d in server.devices) or "no devices"
     node.get_logger().info(
         f"OPC UA server on {server.endpoint.url} ({', '.join(server.security.policies)}; "
