@@ -412,6 +412,34 @@ def test_cancel_mid_goal_stops_at_rest_on_a_certified_sample_and_a_follow_up_suc
     assert status == succeeded() and result.outcome == FollowPath.Result.REACHED, result.message
 
 
+def test_cancel_with_the_interlock_off_runs_on_to_the_next_certified_sample(
+    goals, home, ros_client, listen
+) -> None:
+    from action_msgs.msg import GoalStatus
+
+    from feeder_msgs.action import FollowPath
+
+    # out of the stable region about tilt_y and back in: the samples beyond tilt_y of about 0.21 rad fail
+    assert set_parameter(ros_client, FOLLOW, "interlock", False).successful
+    assert set_parameter(ros_client, FOLLOW, "max_rate_y", 0.5).successful
+    sent = goals.send(goals.goal(tilt=[0.0, 0.6, 0.0, -0.2]))
+    assert sent.accepted
+    wait_feedback(sent, lambda f: f.gravity.x > math.sin(0.3) and not f.stable)  # outside, on the way out
+    goals.cancel(sent)
+    status, result = goals.result(sent)
+    assert status == GoalStatus.STATUS_CANCELED and result.outcome == FollowPath.Result.CANCELED
+    assert "certified stable" in result.message and "NOT" not in result.message, result.message
+    assert list(result.unbalanced_bodies) == ["block"]  # the interlock's verdict, reported as a warning
+    # it went on past the far end and back into the region, to the first certified sample there
+    assert -0.2 < result.tilt[1] < 0.21, result.tilt
+    settled = stability(listen, FOLLOW, lambda m: not m.moving)
+    assert settled.stable
+    wait_feedback(sent, lambda f: f.stable and f.progress < 1.0)
+    progress = [f.progress for f in sent.feedback_now()]
+    assert progress == sorted(progress) and progress[-1] < 1.0, progress
+    assert any(not f.stable for f in sent.feedback_now())
+
+
 # --- bad goals ---------------------------------------------------------------------------------------
 @pytest.mark.parametrize(
     "case,gravity,tilt,named",
