@@ -6,7 +6,7 @@ import argparse
 import tempfile
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from feeder_cell.cli.bag import _summary as bag_summary
 from feeder_cell.cli.common import add_json_flag, emit, finite_float
@@ -72,7 +72,9 @@ def _configuration_error(node: Any, executor: Any, target: str) -> str:
     return seen[-1].fault_text if seen else ""
 
 
-def bring_up(node: Any, executor: Any, processes: list[NodeProcess]) -> dict[str, str]:
+def bring_up(
+    node: Any, executor: Any, processes: list[NodeProcess], between: Callable[[], Any] | None = None
+) -> dict[str, str]:
     """Bring every managed node to its scene's lifecycle target, in scene order; return the states.
 
     A node without lifecycle services is left as it is ("unmanaged"), and so is one already at or past
@@ -81,6 +83,8 @@ def bring_up(node: Any, executor: Any, processes: list[NodeProcess]) -> dict[str
     """
     states: dict[str, str] = {}
     for process in processes:
+        if between is not None:
+            between()  # e.g. the recorder's discovery: the scene is running while it is brought up
         target = process.spec.fully_qualified_name
         client = LifecycleClient(node, executor, target)
         try:
@@ -139,7 +143,9 @@ def _launch(args: argparse.Namespace) -> int:
                 processes.append(start_node(spec, log_dir, extra_parameters=extra))
             _wait_until_in_graph(node, executor, processes, keep_going)
             if keep_going():
-                states = bring_up(node, executor, processes)
+                # Recording starts before the bring-up, which takes a while: a controller in the scene
+                # is working already.
+                states = bring_up(node, executor, processes, recorder.discover if recorder else None)
             started = time.monotonic()
             next_discovery = 0.0
             while keep_going() and (args.duration is None or time.monotonic() - started < args.duration):
