@@ -250,7 +250,8 @@ class CellMachine:
     @property
     def device(self) -> str:
         """The device the present state commands ('' for bring-up), or for RECOVER the one to reset."""
-        return DEVICE_OF.get(self.retry_state if self.state is State.RECOVER else self.state, "")
+        state = self.retry_state if self.state is State.RECOVER else self.state
+        return DEVICE_OF.get(state, "") if state is not None else ""
 
     def stop(self, reason: str) -> Transition:
         """Stop the cell from outside the table (a stop request, the node shutting down)."""
