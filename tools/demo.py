@@ -74,7 +74,7 @@ def print_cycle_metrics(logs: Path) -> bool:
     lines = [
         line.strip()
         for line in found[-1].read_text(errors="replace").splitlines()
-        if any(key in line for key in ("] cycle ", "cell FINISHED", "cell STOPPED", "-> RETRY", "-> RESET"))
+        if any(key in line for key in ("]: cycle ", "cell FINISHED", "cell STOPPED", "-> RETRY", "-> RESET"))
     ]
     print("\n".join(lines) or "!! the controller logged no cycle", flush=True)
     return any("cell FINISHED" in line for line in lines)
