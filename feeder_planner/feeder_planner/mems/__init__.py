@@ -2,7 +2,8 @@
 
 The public surface the CLI, the nodes and the simulator use: fields and field programs (``fields``),
 the equilibria planner (``find_equilibria`` with its methods and results), and the final-pose
-prediction (``final_equilibrium``). Numerical tolerances are in ``tolerances``.
+prediction (``final_equilibrium``, ``unpredicted_reason``, ``holding_step``). Numerical tolerances
+are in ``tolerances``.
 """
 
 from feeder_planner.mems.equilibria import find_equilibria
@@ -25,7 +26,7 @@ from feeder_planner.mems.fields import (
     program_from_mapping,
 )
 from feeder_planner.mems.lifted import Edges, loop_edges, part_edges
-from feeder_planner.mems.predict import final_equilibrium
+from feeder_planner.mems.predict import final_equilibrium, holding_start, holding_step, unpredicted_reason
 from feeder_planner.mems.result import (
     METHODS,
     AsymptoticDetails,
@@ -53,6 +54,9 @@ __all__ = [
     "AsymptoticDetails",
     "AutoChoice",
     "final_equilibrium",
+    "holding_start",
+    "holding_step",
+    "unpredicted_reason",
     "Field",
     "FieldType",
     "FIELD_TYPES",

@@ -26,6 +26,8 @@ from feeder_planner.mems import (
     check_method,
     final_equilibrium,
     find_equilibria,
+    holding_step,
+    unpredicted_reason,
 )
 from feeder_planner.node_kit import (
     LATCHED,
@@ -160,12 +162,12 @@ class FieldEquilibriaPlanner(Node):
         self.states = msg
 
     def predict(self) -> None:
-        """Publish each part's predicted final pose in the last program step's field, when it changed."""
+        """Publish each part's predicted final pose in the field the program holds, when it changed."""
         if self.program is None or not self.parts or self.states is None:
             return
-        field = self.program[-1].field
-        if not isinstance(field, CombinedField) or field.delta <= 0:
-            return  # only the radial + constant field has the planned equilibria (section 3)
+        field = self.program[holding_step(self.program)].field
+        if unpredicted_reason(field) is not None or not isinstance(field, CombinedField):
+            return
         out = EquilibriaPrediction(field_type=CombinedField.kind, delta=field.delta)
         out.header.stamp = self.get_clock().now().to_msg()
         out.header.frame_id = self.states.header.frame_id

@@ -28,7 +28,14 @@ from typing import Final
 import numpy as np
 
 from feeder_planner.errors import FeederError, InputError
-from feeder_planner.mems import CombinedField, Field, ProgramStep, find_equilibria
+from feeder_planner.mems import (
+    CombinedField,
+    Field,
+    find_equilibria,
+    holding_start,
+    holding_step,
+    unpredicted_reason,
+)
 from feeder_planner.parts import Part
 
 __all__ = [
@@ -167,19 +174,6 @@ class SettlingDetector:
         return all(self.settled)
 
 
-def holding_step(program: Sequence[ProgramStep]) -> int:
-    """Return the index of the step a program ends in and holds: its first endless step, else its last."""
-    for index, step in enumerate(program):
-        if math.isinf(step.duration):
-            return index
-    return len(program) - 1
-
-
-def holding_start(program: Sequence[ProgramStep]) -> float:
-    """Return the time (s from the program's start) at which its holding step begins."""
-    return float(sum(step.duration for step in program[: holding_step(program)]))
-
-
 @dataclass(frozen=True)
 class PredictedEquilibrium:
     """A stable equilibrium of the planner, in the plane frame (the field's centre added)."""
@@ -210,17 +204,9 @@ def predict(part: Part, field: Field, method: str = "auto") -> Prediction:
     planner (``find_equilibria`` cannot certify them, e.g. a symmetric part at a tiny delta) is an
     absent prediction too, with the planner's reason.
     """
-    if not isinstance(field, CombinedField) or field.delta <= 0:
-        what = (
-            "the radial field alone (delta 0)"
-            if isinstance(field, CombinedField)
-            else f"a {field.kind} field"
-        )
-        return Prediction(
-            (),
-            f"no predicted equilibria for {what}: the planner predicts them for the combined field "
-            "with delta > 0 only",
-        )
+    reason = unpredicted_reason(field)
+    if reason is not None or not isinstance(field, CombinedField):
+        return Prediction((), reason or "")
     try:
         result = find_equilibria(part, field.delta, method)
     except FeederError as error:
