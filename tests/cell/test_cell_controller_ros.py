@@ -159,7 +159,7 @@ def test_motor_fault_stops_the_cell_with_the_fault_named(
     from feeder_msgs.msg import DeviceStatus
 
     run_controller(launch_node, "ctl_motor", cycles=0)  # until stopped
-    cell_status(listen, "ctl_motor").wait(lambda m: m.state == "FEED", timeout=CYCLE_WALL_S, current=True)
+    cell_status(listen, "ctl_motor").wait(lambda m: m.cycle >= 1, timeout=CYCLE_WALL_S, current=True)
     try:
         assert inject(ros_client, ARM, "motor_fault").ok
         status = finished(listen, "ctl_motor", 1)
