@@ -17,10 +17,14 @@ def _record(args: argparse.Namespace) -> int:
 
     if args.duration is not None and args.duration <= 0:
         raise InputError("--duration", f"must be > 0 seconds, got {args.duration}")
+    if args.flush_interval <= 0:
+        raise InputError("--flush-interval", f"must be > 0 seconds, got {args.flush_interval}")
     output = Path(args.output)
+    if output.exists():
+        raise InputError("output", f"{output} already exists; bags are never overwritten")
 
     def work(node: Any, executor: Any, keep_going: Any) -> dict[str, Any]:
-        recorder = Recorder(node, output, tuple(args.topics or ()))
+        recorder = Recorder(node, output, tuple(args.topics or ()), flush_interval=args.flush_interval)
         started = time.monotonic()
         next_discovery = 0.0
         try:
@@ -95,20 +99,70 @@ def _info(args: argparse.Namespace) -> int:
     return 0
 
 
+def _reindex(args: argparse.Namespace) -> int:
+    from feeder_cell.bag.reindex import reindex
+
+    report = reindex(Path(args.bag))
+    result = {
+        "path": str(report.path.resolve()),
+        "files": [
+            {
+                "name": f.name,
+                "size": f.size,
+                "recovered_bytes": f.recovered_bytes,
+                "chunks": f.chunks,
+                "messages": f.messages,
+                "complete": f.complete,
+                "stopped_by": f.stopped_by,
+            }
+            for f in report.files
+        ],
+        "topics": dict(sorted(report.topics.items())),
+    }
+    emit(args, result, _reindex_summary)
+    return 0
+
+
+def _reindex_summary(result: dict[str, Any]) -> str:
+    lines = [_summary(result)]
+    for f in result["files"]:
+        state = (
+            "complete" if f["complete"] else f"recovered up to byte {f['recovered_bytes']}: {f['stopped_by']}"
+        )
+        lines.append(
+            f"  {f['name']}: {f['size']} bytes, {f['chunks']} chunks, {f['messages']} messages, {state}"
+        )
+    return "\n".join(lines)
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add this module's subcommands to the ``feeder`` parser."""
     record = subparsers.add_parser(
         "record",
         help="record live topics into a rosbag2 MCAP bag",
-        description="Subscribe to topics as they appear (raw CDR, matching each publisher's reliability and "
-        "durability) and write them to a new rosbag2 bag (MCAP storage) at OUTPUT. Stops after "
-        "--duration seconds or on Ctrl-C. Timestamps are receive times, nanoseconds since the epoch.",
+        description="Subscribe to topics as they appear (raw CDR) and write them to a new rosbag2 bag (MCAP "
+        "storage) at OUTPUT. A topic is subscribed once it has a publisher, with its publishers' "
+        "reliability and durability (latched topics are recorded, and marked, latched), and again when a "
+        "new publisher needs another profile. Stops after --duration seconds, on Ctrl-C, SIGTERM or SIGHUP "
+        "(each closes the bag cleanly). Data reaches the disk at least every --flush-interval seconds: "
+        "after a SIGKILL or power loss at most that much is lost, and `feeder bag-reindex OUTPUT` makes the "
+        "rest readable. Timestamps are receive times, nanoseconds since the epoch.",
     )
     record.add_argument("output", help="bag directory to create (never overwritten), e.g. bags/run1")
     record.add_argument(
         "--topics", nargs="+", help="topics to record (default: all but /rosout, /parameter_events)"
     )
-    record.add_argument("--duration", type=finite_float, help="seconds to record (default: until Ctrl-C)")
+    record.add_argument(
+        "--duration", type=finite_float, help="seconds to record (default: until Ctrl-C, SIGTERM or SIGHUP)"
+    )
+    record.add_argument(
+        "--flush-interval",
+        type=finite_float,
+        default=1.0,
+        metavar="SECONDS",
+        help="close the current MCAP chunk and flush it to disk at least this often, whatever the data "
+        "rate (> 0, default 1): the most a killed recorder loses",
+    )
     add_json_flag(record)
     record.set_defaults(handler=_record)
 
@@ -137,7 +191,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_json_flag(player)
     player.set_defaults(handler=_play)
 
-    info = subparsers.add_parser("bag-info", help="topics, types, counts and duration of a bag")
+    info = subparsers.add_parser(
+        "bag-info",
+        help="topics, types, counts and duration of a bag",
+        description="Print a bag's topics, types, counts and duration. A bag whose recording did not end "
+        "cleanly (no metadata.yaml, or an MCAP file without its summary) is refused naming bag-reindex.",
+    )
     info.add_argument("bag")
     add_json_flag(info)
     info.set_defaults(handler=_info)
+
+    reindex = subparsers.add_parser(
+        "bag-reindex",
+        help="recover a bag whose recording was killed or cut short (as ros2 bag reindex)",
+        description="Scan BAG's MCAP files record by record, keep everything up to the last complete chunk "
+        "and write the bag again with its MCAP summary and metadata.yaml, so that bag-info, play and other "
+        "readers accept it. A complete bag is rebuilt unchanged. Prints what was kept per file and topic.",
+    )
+    reindex.add_argument("bag")
+    add_json_flag(reindex)
+    reindex.set_defaults(handler=_reindex)
