@@ -29,6 +29,9 @@ from benchlib import row
 
 ROOT = Path(__file__).resolve().parents[1]
 FEEDER = [sys.executable, "-m", "feeder_cell.cli.main"]
+# The client's health probe times out after this long (asyncua's default, 1 s, is shorter than a reply
+# of a starved server on a loaded 2-core host).
+WATCHDOG_S = 10.0
 SETTLE_S = 8.0
 PUBLISHING_INTERVAL_MS = 10
 TARGET_P99_MS = 100.0  # a PLC's usual publishing interval: the gateway must not be the slow part
@@ -79,7 +82,7 @@ async def _measure(url: str, seconds: float) -> dict[str, list[float]]:
             latencies[which].append((arrived - stamp.timestamp()) * 1e3)
 
     deadline = time.monotonic() + 60
-    client = Client(url, timeout=10)
+    client = Client(url, timeout=10, watchdog_intervall=WATCHDOG_S)
     while True:
         try:
             await client.connect()

@@ -19,6 +19,7 @@ from asyncua import Client, ua
 from asyncua.ua.uaerrors import BadUserAccessDenied, UaError
 
 from feeder_cell.gateway import layout
+from feeder_cell.gateway.config import packml_state
 from feeder_cell.gateway.users import hash_password
 from feeder_msgs.msg import DeviceStatus
 
@@ -38,6 +39,9 @@ DEVICES = {
     },
     "assembly_fixture": {},
 }
+# The client's health probe times out after this long (asyncua's default, 1 s, is shorter than a reply
+# of a starved server on a loaded 2-core host).
+WATCHDOG_S = 10.0
 RADIAL = "{steps: [{field: {type: radial, center: [0, 0], strength: 1.0}}]}"
 
 
@@ -71,7 +75,7 @@ def gateway(launch_module_node: Callable[..., Any]) -> str:
 async def _wait_until_serving(url: str, timeout: float = 30.0) -> None:
     deadline = time.monotonic() + timeout
     while True:
-        client = Client(url, timeout=5)
+        client = Client(url, timeout=5, watchdog_intervall=WATCHDOG_S)
         try:
             await client.connect()
             await client.disconnect()
@@ -134,7 +138,7 @@ def session(url: str, scenario: Callable[[Session], Awaitable[None]], **login: s
     """Run ``scenario`` in a fresh client session (anonymous unless user/password are given)."""
 
     async def main() -> None:
-        client = Client(url, timeout=30)
+        client = Client(url, timeout=30, watchdog_intervall=WATCHDOG_S)
         if login:
             client.set_user(login["user"])
             client.set_password(login["password"])
@@ -167,6 +171,10 @@ async def idle(s: Session, key: str) -> None:
     await s.wait_for(key, "Status.PackMLState", lambda v: v == "Idle")
 
 
+async def ready(s: Session, key: str) -> None:
+    await s.wait_for(key, "Status.Ready", lambda v: v is True)
+
+
 # --- the address space ---------------------------------------------------------------------------------
 
 
@@ -192,11 +200,27 @@ def test_address_space_has_one_object_per_device_with_its_variables_and_methods(
             names = [(await m.read_browse_name()).Name for m in methods]
             assert sorted(names) == sorted(m.name for m in layout.methods(kind))
             assert await s.read(key, "Kind") == kind
-            await s.wait_for(key, "Status.Online", lambda v: v is True)
-            await idle(s, key)
-            assert await s.read(key, "Status.StateName") == "IDLE"
-            assert await s.read(key, "Status.PackMLStateCode") == 4
-            assert await s.read(key, "Status.Ready") is True
+            # One read of the status variables: online, ready, and the PackML state the mapping gives
+            # (the MEMS array is RUNNING, Execute, while its parts still move; the others are IDLE).
+            paths = (
+                "Status.Online",
+                "Status.Ready",
+                "Status.State",
+                "Status.StateName",
+                "Status.PackMLState",
+                "Status.PackMLStateCode",
+            )
+            deadline = time.monotonic() + 30
+            while True:
+                online, ready_, state, state_name, packml, code = await s.client.read_values(
+                    [s.node(key, p) for p in paths]
+                )
+                if online and ready_:
+                    break
+                assert time.monotonic() < deadline, (key, online, ready_, state_name)
+                await asyncio.sleep(0.1)
+            assert state_name in ("IDLE", "RUNNING")
+            assert (packml, code) == packml_state(state)
         # Per kind: the arm's sensor bit, the fixture's angles and margin, the MEMS parts' orientations.
         assert isinstance(
             await s.wait_for(KEYS["arm"], "Signals.Sensor", lambda v: isinstance(v, bool)), bool
@@ -289,7 +313,7 @@ def test_bad_arguments_return_bad_codes_naming_the_argument_and_the_gateway_keep
     async def scenario(s: Session) -> None:
         arm, mems, fixture = KEYS["arm"], KEYS["mems"], KEYS["fixture"]
         for key in KEYS.values():
-            await idle(s, key)
+            await ready(s, key)
         result = await s.call(arm, "FeedPart", u32(0), dbl(5.0))
         assert result.StatusCode.value == ua.StatusCodes.BadInvalidArgument
         assert result.InputArgumentResults[0].value == ua.StatusCodes.BadInvalidArgument
@@ -337,7 +361,7 @@ def test_a_cycle_driven_by_method_calls(gateway: str) -> None:
     async def scenario(s: Session) -> None:
         arm, mems, fixture = KEYS["arm"], KEYS["mems"], KEYS["fixture"]
         for key in KEYS.values():
-            await idle(s, key)
+            await ready(s, key)
         goals = await s.read(mems, "Command.GoalCount")
         outcome = await s.run(mems, "RunProgram", text(RADIAL), dbl(20.0), dbl(0.0), dbl(0.0))
         assert outcome in ("SETTLED", "TIMEOUT"), await s.read(mems, "Command.LastMessage")
@@ -360,7 +384,7 @@ def test_a_cycle_driven_by_method_calls(gateway: str) -> None:
         assert await s.read(fixture, "Command.Result.FirstUnstableSample") == -1
         assert await s.read(fixture, "Command.Result.Tilt") == pytest.approx([0.0, 0.0], abs=1e-6)
         for key in KEYS.values():
-            await idle(s, key)
+            await ready(s, key)
 
     session(gateway, scenario)
 
@@ -473,7 +497,7 @@ def test_user_and_password(launch_node: Callable[..., Any], tmp_path: Path) -> N
     )
 
     async def connects(**login: str) -> bool:
-        client = Client(url, timeout=30)
+        client = Client(url, timeout=30, watchdog_intervall=WATCHDOG_S)
         if login:
             client.set_user(login["user"])
             client.set_password(login["password"])
@@ -554,20 +578,20 @@ def test_certificate_security_basic256sha256_sign_and_encrypt_with_trusted_clien
 
     async def main() -> None:
         await _wait_for_endpoints(url)
-        plain = Client(url, timeout=30)
+        plain = Client(url, timeout=30, watchdog_intervall=WATCHDOG_S)
         endpoints = await plain.connect_and_get_server_endpoints()
         assert {e.SecurityPolicyUri.rsplit("#", 1)[-1] for e in endpoints} == {"Basic256Sha256"}
         assert {e.SecurityMode for e in endpoints} == {ua.MessageSecurityMode.SignAndEncrypt}
         with pytest.raises((UaError, OSError, asyncio.TimeoutError)):
             await plain.connect()  # no security: no endpoint offers it
-        stranger = Client(url, timeout=4)
+        stranger = Client(url, timeout=4, watchdog_intervall=WATCHDOG_S)
         stranger.application_uri = "urn:feeder:test:stranger"
         await stranger.set_security_string(
             f"Basic256Sha256,SignAndEncrypt,{tmp_path / 'stranger_cert.der'},{tmp_path / 'stranger_key.pem'}"
         )
         with pytest.raises((UaError, OSError, asyncio.TimeoutError)):
             await stranger.connect()  # a certificate the gateway does not trust
-        secure = Client(url, timeout=30)
+        secure = Client(url, timeout=30, watchdog_intervall=WATCHDOG_S)
         secure.application_uri = "urn:feeder:test:plc"
         await secure.set_security_string(
             f"Basic256Sha256,SignAndEncrypt,{tmp_path / 'client_cert.der'},{tmp_path / 'client_key.pem'}"
@@ -587,7 +611,7 @@ async def _wait_for_endpoints(url: str, timeout: float = 30.0) -> None:
     deadline = time.monotonic() + timeout
     while True:
         try:
-            await Client(url, timeout=5).connect_and_get_server_endpoints()
+            await Client(url, timeout=5, watchdog_intervall=WATCHDOG_S).connect_and_get_server_endpoints()
             return
         except (OSError, UaError, asyncio.TimeoutError):
             if time.monotonic() > deadline:

@@ -88,6 +88,7 @@ class RosBridge:
     def __init__(self, node: Node, executor: Executor, server: GatewayServer, call_timeout: float) -> None:
         self.node, self.executor, self.server = node, executor, server
         self.call_timeout = call_timeout
+        self.sim_time = bool(node.get_parameter("use_sim_time").value)
         self.links: dict[str, DeviceLink] = {}
         for entry in server.devices:
             self.links[entry.key] = self._link(entry)
@@ -131,8 +132,11 @@ class RosBridge:
         with link.lock:
             link.state, link.ready, link.state_name = int(msg.state), bool(msg.ready), msg.state_name
             link.fault_text = msg.fault_text
+            back = not link.online and link.heard > -math.inf
             link.heard = time.monotonic()
             link.online = True
+        if back:
+            self.node.get_logger().info(f"{link.entry.node}: reporting again ({msg.state_name})")
         packml, code = packml_state(int(msg.state))
         values: dict[str, Any] = {
             "Status.Online": True,
@@ -161,8 +165,13 @@ class RosBridge:
             self._post(link, path, value, stamp)
 
     def _on_sensor(self, link: DeviceLink, msg: Bool, info: Any) -> None:
-        # std_msgs/Bool has no header: the DDS sample's source timestamp is its stamp.
-        stamp = int(info.get("source_timestamp", 0)) if isinstance(info, dict) else 0
+        # std_msgs/Bool has no header: the DDS sample's source timestamp (wall clock) is its stamp; on a
+        # cell clock (use_sim_time) that is another timeline than the headers', so the gateway's node
+        # clock at arrival stamps it instead.
+        if self.sim_time:
+            stamp = self.node.get_clock().now().nanoseconds
+        else:
+            stamp = int(info.get("source_timestamp", 0)) if isinstance(info, dict) else 0
         self._post(link, "Signals.Sensor", bool(msg.data), stamp)
 
     def _on_joints(self, link: DeviceLink, msg: JointState) -> None:
@@ -218,6 +227,9 @@ class RosBridge:
                 if lost:
                     link.goal = None
             if went_offline:
+                self.node.get_logger().warning(
+                    f"{link.entry.node}: no ~/status for {now - link.heard:.1f} s: offline (PackML Undefined)"
+                )
                 self._post(link, "Status.Online", False)
                 self._post(link, "Status.PackMLState", "Undefined")
                 self._post(link, "Status.PackMLStateCode", 0)

@@ -109,6 +109,7 @@ class GatewayServer:
         self._scheduled = False
         self._loop: asyncio.AbstractEventLoop | None = None
         self._flushing: asyncio.Task[None] | None = None
+        self._flush_lock = asyncio.Lock()
 
     # --- start and stop --------------------------------------------------------------------------
     async def start(self) -> None:
@@ -169,7 +170,7 @@ class GatewayServer:
             parent = await self._folder(parents, key, folders)
             vtype = ua.VariantType[spec.type]
             vid = layout.variable_id(key, spec.path)
-            initial = [] if spec.array else _default(vtype)
+            initial = [] if spec.array else _INITIAL.get(spec.path, _default(vtype))
             node = await parent.add_variable(self._id(vid), self._name(name), ua.Variant(initial, vtype))
             if spec.array:
                 await node.write_attribute(
@@ -185,7 +186,6 @@ class GatewayServer:
                 )
         self.post(key, "Kind", device.kind)
         self.post(key, "NodeName", device.node)
-        self.post(key, "Status.PackMLState", "Undefined")
         for spec_m in layout.methods(device.kind):
             await obj.add_method(
                 self._id(layout.method_id(key, spec_m.name)),
@@ -235,25 +235,25 @@ class GatewayServer:
         self._flushing = asyncio.ensure_future(self._flush())
 
     async def _flush(self) -> None:
-        with self._lock:
-            pending, self._pending = self._pending, {}
-            self._scheduled = False
+        # One flush at a time: a second one started while the first awaits its writes would otherwise
+        # write a newer value before the first writes an older one of the same variable.
+        async with self._flush_lock:
+            with self._lock:
+                self._scheduled = False
+                if self.server is None:
+                    return  # not listening yet: start() flushes what is pending
+                pending, self._pending = self._pending, {}
+                for vid, item in pending.items():
+                    self._written[vid] = item.value
+            now = datetime.now(timezone.utc)
             for vid, item in pending.items():
-                self._written[vid] = item.value
-        if self.server is None:
-            with self._lock:  # not listening yet: keep them for start()
-                self._pending = {**pending, **self._pending}
-            return
-        now = datetime.now(timezone.utc)
-        for vid, item in pending.items():
-            vtype = self._types[vid]
-            dv = ua.DataValue(
-                ua.Variant(item.value, vtype),
-                StatusCode=ua.StatusCode(ua.StatusCodes.Good),
-                SourceTimestamp=_stamp(item.stamp_ns),
-                ServerTimestamp=now,
-            )
-            await self.server.write_attribute_value(self._id(vid), dv)
+                dv = ua.DataValue(
+                    ua.Variant(item.value, self._types[vid]),
+                    StatusCode=ua.StatusCode(ua.StatusCodes.Good),
+                    SourceTimestamp=_stamp(item.stamp_ns),
+                    ServerTimestamp=now,
+                )
+                await self.server.write_attribute_value(self._id(vid), dv)
 
     def read(self, key: str, path: str) -> Any:
         """Return the last value set of a variable (for the handler's own bookkeeping)."""
@@ -315,6 +315,8 @@ class GatewayServer:
 
 
 _UNSET = object()
+# Initial values other than the type's zero: no status heard yet is PackML Undefined (code 0).
+_INITIAL: dict[str, Any] = {"Status.PackMLState": "Undefined"}
 
 
 def _default(vtype: ua.VariantType) -> Any:
