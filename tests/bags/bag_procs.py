@@ -12,7 +12,10 @@ import time
 from pathlib import Path
 from typing import Any, Callable
 
+from mcap.exceptions import EndOfFile
 from mcap.reader import make_reader
+from mcap.records import Channel, Message
+from mcap.stream_reader import StreamReader
 
 FEEDER = [sys.executable, "-m", "feeder_cell.cli.main"]
 SCRIPTS = Path(__file__).with_name("scripts")
@@ -112,10 +115,33 @@ def read_messages(bag: Path, topic: str) -> list[tuple[int, bytes]]:
         return messages
 
 
+def flushed_messages(bag: Path, topic: str) -> list[bytes]:
+    """Raw CDR of the messages on ``topic`` already on disk in a bag still being recorded."""
+    found: list[bytes] = []
+    channels: dict[int, str] = {}
+    if not list(bag.glob("*.mcap")):
+        return found  # the recorder has not created the bag yet
+    try:
+        with mcap_file(bag).open("rb") as stream:
+            for record in StreamReader(stream).records:
+                if isinstance(record, Channel):
+                    channels[record.id] = record.topic
+                elif isinstance(record, Message) and channels.get(record.channel_id) == topic:
+                    found.append(record.data)
+    except EndOfFile:
+        pass  # the end of what is on disk so far: the recording goes on
+    return found
+
+
+def string_data(cdr: bytes) -> str:
+    """Decode a std_msgs/String from its CDR bytes."""
+    length = int.from_bytes(cdr[4:8], "little")
+    return cdr[8 : 8 + length - 1].decode()
+
+
 def seq_and_sent(cdr: bytes) -> tuple[int, int]:
     """Decode a bag_seq_talker message (std_msgs/String "SEQ SENT_NS") from its CDR bytes."""
-    length = int.from_bytes(cdr[4:8], "little")
-    seq, sent = cdr[8 : 8 + length - 1].decode().split()
+    seq, sent = string_data(cdr).split()
     return int(seq), int(sent)
 
 
