@@ -29,7 +29,7 @@ START_PARAMETERS = {
 }
 
 
-def test_readme_lists_all_seven_nodes() -> None:
+def test_readme_lists_every_node() -> None:
     assert sorted(NODES) == sorted(
         [
             ("mems_field_array", "feeder_sim"),
@@ -38,6 +38,7 @@ def test_readme_lists_all_seven_nodes() -> None:
             ("field_equilibria_planner", "feeder_planner"),
             ("throw_planner", "feeder_planner"),
             ("stable_region_planner", "feeder_planner"),
+            ("cell_controller", "feeder_cell"),
             ("cell_clock", "feeder_cell"),
         ]
     )

@@ -62,6 +62,7 @@ POLL_S = 0.02  # wall seconds between looks at a pending future
 # A transition refused while another client moves the same device is looked at again after a moment.
 BRING_UP_ATTEMPTS, BRING_UP_SETTLE_S = 3, 0.5
 EXIT_FINISHED, EXIT_STOPPED, EXIT_BAD_CONFIGURATION = 0, 1, 2
+EXIT_SHUT_DOWN = 0  # Ctrl-C or SIGTERM: a clean end for a ROS node, whatever state the cell was in
 
 
 def _directions(value: Any) -> str | None:
@@ -227,7 +228,7 @@ class CellController(Node):
 
     # --- the cycle ------------------------------------------------------------------------------
     def run(self) -> int:
-        """Run the machine to its end; return the exit code (0 FINISHED, 1 STOPPED)."""
+        """Run the machine to its end; return the exit code (0 FINISHED or shut down, 1 STOPPED)."""
         work = {
             State.BRING_UP: self.bring_up,
             State.ORIENT: self.orient,
@@ -248,7 +249,10 @@ class CellController(Node):
                 self.step_times[state.value] = self.step_times.get(state.value, 0.0) + self.now() - started
                 self.on_transition(self.machine.advance(outcome, self.now()))
         except ShutdownError:
+            # A requested shutdown (Ctrl-C, SIGTERM) is a clean end for a ROS node: exit 0, as every
+            # other node does; 1 is kept for a cell that stopped on its own (a fault, a spent budget).
             self.on_transition(self.machine.stop("the controller was shut down"))
+            return EXIT_SHUT_DOWN
         return EXIT_FINISHED if self.machine.state is State.FINISHED else EXIT_STOPPED
 
     def on_transition(self, t: Transition) -> None:
@@ -561,7 +565,7 @@ class CellController(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    """Run the controller: spin on a thread, run the cycles here; exit 0 FINISHED, 1 STOPPED."""
+    """Run the controller: spin on a thread, run the cycles here; exit 0 FINISHED or shut down, 1 STOPPED."""
     rclpy.init(args=args)
     try:
         node = CellController()
@@ -587,7 +591,7 @@ def main(args: list[str] | None = None) -> None:
             while rclpy.ok():  # keep serving the latched status until Ctrl-C
                 time.sleep(0.1)
     except KeyboardInterrupt:
-        pass
+        code = EXIT_SHUT_DOWN
     finally:
         if rclpy.ok():
             node.publish_status()
