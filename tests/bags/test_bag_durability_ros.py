@@ -113,3 +113,45 @@ def test_a_latched_publisher_joining_a_volatile_topic_is_recorded_latched(
     # The channel keeps the profile it was created with; metadata.yaml lists both, so replay is latched.
     assert _channel_durabilities(bag) == [QosDurability.VOLATILE]
     assert _metadata_durabilities(bag) == [QosDurability.VOLATILE, QosDurability.TRANSIENT_LOCAL]
+
+
+ARRAY_TOPICS = ("/mems_field_array/parts", "/mems_field_array/field_program")
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize(
+    "recorder_first", [False, True], ids=["planner-array-recorder", "recorder-planner-array"]
+)
+def test_the_mems_arrays_latched_topics_are_recorded_latched(
+    ros_domain: int, ros_client: Any, launch_node: Any, tmp_path: Path, recorder_first: bool
+) -> None:
+    """The issue's case: the planner (a latched subscriber) makes the array's topic names visible first."""
+    bag = tmp_path / "bag"
+    recorder = None
+    try:
+        if recorder_first:
+            recorder = bp.start_recorder(bag, "--topics", *ARRAY_TOPICS)
+            bp.wait_until(lambda: bp.in_graph(ros_client, NODES["recorder"]), 90, "the recorder in the graph")
+        launch_node("feeder_planner", "field_equilibria_planner")
+        array = {
+            "fidelity": "array",
+            "part_files": [str(ROOT / "examples/mems/bracket.yaml")],
+            "seed": 3,
+        }
+        launch_node("feeder_sim", "mems_field_array", array, wait_topics=ARRAY_TOPICS)
+        if recorder is None:
+            recorder = bp.start_recorder(bag, "--topics", *ARRAY_TOPICS)
+        for topic in ARRAY_TOPICS:
+            bp.wait_until(lambda t=topic: bool(bp.flushed_messages(bag, t)), 90, f"{topic} on disk")
+        summary = bp.finish(recorder, signal.SIGTERM)
+    finally:
+        if recorder is not None:
+            bp.end(recorder)
+    with Reader(bag) as reader:
+        for connection in reader.connections:
+            qos = connection.ext.offered_qos_profiles  # type: ignore[union-attr]
+            assert [q.durability for q in qos] == [QosDurability.TRANSIENT_LOCAL], connection.topic
+    for topic in ARRAY_TOPICS:
+        assert summary["topics"][topic]["count"] >= 1
+        assert len(bp.read_messages(bag, topic)) == summary["topics"][topic]["count"]

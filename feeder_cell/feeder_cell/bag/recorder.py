@@ -95,6 +95,7 @@ class Recorder:
             raise RuntimeError("this rosbags version's MCAP writer cannot be flushed chunk by chunk")
         self._lock = threading.Lock()
         self._sync_lock = threading.Lock()
+        self._synced = 0  # file position the last fsync covered
         self._connections: dict[str, Any] = {}
         self._offers: dict[str, _Offer] = {}
         self._subscriptions: dict[str, Any] = {}
@@ -193,12 +194,16 @@ class Recorder:
                 storage = self._writer.storage
                 if storage.chunk.msgs:
                     storage.close_chunk()
+                written = storage.bio.tell()
+                if written == self._synced:
+                    return  # nothing new since the last sync (an idle topic costs no disk writes)
                 storage.bio.flush()
                 descriptor = storage.bio.fileno()
             # fsync outside the write lock: on a busy disk it takes a while, and the executor writing
             # received messages must not wait on it (its reader queue would overflow). The sync lock
             # keeps close() from closing the descriptor meanwhile.
             os.fsync(descriptor)
+            self._synced = written
 
     def _flush_loop(self) -> None:
         # Half the interval between flushes: a message waits at most that plus one flush's duration.
