@@ -82,13 +82,11 @@ def test_kill_9_loses_at_most_the_flush_interval(
     assert count == len(messages)
     # Everything sent before the last flush interval (and after the recorder matched) is in the bag.
     due_ns = killed_ns - int((FLUSH_INTERVAL + MEASUREMENT_SLACK) * 1e9)
+    lost = (killed_ns - messages[-1][1]) / 1e9 if messages else moment
+    print(f"kill at {moment} s: {len(messages)} messages kept, the last sent {lost:.3f} s before the kill")
     if due_ns > matched_ns:
         assert messages, f"nothing recorded although the recorder ran {moment} s"
         last_sent = messages[-1][1]
-        lost = (killed_ns - last_sent) / 1e9
-        print(
-            f"kill at {moment} s: {len(messages)} messages kept, the last sent {lost:.3f} s before the kill"
-        )
         assert last_sent >= due_ns, f"lost {lost:.3f} s, more than the {FLUSH_INTERVAL} s flush interval"
     # The recovered bag is a complete rosbag2 bag for every reader.
     with Reader(bag) as reader:
