@@ -375,6 +375,11 @@ def test_a_cycle_driven_by_method_calls(gateway: str) -> None:
         throws = await s.read(arm, "Command.Result.Throws")
         assert throws >= 1 and await s.read(arm, "Command.Feedback.Throws") == throws
         assert outcome == "PRESENTED" or throws == 30
+        assert await s.wait_for(arm, "Status.Counters.feed_goals", lambda n: n >= 1) >= 1
+        names, values = await s.client.read_values(
+            [s.node(arm, "Status.CounterNames"), s.node(arm, "Status.CounterValues")]
+        )
+        assert dict(zip(names, values, strict=True))["throws"] >= throws
         if outcome == "PRESENTED":
             assert await s.read(arm, "Command.Result.SensorAtRest") is True
         outcome = await s.run(fixture, "FollowPath", dbls([0.1, 0.0, 0.0, 0.0]), dbls([]))

@@ -91,12 +91,28 @@ STATUS = (
     _v("Status.AchievedRealTimeFactor", "Double", "simulated seconds per wall second achieved"),
 )
 
-# The counters each kind reports, one UInt64 variable each under Status.Counters (all of them, and any
-# new one, are in CounterNames/CounterValues too).
+# The counters each kind reports, one UInt64 variable each under Status.Counters (BadWaitingForInitialData
+# until the device reports it); every counter, a new one too, is in CounterNames/CounterValues.
 COUNTERS: dict[str, tuple[str, ...]] = {
-    "throwing_arm": ("throws", "faults", "parts_presented"),
-    "mems_field_array": ("steps", "steps_dropped", "programs", "placements", "parts_settled"),
-    "assembly_fixture": ("moves", "refused_moves", "moves_completed", "stalls", "capped_ticks"),
+    "throwing_arm": ("throws", "faults", "parts_presented", "feed_goals", "feeds_presented"),
+    "mems_field_array": (
+        "steps",
+        "steps_dropped",
+        "programs",
+        "placements",
+        "parts_settled",
+        "program_goals",
+    ),
+    "assembly_fixture": (
+        "moves",
+        "refused_moves",
+        "moves_completed",
+        "stalls",
+        "capped_ticks",
+        "path_goals",
+        "path_goals_reached",
+        "path_goals_refused",
+    ),
 }
 
 COMMAND = (
