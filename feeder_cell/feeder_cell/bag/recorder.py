@@ -93,6 +93,8 @@ class Recorder:
         if not (hasattr(storage, "close_chunk") and hasattr(storage, "chunk") and hasattr(storage, "bio")):
             self._writer.close()
             raise RuntimeError("this rosbags version's MCAP writer cannot be flushed chunk by chunk")
+        # The header on disk at once: a recorder killed before its first flush leaves an MCAP file.
+        storage.bio.flush()
         self._lock = threading.Lock()
         self._sync_lock = threading.Lock()
         self._synced = 0  # file position the last fsync covered

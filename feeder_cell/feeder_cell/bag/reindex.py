@@ -20,7 +20,7 @@ from typing import Any, BinaryIO, Iterator
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import Channel, Chunk, Message, Schema
-from mcap.stream_reader import breakup_chunk
+from mcap.stream_reader import get_chunk_data_stream
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.rosbag2.metadata import parse_qos
 
@@ -29,6 +29,7 @@ from feeder_planner.errors import InputError
 
 MAGIC = b"\x89MCAP0\r\n"
 _RECORD_HEAD = struct.Struct("<BQ")
+MESSAGE_HEADER_SIZE = 22  # channel id, sequence, log time, publish time
 
 # A type missing from our typestore (a bag recorded elsewhere) keeps its schema text; its rosbag2 type
 # hash cannot be computed without the type, and rosbag2 treats this all-zero value as unknown.
@@ -72,8 +73,11 @@ def is_complete(mcap_file: Path) -> bool:
 
 def _scan(stream: BinaryIO, size: int, report: FileReport) -> Iterator[Any]:
     """Yield the schema, channel and message records of the intact part of an MCAP file, in order."""
-    if stream.read(len(MAGIC)) != MAGIC:
-        report.stopped_by = "no MCAP magic at the start"
+    magic = stream.read(len(MAGIC))
+    if magic != MAGIC:
+        report.stopped_by = (
+            "empty file (nothing reached the disk)" if not magic else "no MCAP magic at the start"
+        )
         return
     position = len(MAGIC)
     report.recovered_bytes = position
@@ -98,13 +102,15 @@ def _scan(stream: BinaryIO, size: int, report: FileReport) -> Iterator[Any]:
         try:
             data = ReadDataStream(BytesIO(body))
             if opcode == Opcode.CHUNK:
-                records = breakup_chunk(Chunk.read(data), validate_crc=True)
+                records = _chunk_records(Chunk.read(data), data.count, length)
                 report.chunks += 1
             elif opcode == Opcode.SCHEMA:
                 records = [Schema.read(data)]
             elif opcode == Opcode.CHANNEL:
                 records = [Channel.read(data)]
             elif opcode == Opcode.MESSAGE:
+                if length < MESSAGE_HEADER_SIZE:
+                    raise DamagedChunkError(f"a message record of {length} bytes")
                 records = [Message.read(data, length)]
             elif opcode in (Opcode.DATA_END, Opcode.FOOTER):
                 report.complete = True  # the summary follows: everything before it is data
@@ -116,6 +122,43 @@ def _scan(stream: BinaryIO, size: int, report: FileReport) -> Iterator[Any]:
         report.recovered_bytes = position
         if report.complete:
             return
+
+
+class DamagedChunkError(ValueError):
+    """A chunk record whose fields or contents do not add up (zeros or garbage where data should be)."""
+
+
+def _chunk_records(chunk: Chunk, consumed: int, length: int) -> list[Any]:
+    """Return a chunk's schema, channel and message records, or raise DamagedChunkError.
+
+    rosbags writes no chunk CRC, so consistency is what tells a whole chunk from one whose blocks were
+    never written (zeros): the fields must fill the record exactly, the contents must have the stated
+    size, and every inner record must have a real opcode and fit.
+    """
+    if consumed != length:
+        raise DamagedChunkError(f"its fields take {consumed} of the record's {length} bytes")
+    stream, size = get_chunk_data_stream(chunk, validate_crc=True)
+    if size != chunk.uncompressed_size:
+        raise DamagedChunkError(f"{size} bytes of contents, {chunk.uncompressed_size} stated")
+    records: list[Any] = []
+    while stream.count < size:
+        opcode, inner = stream.read1(), stream.read8()
+        if opcode == 0 or inner > size - stream.count:
+            raise DamagedChunkError(f"no record at byte {stream.count - 9} of its contents")
+        start = stream.count
+        if opcode == Opcode.SCHEMA:
+            records.append(Schema.read(stream))
+        elif opcode == Opcode.CHANNEL:
+            records.append(Channel.read(stream))
+        elif opcode == Opcode.MESSAGE:
+            if inner < MESSAGE_HEADER_SIZE:
+                raise DamagedChunkError(f"a message record of {inner} bytes at byte {start - 9}")
+            records.append(Message.read(stream, inner))
+        else:
+            stream.read(inner)
+        if stream.count - start != inner:
+            raise DamagedChunkError(f"a record at byte {start - 9} of its contents does not fill its length")
+    return records
 
 
 def _type_hash(msgtype: str) -> str:

@@ -87,10 +87,11 @@ def _info(args: argparse.Namespace) -> int:
     reader = open_bag(Path(args.bag))
     try:
         topics = {c.topic: {"type": c.msgtype, "count": c.msgcount} for c in reader.connections}
+        empty = reader.message_count == 0  # rosbags reports the "no message yet" sentinel as the start
         result = {
             "path": str(Path(args.bag).resolve()),
-            "duration": reader.duration / 1e9,
-            "start_time": reader.start_time / 1e9,
+            "duration": 0.0 if empty else reader.duration / 1e9,
+            "start_time": None if empty else reader.start_time / 1e9,
             "topics": dict(sorted(topics.items())),
         }
     finally:
