@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import re
+import socket
 from pathlib import Path
 
 import pytest
@@ -23,9 +24,18 @@ def readme_nodes() -> list[tuple[str, str]]:
 
 NODES = readme_nodes()
 
+
 # The least each node needs to start; everything else has a documented default.
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
 START_PARAMETERS = {
     "throwing_arm": {"part_file": str(ROOT / "examples/throwing/triangle.yaml")},
+    # Not the default 4840: a gateway (or any OPC UA server) of another run may hold it.
+    "opcua_gateway": {"endpoint": f"opc.tcp://127.0.0.1:{_free_port()}"},
 }
 
 
@@ -39,6 +49,7 @@ def test_readme_lists_every_node() -> None:
             ("throw_planner", "feeder_planner"),
             ("stable_region_planner", "feeder_planner"),
             ("cell_controller", "feeder_cell"),
+            ("opcua_gateway", "feeder_cell"),
             ("cell_clock", "feeder_cell"),
         ]
     )
