@@ -210,7 +210,12 @@ class Recorder:
     def _flush_loop(self) -> None:
         # Half the interval between flushes: a message waits at most that plus one flush's duration.
         while not self._stop.wait(self.flush_interval / 2):
-            self.flush()
+            try:
+                self.flush()
+            except OSError as exc:
+                # A full or failing disk: logged at each failed turn, and the next one tries again (the data
+                # stays in the writer's buffer), rather than the thread dying with a traceback.
+                self.node.get_logger().error(f"bag {self.path}: writing to disk failed: {exc}")
 
     def close(self) -> dict[str, TopicStats]:
         """Stop recording, finish the bag (summary and metadata.yaml) and return what was recorded."""
