@@ -18,9 +18,10 @@ import math
 import os
 import threading
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable
 
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -101,6 +102,8 @@ class Recorder:
         self._connections: dict[str, Any] = {}
         self._offers: dict[str, _Offer] = {}
         self._subscriptions: dict[str, Any] = {}
+        # Per topic the keys of the last SUBSCRIPTION_DEPTH samples written (oldest first, and as a set).
+        self._seen: dict[str, tuple[deque[tuple[int, int]], set[tuple[int, int]]]] = {}
         self._stop = threading.Event()
         self._flusher = threading.Thread(target=self._flush_loop, name="bag-flusher", daemon=True)
         self._flusher.start()
@@ -172,18 +175,35 @@ class Recorder:
             self._offers[name] = offer
         old = self._subscriptions.pop(name, None)
         if old is not None:
-            # Replaced before the new reader exists: a duplicate of a volatile sample is worse than a
-            # gap of a few milliseconds, and a latched publisher's samples come again from its history.
+            # Replaced before the new reader exists: a gap of a few milliseconds for volatile samples;
+            # a latched publisher's samples come again from its history (repeats are dropped by key).
             self.node.destroy_subscription(old)
-        callback = lambda data, topic=name: self._write(topic, data)  # noqa: E731
         self._subscriptions[name] = self.node.create_subscription(
-            message_class(type_name), name, callback, qos, raw=True
+            message_class(type_name), name, self._callback_for(name), qos, raw=True
         )
 
-    def _write(self, topic: str, data: bytes) -> None:
+    def _callback_for(self, topic: str) -> Callable[[bytes, dict[str, int]], None]:
+        def callback(data: bytes, info: dict[str, int]) -> None:
+            self._write(topic, data, info)
+
+        return callback
+
+    def _write(self, topic: str, data: bytes, info: dict[str, int]) -> None:
+        # A sample is known by its writer's timestamp and sequence number: a replacement reader's
+        # transient-local history repeats samples the reader it replaced may have received live.
+        key = (info.get("source_timestamp", 0), info.get("publication_sequence_number", 0))
         with self._lock:
             if self._writer is None:
                 return
+            if key != (0, 0):
+                seen = self._seen.setdefault(topic, (deque(maxlen=SUBSCRIPTION_DEPTH), set()))
+                recent, keys = seen
+                if key in keys:
+                    return
+                if len(recent) == recent.maxlen:
+                    keys.discard(recent[0])
+                recent.append(key)
+                keys.add(key)
             self._writer.write(self._connections[topic], time.time_ns(), data)
             self.stats[topic].count += 1
 
