@@ -68,9 +68,10 @@ def test_kill_9_loses_at_most_the_flush_interval(
     finally:
         _end(recorder, talker)
     assert not (bag / "metadata.yaml").exists()
-    info = bp.run_feeder("bag-info", str(bag))
-    assert info.returncode == 2 and "bag-reindex" in info.stderr and "Traceback" not in info.stderr
-    assert "metadata.yaml" in info.stderr
+    for command in ("bag-info", "play"):
+        refused = bp.run_feeder(command, str(bag))
+        assert refused.returncode == 2 and "bag-reindex" in refused.stderr, refused.stderr
+        assert "metadata.yaml" in refused.stderr and "Traceback" not in refused.stderr
 
     result = bp.run_feeder("bag-reindex", str(bag), "--json")
     assert result.returncode == 0, result.stderr
