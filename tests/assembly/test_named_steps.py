@@ -281,9 +281,10 @@ def test_table_start_outside_the_range_names_the_parameter() -> None:
     with pytest.raises(InputError) as caught:
         limits.check_start(np.array([0.6, 0.0]))
     assert caught.value.field == "parameter initial_tilt_x"
-    with pytest.raises(InputError, match=r"tilt_y = -3\.2"):
-        _check_sample(np.array([0.0, -3.2]), limits, 4)
-    _check_sample(np.array([0.5 + 1e-13, 0.0]), limits, 0)  # rounding past a limit is inside
+    with pytest.raises(InputError, match=r"tilt_y = -3\.2") as caught:
+        _check_sample(np.array([0.0, -3.2]), limits, 4, "gravity_waypoints")
+    assert caught.value.field == "gravity_waypoints (sample 4)"  # the request's field and the sample
+    _check_sample(np.array([0.5 + 1e-13, 0.0]), limits, 0, "waypoints")  # rounding past a limit is inside
 
 
 def test_interlock_verdict_names_the_sample_and_the_falling_body(example) -> None:
