@@ -18,7 +18,7 @@ import numpy as np
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import finite_number, non_negative_number
 from feeder_planner.mems import lifted
-from feeder_planner.mems.regions import half_plane_moments, moments
+from feeder_planner.mems.regions import area_moments, half_plane_moments, moments
 
 __all__ = [
     "FieldType",
@@ -151,14 +151,14 @@ class ConstantField(Field):
 
     def wrench(self, loops: tuple[np.ndarray, ...], about: np.ndarray) -> np.ndarray:
         """Return force times area, applied at the centroid."""
-        m = moments(loops)
+        m = area_moments(loops)
         f = np.array(self.force) * m[0]
         centroid = m[1:3] / m[0]
         return np.array([f[0], f[1], _cross(centroid - about, f)])
 
     def lifted(self, loops: tuple[np.ndarray, ...]) -> float:
         """Return -force . (first moment of area)."""
-        m = moments(loops)
+        m = area_moments(loops)
         return float(-(self.force[0] * m[1] + self.force[1] * m[2]))
 
 

@@ -6,7 +6,20 @@ import numpy as np
 
 from feeder_planner import polygon
 
-__all__ = ["moments", "clip_half_plane", "half_plane_moments"]
+__all__ = ["area_moments", "moments", "clip_half_plane", "half_plane_moments"]
+
+
+def area_moments(loops: tuple[np.ndarray, ...]) -> np.ndarray:
+    """Return (A, Sx, Sy): area and first moments about the origin (signed loops).
+
+    What the constant field needs (force times area at the centroid), without the second moments: it is
+    evaluated twice per simulated step of the ideal array, where the second moments cost as much again.
+    """
+    out = np.zeros(3)
+    for loop in loops:
+        if len(loop) >= 3:
+            out += polygon.first_moments(loop)
+    return out
 
 
 def moments(loops: tuple[np.ndarray, ...]) -> np.ndarray:
