@@ -154,6 +154,12 @@ class ClientNode:
         self._stopping = True
         self._thread.join(timeout=5.0)
         self.executor.shutdown(timeout_sec=2.0)
+        # destroy_node leaves waitables (action clients) alive, and they keep the node and its DDS
+        # participant in the graph: the next module would see their topics as strays.
+        for waitable in list(self.node.waitables):
+            destroy = getattr(waitable, "destroy", None)
+            if destroy is not None:
+                destroy()
         self.node.destroy_node()
         self._rclpy.try_shutdown(context=self.context)
 

@@ -38,6 +38,20 @@ SHUTDOWN_FROM = {
 # on this machine); anything slower than this is a node that does not answer.
 CALL_TIMEOUT_S = 30.0
 
+# A reply can be lost when a node answers before it has discovered the caller's reply reader (Fast DDS:
+# "client will not receive response"), which a loaded machine makes likely. get_state is idempotent and
+# is sent again after this long without a reply; a transition is not resent but checked by get_state.
+RESEND_S = 2.0
+
+# The primary state each transition leads to when it succeeds.
+RESULT_OF = {
+    "configure": "inactive",
+    "activate": "active",
+    "deactivate": "inactive",
+    "cleanup": "unconfigured",
+    "shutdown": "finalized",
+}
+
 # Transitions from each primary state towards a target primary state, as `feeder launch` walks them.
 _FORWARD = {
     ("unconfigured", "inactive"): ["configure"],
@@ -95,20 +109,26 @@ class LifecycleClient:
         else:
             self.executor.spin_once(timeout_sec=seconds)
 
-    def _call(self, client: Any, request: Any, what: str) -> Any:
+    def _call(self, client: Any, request: Any, what: str, resend: bool) -> Any:
+        """Call and wait (bounded); with ``resend``, send again every RESEND_S until one reply arrives."""
         if not client.wait_for_service(timeout_sec=CALL_TIMEOUT_S):
             raise LifecycleError(f"{self.target}: no lifecycle service ({what}) after {CALL_TIMEOUT_S:.0f} s")
-        future = client.call_async(request)
+        futures = [client.call_async(request)]
         deadline = time.monotonic() + CALL_TIMEOUT_S
-        while not future.done():
-            if time.monotonic() > deadline:
+        next_send = time.monotonic() + RESEND_S
+        while not any(f.done() for f in futures):
+            now = time.monotonic()
+            if now > deadline:
                 raise LifecycleError(f"{self.target}: {what} not answered within {CALL_TIMEOUT_S:.0f} s")
+            if resend and now > next_send:
+                futures.append(client.call_async(request))
+                next_send = now + RESEND_S
             self._wait(0.02)
-        return future.result()
+        return next(f for f in futures if f.done()).result()
 
     def get_state(self) -> str:
         """Return the node's primary state label (unconfigured, inactive, active, finalized)."""
-        return str(self._call(self._get, GetState.Request(), "get_state").current_state.label)
+        return str(self._call(self._get, GetState.Request(), "get_state", resend=True).current_state.label)
 
     def change(self, transition: str) -> str:
         """Run one transition; return the new state, or raise LifecycleError saying why it was refused."""
@@ -120,7 +140,14 @@ class LifecycleClient:
             request.transition.id = SHUTDOWN_FROM.get(state, Transition.TRANSITION_UNCONFIGURED_SHUTDOWN)
         else:
             request.transition.id = TRANSITIONS[transition]
-        response = self._call(self._change, request, transition)
+        try:
+            response = self._call(self._change, request, transition, resend=False)
+        except LifecycleError:
+            # No reply: the reply may be what was lost. The node's state tells whether the transition ran.
+            state = self.get_state()
+            if state == RESULT_OF[transition]:
+                return state
+            raise
         state = self.get_state()
         if not response.success:
             raise LifecycleError(f"{self.target}: {transition} refused (state {state})")
