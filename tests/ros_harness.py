@@ -322,6 +322,26 @@ def lifecycle_of(client: Any, node: str) -> LifecycleClient:
     return LifecycleClient(client, None, node)
 
 
+def wait_heard_clock(client: Any, device: str, clock_ns: int, timeout: float = 30.0) -> None:
+    """Wait until a device's status is stamped ``clock_ns``: it has heard the held cell clock.
+
+    The first /clock reading a device hears is its origin, where it does not tick; a step sent before the
+    device heard the held clock would become its origin instead of a step it simulates.
+    """
+    from feeder_msgs.msg import DeviceStatus
+    from feeder_planner.node_kit import LATCHED
+
+    heard = collect(
+        client,
+        DeviceStatus,
+        f"{device}/status",
+        duration=timeout,
+        qos=LATCHED,
+        stop=lambda m: stamp_ns(m) == clock_ns,
+    )
+    assert heard and stamp_ns(heard[-1]) == clock_ns, f"{device} never heard the clock at {clock_ns}"
+
+
 def step_clock(client: Any, seconds: float, clock: str = "/cell_clock") -> int:
     """Advance a paused cell clock by ``seconds``; return the clock's time after the step (ns)."""
     from builtin_interfaces.msg import Duration

@@ -415,7 +415,7 @@ def test_stepped_cell_clock_moves_the_table_by_elapsed_time_up_to_the_cap(launch
 
     sub = ros_client.create_subscription(JointState, f"{device}/joint_states", on_joints, 100)
     try:
-        time.sleep(1.0)
+        ros_harness.wait_heard_clock(ros_client, device, start_ns)
         first, y0 = step(0.05)  # the clock's time reached the device
         assert first >= start_ns + 50_000_000 and y0 == 0.0
         response = move(ros_client, device, (0.0, -0.5))  # 0.5 s at 1 rad/s of the clock

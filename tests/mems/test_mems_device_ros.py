@@ -406,7 +406,7 @@ def test_stepped_cell_clock_advances_the_physics_by_elapsed_time_up_to_the_cap(
         msg = stream.wait(lambda m: stamp(m) == now, current=True)
         return now, msg.parts[0].pose.position.y
 
-    time.sleep(1.0)
+    ros_harness.wait_heard_clock(ros_client, "/simclock/mems_field_array", start_ns)
     first, y0 = step(0.05)  # the clock's time reached the device: from here every step is measured
     assert first >= start_ns + 50_000_000
     time.sleep(1.5)  # a heartbeat (steady clock, 1 Hz) after the step: the counters are current
