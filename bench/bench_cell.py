@@ -19,13 +19,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from benchlib import row
+from benchlib import holds_rate, row
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "feeder_cell" / "scenes" / "demo.yaml"
 FEEDER = [sys.executable, "-m", "feeder_cell.cli.main"]
-# The devices' own tolerance for "holds its rate" (node_kit/rate.py BEHIND_TOLERANCE).
-TOLERANCE = 0.02
 # Each device measures over a 5 s window; the first windows include start-up and configure.
 SETTLE_S = 12.0
 
@@ -100,13 +98,6 @@ def _run_scene(seconds: float, factor: float | None, domain: int) -> dict[str, d
     }
 
 
-def _holds(figures: dict[str, float]) -> bool:
-    return (
-        figures["achieved_rate_hz"] >= (1 - TOLERANCE) * figures["configured_rate_hz"]
-        and figures["achieved_real_time_factor"] >= (1 - TOLERANCE) * figures["configured_real_time_factor"]
-    )
-
-
 def run(out_dir: Path, quick: bool) -> list[dict]:
     """Return the cell rows: per device configured vs achieved, and the highest factor sustained."""
     domain = 90 + os.getpid() % 10
@@ -122,7 +113,7 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
                 "Hz",
                 f"within 2 % of {f['configured_rate_hz']:.4g} Hz",
                 "configured rate",
-                _holds(f),
+                holds_rate(f),
             )
         )
         rows.append(
@@ -133,13 +124,13 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
                 "x",
                 f"within 2 % of {f['configured_real_time_factor']:.3g}",
                 "configured factor",
-                _holds(f),
+                holds_rate(f),
             )
         )
-    sustained = 1.0 if real_time and all(_holds(f) for f in real_time.values()) else 0.0
+    sustained = 1.0 if real_time and all(holds_rate(f) for f in real_time.values()) else 0.0
     for factor in (2.0, 4.0, 8.0, 16.0) if not quick else (2.0, 4.0):
         figures = _run_scene(15.0, factor, domain)
-        if not figures or not all(_holds(f) for f in figures.values()):
+        if not figures or not all(holds_rate(f) for f in figures.values()):
             break
         sustained = factor
     rows.append(

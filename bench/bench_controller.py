@@ -22,13 +22,12 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from benchlib import row
+from benchlib import holds_rate, row
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "feeder_cell" / "scenes" / "cell.yaml"
 FEEDER = [sys.executable, "-m", "feeder_cell.cli.main"]
 CONTROLLER_STATUS = "/cell/cell_controller/status"
-TOLERANCE = 0.02  # the devices' own "holds its rate" (node_kit/rate.py)
 # Device figures are judged from this long after the first cycle started (wall s): each device measures
 # over a 5 s window of its node clock, and the first windows include configure and start-up.
 WINDOW_WALL_S = 5.0
@@ -153,15 +152,8 @@ def _run(cycles: int, factor: float, domain: int) -> dict[str, Any]:
         "parts_per_minute": final.parts_per_minute if final else float("nan"),
         "wall": wall,
         "devices": devices,
-        "holds": len(devices) == 3 and all(_holds(f) for f in devices.values()),
+        "holds": len(devices) == 3 and all(holds_rate(f) for f in devices.values()),
     }
-
-
-def _holds(figures: dict[str, float]) -> bool:
-    return (
-        figures["achieved_rate_hz"] >= (1 - TOLERANCE) * figures["configured_rate_hz"]
-        and figures["achieved_real_time_factor"] >= (1 - TOLERANCE) * figures["configured_real_time_factor"]
-    )
 
 
 def run(out_dir: Path, quick: bool) -> list[dict]:
@@ -182,7 +174,7 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
         row(
             "controller",
             "devices within 2 % of their rates at real-time factor 1 during the cycles",
-            sum(_holds(f) for f in real_time["devices"].values()),
+            sum(holds_rate(f) for f in real_time["devices"].values()),
             "of 3",
             "3",
             ", ".join(

@@ -53,6 +53,7 @@ from feeder_planner.node_kit import (
     positive,
 )
 from feeder_planner.node_kit.msg_fields import fill_field_spec
+from feeder_planner.node_kit.runner import build_node
 
 __all__ = ["PARAMETERS", "CellController", "main"]
 
@@ -61,7 +62,7 @@ HEARTBEAT_RATE = 1.0  # Hz (steady clock) of ~/status and /diagnostics besides e
 POLL_S = 0.02  # wall seconds between looks at a pending future
 # A transition refused while another client moves the same device is looked at again after a moment.
 BRING_UP_ATTEMPTS, BRING_UP_SETTLE_S = 3, 0.5
-EXIT_FINISHED, EXIT_STOPPED, EXIT_BAD_CONFIGURATION = 0, 1, 2
+EXIT_FINISHED, EXIT_STOPPED = 0, 1  # a bad parameter exits 2 (node_kit.runner.build_node)
 EXIT_SHUT_DOWN = 0  # Ctrl-C or SIGTERM: a clean end for a ROS node, whatever state the cell was in
 
 
@@ -566,13 +567,7 @@ class CellController(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the controller: spin on a thread, run the cycles here; exit 0 FINISHED or shut down, 1 STOPPED."""
-    rclpy.init(args=args)
-    try:
-        node = CellController()
-    except InputError as error:
-        rclpy.logging.get_logger(NODE_NAME).fatal(f"bad configuration: {error}")
-        rclpy.try_shutdown()
-        raise SystemExit(EXIT_BAD_CONFIGURATION) from None
+    node = build_node(CellController, NODE_NAME, args)
     executor = SingleThreadedExecutor()
     executor.add_node(node)
 
