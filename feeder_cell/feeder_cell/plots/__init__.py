@@ -1,4 +1,4 @@
-"""Pictures of the planners' results and of recorded runs (matplotlib, headless, no rclpy).
+"""Pictures of the planners' results and of recorded runs (matplotlib, headless).
 
 One module per kind of plot; each has a ``*_figure`` function that draws a result object of the
 planners (frozen dataclasses of feeder_planner) into a new ``Figure`` and returns it, and
@@ -6,6 +6,6 @@ planners (frozen dataclasses of feeder_planner) into a new ``Figure`` and return
 only mechanics they call are the planners' public model functions (the equilibrium curve x*(theta)).
 """
 
-from feeder_cell.plots.common import PLOT_FORMATS, check_plot_path, write_figure
+from feeder_cell.plots.paths import PLOT_FORMATS, check_plot_path
 
-__all__ = ["PLOT_FORMATS", "check_plot_path", "write_figure"]
+__all__ = ["PLOT_FORMATS", "check_plot_path"]

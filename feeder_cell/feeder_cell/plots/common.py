@@ -6,11 +6,11 @@ from pathlib import Path
 
 from matplotlib.figure import Figure
 
+from feeder_cell.plots.paths import PLOT_FORMATS, check_plot_path
 from feeder_planner.errors import InputError
 from feeder_planner.units import LENGTH_UNITS
 
 __all__ = [
-    "PLOT_FORMATS",
     "WIDE",
     "SQUARE",
     "TALL",
@@ -22,13 +22,9 @@ __all__ = [
     "SHADE_COLOUR",
     "edge_colour",
     "length_unit",
-    "check_plot_path",
     "new_figure",
     "write_figure",
 ]
-
-# Extension -> matplotlib format. PNG for the README and quick looks, SVG for documents.
-PLOT_FORMATS = {".png": "png", ".svg": "svg"}
 
 # Figure sizes in inches at DPI: 8 x 4.5 in at 100 dpi is an 800 x 450 px PNG, small enough for a README.
 WIDE = (8.0, 4.5)
@@ -54,27 +50,6 @@ def length_unit(unit_scale: float) -> tuple[float, str]:
     """Return (metres per unit, unit name) of a file's length unit, so plots read like the file."""
     name = next((n for n, s in LENGTH_UNITS.items() if s == unit_scale), None)
     return (unit_scale, name) if name is not None else (1.0, "m")
-
-
-def check_plot_path(path: str | Path, flag: str = "--plot") -> Path:
-    """Return ``path`` as a Path if a plot can be written there, else raise InputError naming ``flag``.
-
-    Checked before any computation so that a typo costs nothing: the extension must be .png or .svg
-    (case-insensitive), the folder must exist, and the path must not be a folder.
-    """
-    target = Path(path)
-    if str(path) == "":
-        raise InputError(flag, "expected a file name ending in .png or .svg, got an empty string")
-    suffix = target.suffix.lower()
-    if suffix not in PLOT_FORMATS:
-        got = f"'{target.suffix}'" if target.suffix else "no extension"
-        raise InputError(flag, f"{target}: the format comes from the extension, .png or .svg, got {got}")
-    if target.is_dir():
-        raise InputError(flag, f"{target} is a folder, expected a file name ending in {suffix}")
-    parent = target.parent
-    if not parent.is_dir():
-        raise InputError(flag, f"{target}: folder {parent} does not exist")
-    return target
 
 
 def new_figure(size: tuple[float, float] = WIDE) -> Figure:
