@@ -7,6 +7,7 @@ import math
 from typing import Any
 
 from feeder_cell.cli.common import add_json_flag, emit, finite_float
+from feeder_cell.plots.flag import add_plot_flag, write_plot
 from feeder_planner.mems import METHODS, find_equilibria
 from feeder_planner.parts import load_part
 
@@ -40,6 +41,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--method", choices=METHODS, default="auto", help="default: auto")
     add_json_flag(parser)
+    add_plot_flag(parser)
     parser.set_defaults(handler=run)
 
 
@@ -68,4 +70,5 @@ def run(args: argparse.Namespace) -> int:
     part = load_part(args.part)
     result = find_equilibria(part, args.delta, args.method)
     emit(args, result.to_json(), _summary)
+    write_plot(args, "equilibria", part, result)
     return 0
