@@ -8,6 +8,7 @@ from typing import Callable
 import numpy as np
 
 from feeder_cell.cli.common import add_json_flag, angle, emit, finite_float
+from feeder_cell.plots.flag import add_plot_flag, write_plot
 from feeder_planner.errors import InputError
 from feeder_planner.parts import Part, load_part
 from feeder_planner.throwing import (
@@ -105,6 +106,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=DEFAULT_THROWS,
         help=f"throws from each start (default {DEFAULT_THROWS})",
     )
+    add_plot_flag(q)
     q.set_defaults(handler=_guard(run_limit_set))
     d = subparsers.add_parser(
         "throw-design",
@@ -121,6 +123,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     d.add_argument("--goal-edge", type=int, required=True)
     d.add_argument("--sensing-height", type=finite_float, default=None)
     add_json_flag(d)
+    add_plot_flag(d)
     d.set_defaults(handler=_guard(run_design))
 
 
@@ -225,10 +228,12 @@ def run_limit_set(args: argparse.Namespace) -> int:
             _positive_int(args.starts_per_edge, "--starts-per-edge"),
             _positive_int(args.throws, "--throws"),
             sensing_height=height,
+            keep_trajectories=args.plot is not None,  # the plot draws every start's states
         )
     except OffsetBelowDMinError as error:
         raise error.in_unit(part.unit_scale, _unit_name(part)) from None  # as the flag was given
     emit(args, result.to_json(), lambda _: _summary_limit(result, part.unit_scale))
+    write_plot(args, "limit-set", result, part.unit_scale, part.name)
     return 0
 
 
@@ -261,4 +266,5 @@ def run_design(args: argparse.Namespace) -> int:
     except OffsetBelowDMinError as error:
         raise error.in_unit(s, _unit_name(part)) from None  # as the flag was given
     emit(args, result.to_json(), lambda _: _summary_design(result, s))
+    write_plot(args, "throw-design", result, s, part.name)
     return 0
