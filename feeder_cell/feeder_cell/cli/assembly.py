@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from feeder_cell.cli.common import add_json_flag, emit, finite_float
+from feeder_cell.plots.flag import add_plot_flag, write_plot
 from feeder_planner.assembly import (
     DEFAULT_FACETS,
     KINDS,
@@ -91,6 +92,7 @@ def _common(parser: argparse.ArgumentParser) -> None:
         help=f"facets K >= 3 of the friction pyramid (default {DEFAULT_FACETS})",
     )
     add_json_flag(parser)
+    add_plot_flag(parser)
 
 
 def _prepared(args: argparse.Namespace) -> PreparedAssembly:
@@ -104,6 +106,7 @@ def _stable_region(args: argparse.Namespace) -> int:
     """Run ``feeder stable-region``."""
     result = region_result(_prepared(args), exact_cone=args.exact_cone)
     emit(args, result.to_json(), _region_summary)
+    write_plot(args, "stable-region", result)
     return 0
 
 
@@ -129,8 +132,10 @@ def _check_stability(args: argparse.Namespace) -> int:
     """Run ``feeder check-stability``."""
     g = np.asarray(args.g, dtype=float)
     unit_gravity(g, "--g")  # refuses a zero direction before the file is read; check_result normalises g
-    result = check_result(_prepared(args), g, exact_cone=args.exact_cone)
+    prepared = _prepared(args)
+    result = check_result(prepared, g, exact_cone=args.exact_cone)
     emit(args, result.to_json(), lambda _: _check_summary(result))
+    write_plot(args, "check-stability", prepared.assembly, result)
     return 0
 
 
