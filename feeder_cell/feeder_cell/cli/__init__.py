@@ -8,6 +8,7 @@ SUBCOMMAND_MODULES = (
     "feeder_cell.cli.run",
     "feeder_cell.cli.bag",
     "feeder_cell.cli.play",
+    "feeder_cell.cli.bag_plot",
     "feeder_cell.cli.launch",
     "feeder_cell.cli.lifecycle",
     "feeder_cell.cli.clock",
