@@ -10,7 +10,15 @@ import numpy as np
 
 from feeder_planner import polygon
 from feeder_planner.errors import InputError
-from feeder_planner.fields_io import load_yaml_mapping, optional, point_array, positive_number, required
+from feeder_planner.fields_io import (
+    load_yaml_mapping,
+    optional,
+    point_array,
+    positive_number,
+    required,
+    short_string,
+)
+from feeder_planner.limits import MAX_DENSITY, MAX_PART_VERTICES, check_count, check_length_scale
 from feeder_planner.units import length_scale
 
 # Contract section 2: a part file without `density` has uniform areal density 1 kg/m^2.
@@ -71,30 +79,38 @@ def make_part(
     unit_scale: float = 1.0,
     field_prefix: str = "",
 ) -> Part:
-    """Validate and build a Part; vertices are in units of ``unit_scale`` metres."""
+    """Validate and build a Part; vertices are in units of ``unit_scale`` metres.
+
+    Limits (``feeder_planner.limits``): at most MAX_PART_VERTICES vertices (outer and holes), a length
+    scale within [MIN_LENGTH_M, MAX_LENGTH_M], a density of at most MAX_DENSITY, a short one-line name.
+    Memory is linear in the vertices: every intersection test is one sweep (``polygon.loop_contacts``).
+    """
     outer_field = f"{field_prefix}vertices"
+    if isinstance(vertices, (list, tuple)):
+        check_count(len(vertices), MAX_PART_VERTICES, outer_field, "vertices")
     outer = point_array(vertices, outer_field, 2, min_points=3) * unit_scale
+    _check_scale(outer, outer_field)
     polygon.check_simple(outer, outer_field)
     if not isinstance(holes, (list, tuple)):
         raise InputError(f"{field_prefix}holes", f"expected a list of polygons, got {type(holes).__name__}")
+    total = len(outer)
     hole_loops: list[np.ndarray] = []
     for index, hole in enumerate(holes):
         hole_field = f"{field_prefix}holes[{index}]"
+        if isinstance(hole, (list, tuple)):
+            total += len(hole)
+            check_count(total, MAX_PART_VERTICES, hole_field, "vertices of the part (outer and holes)")
         loop = point_array(hole, hole_field, 2, min_points=3) * unit_scale
+        _check_scale(loop, hole_field)
         polygon.check_simple(loop, hole_field)
-        if not all(polygon.point_in_polygon(p, outer) for p in loop) or polygon.polygons_intersect(
-            loop, outer
-        ):
-            raise InputError(hole_field, "hole is not strictly inside the outer boundary")
-        for other_index, other in enumerate(hole_loops):
-            if (
-                polygon.polygons_intersect(loop, other)
-                or polygon.point_in_polygon(loop[0], other)
-                or (polygon.point_in_polygon(other[0], loop))
-            ):
-                raise InputError(hole_field, f"hole overlaps holes[{other_index}]")
         hole_loops.append(loop)
+    _check_holes(outer, hole_loops, field_prefix)
     density_value = positive_number(density, f"{field_prefix}density")
+    if density_value > MAX_DENSITY:
+        raise InputError(
+            f"{field_prefix}density", f"{density_value:.3g} exceeds the limit of {MAX_DENSITY:g}"
+        )
+    name = short_string(name, f"{field_prefix}name")
 
     ccw_outer = outer if polygon.signed_area(outer) > 0 else outer[::-1]
     cw_holes = [h if polygon.signed_area(h) < 0 else h[::-1] for h in hole_loops]
@@ -108,7 +124,7 @@ def make_part(
     for loop in centred:
         moments += np.array(polygon.second_moments(loop))
     return Part(
-        name=str(name),
+        name=name,
         outer=centred[0],
         holes=tuple(centred[1:]),
         density=density_value,
@@ -118,6 +134,38 @@ def make_part(
         unit_scale=unit_scale,
         second_moment=(float(moments[0]), float(moments[1]), float(moments[2])),
     )
+
+
+def _check_scale(loop: np.ndarray, field: str) -> None:
+    """Refuse a loop (metres) whose coordinates or span leave the models' length range."""
+    check_length_scale(float(np.abs(loop).max()), float(np.ptp(loop, axis=0).max()), field)
+
+
+def _check_holes(outer: np.ndarray, holes: list[np.ndarray], field_prefix: str) -> None:
+    """Refuse a hole not strictly inside the outer boundary, or overlapping an earlier hole.
+
+    One sweep finds every pair of loops whose boundaries touch (``polygon.loop_contacts``); loops whose
+    boundaries are apart are nested or disjoint, which one vertex of each tells (even-odd rule).
+    """
+    if not holes:
+        return
+    contacts = polygon.loop_contacts([outer, *holes])  # loop 0 is the outer boundary, loop k+1 hole k
+    touching = {(int(a), int(b)) for a, b in contacts}
+    firsts = np.array([hole[0] for hole in holes])
+    in_outer = polygon.points_in_polygon(firsts, outer)
+    # overlap[k, l]: hole k's first vertex is inside hole l, or hole l's inside hole k, or they touch.
+    nested = np.stack([polygon.points_in_polygon(firsts, hole) for hole in holes], axis=1)
+    overlap = nested | nested.T
+    for a, b in touching:
+        if a > 0:
+            overlap[a - 1, b - 1] = overlap[b - 1, a - 1] = True
+    for k in range(len(holes)):
+        hole_field = f"{field_prefix}holes[{k}]"
+        if (0, k + 1) in touching or not in_outer[k]:
+            raise InputError(hole_field, "hole is not strictly inside the outer boundary")
+        earlier = np.flatnonzero(overlap[k, :k])
+        if earlier.size:
+            raise InputError(hole_field, f"hole overlaps holes[{int(earlier[0])}]")
 
 
 def part_from_mapping(document: dict[str, Any]) -> Part:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Callable, Iterator, Sequence
+
 import numpy as np
 
 from feeder_planner.errors import InputError
@@ -89,15 +91,10 @@ def check_simple(vertices: np.ndarray, field: str) -> None:
     if short.size:
         raise InputError(field, f"degenerate polygon: vertices {short[0]} and {(short[0] + 1) % n} coincide")
     # Every pair of non-adjacent edges must be disjoint; adjacent edges may only share their vertex.
-    i, j = np.triu_indices(n, k=1)
-    adjacent = (j == i + 1) | ((i == 0) & (j == n - 1))
     start, end = vertices, np.roll(vertices, -1, axis=0)
-    far_i, far_j = i[~adjacent], j[~adjacent]
-    if far_i.size:
-        hits = _segments_cross(start[far_i], end[far_i], start[far_j], end[far_j], scale)
-        if hits.any():
-            k = int(np.flatnonzero(hits)[0])
-            raise InputError(field, f"self-intersecting polygon: edge {far_i[k]} meets edge {far_j[k]}")
+    hit = first_crossing(start, end, scale, lambda i, j: (j == i + 1) | ((i == 0) & (j == n - 1)))
+    if hit is not None:
+        raise InputError(field, f"self-intersecting polygon: edge {hit[0]} meets edge {hit[1]}")
     # Adjacent edges folding back on themselves overlap along a segment.
     prev_edge, next_edge = edges, np.roll(edges, -1, axis=0)
     cross = prev_edge[:, 0] * next_edge[:, 1] - prev_edge[:, 1] * next_edge[:, 0]
@@ -122,12 +119,108 @@ def point_in_polygon(point: np.ndarray, vertices: np.ndarray) -> bool:
 
 def polygons_intersect(a: np.ndarray, b: np.ndarray) -> bool:
     """Return whether the boundaries of two polygons touch or cross."""
-    scale = float(max(np.ptp(a, axis=0).max(), np.ptp(b, axis=0).max()))
-    grid_i, grid_j = np.meshgrid(np.arange(len(a)), np.arange(len(b)), indexing="ij")
-    i, j = grid_i.ravel(), grid_j.ravel()
-    return bool(
-        _segments_cross(a[i], np.roll(a, -1, axis=0)[i], b[j], np.roll(b, -1, axis=0)[j], scale).any()
-    )
+    return bool(loop_contacts([a, b]).size)
+
+
+def loop_contacts(loops: Sequence[np.ndarray]) -> np.ndarray:
+    """Return the pairs (k, l), k < l, of loops whose boundaries touch or cross, as a (m, 2) int array.
+
+    One sweep over the edges of every loop (``crossing_batches``): memory linear in the vertices.
+    """
+    starts = np.concatenate(loops)
+    ends = np.concatenate([np.roll(loop, -1, axis=0) for loop in loops])
+    owner = np.repeat(np.arange(len(loops)), [len(loop) for loop in loops])
+    scale = float(max(np.ptp(loop, axis=0).max() for loop in loops))
+    found = [np.empty((0, 2), dtype=np.int64)]
+    for i, j in crossing_batches(starts, ends, scale, lambda i, j: owner[i] == owner[j]):
+        found.append(np.unique(np.stack((owner[i], owner[j]), axis=1), axis=0))
+    return np.unique(np.concatenate(found), axis=0)
+
+
+def points_in_polygon(points: np.ndarray, vertices: np.ndarray) -> np.ndarray:
+    """Even-odd rule for many points at once (as ``point_in_polygon``), in batches of bounded memory."""
+    xs, ys = vertices[:, 0], vertices[:, 1]
+    xn, yn = np.roll(xs, -1), np.roll(ys, -1)
+    inside = np.zeros(len(points), dtype=bool)
+    rows = max(1, SWEEP_BATCH_PAIRS // max(1, len(vertices)))
+    for first in range(0, len(points), rows):
+        x = points[first : first + rows, 0:1]
+        y = points[first : first + rows, 1:2]
+        straddle = (ys > y) != (yn > y)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x_cross = xs + (y - ys) * (xn - xs) / (yn - ys)
+        inside[first : first + rows] = np.count_nonzero(straddle & (x < x_cross), axis=1) % 2 == 1
+    return inside
+
+
+# Candidate pairs compared per batch of the sweep: bounds the sweep's memory (about 100 bytes a pair)
+# whatever the polygon, at no cost in speed for batches this large.
+SWEEP_BATCH_PAIRS = 200_000
+
+
+def first_crossing(
+    start: np.ndarray,
+    end: np.ndarray,
+    scale: float,
+    excluded: Callable[[np.ndarray, np.ndarray], np.ndarray],
+) -> tuple[int, int] | None:
+    """Return the least pair (i, j), i < j, of segments that cross, or None (``crossing_batches``)."""
+    best: tuple[int, int] | None = None
+    for i, j in crossing_batches(start, end, scale, excluded):
+        k = int(np.lexsort((j, i))[0])
+        candidate = (int(i[k]), int(j[k]))
+        best = candidate if best is None else min(best, candidate)
+    return best
+
+
+def crossing_batches(
+    start: np.ndarray,
+    end: np.ndarray,
+    scale: float,
+    excluded: Callable[[np.ndarray, np.ndarray], np.ndarray],
+) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """Yield the pairs (i, j), i < j, of segments start-end that cross, in batches; memory is linear.
+
+    A sorted-bounds sweep: segments sorted by their lowest x; each is compared only with the segments
+    whose lowest x falls in its own x range (every pair of overlapping x ranges is found that way, from
+    the segment that starts first), then only where the y ranges overlap too. The ranges are widened by
+    twice the tolerance of ``_segments_cross``, so no pair it would call crossing is skipped: the pairs
+    are those of comparing every pair, found in batches of at most SWEEP_BATCH_PAIRS candidates.
+    ``excluded(i, j)`` masks pairs never compared (adjacent edges of one loop, edges of one loop).
+    """
+    margin = 2.0 * RELATIVE_TOLERANCE * scale
+    low = np.minimum(start, end) - margin
+    high = np.maximum(start, end) + margin
+    order = np.argsort(low[:, 0], kind="stable")
+    sorted_low_x = low[order, 0]
+    # Sorted positions p+1 .. reach[p]-1 start within segment order[p]'s x range.
+    reach = np.searchsorted(sorted_low_x, high[order, 0], side="right")
+    counts = np.maximum(reach - np.arange(len(order)) - 1, 0)
+    cumulative = np.concatenate(([0], np.cumsum(counts)))
+    position = 0
+    while position < len(order):
+        # A batch of sorted positions whose candidate pairs fit SWEEP_BATCH_PAIRS (at least one position).
+        limit = cumulative[position] + SWEEP_BATCH_PAIRS
+        stop = max(position + 1, int(np.searchsorted(cumulative, limit, side="right")) - 1)
+        batch = np.arange(position, stop)
+        position = stop
+        repeats = counts[batch]
+        total = int(repeats.sum())
+        if not total:
+            continue
+        first = np.repeat(batch, repeats)
+        offsets = np.arange(total) - np.repeat(np.cumsum(repeats) - repeats, repeats)
+        second = first + 1 + offsets
+        p, q = order[first], order[second]
+        keep = (low[p, 1] <= high[q, 1]) & (low[q, 1] <= high[p, 1])
+        i, j = np.minimum(p[keep], q[keep]), np.maximum(p[keep], q[keep])
+        keep = ~excluded(i, j)
+        i, j = i[keep], j[keep]
+        if not i.size:
+            continue
+        hits = _segments_cross(start[i], end[i], start[j], end[j], scale)
+        if hits.any():
+            yield i[hits], j[hits]
 
 
 def convex_hull_indices(points: np.ndarray) -> list[int]:

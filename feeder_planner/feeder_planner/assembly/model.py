@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from feeder_planner.assembly.geometry import ConvexPiece, box_piece, faces_piece, hull_piece, overlap_depth
 from feeder_planner.assembly.tolerances import PENETRATION_TOLERANCE, UNIT_NORMAL_TOLERANCE
@@ -20,6 +20,19 @@ from feeder_planner.fields_io import (
     point_array,
     positive_number,
     required,
+    short_string,
+    yaml_mapping_from_text,
+)
+from feeder_planner.limits import (
+    CONTACT_DISTANCE_TOLERANCE,
+    MAX_ASSEMBLY_PIECES,
+    MAX_CONTACTS,
+    MAX_CONVEX_VERTICES,
+    MAX_DENSITY,
+    MAX_LENGTH_M,
+    check_count,
+    check_length_scale,
+    quote,
 )
 from feeder_planner.units import length_scale
 
@@ -100,15 +113,7 @@ def load_assembly(path: str | Path) -> Assembly:
 
 def assembly_from_text(text: str, source: str = "assembly_yaml") -> Assembly:
     """Parse an assembly given as YAML text (a service request field)."""
-    try:
-        document = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        raise InputError(
-            "<yaml>", f"not valid YAML{f' at line {mark.line + 1}' if mark else ''}", source
-        ) from None
-    if not isinstance(document, dict):
-        raise InputError("<top level>", "expected a mapping of fields", source)
+    document = yaml_mapping_from_text(text, source)
     try:
         return assembly_from_document(document, source)
     except InputError as error:
@@ -122,7 +127,13 @@ def assembly_from_document(document: dict[str, Any], source: str = "") -> Assemb
     raw_bodies = required(document, "bodies")
     if not isinstance(raw_bodies, list) or not raw_bodies:
         raise InputError("bodies", "expected a non-empty list of bodies")
+    _check_piece_count(raw_bodies)
     bodies = [_body(raw, f"bodies[{i}]", scale) for i, raw in enumerate(raw_bodies)]
+    lower = np.min([p.lower for b in bodies for p in b.pieces], axis=0)
+    upper = np.max([p.upper for b in bodies for p in b.pieces], axis=0)
+    check_length_scale(
+        float(max(np.abs(lower).max(), np.abs(upper).max())), float((upper - lower).max()), "bodies"
+    )
     names = [b.name for b in bodies]
     for i, name in enumerate(names):
         if names.index(name) != i:
@@ -130,7 +141,7 @@ def assembly_from_document(document: dict[str, Any], source: str = "") -> Assemb
     if not any(b.grounded for b in bodies):
         raise InputError("bodies", "no grounded body: at least one body needs 'grounded: true'")
     assembly = Assembly(
-        str(optional(document, "name", "assembly")),
+        short_string(optional(document, "name", "assembly"), "name"),
         tuple(bodies),
         mu,
         None,
@@ -150,13 +161,13 @@ def _body(raw: Any, field_name: str, scale: float) -> Body:
     """Read one body of the file: name, grounded flag, density and pieces, with its mass properties."""
     if not isinstance(raw, dict):
         raise InputError(field_name, f"expected a mapping, got {type(raw).__name__}")
-    name = raw.get("name")
-    if not isinstance(name, str) or not name:
-        raise InputError(f"{field_name}.name", "is required: a non-empty string")
+    name = short_string(required(raw, "name", f"{field_name}.name"), f"{field_name}.name", "a body name")
     grounded = optional(raw, "grounded", False)
     if not isinstance(grounded, bool):
-        raise InputError(f"{field_name}.grounded", f"expected true or false, got {grounded!r}")
+        raise InputError(f"{field_name}.grounded", f"expected true or false, got {quote(grounded)}")
     density = positive_number(optional(raw, "density", 1.0), f"{field_name}.density")
+    if density > MAX_DENSITY:
+        raise InputError(f"{field_name}.density", f"{density:.3g} exceeds the limit of {MAX_DENSITY:g}")
     named = _box_pieces(raw, field_name, scale) + _convex_pieces(raw, field_name, scale)
     pieces = [piece for _, piece in named]
     fields = [item for item, _ in named]
@@ -176,8 +187,8 @@ def _box_pieces(raw: dict[str, Any], field_name: str, scale: float) -> list[tupl
         item = f"{field_name}.boxes[{j}]"
         if not isinstance(box, dict):
             raise InputError(item, "expected a mapping with min and max")
-        lower = point_array([required(box, "min", f"{item}.min")], f"{item}.min", 3)[0] * scale
-        upper = point_array([required(box, "max", f"{item}.max")], f"{item}.max", 3)[0] * scale
+        lower = _coordinates([required(box, "min", f"{item}.min")], f"{item}.min", scale)[0]
+        upper = _coordinates([required(box, "max", f"{item}.max")], f"{item}.max", scale)[0]
         pieces.append((item, box_piece(lower, upper, item)))
     return pieces
 
@@ -191,16 +202,74 @@ def _convex_pieces(raw: dict[str, Any], field_name: str, scale: float) -> list[t
     for j, poly in enumerate(convex):
         item = f"{field_name}.convex[{j}]"
         if isinstance(poly, dict):
-            points = (
-                point_array(required(poly, "vertices", f"{item}.vertices"), f"{item}.vertices", 3) * scale
-            )
+            points = _coordinates(required(poly, "vertices", f"{item}.vertices"), f"{item}.vertices", scale)
             faces = required(poly, "faces", f"{item}.faces")
             if not isinstance(faces, list) or not all(isinstance(f, list) for f in faces):
                 raise InputError(f"{item}.faces", "expected a list of vertex-index lists")
+            used = {i for f in faces for i in f if isinstance(i, int) and not isinstance(i, bool)}
+            unused = [i for i in range(len(points)) if i not in used]
+            if unused and len(used) >= 3:
+                raise InputError(
+                    f"{item}.vertices[{unused[0]}]", "is in no face (a convex polyhedron's vertex)"
+                )
+            _check_convex_position(points, f"{item}.vertices")
             pieces.append((item, faces_piece(points, faces, item)))
         else:
-            pieces.append((item, hull_piece(point_array(poly, item, 3) * scale, item)))
+            points = _coordinates(poly, item, scale)
+            _check_convex_position(points, item)
+            pieces.append((item, hull_piece(points, item)))
     return pieces
+
+
+def _coordinates(value: Any, field: str, scale: float) -> np.ndarray:
+    """Read 3-D points in the file's unit as metres; refuse more than MAX_CONVEX_VERTICES or past scale."""
+    if isinstance(value, list):
+        check_count(len(value), MAX_CONVEX_VERTICES, field, "points")
+    points = point_array(value, field, 3) * scale
+    magnitude = float(np.abs(points).max())
+    if not magnitude <= MAX_LENGTH_M:
+        check_length_scale(magnitude, 0.0, field)
+    return points
+
+
+def _check_convex_position(points: np.ndarray, field: str) -> None:
+    """Refuse a point of a convex polyhedron inside the hull of the others, naming the first such point.
+
+    A point is in convex position when it lies strictly outside the hull of the other points: beyond some
+    face plane of the full hull it is a vertex of. qhull's own vertex list can keep a point that lies
+    inside within its merging tolerance; here a point counts as inside when every hull plane through it
+    (within FLAT tolerance x size) still has it on the boundary and it is not a hull vertex.
+    """
+    if len(points) < 4:
+        return  # hull_piece names the degenerate polyhedron
+    from scipy.spatial import ConvexHull, QhullError
+
+    size = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+    try:
+        hull = ConvexHull(points)
+    except (QhullError, ValueError):
+        return  # hull_piece names the degenerate polyhedron
+    vertices = set(hull.vertices.tolist())
+    for index in range(len(points)):
+        if index not in vertices:
+            depth = float(np.max(hull.equations[:, :3] @ points[index] + hull.equations[:, 3]))
+            raise InputError(
+                f"{field}[{index}]",
+                f"is not in convex position: it lies {abs(depth):.3g} m inside the hull of the other points"
+                if depth < -1e-12 * size
+                else "is not in convex position: it lies on the hull of the other points (or repeats one)",
+            )
+
+
+def _check_piece_count(raw_bodies: list[Any]) -> None:
+    """Refuse more than MAX_ASSEMBLY_PIECES boxes and polyhedra, all bodies together, before reading them."""
+    count = 0
+    for raw in raw_bodies:
+        if isinstance(raw, dict):
+            for key in ("boxes", "convex"):
+                value = raw.get(key)
+                count += len(value) if isinstance(value, list) else 0
+    check_count(count, MAX_ASSEMBLY_PIECES, "bodies", "boxes and convex polyhedra")
 
 
 def _mass_properties(
@@ -229,31 +298,44 @@ def _mass_properties(
 
 
 def _box_union(boxes: list[ConvexPiece]) -> tuple[float, np.ndarray]:
-    """Exact volume and centroid of a union of axis-aligned boxes (grid of all box planes)."""
-    grids = [np.unique(np.concatenate([[b.lower[a], b.upper[a]] for b in boxes])) for a in range(3)]
-    cells = np.zeros(tuple(len(g) - 1 for g in grids), dtype=bool)
-    for b in boxes:
-        slices = tuple(
-            slice(np.searchsorted(grids[a], b.lower[a]), np.searchsorted(grids[a], b.upper[a]))
-            for a in range(3)
-        )
-        cells[slices] = True
+    """Exact volume and centroid of a union of axis-aligned boxes, in memory linear in the boxes.
+
+    A sweep over x: between consecutive x planes of the boxes (a slab) the union is a prism over the 2-D
+    union of the boxes spanning the slab, whose area and first moments come from the grid of those boxes'
+    own y and z planes (at most (2k)^2 cells for k boxes in the slab, never the (2N)^3 grid of all planes).
+    """
+    lower = np.array([b.lower for b in boxes])
+    upper = np.array([b.upper for b in boxes])
+    planes = np.unique(np.concatenate((lower[:, 0], upper[:, 0])))
+    volume, moment = 0.0, np.zeros(3)
+    for x0, x1 in zip(planes[:-1], planes[1:], strict=True):
+        active = np.flatnonzero((lower[:, 0] <= x0) & (upper[:, 0] >= x1))
+        if not active.size:
+            continue
+        area, my, mz = _rectangle_union(lower[active, 1:], upper[active, 1:])
+        width = float(x1 - x0)
+        volume += width * area
+        moment += width * np.array([area * 0.5 * float(x0 + x1), my, mz])
+    return volume, moment / volume
+
+
+def _rectangle_union(lower: np.ndarray, upper: np.ndarray) -> tuple[float, float, float]:
+    """Area and first moments (integrals of y and z) of a union of axis-aligned rectangles (plane grid)."""
+    grids = [np.unique(np.concatenate((lower[:, a], upper[:, a]))) for a in range(2)]
+    # Coverage count of each cell by a 2-D difference array: +1 at a rectangle's low corner, -1 past it.
+    i0, i1 = np.searchsorted(grids[0], lower[:, 0]), np.searchsorted(grids[0], upper[:, 0])
+    j0, j1 = np.searchsorted(grids[1], lower[:, 1]), np.searchsorted(grids[1], upper[:, 1])
+    marks = np.zeros((len(grids[0]), len(grids[1])), dtype=np.int64)
+    np.add.at(marks, (i0, j0), 1)
+    np.add.at(marks, (i1, j0), -1)
+    np.add.at(marks, (i0, j1), -1)
+    np.add.at(marks, (i1, j1), 1)
+    cells = marks.cumsum(axis=0).cumsum(axis=1)[:-1, :-1] > 0
     widths = [np.diff(g) for g in grids]
     mids = [(g[1:] + g[:-1]) / 2 for g in grids]
-    cell_volume = widths[0][:, None, None] * widths[1][None, :, None] * widths[2][None, None, :]
-    filled = np.where(cells, cell_volume, 0.0)
-    volume = float(filled.sum())
-    center = (
-        np.array(
-            [
-                (filled.sum(axis=(1, 2)) * mids[0]).sum(),
-                (filled.sum(axis=(0, 2)) * mids[1]).sum(),
-                (filled.sum(axis=(0, 1)) * mids[2]).sum(),
-            ]
-        )
-        / volume
-    )
-    return volume, center
+    filled = np.where(cells, widths[0][:, None] * widths[1][None, :], 0.0)
+    area = float(filled.sum())
+    return area, float((filled.sum(axis=1) * mids[0]).sum()), float((filled.sum(axis=0) * mids[1]).sum())
 
 
 def _check_interpenetration(assembly: Assembly) -> None:
@@ -280,10 +362,26 @@ def _check_interpenetration(assembly: Assembly) -> None:
                 )
 
 
+def _surface_distance(body: Body, point: np.ndarray) -> float:
+    """Return a lower bound of the distance (m) from ``point`` to the body's surface, exact inside a piece.
+
+    Per convex piece, the largest signed plane distance max(n . p - offset) is the distance to the
+    boundary for a point inside, and at most the true distance for one outside (equal when the nearest
+    point of the piece is on a face): a point refused by this bound is surely that far from the piece.
+    """
+    best = math.inf
+    for piece in body.pieces:
+        signed = max(float(face.normal @ point - face.offset) for face in piece.faces)
+        best = min(best, abs(signed))
+    return best
+
+
 def _explicit_contacts(raw: Any, assembly: Assembly, scale: float) -> tuple[ExplicitContact, ...]:
     """Read the file's ``contacts`` list: bodies by name, point in metres, unit normal from b into a, mu."""
     if not isinstance(raw, list):
         raise InputError("contacts", "expected 'auto' or a list of {a, b, point, normal, mu} contacts")
+    check_count(len(raw), MAX_CONTACTS, "contacts", "contacts")
+    tolerance = CONTACT_DISTANCE_TOLERANCE * assembly.size
     contacts = []
     for i, item in enumerate(raw):
         where = f"contacts[{i}]"
@@ -291,13 +389,22 @@ def _explicit_contacts(raw: Any, assembly: Assembly, scale: float) -> tuple[Expl
             raise InputError(where, "expected a mapping with a, b, point, normal")
         names = []
         for key in ("a", "b"):
-            name = required(item, key, f"{where}.{key}")
+            name = short_string(required(item, key, f"{where}.{key}"), f"{where}.{key}", "a body name")
             if name not in assembly.index:
-                raise InputError(f"{where}.{key}", f"unknown body {name!r}")
+                raise InputError(f"{where}.{key}", f"unknown body {quote(name)}")
             names.append(name)
         if names[0] == names[1]:
             raise InputError(f"{where}.b", "a contact joins two different bodies")
-        point = point_array([required(item, "point", f"{where}.point")], f"{where}.point", 3)[0] * scale
+        point = _coordinates([required(item, "point", f"{where}.point")], f"{where}.point", scale)[0]
+        # A contact is where a body's surface is: a point off both surfaces is no contact (a typo, a unit).
+        distances = [_surface_distance(assembly.bodies[assembly.index[name]], point) for name in names]
+        if min(distances) > tolerance:
+            raise InputError(
+                f"{where}.point",
+                f"is {distances[0]:.3g} m from the surface of body {names[0]!r} and {distances[1]:.3g} m "
+                f"from that of {names[1]!r}: a contact point must be within {tolerance:.3g} m "
+                f"({CONTACT_DISTANCE_TOLERANCE:g} x the assembly's size) of a body's surface",
+            )
         normal = point_array([required(item, "normal", f"{where}.normal")], f"{where}.normal", 3)[0]
         length = float(np.linalg.norm(normal))
         if abs(length - 1.0) > UNIT_NORMAL_TOLERANCE:
