@@ -37,9 +37,13 @@ def _shade_trigger(ax: Axes, result: LimitSet, scale: float) -> None:
 
 
 def _edge_dots(ax: Axes, n: np.ndarray, edge: np.ndarray, radius: np.ndarray, cycle: list[int]) -> None:
-    """Draw one dot per state, coloured by the edge the part rests on (legend: in the cycle or not)."""
-    for e in sorted({int(v) for v in np.unique(edge)}):
-        mask = edge == e
+    """Draw one dot per state, coloured by the edge the part rests on (legend: in the cycle or not).
+
+    States past a row's end (NaN radius: the row stopped at recurrence or left the domain) are skipped.
+    """
+    valid = np.isfinite(radius)
+    for e in sorted({int(v) for v in np.unique(edge[valid])}):
+        mask = (edge == e) & valid
         where = "in the cycle" if e in cycle else "transient only"
         ax.scatter(n[mask], radius[mask], s=6, color=edge_colour(e), zorder=2, label=f"edge {e} ({where})")
 
@@ -61,8 +65,9 @@ def limit_set_figure(result: LimitSet, unit_scale: float = 1.0, name: str = "par
     Figure
         Top: the first CONVERGENCE_THROWS throws from every start, one grey line per start (gid
         START_GID) with a diamond at its start and a dot per state coloured by the hull edge the part
-        rests on. Bottom: the last ~CYCLES_SHOWN cycles of the first start, the edges coloured the same
-        way. Both shade the goal edge's sensor trigger range (gid TRIGGER_GID).
+        rests on. Bottom: the last ~CYCLES_SHOWN cycles of the longest-running start, the edges
+        coloured the same way. Rows end where their states end (a NaN radius).
+        Both shade the goal edge's sensor trigger range (gid TRIGGER_GID).
 
     Raises
     ------
@@ -75,11 +80,15 @@ def limit_set_figure(result: LimitSet, unit_scale: float = 1.0, name: str = "par
     scale, unit = length_unit(unit_scale)
     cycle = result.cycle.edges if result.cycle is not None else []
     radius = traj.radius / scale
-    total = radius.shape[1] - 1
+    valid = np.isfinite(radius)
+    # The last state of each row: rows may stop early (recurrence found, or out of the domain).
+    last = np.where(valid.any(axis=1), valid.shape[1] - 1 - np.argmax(valid[:, ::-1], axis=1), 0)
+    longest = int(np.argmax(last))
+    total = int(last[longest])
     figure = new_figure(TALL)
     top, bottom = figure.subplots(2, 1, height_ratios=(1.3, 1.0))
 
-    shown = min(total, CONVERGENCE_THROWS)
+    shown = max(1, min(total, CONVERGENCE_THROWS))
     n = np.arange(shown + 1)
     for row in radius[:, : shown + 1]:
         top.plot(n, row, color="0.7", lw=0.5, zorder=1, gid=START_GID)
@@ -101,16 +110,16 @@ def limit_set_figure(result: LimitSet, unit_scale: float = 1.0, name: str = "par
 
     period = result.cycle.throws_per_cycle if result.cycle is not None else 10.0
     span = min(total, max(10, math.ceil(CYCLES_SHOWN * period)))
-    n = np.arange(total - span, total + 1)
-    bottom.plot(n, radius[0, n], color="0.5", lw=0.8, zorder=1)
-    _edge_dots(bottom, n, traj.edge[0, n], radius[0, n], cycle)
+    n = np.arange(max(0, total - span), total + 1)
+    bottom.plot(n, radius[longest, n], color="0.5", lw=0.8, zorder=1)
+    _edge_dots(bottom, n, traj.edge[longest, n], radius[longest, n], cycle)
     _shade_trigger(bottom, result, scale)
-    bottom.set_xlim(n[0], n[-1])
+    bottom.set_xlim(n[0], max(n[-1], n[0] + 1))
     bottom.set_xlabel("throw number")
     bottom.set_ylabel(f"R ({unit})")
-    r0 = radius[0, 0]
+    start = f"edge {int(traj.edge[longest, 0])}, R = {radius[longest, 0]:.3g} {unit}"
     bottom.set_title(
-        f"the last {span} of {total} throws from (edge {int(traj.edge[0, 0])}, R = {r0:.3g} {unit})",
+        f"the last {len(n) - 1} of {total} throws from ({start})",
         fontsize="medium",
     )
     return figure
