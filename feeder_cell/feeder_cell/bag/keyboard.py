@@ -44,11 +44,13 @@ class KeyDecoder:
                     actions.append(action)
                 self._pending = self._pending[1:]
                 continue
-            if len(self._pending) < 3:
-                if self._pending[1:2] not in (b"", b"["):
-                    self._pending = self._pending[1:]  # a lone escape, then another key
-                    continue
+            if len(self._pending) < 2:
                 break  # wait for the rest of the sequence
+            if self._pending[1:2] != b"[":
+                self._pending = self._pending[1:]  # a lone escape, then another key
+                continue
+            if len(self._pending) < 3:
+                break
             sequence, self._pending = self._pending[:3], self._pending[3:]
             action = KEYS.get(sequence)
             if action:
