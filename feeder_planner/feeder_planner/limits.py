@@ -38,6 +38,8 @@ __all__ = [
     "check_count",
     "check_length_scale",
     "check_limit_set_counts",
+    "check_flag_length",
+    "check_throw_design",
     "check_throw_flight",
 ]
 
@@ -175,6 +177,25 @@ def check_limit_set_counts(starts_per_edge: int, throws: int, starts_flag: str, 
         )
 
 
+def check_flag_length(value: float, field: str) -> None:
+    """Refuse a length flag (metres) of magnitude above MAX_LENGTH_M, naming ``field`` and the limit."""
+    if not abs(value) <= MAX_LENGTH_M:
+        raise InputError(field, f"|{value:.3g}| m exceeds the limit of {MAX_LENGTH_M:g} m")
+
+
+def check_throw_design(
+    speed: float, gravity: float, offset: float, speed_field: str, offset_field: str
+) -> None:
+    """Refuse a release speed, gravity or offset (SI) past MAX_RELEASE_SPEED, MAX_GRAVITY or MAX_LENGTH_M."""
+    check_flag_length(offset, offset_field)
+    if not 0.0 < abs(gravity) <= MAX_GRAVITY:
+        raise InputError("--gravity", f"|G| = {abs(gravity):.3g} m/s^2 must be in (0, {MAX_GRAVITY:g}]")
+    if not abs(speed) <= MAX_RELEASE_SPEED:
+        raise InputError(
+            speed_field, f"|W| = {abs(speed):.3g} rad/s exceeds the limit of {MAX_RELEASE_SPEED:g}"
+        )
+
+
 def check_throw_flight(
     radius: float, speed: float, gravity: float, height: float, radius_field: str, speed_field: str
 ) -> None:
@@ -185,11 +206,10 @@ def check_throw_flight(
     T = (v + sqrt(v^2 + 2 |g| |height|)) / |g|, turning ``|speed| T / 2 pi`` times. An upper bound, so
     that no throw the limit allows is refused by mistake.
     """
-    if abs(radius) > MAX_LENGTH_M:
-        raise InputError(radius_field, f"|R| = {abs(radius):.3g} m exceeds the limit of {MAX_LENGTH_M:g} m")
+    check_flag_length(radius, radius_field)
     if not 0.0 < abs(gravity) <= MAX_GRAVITY:
         raise InputError("--gravity", f"|G| = {abs(gravity):.3g} m/s^2 must be in (0, {MAX_GRAVITY:g}]")
-    if abs(speed) > MAX_RELEASE_SPEED:
+    if not abs(speed) <= MAX_RELEASE_SPEED:
         raise InputError(
             speed_field, f"|W| = {abs(speed):.3g} rad/s exceeds the limit of {MAX_RELEASE_SPEED:g}"
         )

@@ -5,7 +5,9 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
+from pathlib import Path
 from typing import Any, Callable
 
 from feeder_planner.errors import InputError
@@ -44,3 +46,43 @@ def emit(args: argparse.Namespace, result: dict[str, Any], summary: Callable[[di
         sys.stdout.write(json.dumps(result, allow_nan=False) + "\n")
     else:
         sys.stdout.write(summary(result).rstrip("\n") + "\n")
+
+
+def output_directory(path: str | Path, field: str, must_be_new: bool = False) -> Path:
+    """Return ``path`` as a directory the command may create or write to, else an InputError naming ``field``.
+
+    Checked before any work: an existing path that is not a directory, or an ancestor that is a file (where
+    a later mkdir would fail with NotADirectoryError), or an unwritable parent. ``must_be_new`` also
+    refuses an existing directory (a bag is never overwritten).
+
+    Parameters
+    ----------
+    path
+        The directory named on the command line.
+    field
+        The flag or argument named in the error, e.g. ``output`` or ``--log-dir``.
+    must_be_new
+        Refuse a path that already exists.
+
+    Returns
+    -------
+    Path
+        ``path`` as a Path.
+    """
+    target = Path(path)
+    if target.exists() or target.is_symlink():
+        if must_be_new:
+            raise InputError(field, f"{str(target)[:200]} already exists; it is never overwritten")
+        if not target.is_dir():
+            raise InputError(field, f"{str(target)[:200]} exists and is not a directory")
+        return target
+    ancestor = target.parent
+    while not ancestor.exists() and ancestor != ancestor.parent:
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise InputError(
+            field, f"cannot create {str(target)[:200]}: {str(ancestor)[:200]} is not a directory"
+        )
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise InputError(field, f"cannot create {str(target)[:200]}: {str(ancestor)[:200]} is not writable")
+    return target

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from feeder_cell.cli.bag import _summary as bag_summary
-from feeder_cell.cli.common import add_json_flag, emit, finite_float
+from feeder_cell.cli.common import add_json_flag, emit, finite_float, output_directory
 from feeder_cell.launcher import NodeProcess, NodeSpec, load_scene, start_node
 from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError
 from feeder_cell.ros_session import with_node
@@ -112,6 +112,10 @@ def _launch(args: argparse.Namespace) -> int:
         raise InputError("--duration", f"must be > 0 seconds, got {args.duration}")
     if args.real_time_factor is not None and args.real_time_factor <= 0:
         raise InputError("--real-time-factor", f"must be > 0, got {args.real_time_factor}")
+    if args.record:
+        output_directory(args.record, "--record", must_be_new=True)
+    if args.log_dir:
+        output_directory(args.log_dir, "--log-dir")
     log_dir = Path(args.log_dir) if args.log_dir else Path(tempfile.mkdtemp(prefix=f"feeder-{scene.name}-"))
     sim_time = args.real_time_factor is not None
     specs = list(scene.nodes)

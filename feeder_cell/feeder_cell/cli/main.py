@@ -11,16 +11,17 @@ from feeder_cell.cli import SUBCOMMAND_MODULES
 from feeder_planner.errors import FeederError, InputError, SolverError
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_NOT_CERTIFIED = 0, 1, 2, 3
+# An argument error quotes the user's text: at most this much of it, so that a hostile flag stays one line.
+MAX_ERROR_CHARS = 300
 
 
 class FeederArgumentParser(argparse.ArgumentParser):
     """Parse ``feeder`` arguments with the contract's error shape: exit 2, one line for a bad value."""
 
     def error(self, message: str) -> NoReturn:
-        """Print the error in the contract's shape and exit with status 2."""
-        if "invalid choice" in message or "unrecognized arguments" in message or "required" in message:
-            self.print_usage(sys.stderr)
-        sys.stderr.write(f"{self.prog}: error: {message}\n")
+        """Print the error as ONE line on stderr (the contract's shape, no usage block) and exit with 2."""
+        line = " ".join(message.split())  # argparse messages may span lines (a long list of choices)
+        sys.stderr.write(f"{self.prog}: error: {line[:MAX_ERROR_CHARS]} (for usage: {self.prog} --help)\n")
         raise SystemExit(EXIT_BAD_INPUT)
 
 

@@ -10,6 +10,7 @@ import numpy as np
 from feeder_cell.cli.common import add_json_flag, angle, emit, finite_float
 from feeder_cell.plots.flag import add_plot_flag, write_plot
 from feeder_planner.errors import InputError
+from feeder_planner.limits import check_limit_set_counts, check_throw_design, check_throw_flight
 from feeder_planner.parts import Part, load_part
 from feeder_planner.throwing import (
     DEFAULT_STARTS_PER_EDGE,
@@ -165,6 +166,16 @@ def run_throw(args: argparse.Namespace) -> int:
     """Run `feeder throw`: one application of the throw map."""
     part = load_part(args.part)
     params = _params(args, part)
+    scale = part.unit_scale
+    check_throw_design(params.speed, params.gravity, params.offset, "--release-speed", "--offset")
+    check_throw_flight(
+        args.radius * scale,
+        params.speed,
+        params.gravity,
+        abs(params.offset) + 2.0 * part.radius,
+        "--radius",
+        "--release-speed",
+    )
     try:
         result = throw(arm_part(part), args.edge, args.radius * part.unit_scale, params)
     except BelowGraspError as error:
@@ -219,6 +230,8 @@ def run_limit_set(args: argparse.Namespace) -> int:
     """Run `feeder limit-set`: grasp radii, the forward limit set and the sensor trigger range."""
     part = load_part(args.part)
     params = _params(args, part)
+    check_throw_design(params.speed, params.gravity, params.offset, "--release-speed", "--offset")
+    check_limit_set_counts(args.starts_per_edge, args.throws, "--starts-per-edge", "--throws")
     height = _height(args, part)
     try:
         result = limit_set(
@@ -253,6 +266,13 @@ def run_design(args: argparse.Namespace) -> int:
     """Run `feeder throw-design`: every (H, W) of the grid and the best sensor-based design."""
     part = load_part(args.part)
     s = part.unit_scale
+    check_throw_design(
+        max(abs(w) for w in args.release_speeds),
+        args.gravity * s,
+        max(abs(h) for h in args.offsets) * s,
+        "--release-speeds",
+        "--offsets",
+    )
     try:
         result = search(
             arm_part(part),
