@@ -349,9 +349,13 @@ class Player:
         ):
             time.sleep(0.05)
 
-    def run(self, keep_going: Callable[[], bool] = lambda: True) -> dict[str, int]:
-        """Play the window (every loop of it); return messages published per recorded topic."""
-        self.wait_for_subscribers(keep_going)
+    def run(self, keep_going: Callable[[], bool] = lambda: True, wait: bool = True) -> dict[str, int]:
+        """Play the window (every loop of it); return messages published per recorded topic.
+
+        ``wait``: first :meth:`wait_for_subscribers` (False when the caller has just done so).
+        """
+        if wait:
+            self.wait_for_subscribers(keep_going)
         # The start delay and the discovery wait are not part of the played time.
         self.playback.clock.jump(self.playback.window.start, self.options.delay)
         self.playback.run(keep_going)

@@ -86,6 +86,9 @@ def _play(args: argparse.Namespace) -> int:
                     f"{', '.join(sorted(player.skipped))}",
                     file=sys.stderr,
                 )
+            # The controls answer once playback is ready: a play_next sent at once then reaches the
+            # subscribers --wait-for-subscribers waited for (a request sent earlier waits in the queue).
+            player.wait_for_subscribers(keep_going)
             spinning = BackgroundSpin(executor)
             keyboard = KeyboardControls(player.key_action, enabled=not args.disable_keyboard_controls)
             if keyboard.active:
@@ -94,7 +97,7 @@ def _play(args: argparse.Namespace) -> int:
                     file=sys.stderr,
                 )
             with keyboard:
-                counts = player.run(keep_going)
+                counts = player.run(keep_going, wait=False)
                 deadline = time.monotonic() + args.linger
                 while keep_going() and time.monotonic() < deadline:
                     time.sleep(0.05)  # latched topics stay available to late subscribers for a while
