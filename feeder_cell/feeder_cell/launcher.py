@@ -5,6 +5,7 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import os
+import re
 import signal
 import subprocess
 import time
@@ -15,7 +16,8 @@ from typing import Any, Literal, cast
 import yaml
 
 from feeder_planner.errors import InputError
-from feeder_planner.fields_io import load_yaml_mapping, optional, required
+from feeder_planner.fields_io import load_yaml_mapping, optional, required, short_string
+from feeder_planner.limits import MAX_NAME_CHARS, describe, quote
 
 STOP_GRACE_S = 5.0
 # prctl(2) option: the signal a child gets when its parent dies (linux/prctl.h).
@@ -73,35 +75,175 @@ def scene_from_mapping(document: dict[str, Any], base_dir: Path) -> Scene:
         where = f"nodes[{index}]"
         if not isinstance(entry, dict):
             raise InputError(where, "expected a mapping with package, executable and parameters")
-        package, executable = (
-            required(entry, "package", f"{where}.package"),
-            required(entry, "executable", f"{where}.executable"),
-        )
+        package = _ros_name(required(entry, "package", f"{where}.package"), f"{where}.package", "package")
+        executable = _executable(required(entry, "executable", f"{where}.executable"), f"{where}.executable")
         parameters = optional(entry, "parameters", {})
         if not isinstance(parameters, dict):
             raise InputError(f"{where}.parameters", "expected a mapping of parameter names to values")
+        for key, value in parameters.items():
+            _parameter(key, value, f"{where}.parameters")
         resolved = {key: _resolve_path(key, value, base_dir) for key, value in parameters.items()}
         nodes.append(
             NodeSpec(
-                str(package),
-                str(executable),
+                package,
+                executable,
                 resolved,
-                str(optional(entry, "name", "")),
+                _node_name(optional(entry, "name", ""), f"{where}.name"),
                 _namespace(optional(entry, "namespace", ""), f"{where}.namespace"),
                 _remappings(optional(entry, "remappings", {}), f"{where}.remappings"),
                 _lifecycle(optional(entry, "lifecycle", "active"), f"{where}.lifecycle"),
                 _on_exit(optional(entry, "on_exit", ""), f"{where}.on_exit"),
             )
         )
-    return Scene(str(optional(document, "name", "scene")), tuple(nodes))
+    return Scene(short_string(optional(document, "name", "scene"), "name", "a scene name"), tuple(nodes))
+
+
+# ROS naming rules (rcl/rmw validate_node_name, validate_namespace): a node name and each namespace token
+# are letters, digits and underscores, not starting with a digit; package names likewise (REP 144 asks
+# lower case, the ament index does not). Parameter names are such tokens joined by dots.
+_TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+_PARAMETER_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")
+_EXECUTABLE = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
+# A ROS parameter integer is 64-bit signed.
+_INT64 = (-(2**63), 2**63 - 1)
+
+
+def _ros_name(value: Any, field: str, what: str) -> str:
+    """Return a name that follows the ROS naming rules, else an InputError naming ``field``."""
+    text = short_string(value, field, f"a {what} name")
+    if not _TOKEN.fullmatch(text):
+        raise InputError(
+            field,
+            f"{quote(text)} is not a valid ROS {what} name (letters, digits and underscores, "
+            "not starting with a digit)",
+        )
+    return text
+
+
+def _node_name(value: Any, field: str) -> str:
+    """Return a node name remap ("" keeps the executable's name) that follows the ROS naming rules."""
+    return "" if value == "" else _ros_name(value, field, "node")
+
+
+def _executable(value: Any, field: str) -> str:
+    """Return an executable's file name: one path component of safe characters."""
+    text = short_string(value, field, "an executable name")
+    if not _EXECUTABLE.fullmatch(text):
+        raise InputError(field, f"{quote(text)} is not an executable name (letters, digits, '_', '.', '-')")
+    return text
+
+
+def _parameter(key: Any, value: Any, field: str) -> None:
+    """Refuse a parameter name or value that rclpy (or rcl's parameter file parser) would reject."""
+    if not isinstance(key, str) or not _PARAMETER_NAME.fullmatch(key) or len(key) > MAX_NAME_CHARS:
+        raise InputError(f"{field}", f"{quote(key)} is not a valid parameter name")
+    where = f"{field}.{key}"
+    if isinstance(value, list):
+        if not value:
+            raise InputError(where, "an empty list has no parameter type for rclpy; leave the parameter out")
+        kinds = {_parameter_kind(item, f"{where}[{index}]") for index, item in enumerate(value)}
+        if len(kinds) > 1:
+            raise InputError(
+                where, f"a list parameter needs items of one type, got {', '.join(sorted(kinds))} mixed"
+            )
+        return
+    _parameter_kind(value, where)
+
+
+def _parameter_kind(value: Any, field: str) -> str:
+    """Return the ROS parameter type of a scalar (bool, integer, double, string), else an InputError."""
+    if isinstance(value, bool):
+        return "bool"
+    if isinstance(value, int):
+        if not _INT64[0] <= value <= _INT64[1]:
+            raise InputError(field, f"{quote(value)} does not fit a 64-bit parameter integer")
+        return "integer"
+    if isinstance(value, float):
+        return "double"
+    if isinstance(value, str):
+        return "string"
+    raise InputError(
+        field,
+        f"expected a bool, integer, double or string (or a list of one of those), got {describe(value)}",
+    )
+
+
+def check_declared_parameters(scene: Scene) -> None:
+    """Check each node's parameters against the node's own declarations, before any node starts.
+
+    The declarations are the ``PARAMETERS`` (node_kit ``ParameterSpec``) of the module behind the
+    executable's console script: a value of another type than the declared default's (rclpy refuses it:
+    an integer where a double is declared), a value the spec's check refuses, and a required parameter
+    left out (one whose default fails its own check, such as the throwing arm's ``part_file``) are each
+    an InputError naming ``nodes[i].parameters.NAME``. The files the parameters name are read by the
+    nodes (through the reading layer) at configure, where a missing one is the device's refusal. A node
+    without declarations is left to itself.
+    """
+    for index, spec in enumerate(scene.nodes):
+        where = f"nodes[{index}].parameters"
+        declared = _declared_parameters(spec.package, spec.executable)
+        for name, declaration in declared.items():
+            if name not in spec.parameters:
+                problem = declaration.check(declaration.default) if declaration.check else None
+                if problem:
+                    raise InputError(f"{where}.{name}", f"is required: {problem}")
+                continue
+            value = spec.parameters[name]
+            _check_type(value, declaration.default, f"{where}.{name}")
+            problem = declaration.check(value) if declaration.check else None
+            if problem:
+                raise InputError(f"{where}.{name}", problem)
+
+
+def _check_type(value: Any, default: Any, field: str) -> None:
+    """Refuse a value whose ROS parameter type differs from the declared default's (rclpy would)."""
+    if isinstance(default, list) and default and isinstance(value, list):
+        want, got = _parameter_kind(default[0], field), _parameter_kind(value[0], f"{field}[0]")
+        if want != got:
+            raise InputError(field, f"is declared a list of {want}, got a list of {got}")
+        return
+    if isinstance(default, list) != isinstance(value, list):
+        kind = "a list" if isinstance(default, list) else "a single value"
+        raise InputError(field, f"is declared {kind}, got {describe(value)}")
+    if isinstance(default, list):
+        return
+    want, got = _parameter_kind(default, field), _parameter_kind(value, field)
+    if want != got:
+        hint = f" (write {value!r}.0)" if want == "double" and got == "integer" else ""
+        raise InputError(field, f"is declared {want}, got {got} {quote(value)}{hint}")
+
+
+def _declared_parameters(package: str, executable: str) -> dict[str, Any]:
+    """Return the ParameterSpecs declared by an executable's node module, by name ({} when unknown)."""
+    from importlib import import_module
+    from importlib.metadata import entry_points
+
+    for point in entry_points(group="console_scripts", name=executable):
+        module_name = point.value.partition(":")[0]
+        if module_name.split(".")[0] != package:
+            continue
+        try:
+            module = import_module(module_name)
+        except ImportError:
+            return {}
+        return {spec.name: spec for spec in getattr(module, "PARAMETERS", ())}
+    return {}
 
 
 def _namespace(value: Any, field: str) -> str:
-    if not isinstance(value, str):
-        raise InputError(field, f"expected a namespace such as /cell/feeder_a, got {value!r}")
+    if not isinstance(value, str) or len(value) > MAX_NAME_CHARS:
+        raise InputError(field, f"expected a namespace such as /cell/feeder_a, got {describe(value)}")
     if value and not value.startswith("/"):
         value = "/" + value
-    return value.rstrip("/") if value != "/" else ""
+    value = value.rstrip("/") if value != "/" else ""
+    for token in value.split("/")[1:]:
+        if not _TOKEN.fullmatch(token):
+            raise InputError(
+                field,
+                f"{quote(value)} is not a valid ROS namespace: each part between slashes is letters, digits "
+                "and underscores, not starting with a digit",
+            )
+    return value
 
 
 def _remappings(value: Any, field: str) -> tuple[tuple[str, str], ...]:
@@ -110,18 +252,24 @@ def _remappings(value: Any, field: str) -> tuple[tuple[str, str], ...]:
     )
     if not names_only:
         raise InputError(field, "expected a mapping of names to names, e.g. {sensor: proximity}")
+    for source, target in value.items():
+        for name in (source, target):
+            if not name or len(name) > MAX_NAME_CHARS or any(c.isspace() for c in name) or ":=" in name:
+                raise InputError(field, f"{quote(name)} is not a ROS name to remap")
     return tuple(sorted(value.items()))
 
 
 def _lifecycle(value: Any, field: str) -> LifecycleTarget:
-    if value not in LIFECYCLE_TARGETS:
-        raise InputError(field, f"must be one of {', '.join(LIFECYCLE_TARGETS)}, got {value!r}")
+    if not isinstance(value, str) or value not in LIFECYCLE_TARGETS:
+        raise InputError(field, f"must be one of {', '.join(LIFECYCLE_TARGETS)}, got {quote(value)}")
     return cast(LifecycleTarget, value)
 
 
 def _on_exit(value: Any, field: str) -> OnExit:
-    if value not in ("", *ON_EXIT_ACTIONS):
-        raise InputError(field, f"must be one of {', '.join(ON_EXIT_ACTIONS)} (or absent), got {value!r}")
+    if not isinstance(value, str) or value not in ("", *ON_EXIT_ACTIONS):
+        raise InputError(
+            field, f"must be one of {', '.join(ON_EXIT_ACTIONS)} (or absent), got {quote(value)}"
+        )
     return cast(OnExit, value)
 
 
@@ -141,9 +289,14 @@ def _resolve_path(key: str, value: Any, base_dir: Path) -> Any:
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read and validate a scene file; errors name the file and field."""
+    """Read and validate a scene file, each node's parameters against its declarations; errors name the file.
+
+    Everything is checked before any node starts (``check_declared_parameters``): a bad scene starts nothing.
+    """
     try:
-        return scene_from_mapping(load_yaml_mapping(path), Path(path).resolve().parent)
+        scene = scene_from_mapping(load_yaml_mapping(path), Path(path).resolve().parent)
+        check_declared_parameters(scene)
+        return scene
     except InputError as error:
         raise error.with_source(str(path)) from None
 
