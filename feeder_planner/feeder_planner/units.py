@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 from feeder_planner.errors import InputError
+from feeder_planner.limits import quote
 
 LENGTH_UNITS: dict[str, float] = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6}
 
@@ -20,7 +21,7 @@ def length_scale(unit: str, field: str = "length_unit") -> float:
         return LENGTH_UNITS[unit]
     except (KeyError, TypeError):
         known = ", ".join(LENGTH_UNITS)
-        raise InputError(field, f"unknown length unit {unit!r} (expected one of {known})") from None
+        raise InputError(field, f"unknown length unit {quote(unit)} (expected one of {known})") from None
 
 
 def parse_angle(text: str, field: str) -> float:

@@ -16,6 +16,7 @@ from feeder_planner.assembly.tolerances import (
     SAME_EDGE_DIRECTION,
 )
 from feeder_planner.errors import InputError
+from feeder_planner.limits import quote
 
 __all__ = [
     "ConvexPiece",
@@ -129,7 +130,7 @@ def faces_piece(points: np.ndarray, faces: list[list[int]], field: str) -> Conve
             )
         for index in face:
             if not isinstance(index, int) or isinstance(index, bool) or not 0 <= index < len(points):
-                raise InputError(f"{field}.faces[{f_index}]", f"vertex index {index!r} out of range")
+                raise InputError(f"{field}.faces[{f_index}]", f"vertex index {quote(index)} out of range")
         for a, b in zip(face, face[1:] + face[:1], strict=True):
             key = (min(a, b), max(a, b))
             edge_count[key] = edge_count.get(key, 0) + 1

@@ -17,6 +17,7 @@ import numpy as np
 
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import finite_number, non_negative_number
+from feeder_planner.limits import quote
 from feeder_planner.mems import lifted
 from feeder_planner.mems.regions import area_moments, half_plane_moments, moments
 
@@ -365,7 +366,7 @@ def program_from_mapping(
             or math.isnan(duration)
             or duration <= 0
         ):
-            raise InputError(f"{where}.duration", f"must be a number > 0 (or .inf), got {duration!r}")
+            raise InputError(f"{where}.duration", f"must be a number > 0 (or .inf), got {quote(duration)}")
         out.append(
             ProgramStep(field_from_mapping(step["field"], f"{where}.field", length_scale), float(duration))
         )
