@@ -21,12 +21,12 @@ def check_plot_path(path: str | Path, flag: str = "--plot") -> Path:
     if str(path) == "":
         raise InputError(flag, "expected a file name ending in .png or .svg, got an empty string")
     target = Path(path)
+    if target.is_dir():
+        raise InputError(flag, f"{target} is a folder, expected a file name ending in .png or .svg")
     suffix = target.suffix.lower()
     if suffix not in PLOT_FORMATS:
         got = f"'{target.suffix}'" if target.suffix else "no extension"
         raise InputError(flag, f"{target}: the format comes from the extension, .png or .svg, got {got}")
-    if target.is_dir():
-        raise InputError(flag, f"{target} is a folder, expected a file name ending in {suffix}")
     if not target.parent.is_dir():
         raise InputError(flag, f"{target}: folder {target.parent} does not exist")
     return target
