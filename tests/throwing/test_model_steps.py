@@ -79,7 +79,7 @@ def test_flight_pieces_are_convex_or_concave_and_minima_found_on_convex_ones(
     )  # CM back at arm level
     pieces = _pieces(d, b, s, c, w, g, t_end)
     assert pieces.lo.size and np.all(pieces.hi > pieces.lo) and np.all(pieces.hi <= t_end[0, 0])
-    minima = _piece_minima(pieces, w, g)
+    minima = _piece_minima(pieces, g)
     for j in range(pieces.lo.size):
         t = np.linspace(pieces.lo[j], pieces.hi[j], 401)[1:-1]
         curvature = g - w * w * pieces.s[j] * np.sin(w * t + pieces.c[j])
@@ -248,6 +248,11 @@ def test_results_give_the_contract_json_objects():
         "trigger",
         "starts",
         "throws",
+        "attractors",
+        "converged",
+        "unconverged_starts",
+        "trigger_note",
+        "throws_used",
     ]
     assert set(ls["grasp_radius"]) == {str(i) for i in ls["stable_edges"]}
     assert ls["trigger"] is None or (

@@ -5,11 +5,18 @@ from __future__ import annotations
 import math
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
 from feeder_planner.errors import InputError, SolverError
+from feeder_planner.throwing.attractors import (
+    Attractor,
+    Rows,
+    Search,
+    group_attractors,
+    iterate_to_recurrence,
+)
 from feeder_planner.throwing.geometry import ArmPart
 from feeder_planner.throwing.grasp import grasp_radii
 from feeder_planner.throwing.sensor import sensing_height_or_default, trigger_range
@@ -39,6 +46,10 @@ __all__ = [
     "OffsetBelowDMinError",
     "check_limit_offset",
     "limit_set",
+    "single_design_rows",
+    "read_limit_set",
+    "escape_error",
+    "not_converged_error",
 ]
 
 
@@ -239,7 +250,7 @@ def find_cycle(edge_row: np.ndarray, jog_row: np.ndarray) -> Cycle | None:
 
 @dataclass(frozen=True)
 class LimitSet:
-    """A forward limit set from a grid of starts: the edge bounds, the common cycle and the trigger range.
+    """A forward limit set from a grid of starts: the edge bounds, its attractors, cycle and trigger range.
 
     ``to_json`` gives the `feeder limit-set --json` object (contract 3, SI units).
     """
@@ -256,9 +267,18 @@ class LimitSet:
     throws: int
     cycles_by_start: list[list[int] | None] = field(default_factory=list)
     trajectories: Trajectories | None = None
+    attractors: list[Attractor] = field(default_factory=list)
+    unconverged: int = 0
+    trigger_note: str | None = None
+    throws_used: int = 0
+
+    @property
+    def converged(self) -> bool:
+        """Whether every start reached an attractor within the cap on throws."""
+        return self.unconverged == 0
 
     def to_json(self) -> dict[str, Any]:
-        """Return the contract's limit-set object: bounds per edge, cycle, ranges, trigger, grid size."""
+        """Return the contract's limit-set object: bounds per edge, cycle, ranges, trigger, attractors."""
         b = self.bounds
         return {
             "stable_edges": self.stable_edges,
@@ -278,6 +298,11 @@ class LimitSet:
             },
             "starts": self.starts,
             "throws": self.throws,
+            "attractors": [a.to_json() for a in self.attractors],
+            "converged": self.converged,
+            "unconverged_starts": self.unconverged,
+            "trigger_note": self.trigger_note,
+            "throws_used": self.throws_used,
         }
 
 
@@ -352,60 +377,157 @@ def check_limit_offset(part: ArmPart, offset: float, field: str = "offset") -> N
         raise OffsetBelowDMinError(float(offset), part.d_min, field)
 
 
+def single_design_rows(part: ArmPart, bounds: EdgeBounds, starts_per_edge: int) -> Rows:
+    """Return the rows of one design's grid of starts, with cells of the start grid's resolution.
+
+    One cell width for every edge: the coarsest spacing of the grid's starts. An edge with a narrow
+    range of R (the bracket's edge 1 spans 3.7 mm) would otherwise get cells so fine that each cycle
+    lands in a new one, and recurrence would take hundreds of cycles to show.
+    """
+    edges, radii = _grid_starts(part, bounds, starts_per_edge)
+    low = np.full(part.n, np.inf)
+    spacing = max((bounds.max[i] - bounds.low[i]) / starts_per_edge for i in part.stable_edges)
+    width = np.full(part.n, max(spacing, FLIP_REFINE * max(bounds.max.values())))
+    for i in part.stable_edges:
+        low[i] = bounds.low[i]
+    count = len(edges)
+    return Rows(np.array(edges), np.array(radii), np.tile(low, (count, 1)), np.tile(width, (count, 1)))
+
+
+def escape_error(search: Search, rows: Rows, length: float = 1.0, unit: str = "m") -> SolverError:
+    """Return the error for starts that left the map's domain (no invariant set, Prop. IV.4)."""
+    bad = int(np.flatnonzero(search.escaped)[0])
+    return SolverError(
+        f"{int(search.escaped.sum())} start(s) leave the throw map's domain (a throw lands below "
+        f"R_grasp, on no stable edge or with a toe left of the pivot), e.g. from edge {int(rows.edge[bad])} "
+        f"at R = {rows.radius[bad] / length:.4g} {unit}: this design has no invariant set (Prop. IV.4)"
+    )
+
+
+def not_converged_error(throws: int, window: int) -> SolverError:
+    """Return the error for a search in which no start reached an attractor (issue 16 item 3)."""
+    return SolverError(
+        f"the attractor search did not converge: no start recurred at the grid's resolution within "
+        f"{throws} throws (windows of {window}); raise --throws"
+    )
+
+
+def read_limit_set(
+    part: ArmPart,
+    search: Search,
+    members: np.ndarray,
+    goal_edge: int | None,
+    height: float,
+    only_unique: bool = False,
+) -> tuple[list[Attractor], tuple[float, float] | None, str | None, list[list[int] | None]]:
+    """Return the attractors of ``members`` (rows of one design), its trigger range and why there is none.
+
+    The trigger is computed on the attractors' recurrent tails; it is None with a reason when some
+    attractor does not visit the goal edge, or when no sensor radius separates it. ``only_unique``
+    (a design search): no trigger and no per-start cycles unless every start reached one attractor.
+    """
+    attractors = group_attractors(search, members)
+    converged = [int(b) for b in members if search.tail[b] >= 0]
+    if only_unique and (len(attractors) != 1 or len(converged) != len(members)):
+        return attractors, None, None, []
+    cycles: list[list[int] | None] = []
+    for b in members:
+        if search.tail[b] < 0:
+            cycles.append(None)
+            continue
+        sl = search.tail_slice(int(b))
+        c = find_cycle(search.edge[b, sl], search.jog[b, sl])
+        cycles.append(c.edges if c else None)
+    trigger, note = None, None
+    if goal_edge is not None:
+        missing = [a.edges for a in attractors if goal_edge not in a.edges]
+        if missing:
+            note = f"goal edge {goal_edge} is not visited by every attractor (not by {missing})"
+        else:
+            runs = [
+                list(
+                    zip(
+                        (int(v) for v in search.edge[b, search.tail_slice(b)]),
+                        (float(r) for r in search.radius[b, search.tail_slice(b)]),
+                        strict=True,
+                    )
+                )
+                for b in converged
+            ]
+            trigger = trigger_range(part, goal_edge, height, runs)
+            if trigger is None:
+                note = "no sensor radius reads true in every visit to the goal edge and never elsewhere"
+    return attractors, trigger, note, cycles
+
+
 def limit_set(
     part: ArmPart,
     params: ThrowParams,
     goal_edge: int | None = None,
     starts_per_edge: int = DEFAULT_STARTS_PER_EDGE,
     throws: int = DEFAULT_THROWS,
-    burn_in: int | None = None,
     sensing_height: float | None = None,
     keep_trajectories: bool = False,
+    window: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> LimitSet:
-    """Return the forward limit set from a grid of starts over Z (Figs. 7, 8), its cycle and trigger range.
+    """Return the forward limit set from a grid of starts over Z (Figs. 7, 8): attractors, cycle, trigger.
 
-    Every start of the grid (``starts_per_edge`` radii in [low_i, R_max_i] on each stable edge) is thrown
-    ``throws`` times; states after ``burn_in`` throws (default: ``default_burn_in``) are taken as the limit
-    set. The cycle is unique when every start's visit sequence has the same period (Theorem IV.6).
-    ``sensing_height`` None means the default (``sensing_height_or_default``). An offset at or below
-    -d_min is refused (``check_limit_offset``): no limit set exists there.
+    Every start of the grid (``starts_per_edge`` cell centres of [low_i, R_max_i] on each stable edge)
+    is thrown until it recurs at the grid's resolution (``iterate_to_recurrence``; at most ``throws``
+    throws, in windows of ``window``); starts whose recurrent sets meet form one attractor. ``unique``:
+    every start reached the same attractor (Theorem IV.6 for a periodic one); ``cycle`` is filled when
+    that attractor is periodic. ``sensing_height`` None means the default
+    (``sensing_height_or_default``). An offset at or below -d_min is refused (``check_limit_offset``).
+    Raises SolverError when a start leaves the domain or no start converges.
     """
     if goal_edge is not None and goal_edge not in part.stable_edges:
         raise InputError("goal_edge", f"edge {goal_edge} is not a stable edge (stable: {part.stable_edges})")
     check_limit_offset(part, params.offset)
     height = sensing_height_or_default(part, sensing_height)
-    skip = default_burn_in(throws) if burn_in is None else burn_in
     bounds = edge_bounds(part, params)
-    edges, radii = _grid_starts(part, bounds, starts_per_edge)
-    traj = iterate(part, params, np.array(edges), np.array(radii), throws)
-    if traj.escaped.any():
-        bad = int(np.flatnonzero(traj.escaped)[0])
-        raise SolverError(
-            f"{int(traj.escaped.sum())} start(s) leave the throw map's domain (a throw lands below "
-            f"R_grasp or on no stable edge), e.g. from edge {edges[bad]} at R = {radii[bad]:.4g} m: "
-            "this design has no invariant set (Prop. IV.4)"
-        )
-    tail_e, tail_r, tail_j = traj.edge[:, skip:], traj.radius[:, skip:], traj.jog[:, skip:]
-    cycles = [find_cycle(e, j) for e, j in zip(tail_e, tail_j, strict=True)]
-    trigger = None
-    if goal_edge is not None:
-        runs = [
-            list(zip((int(v) for v in e), (float(r) for r in rr), strict=True))
-            for e, rr in zip(tail_e, tail_r, strict=True)
-        ]
-        trigger = trigger_range(part, goal_edge, height, runs)
-    cycle = _common_cycle(cycles)
+    rows = single_design_rows(part, bounds, starts_per_edge)
+    search = iterate_to_recurrence(
+        rows,
+        lambda idx, e, r: throw_batch(part, e, r, params),
+        throws,
+        window,
+        progress,
+    )
+    if search.escaped.any():
+        raise escape_error(search, rows)
+    if not search.converged.any():
+        raise not_converged_error(throws, search.window)
+    members = np.arange(len(rows.edge))
+    attractors, trigger, note, cycles = read_limit_set(part, search, members, goal_edge, height)
+    unconverged = int((~search.converged).sum())
+    unique = unconverged == 0 and len(attractors) == 1
+    only = attractors[0] if unique else None
+    cycle = None
+    if only is not None and only.periodic and only.cycle is not None and only.throws_per_round is not None:
+        lo, mean, hi = only.throws_per_round
+        cycle = Cycle(only.cycle, mean, (lo, hi))
+    ranges: dict[int, tuple[float, float]] = {}
+    for a in attractors:
+        for e, (lo_r, hi_r) in a.edge_radius_ranges.items():
+            old = ranges.get(e)
+            ranges[e] = (lo_r, hi_r) if old is None else (min(old[0], lo_r), max(old[1], hi_r))
+    traj = Trajectories(search.edge, search.radius, search.jog, search.escaped)
     return LimitSet(
         stable_edges=part.stable_edges,
         bounds=bounds,
         cycle=cycle,
-        unique=cycle is not None,
-        edge_radius_ranges=_edge_ranges(tail_e, tail_r),
+        unique=unique,
+        edge_radius_ranges=dict(sorted(ranges.items())),
         trigger=trigger,
         goal_edge=goal_edge,
         sensing_height=height,
-        starts=len(edges),
+        starts=len(rows.edge),
         throws=throws,
-        cycles_by_start=[c.edges if c else None for c in cycles],
+        cycles_by_start=cycles,
         trajectories=traj if keep_trajectories else None,
+        attractors=attractors,
+        unconverged=unconverged,
+        trigger_note=note,
+        throws_used=int(search.end.max()),
     )

@@ -12,19 +12,29 @@ from feeder_planner.throwing.geometry import ArmPart
 from feeder_planner.throwing.impact import sticking_impact
 from feeder_planner.throwing.tolerances import FLAT_ANGLE, MAX_IMPACTS
 
-__all__ = ["Settled", "settle"]
+__all__ = ["Settled", "settle", "lift_off_in_swing", "outside_cone"]
 
 TWO_PI = 2 * math.pi
 
 
 @dataclass(frozen=True)
 class Settled:
-    """Where each part of a batch came to rest: edge, centre-of-mass x, absolute angle, impacts taken."""
+    """Where each part of a batch came to rest: edge, centre-of-mass x, absolute angle, impacts taken.
+
+    Also the assumptions the sticking-catch-and-roll model made on the way (issue 14 item 2): ``lift_off``
+    (the pivot's normal force would turn negative in some swing), ``slip`` (a strike's impulse lies
+    outside the friction cone of mu), and the smallest and largest x of any contact point (pivots and
+    struck vertices), so that the caller can tell a part rolling off the arm.
+    """
 
     edge: np.ndarray
     x: np.ndarray
     theta: np.ndarray
     impacts: np.ndarray
+    lift_off: np.ndarray
+    slip: np.ndarray
+    contact_min: np.ndarray
+    contact_max: np.ndarray
 
 
 class _Geometry:
@@ -129,6 +139,20 @@ def _swing(
     return direction, target, h_target, direction * np.sqrt(speed2)
 
 
+def lift_off_in_swing(
+    rho: float, g: float, energy: np.ndarray, cy_lo: np.ndarray, cy_hi: np.ndarray
+) -> np.ndarray:
+    """Return whether the pivot's normal force turns negative for some c_y in [cy_lo, cy_hi] of a swing.
+
+    Rolling about a fixed pivot (per unit mass, I = rho^2 + s^2, alpha = g c_x / I, and
+    I omega^2 / 2 - g c_y = E), the vertical reaction is N = a_y - g = (-g rho^2 - 2 E c_y - 3 g c_y^2) / I:
+    a convex quadratic in c_y (g < 0) with its least value -g rho^2 - E^2 / (-3 g) at c_y* = E / (-3 g).
+    The paper's rolling (section III-B) holds only while N >= 0; where N < 0 the part would hop.
+    """
+    at = np.clip(energy / (-3.0 * g), cy_lo, cy_hi)
+    return (-g * rho * rho - 2.0 * energy * at - 3.0 * g * at * at) < 0
+
+
 def _strike(
     geo: _Geometry,
     k: np.ndarray,
@@ -154,6 +178,37 @@ def _strike(
     _, _, om_new = sticking_impact(rx, ry, vx, vy, omega, geo.rho)
     into_arm = np.where(direction > 0, om_new < 0, om_new > 0)
     return j, e, cm_x, np.where(into_arm, 0.0, om_new), cm_x + rx
+
+
+def _strike_slip(
+    geo: _Geometry,
+    k: np.ndarray,
+    j: np.ndarray,
+    target: np.ndarray,
+    h_target: np.ndarray,
+    omega: np.ndarray,
+    om_new: np.ndarray,
+    mu: float | np.ndarray,
+) -> np.ndarray:
+    """Return whether the strike of ``_strike`` needs an impulse outside the friction cone of mu.
+
+    Before: rotation ``omega`` about pivot k; after: ``om_new`` about the struck vertex j, whose
+    centre-of-mass velocity is (ry, -rx) omega+ (eqs. 7, 8). The impulse is the change of velocity.
+    """
+    c, s = np.cos(target), np.sin(target)
+    cx_t = -(c * geo.qx[k] - s * geo.qy[k])
+    rx = c * geo.qx[j] - s * geo.qy[j]
+    ry = s * geo.qx[j] + c * geo.qy[j]
+    return outside_cone(ry * om_new + omega * h_target, -rx * om_new - omega * cx_t, mu)
+
+
+def outside_cone(j_t: np.ndarray, j_n: np.ndarray, mu: float | np.ndarray) -> np.ndarray:
+    """Return whether an impulse (tangential j_t, normal j_n on the part) leaves the Coulomb cone of mu.
+
+    A sticking impact needs j_n > 0 and |j_t| <= mu j_n (Coulomb's law for impulses, e.g. Stronge,
+    Impact Mechanics, ch. 3); the paper assumes friction "sufficiently high" (section III-B).
+    """
+    return (j_n <= 0) | (np.abs(j_t) > mu * j_n)
 
 
 def _settled(
@@ -184,13 +239,21 @@ def _settled(
 
 
 def settle(
-    part: ArmPart, gravity: float, k: np.ndarray, theta: np.ndarray, omega: np.ndarray, pivot_x: np.ndarray
+    part: ArmPart,
+    gravity: float,
+    k: np.ndarray,
+    theta: np.ndarray,
+    omega: np.ndarray,
+    pivot_x: np.ndarray,
+    mu: float | np.ndarray = math.inf,
 ) -> Settled:
     """Roll each part about its pivot vertex until it settles on an edge it can no longer escape (III-B).
 
     Rolling about vertex k conserves E = I_k omega^2 / 2 - g c_y (per unit mass, I_k = rho^2 + |q_k|^2).
     Each round is one swing (``_pivot``, ``_swing``) ended by the strike of the next vertex (``_strike``,
-    a sticking impact, eqs. 7-9), after which the part may have settled (``_settled``).
+    a sticking impact, eqs. 7-9), after which the part may have settled (``_settled``). Each swing and
+    strike is checked against the model's assumptions (``lift_off_in_swing``, ``outside_cone`` with
+    ``mu``, a scalar or one per part; the default, infinite mu, never flags a slip).
     """
     geo = _Geometry(part)
     g = float(gravity)
@@ -201,8 +264,16 @@ def settle(
         pivot_x.astype(float).copy(),
     )
     batch = len(k)
+    mus = np.broadcast_to(np.asarray(mu, dtype=float), (batch,))
     out = Settled(
-        np.full(batch, -1), np.full(batch, np.nan), np.full(batch, np.nan), np.zeros(batch, dtype=int)
+        np.full(batch, -1),
+        np.full(batch, np.nan),
+        np.full(batch, np.nan),
+        np.zeros(batch, dtype=int),
+        np.zeros(batch, dtype=bool),
+        np.zeros(batch, dtype=bool),
+        px.copy(),
+        px.copy(),
     )
     active = np.arange(batch)
     for _ in range(MAX_IMPACTS):
@@ -211,8 +282,19 @@ def settle(
         th, om = theta[active], omega[active]
         kk, pp, direction = _pivot(geo, k[active], th, om, px[active])
         _, lo, hi = _interval(geo, kk, th)
+        h0 = _height(geo, kk, th)
+        old = np.where(direction > 0, hi, lo)
         direction, target, h_target, om_end = _swing(geo, g, kk, th, om, direction, lo, hi)
+        energy = 0.5 * geo.inertia[kk] * om * om - g * h0
+        top = np.minimum(
+            np.maximum(_path_peak(geo, kk, th, old), _path_peak(geo, kk, th, target)), energy / -g
+        )
+        out.lift_off[active] |= lift_off_in_swing(geo.rho, g, energy, np.minimum(h0, h_target), top)
         j, e, cm_x, om_new, p_new = _strike(geo, kk, direction, target, h_target, om_end, pp)
+        out.slip[active] |= _strike_slip(geo, kk, j, target, h_target, om_end, om_new, mus[active])
+        for x in (pp, p_new):
+            out.contact_min[active] = np.minimum(out.contact_min[active], x)
+            out.contact_max[active] = np.maximum(out.contact_max[active], x)
         done = _settled(geo, g, kk, j, e, direction, target, h_target, lo, hi, om_new)
         idx = active[done]
         out.edge[idx], out.x[idx], out.theta[idx] = e[done], cm_x[done], target[done]

@@ -13,7 +13,7 @@ from feeder_planner.throwing.flight import earliest_impact, flight_state, rest_p
 from feeder_planner.throwing.geometry import ArmPart
 from feeder_planner.throwing.grasp import grasp_radius
 from feeder_planner.throwing.impact import sticking_impact
-from feeder_planner.throwing.rolling import settle
+from feeder_planner.throwing.rolling import outside_cone, settle
 from feeder_planner.throwing.tolerances import GRASP_SLACK, TURN_NUDGE
 
 __all__ = [
@@ -30,6 +30,8 @@ __all__ = [
     "lowest_radius",
     "check_start",
     "throw_batch",
+    "throw_rows",
+    "ASSUMPTIONS",
     "ThrowResult",
     "throw",
 ]
@@ -59,12 +61,17 @@ def check_grasp_parameters(offset: float, mu: float) -> None:
 
 @dataclass(frozen=True)
 class ThrowParams:
-    """Design parameters: offset h (m), release speed W (rad/s), gravity g (m/s^2, < 0), friction mu."""
+    """Design parameters: offset h (m), release speed W (rad/s), gravity g (m/s^2, < 0), friction mu.
+
+    ``arm_length`` (m, > 0; default unbounded, as in the paper) is how far the arm reaches right of the
+    pivot: a contact beyond it is flagged ``off_arm`` (issue 14 item 2).
+    """
 
     offset: float
     speed: float
     gravity: float
     mu: float
+    arm_length: float = math.inf
 
     def __post_init__(self) -> None:
         for name, value in (
@@ -79,6 +86,10 @@ class ThrowParams:
         if self.speed <= 0:
             raise InputError("release_speed", f"must be > 0 (counter-clockwise throw), got {self.speed!r}")
         _require_friction(self.mu)
+        if not isinstance(self.arm_length, (int, float)) or math.isnan(self.arm_length):
+            raise InputError("arm_length", f"must be a number > 0 (or inf), got {self.arm_length!r}")
+        if self.arm_length <= 0:
+            raise InputError("arm_length", f"must be > 0, got {self.arm_length!r}")
 
 
 def radius_in_domain(radius: Any, bound: Any) -> Any:
@@ -132,15 +143,34 @@ def throw_kind(start_edge: int, end_edge: int, rotation: float) -> ThrowKind:
     return "jog" if bool(is_jog(start_edge, end_edge, rotation)) else "flip"
 
 
+ASSUMPTIONS: tuple[str, ...] = ("lift_off", "slip", "off_arm", "toe_stub")
+
+
 @dataclass(frozen=True)
 class ThrowBatch:
-    """Results of a batch of throws."""
+    """Results of a batch of throws, with the model's assumptions checked per throw (issue 14 item 2).
+
+    ``lift_off``: the normal force at some rolling pivot would turn negative (the part would hop);
+    ``slip``: the catch or a later strike needs an impulse outside the friction cone of mu;
+    ``off_arm``: a contact point (catch, pivot, rest) lies left of the pivot or beyond the arm's end;
+    ``toe_stub``: at rest the left contact vertex lies left of the pivot, so the next throw is refused.
+    None (a batch built without them) reads as all false.
+    """
 
     edge: np.ndarray  # i1
     radius: np.ndarray  # R1 (m)
     rotation: np.ndarray  # net rotation of the part over flight and settling (rad, counter-clockwise +)
     flight_time: np.ndarray
     impacts: np.ndarray
+    lift_off: np.ndarray | None = None
+    slip: np.ndarray | None = None
+    off_arm: np.ndarray | None = None
+    toe_stub: np.ndarray | None = None
+
+    def flag(self, name: str) -> np.ndarray:
+        """Return the per-throw flag ``name`` (one of ASSUMPTIONS), all false when the batch has none."""
+        value = getattr(self, name)
+        return np.zeros(len(self.edge), dtype=bool) if value is None else np.asarray(value, dtype=bool)
 
     @property
     def turns(self) -> np.ndarray:
@@ -181,12 +211,35 @@ def throw_batch(part: ArmPart, edge: np.ndarray, radius: np.ndarray, params: Thr
     """Apply f to every (edge[b], radius[b]) at once (callers have checked the domain).
 
     Flight to the earliest impact (eqs. 5, 6), the sticking impact of the striking vertex (eqs. 7-9),
-    then rolling to rest (section III-B).
+    then rolling to rest (section III-B); the assumptions are checked on the way (``ThrowBatch``).
+    """
+    return throw_rows(
+        part, edge, radius, params.offset, params.speed, params.gravity, params.mu, params.arm_length
+    )
+
+
+def throw_rows(
+    part: ArmPart,
+    edge: np.ndarray,
+    radius: np.ndarray,
+    offset: Any,
+    speed: Any,
+    gravity: float,
+    mu: Any,
+    arm_length: Any = math.inf,
+) -> ThrowBatch:
+    """Apply f to every row, each with its own offset h and release speed W (scalars broadcast).
+
+    The batch of a design study: many designs' starts in one call (issue 14 item 5); every step is
+    elementwise, so a row's result does not depend on the other rows of the batch.
+    ``mu`` (scalar or per row) only decides the ``slip`` flag: the sticking model does not depend on it.
     """
     edge = np.asarray(edge, dtype=int)
     radius = np.asarray(radius, dtype=float)
-    w, g, h = params.speed, params.gravity, params.offset
-    t, k = earliest_impact(part, edge, radius, h, w, g)
+    h = np.broadcast_to(np.asarray(offset, dtype=float), radius.shape)
+    w = np.broadcast_to(np.asarray(speed, dtype=float), radius.shape)
+    g = float(gravity)
+    t, k = earliest_impact(part, edge, radius, 0.0, w, g)
     if (k < 0).any():
         # Cannot happen: by the end of the searched flight the centre of mass is back at arm level.
         raise RuntimeError("flight ended without an impact: the flight bound is wrong")
@@ -194,11 +247,22 @@ def throw_batch(part: ArmPart, edge: np.ndarray, radius: np.ndarray, params: Thr
     c, s = np.cos(theta), np.sin(theta)
     rx = c * part.hull[k, 0] - s * part.hull[k, 1]
     ry = s * part.hull[k, 0] + c * part.hull[k, 1]
-    _, _, omega = sticking_impact(rx, ry, xdot, ydot, phidot, part.rho)
-    rest = settle(part, g, k, theta, omega, x + rx)
+    xp, yp, omega = sticking_impact(rx, ry, xdot, ydot, phidot, part.rho)
+    mus = np.broadcast_to(np.asarray(mu, dtype=float), radius.shape)
+    catch_slip = outside_cone(xp - xdot, yp - ydot, mus)
+    rest = settle(part, g, k, theta, omega, x + rx, mus)
     theta0 = rest_pose(part, edge, radius, h)[2]
+    left = rest.x + part.u_left[np.maximum(rest.edge, 0)]
     return ThrowBatch(
-        edge=rest.edge, radius=rest.x, rotation=rest.theta - theta0, flight_time=t, impacts=rest.impacts + 1
+        edge=rest.edge,
+        radius=rest.x,
+        rotation=rest.theta - theta0,
+        flight_time=t,
+        impacts=rest.impacts + 1,
+        lift_off=rest.lift_off,
+        slip=catch_slip | rest.slip,
+        off_arm=(np.minimum(rest.contact_min, left) < 0) | (rest.contact_max > arm_length),
+        toe_stub=left <= 0,
     )
 
 
@@ -215,9 +279,19 @@ class ThrowResult:
     impacts: int
     start_edge: int
     start_radius: float
+    lift_off: bool = False
+    slip: bool = False
+    off_arm: bool = False
+    toe_stub: bool = False
+    fidelity: str = "paper"
+
+    @property
+    def violations(self) -> list[str]:
+        """Return the names of the assumptions this throw breaks (ASSUMPTIONS order)."""
+        return [name for name in ASSUMPTIONS if getattr(self, name)]
 
     def to_json(self) -> dict[str, Any]:
-        """Return the `feeder throw --json` object (contract 3)."""
+        """Return the `feeder throw --json` object (contract 3), with the assumption flags."""
         return {
             "edge": self.edge,
             "radius": self.radius,
@@ -228,6 +302,11 @@ class ThrowResult:
             "turns": self.turns,
             "flight_time": self.flight_time,
             "impacts": self.impacts,
+            "lift_off": self.lift_off,
+            "slip": self.slip,
+            "off_arm": self.off_arm,
+            "toe_stub": self.toe_stub,
+            "fidelity": self.fidelity,
         }
 
 
@@ -245,4 +324,8 @@ def throw(part: ArmPart, edge: int, radius: float, params: ThrowParams) -> Throw
         impacts=int(out.impacts[0]),
         start_edge=edge,
         start_radius=radius,
+        lift_off=bool(out.flag("lift_off")[0]),
+        slip=bool(out.flag("slip")[0]),
+        off_arm=bool(out.flag("off_arm")[0]),
+        toe_stub=bool(out.flag("toe_stub")[0]),
     )
