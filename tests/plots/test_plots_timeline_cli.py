@@ -10,9 +10,10 @@ from typing import Any
 
 import numpy as np
 import pytest
+from rclpy.serialization import serialize_message
 from rosbags.rosbag2 import StoragePlugin, Writer
 
-from feeder_cell.bag.types import typestore
+from feeder_cell.bag.types import message_class, typestore
 from feeder_cell.cli.main import main
 from feeder_cell.plots.timeline import read_timeline, timeline_figure
 
@@ -22,56 +23,42 @@ START_NS = 1_700_000_000_000_000_000
 SECOND = 1_000_000_000
 
 
-def _stamp(store: Any, t_ns: int) -> Any:
-    time = store.types["builtin_interfaces/msg/Time"](sec=t_ns // SECOND, nanosec=t_ns % SECOND)
-    return store.types["std_msgs/msg/Header"](stamp=time, frame_id="")
+def message(type_name: str, **fields: Any) -> Any:
+    """Return an rclpy message with ``fields`` set and every other field at its default.
+
+    rclpy's classes default every field, so the test bag stays valid when a message gains a field.
+    """
+    msg = message_class(type_name)()
+    for name, value in fields.items():
+        setattr(msg, name, value)
+    return msg
 
 
-def _status(store: Any, t_ns: int, state: int) -> Any:
-    return store.types["feeder_msgs/msg/DeviceStatus"](
-        header=_stamp(store, t_ns),
-        state=state,
-        state_name="",
-        ready=state == 1,
-        busy=state == 2,
-        fault_code=0,
-        fault_text="",
-        active_faults=[],
-        counter_names=[],
-        counter_values=np.array([], dtype=np.uint64),
-        configured_rate=100.0,
-        achieved_rate=100.0,
-        configured_real_time_factor=1.0,
-        achieved_real_time_factor=1.0,
-        behind_real_time=False,
+def _header(t_ns: int) -> Any:
+    return message(
+        "std_msgs/msg/Header",
+        stamp=message("builtin_interfaces/msg/Time", sec=t_ns // SECOND, nanosec=t_ns % SECOND),
     )
 
 
-def _throw(store: Any, t_ns: int, index: int, kind: str) -> Any:
-    return store.types["feeder_msgs/msg/ThrowEvent"](
-        header=_stamp(store, t_ns),
+def _status(t_ns: int, state: int) -> Any:
+    return message("feeder_msgs/msg/DeviceStatus", header=_header(t_ns), state=state, ready=state == 1)
+
+
+def _throw(t_ns: int, index: int, kind: str) -> Any:
+    return message(
+        "feeder_msgs/msg/ThrowEvent",
+        header=_header(t_ns),
         index=index,
         edge_before=1,
         radius_before=0.15,
-        edge_after=1 if kind == "jog" else 0,
-        radius_after=0.16,
         kind=kind,
-        turns=0,
-        rotation=0.0,
-        sensor_at_rest=False,
-        fault=False,
-        fault_reason="",
-        fidelity="analytic",
     )
 
 
-def _joints(store: Any, t_ns: int, x: float, y: float) -> Any:
-    return store.types["sensor_msgs/msg/JointState"](
-        header=_stamp(store, t_ns),
-        name=["tilt_x", "tilt_y"],
-        position=np.array([x, y]),
-        velocity=np.array([0.0, 0.0]),
-        effort=np.array([], dtype=float),
+def _joints(t_ns: int, x: float, y: float) -> Any:
+    return message(
+        "sensor_msgs/msg/JointState", header=_header(t_ns), name=["tilt_x", "tilt_y"], position=[x, y]
     )
 
 
@@ -96,20 +83,18 @@ def write_run_bag(bag: Path) -> None:
     )
     messages: list[tuple[int, Any, Any]] = []
     for t, state in ((0.0, 0), (0.5, 1), (1.0, 2), (3.0, 1)):
-        messages.append((round(t * SECOND), status["throwing_arm"], _status(store, round(t * SECOND), state)))
+        messages.append((round(t * SECOND), status["throwing_arm"], _status(round(t * SECOND), state)))
     for t, state in ((0.0, 0), (0.2, 1), (2.0, 4)):
-        messages.append(
-            (round(t * SECOND), status["assembly_fixture"], _status(store, round(t * SECOND), state))
-        )
+        messages.append((round(t * SECOND), status["assembly_fixture"], _status(round(t * SECOND), state)))
     for i in range(9):
         t = round(i * 0.5 * SECOND)
-        messages.append((t, sensor, store.types["std_msgs/msg/Bool"](data=i % 3 == 0)))
-        messages.append((t, joints, _joints(store, t, 0.1 * i, -0.05 * i)))
-        messages.append((t, arm_joints, _joints(store, t, 9.0, 9.0)))  # not the fixture's: not drawn
+        messages.append((t, sensor, message("std_msgs/msg/Bool", data=i % 3 == 0)))
+        messages.append((t, joints, _joints(t, 0.1 * i, -0.05 * i)))
+        messages.append((t, arm_joints, _joints(t, 9.0, 9.0)))  # not the fixture's: not drawn
     for i, (t, kind) in enumerate(((1.2, "jog"), (1.6, "jog"), (2.4, "flip"))):
-        messages.append((round(t * SECOND), throws, _throw(store, round(t * SECOND), i, kind)))
+        messages.append((round(t * SECOND), throws, _throw(round(t * SECOND), i, kind)))
     for t, connection, msg in sorted(messages, key=lambda m: m[0]):
-        writer.write(connection, START_NS + t, store.serialize_cdr(msg, connection.msgtype))
+        writer.write(connection, START_NS + t, serialize_message(msg))
     writer.close()
 
 

@@ -78,8 +78,10 @@ def read_timeline(path: Path) -> Timeline:
     InputError
         (field ``bag``) when the bag cannot be read (``open_bag`` says why, and when bag-reindex helps).
     """
+    from rclpy.serialization import deserialize_message
+
     from feeder_cell.bag.player import open_bag
-    from feeder_cell.bag.types import typestore
+    from feeder_cell.bag.types import message_class
 
     wanted = {
         "feeder_msgs/msg/DeviceStatus",
@@ -87,7 +89,6 @@ def read_timeline(path: Path) -> Timeline:
         "feeder_msgs/msg/MemsPartStates",
         "feeder_msgs/msg/StabilityStatus",
     }
-    store = typestore()
     timeline = Timeline()
     reader = open_bag(Path(path))
     try:
@@ -104,7 +105,9 @@ def read_timeline(path: Path) -> Timeline:
         throws: dict[str, list[tuple[float, str]]] = defaultdict(list)
         for connection, stamp, raw in reader.messages(connections=connections):
             t = (stamp - start) / 1e9
-            msg = store.deserialize_cdr(raw, connection.msgtype)
+            # rclpy's own decoder: the bytes are what rclpy published (rosbags' stricter CDR reader refuses
+            # some of them, e.g. trailing padding after an empty array), and new message fields are fine.
+            msg = deserialize_message(raw, message_class(connection.msgtype))
             kind = connection.msgtype
             if kind == "feeder_msgs/msg/DeviceStatus":
                 series["states"][_device(connection.topic)].add(t, msg.state)
