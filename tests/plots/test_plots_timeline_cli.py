@@ -63,7 +63,10 @@ def _joints(t_ns: int, x: float, y: float) -> Any:
 
 
 def write_run_bag(bag: Path) -> None:
-    """Write a 4 s run: two devices' states, the arm's sensor and throws, the fixture's joints; no MEMS."""
+    """Write a 4 s run: two devices' states, the arm's sensor and throws, the fixture's joints; no MEMS.
+
+    One more topic holds bytes of another ThrowEvent layout.
+    """
     store = typestore()
     writer = Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP)
     writer.open()
@@ -95,6 +98,9 @@ def write_run_bag(bag: Path) -> None:
         messages.append((round(t * SECOND), throws, _throw(round(t * SECOND), i, kind)))
     for t, connection, msg in sorted(messages, key=lambda m: m[0]):
         writer.write(connection, START_NS + t, serialize_message(msg))
+    # A topic recorded with another layout of the message (too short for today's ThrowEvent).
+    old = writer.add_connection("/cell/old_arm/throw_events", "feeder_msgs/msg/ThrowEvent", typestore=store)
+    writer.write(old, START_NS + SECOND, b"\0\1\0\0\1\0\0\0")
     writer.close()
 
 
@@ -119,6 +125,7 @@ def test_timeline_reads_the_run_and_says_which_panels_are_missing(run_bag: Path)
     ]  # the arm's joint_states are not the fixture's
     assert timeline.fixture_angles["tilt_x"].v == pytest.approx([0.1 * i for i in range(9)])
     assert timeline.part_angles == {} and timeline.margin == {}
+    assert timeline.undecodable == ["/cell/old_arm/throw_events"]  # skipped and named, not a traceback
     figure = timeline_figure(timeline, "run")
     states, throwing, mems, fixture = figure.axes[:4]
     assert [t.get_text() for t in states.get_yticklabels()] == ["assembly_fixture", "throwing_arm"]
@@ -142,6 +149,7 @@ def test_bag_plot_writes_the_timeline_beside_the_bag(
     assert result["path"] == str(picture) and picture.stat().st_size > 20_000
     assert result["panels"]["MEMS part angles"] == []
     assert result["panels"]["device states"] == ["assembly_fixture", "throwing_arm"]
+    assert result["undecodable"] == ["/cell/old_arm/throw_events"]
     svg = run_bag.parent / "t.svg"
     assert main(["bag-plot", str(run_bag), "--output", str(svg)]) == 0
     assert svg.read_text().lstrip().startswith("<?xml") and "<svg" in svg.read_text()[:2000]

@@ -62,6 +62,7 @@ def _bag_plot(args: argparse.Namespace) -> int:
             "MEMS part angles": sorted(timeline.part_angles),
             "fixture": sorted({*timeline.fixture_angles, *timeline.margin}),
         },
+        "undecodable": timeline.undecodable,
     }
     emit(args, result, _summary)
     return 0
@@ -71,4 +72,6 @@ def _summary(result: dict[str, Any]) -> str:
     lines = [f"plot: {result['path']} ({result['duration']:.1f} s recorded)"]
     for panel, names in result["panels"].items():
         lines.append(f"  {panel}: {', '.join(names) if names else 'not in the bag'}")
+    if result["undecodable"]:
+        lines.append(f"  not decodable (another message definition): {', '.join(result['undecodable'])}")
     return "\n".join(lines)

@@ -62,6 +62,7 @@ class Timeline:
     part_angles: dict[str, Series] = field(default_factory=dict)  # MEMS part name -> theta
     fixture_angles: dict[str, Series] = field(default_factory=dict)  # joint name -> position
     margin: dict[str, Series] = field(default_factory=dict)  # topic -> StabilityStatus.margin
+    undecodable: list[str] = field(default_factory=list)  # topics recorded with another message layout
 
 
 def _device(topic: str) -> str:
@@ -103,11 +104,18 @@ def read_timeline(path: Path) -> Timeline:
         timeline.duration = (reader.end_time - start) / 1e9 if reader.message_count else 0.0
         series: dict[str, dict[str, Series]] = defaultdict(lambda: defaultdict(Series))
         throws: dict[str, list[tuple[float, str]]] = defaultdict(list)
+        bad: set[str] = set()
         for connection, stamp, raw in reader.messages(connections=connections):
+            if connection.topic in bad:
+                continue
             t = (stamp - start) / 1e9
             # rclpy's own decoder: the bytes are what rclpy published (rosbags' stricter CDR reader refuses
-            # some of them, e.g. trailing padding after an empty array), and new message fields are fine.
-            msg = deserialize_message(raw, message_class(connection.msgtype))
+            # some of them, e.g. trailing padding after an empty array).
+            try:
+                msg = deserialize_message(raw, message_class(connection.msgtype))
+            except Exception:  # a bag recorded before the message changed: skip the topic, say so
+                bad.add(connection.topic)
+                continue
             kind = connection.msgtype
             if kind == "feeder_msgs/msg/DeviceStatus":
                 series["states"][_device(connection.topic)].add(t, msg.state)
@@ -128,6 +136,7 @@ def read_timeline(path: Path) -> Timeline:
     for name in ("states", "sensor", "part_angles", "fixture_angles", "margin"):
         setattr(timeline, name, dict(series[name]))
     timeline.throws = dict(throws)
+    timeline.undecodable = sorted(bad)
     return timeline
 
 
@@ -212,7 +221,8 @@ def timeline_figure(timeline: Timeline, title: str = "recorded run") -> Figure:
     """
     figure = new_figure((9.0, 9.0))
     axes = figure.subplots(4, 1, sharex=True)
-    figure.suptitle(f"{title}: {timeline.duration:.1f} s recorded")
+    note = f"\nnot decodable (recorded with another message definition): {', '.join(timeline.undecodable)}"
+    figure.suptitle(f"{title}: {timeline.duration:.1f} s recorded" + (note if timeline.undecodable else ""))
     for ax, panel in zip(axes, PANELS, strict=True):
         ax.set_title(panel, fontsize="medium", loc="left")
     if timeline.states:
