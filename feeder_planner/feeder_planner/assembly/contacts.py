@@ -6,7 +6,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from feeder_planner.assembly.broad_phase import touching_pairs
 from feeder_planner.assembly.geometry import ConvexPiece, Face, tangent_basis
+from feeder_planner.assembly.mesh_contacts import PlanarRegion, part_regions, region_contacts
+from feeder_planner.assembly.meshes import MeshPart
 from feeder_planner.assembly.model import Assembly
 from feeder_planner.assembly.tolerances import (
     ANGLE_TOLERANCE,
@@ -47,31 +50,65 @@ def assembly_contacts(assembly: Assembly, mu: float | None = None) -> list[Conta
 
 
 def auto_contacts(assembly: Assembly) -> list[Contact]:
-    """Every pair of touching opposite faces of different bodies gives its contact polygon's vertices."""
+    """Every pair of touching opposite faces of different bodies gives its contact polygon's vertices.
+
+    Candidate part pairs come from the broad phase (bounding boxes within the distance tolerance), in the
+    order of a double loop over parts; mesh parts take the planar-region route of ``mesh_contacts``.
+    """
     distance_tol = DISTANCE_TOLERANCE * assembly.size
-    entries = [(bi, piece) for bi, body in enumerate(assembly.bodies) for piece in body.pieces]
-    lower = np.array([e[1].lower for e in entries])
-    upper = np.array([e[1].upper for e in entries])
-    owner = np.array([e[0] for e in entries])
-    grounded = np.array([assembly.bodies[e[0]].grounded for e in entries])
+    entries: list[tuple[int, ConvexPiece | MeshPart]] = []
+    for bi, body in enumerate(assembly.bodies):
+        entries += [(bi, piece) for piece in body.pieces] + [(bi, mesh) for mesh in body.meshes]
+    lower = np.array([e[1].lower for e in entries]).reshape(-1, 3)
+    upper = np.array([e[1].upper for e in entries]).reshape(-1, 3)
+    owner = np.array([e[0] for e in entries], dtype=int)
+    grounded = np.array([assembly.bodies[e[0]].grounded for e in entries], dtype=bool)
+    pairs = touching_pairs(lower, upper, distance_tol)
+    if len(pairs):
+        i, j = pairs[:, 0], pairs[:, 1]
+        pairs = pairs[(owner[i] != owner[j]) & ~(grounded[i] & grounded[j])]
+    regions: dict[int, list[PlanarRegion]] = {}
     contacts: list[Contact] = []
     seen: set[tuple[int, ...]] = set()
-    for k, (bi, piece) in enumerate(entries):
-        gap = np.min(np.minimum(upper[k + 1 :], upper[k]) - np.maximum(lower[k + 1 :], lower[k]), axis=1)
-        near = (gap >= -distance_tol) & (owner[k + 1 :] != bi) & ~(grounded[k + 1 :] & grounded[k])
-        for offset in np.nonzero(near)[0]:
-            bj, other = entries[k + 1 + offset]
-            for contact in _piece_contacts(bi, piece, bj, other, distance_tol, assembly):
-                key = (
-                    contact.a,
-                    contact.b,
-                    *np.round(contact.point / distance_tol).astype(np.int64),
-                    *np.round(contact.normal * NORMAL_KEY_SCALE).astype(np.int64),
-                )
-                if key not in seen:
-                    seen.add(key)
-                    contacts.append(contact)
+    for k, m in pairs.tolist():
+        (bi, piece), (bj, other) = entries[k], entries[m]
+        if isinstance(piece, ConvexPiece) and isinstance(other, ConvexPiece):
+            found = _piece_contacts(bi, piece, bj, other, distance_tol, assembly)
+        else:
+            for index in (k, m):
+                if index not in regions:
+                    regions[index] = part_regions(entries[index][1], distance_tol)
+            found = _region_pair_contacts(bi, regions[k], bj, regions[m], distance_tol, assembly)
+        for contact in found:
+            key = (
+                contact.a,
+                contact.b,
+                *np.round(contact.point / distance_tol).astype(np.int64),
+                *np.round(contact.normal * NORMAL_KEY_SCALE).astype(np.int64),
+            )
+            if key not in seen:
+                seen.add(key)
+                contacts.append(contact)
     return contacts
+
+
+def _region_pair_contacts(
+    bi: int,
+    first: list[PlanarRegion],
+    bj: int,
+    second: list[PlanarRegion],
+    tol: float,
+    assembly: Assembly,
+) -> list[Contact]:
+    """Contacts of two parts given as planar regions (at least one a mesh), oriented as for faces."""
+    found = []
+    for point, outward in region_contacts(first, second, tol):
+        # outward is the first part's normal, into the second: the force on the second part is along it.
+        if assembly.bodies[bi].grounded:
+            found.append(Contact(bj, bi, point, outward, assembly.mu))
+        else:
+            found.append(Contact(bi, bj, point, -outward, assembly.mu))
+    return found
 
 
 def _piece_contacts(

@@ -11,6 +11,8 @@ from typing import Any
 import numpy as np
 
 from feeder_planner.assembly.geometry import ConvexPiece, box_piece, faces_piece, hull_piece, overlap_depth
+from feeder_planner.assembly.mesh_contacts import check_mesh_overlaps
+from feeder_planner.assembly.meshes import MeshPart, mesh_parts, part_bounds
 from feeder_planner.assembly.tolerances import PENETRATION_TOLERANCE, UNIT_NORMAL_TOLERANCE
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import (
@@ -57,12 +59,12 @@ class Body:
     center: np.ndarray
     density: float
     piece_fields: tuple[str, ...] = ()
+    meshes: tuple[MeshPart, ...] = ()  # non-convex triangle surfaces (``meshes:``), see assembly.meshes
 
     @property
     def size(self) -> float:
         """Diagonal of the body's bounding box (m): the length scale of its torque equations."""
-        lower = np.min([p.lower for p in self.pieces], axis=0)
-        upper = np.max([p.upper for p in self.pieces], axis=0)
+        lower, upper = part_bounds([*self.pieces, *self.meshes])
         return float(np.linalg.norm(upper - lower))
 
 
@@ -92,8 +94,7 @@ class Assembly:
     @property
     def size(self) -> float:
         """Diagonal of the assembly's bounding box (m): the length scale of the contact tolerances."""
-        lower = np.min([p.lower for b in self.bodies for p in b.pieces], axis=0)
-        upper = np.max([p.upper for b in self.bodies for p in b.pieces], axis=0)
+        lower, upper = part_bounds([p for b in self.bodies for p in (*b.pieces, *b.meshes)])
         return float(np.linalg.norm(upper - lower))
 
     @property
@@ -106,31 +107,34 @@ def load_assembly(path: str | Path) -> Assembly:
     """Read and validate an assembly file; every error names the file and the field."""
     document = load_yaml_mapping(path)
     try:
-        return assembly_from_document(document, str(path))
+        return assembly_from_document(document, str(path), Path(path).parent)
     except InputError as error:
         raise error.with_source(str(path)) from None
 
 
-def assembly_from_text(text: str, source: str = "assembly_yaml") -> Assembly:
-    """Parse an assembly given as YAML text (a service request field)."""
+def assembly_from_text(
+    text: str, source: str = "assembly_yaml", base_dir: str | Path | None = None
+) -> Assembly:
+    """Parse an assembly given as YAML text (a service request field); mesh paths relative to ``base_dir``."""
     document = yaml_mapping_from_text(text, source)
     try:
-        return assembly_from_document(document, source)
+        return assembly_from_document(document, source, base_dir)
     except InputError as error:
         raise error.with_source(source) from None
 
 
-def assembly_from_document(document: dict[str, Any], source: str = "") -> Assembly:
-    """Validate a parsed assembly mapping and build the bodies with their mass properties."""
+def assembly_from_document(
+    document: dict[str, Any], source: str = "", base_dir: str | Path | None = None
+) -> Assembly:
+    """Validate a parsed assembly mapping and build the bodies; mesh paths are relative to ``base_dir``."""
     scale = length_scale(optional(document, "length_unit", "m"))
     mu = non_negative_number(optional(document, "mu", 0.0), "mu")
     raw_bodies = required(document, "bodies")
     if not isinstance(raw_bodies, list) or not raw_bodies:
         raise InputError("bodies", "expected a non-empty list of bodies")
     _check_piece_count(raw_bodies)
-    bodies = [_body(raw, f"bodies[{i}]", scale) for i, raw in enumerate(raw_bodies)]
-    lower = np.min([p.lower for b in bodies for p in b.pieces], axis=0)
-    upper = np.max([p.upper for b in bodies for p in b.pieces], axis=0)
+    bodies = [_body(raw, f"bodies[{i}]", scale, base_dir) for i, raw in enumerate(raw_bodies)]
+    lower, upper = part_bounds([p for b in bodies for p in (*b.pieces, *b.meshes)])
     check_length_scale(
         float(max(np.abs(lower).max(), np.abs(upper).max())), float((upper - lower).max()), "bodies"
     )
@@ -150,6 +154,7 @@ def assembly_from_document(document: dict[str, Any], source: str = "") -> Assemb
         {b.name: i for i, b in enumerate(bodies)},
     )
     _check_interpenetration(assembly)
+    check_mesh_overlaps(assembly.bodies, PENETRATION_TOLERANCE * assembly.size)
     contacts = optional(document, "contacts", "auto")
     if contacts != "auto":
         explicit = _explicit_contacts(contacts, assembly, scale)
@@ -157,7 +162,7 @@ def assembly_from_document(document: dict[str, Any], source: str = "") -> Assemb
     return assembly
 
 
-def _body(raw: Any, field_name: str, scale: float) -> Body:
+def _body(raw: Any, field_name: str, scale: float, base_dir: str | Path | None = None) -> Body:
     """Read one body of the file: name, grounded flag, density and pieces, with its mass properties."""
     if not isinstance(raw, dict):
         raise InputError(field_name, f"expected a mapping, got {type(raw).__name__}")
@@ -171,10 +176,18 @@ def _body(raw: Any, field_name: str, scale: float) -> Body:
     named = _box_pieces(raw, field_name, scale) + _convex_pieces(raw, field_name, scale)
     pieces = [piece for _, piece in named]
     fields = [item for item, _ in named]
-    if not pieces:
-        raise InputError(field_name, "a body needs at least one box or convex polyhedron")
-    mass, center = _mass_properties(pieces, fields, density, field_name)
-    return Body(name, grounded, tuple(pieces), mass, center, density, tuple(fields))
+    meshes = [part for _, part in mesh_parts(raw, field_name, scale, base_dir)]
+    if not pieces and not meshes:
+        raise InputError(field_name, "a body needs at least one box, convex polyhedron or mesh")
+    mass, center = _mass_properties(pieces, fields, density, field_name) if pieces else (0.0, np.zeros(3))
+    if meshes:
+        # Meshes add their enclosed volumes (check_mesh_overlaps refuses overlaps within the body).
+        volume = float(sum(m.volume for m in meshes))
+        moment = sum((m.volume * m.centroid for m in meshes), start=np.zeros(3))
+        total = mass + density * volume
+        center = (mass * center + density * moment) / total
+        mass = total
+    return Body(name, grounded, tuple(pieces), mass, center, density, tuple(fields), tuple(meshes))
 
 
 def _box_pieces(raw: dict[str, Any], field_name: str, scale: float) -> list[tuple[str, ConvexPiece]]:

@@ -1,0 +1,306 @@
+"""Mesh bodies of an assembly file (``meshes:``): STL, OBJ and PLY surfaces read with trimesh, checked.
+
+A mesh is a closed, consistently oriented triangle surface; its body may be non-convex. Each mesh entry is
+``{file: PATH, scale: S, transform: 4x4}``: a file vertex x becomes T (S x) in the file's length unit (then
+metres), T a rigid motion (rotation and translation; a reflection would turn the surface inside out). Mass
+and centre of mass come from the enclosed volume (divergence theorem, exact for the polyhedron) and the
+body's density. The contact side (coplanar faces merged into planar polygons) is ``mesh_contacts``.
+"""
+
+from __future__ import annotations
+
+import os
+import struct
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from feeder_planner.errors import InputError
+from feeder_planner.fields_io import finite_number, optional, positive_number, required
+
+__all__ = [
+    "MAX_MESH_BYTES",
+    "MAX_MESH_FACES",
+    "MESH_SUFFIXES",
+    "MeshPart",
+    "load_mesh_part",
+    "mesh_parts",
+    "part_bounds",
+    "resolve_mesh_path",
+    "rigid_transform",
+]
+
+MESH_SUFFIXES = {".stl": "stl", ".obj": "obj", ".ply": "ply"}
+"""File name endings read as meshes, and trimesh's name of their format."""
+# A mesh beyond these is refused before trimesh parses it: 200,000 triangles load and are checked in about a
+# second and 100 MB here; a 2-million-face CAD export would take tens of seconds and gigabytes, and contact
+# finding needs only the planar faces, which a decimated export keeps.
+MAX_MESH_FACES = 200_000
+MAX_MESH_BYTES = 64 * 1024 * 1024
+# Relative to the mesh's bounding-box diagonal: a rotation's columns orthonormal to this, a triangle's area
+# below this times diagonal^2 counts as degenerate, an enclosed volume below this times diagonal^3 as zero.
+RIGID_TOLERANCE = 1e-9
+DEGENERATE_AREA = 1e-12
+ZERO_VOLUME = 1e-12
+
+
+@dataclass(frozen=True)
+class MeshPart:
+    """One checked mesh of a body, in metres (assembly frame): triangles, volume and centroid."""
+
+    field: str
+    path: str
+    vertices: np.ndarray  # (n, 3)
+    faces: np.ndarray  # (m, 3) vertex indices, counter-clockwise seen from outside
+    volume: float
+    centroid: np.ndarray
+
+    @property
+    def lower(self) -> np.ndarray:
+        """Lower corner of the axis-aligned bounding box (m)."""
+        return self.vertices.min(axis=0)
+
+    @property
+    def upper(self) -> np.ndarray:
+        """Upper corner of the axis-aligned bounding box (m)."""
+        return self.vertices.max(axis=0)
+
+    @property
+    def size(self) -> float:
+        """Diagonal of the bounding box (m): the length scale of the mesh's tolerances."""
+        return float(np.linalg.norm(self.upper - self.lower))
+
+    @property
+    def triangles(self) -> np.ndarray:
+        """The (m, 3, 3) corner coordinates of every face."""
+        return self.vertices[self.faces]
+
+
+def mesh_parts(
+    raw: dict[str, Any], field_name: str, scale: float, base_dir: str | Path | None
+) -> list[tuple[str, MeshPart]]:
+    """Read a body's ``meshes`` list (paths relative to ``base_dir``) as checked parts, with their fields."""
+    meshes = optional(raw, "meshes", [])
+    if not isinstance(meshes, list):
+        raise InputError(f"{field_name}.meshes", "expected a list of {file, scale, transform} meshes")
+    parts = []
+    for j, entry in enumerate(meshes):
+        item = f"{field_name}.meshes[{j}]"
+        if not isinstance(entry, dict):
+            raise InputError(item, "expected a mapping with file (and optional scale, transform)")
+        unknown = sorted(set(entry) - {"file", "scale", "transform"})
+        if unknown:
+            raise InputError(f"{item}.{unknown[0]}", "unknown key (a mesh has file, scale, transform)")
+        name = required(entry, "file", f"{item}.file")
+        if not isinstance(name, str) or not name:
+            raise InputError(f"{item}.file", f"expected a file path (a string), got {name!r}")
+        factor = positive_number(optional(entry, "scale", 1.0), f"{item}.scale")
+        transform = rigid_transform(optional(entry, "transform", None), f"{item}.transform")
+        path = resolve_mesh_path(name, base_dir, f"{item}.file")
+        parts.append((item, load_mesh_part(path, item, factor * scale, transform, scale)))
+    return parts
+
+
+def resolve_mesh_path(name: str, base_dir: str | Path | None, field: str) -> Path:
+    """Return the mesh file ``name`` (absolute, or relative to ``base_dir``); InputError naming ``field``."""
+    path = Path(name).expanduser()
+    if not path.is_absolute():
+        if base_dir is None:
+            raise InputError(field, f"relative mesh path {name!r} needs a base directory (none is known)")
+        path = Path(base_dir) / path
+    if path.suffix.lower() not in MESH_SUFFIXES:
+        raise InputError(
+            field, f"{str(path)!r}: unknown mesh format {path.suffix!r} (expected .stl, .obj or .ply)"
+        )
+    if not path.is_file():
+        raise InputError(field, f"mesh file {str(path)!r} does not exist (or is not a file)")
+    if not os.access(path, os.R_OK):
+        raise InputError(field, f"mesh file {str(path)!r} is not readable")
+    return path
+
+
+def rigid_transform(value: Any, field: str) -> np.ndarray:
+    """Return a 4x4 rigid transform (identity for None): rotation with det +1 and last row (0, 0, 0, 1)."""
+    if value is None:
+        return np.eye(4)
+    if not isinstance(value, list) or len(value) != 4 or not all(isinstance(r, list) for r in value):
+        raise InputError(field, "expected a 4x4 matrix (a list of 4 rows of 4 numbers)")
+    rows = []
+    for i, row in enumerate(value):
+        if len(row) != 4:
+            raise InputError(f"{field}[{i}]", f"expected 4 numbers, got {len(row)}")
+        rows.append([finite_number(x, f"{field}[{i}][{k}]") for k, x in enumerate(row)])
+    matrix = np.array(rows)
+    if np.abs(matrix[3] - [0.0, 0.0, 0.0, 1.0]).max() > RIGID_TOLERANCE:
+        raise InputError(f"{field}[3]", f"the last row must be [0, 0, 0, 1], got {matrix[3].tolist()}")
+    rotation = matrix[:3, :3]
+    error = float(np.abs(rotation.T @ rotation - np.eye(3)).max())
+    if error > RIGID_TOLERANCE:
+        raise InputError(
+            field,
+            f"not a rigid transform: the 3x3 block is not a rotation (R^T R differs from I by {error:.3g}; "
+            "scale goes in 'scale')",
+        )
+    if np.linalg.det(rotation) < 0:
+        raise InputError(field, "not a rigid transform: it is a reflection (determinant -1)")
+    return matrix
+
+
+def load_mesh_part(
+    path: Path, field: str, factor: float, transform: np.ndarray, unit_scale: float = 1.0
+) -> MeshPart:
+    """Read and check one mesh file: size limits, finite vertices, closed, oriented, no degenerate faces.
+
+    ``factor`` (mesh scale times the file's unit) scales the file's vertices, ``transform`` (translation in
+    the file's unit, ``unit_scale`` metres each) then moves them rigidly.
+    """
+    where = f"{field}.file"
+    size = path.stat().st_size
+    if size > MAX_MESH_BYTES:
+        raise InputError(where, f"{str(path)!r}: {size} bytes is more than the {MAX_MESH_BYTES} byte limit")
+    faces_hint = _face_count_hint(path)
+    if faces_hint is not None and faces_hint > MAX_MESH_FACES:
+        raise InputError(
+            where,
+            f"{str(path)!r}: {faces_hint} faces is more than the limit of {MAX_MESH_FACES} "
+            "(decimate the mesh: contacts need only its planar faces)",
+        )
+    vertices, faces = _read(path, where)
+    if len(faces) > MAX_MESH_FACES:
+        raise InputError(
+            where, f"{str(path)!r}: {len(faces)} faces is more than the limit of {MAX_MESH_FACES}"
+        )
+    bad = np.nonzero(~np.isfinite(vertices).all(axis=1))[0]
+    if len(bad):
+        raise InputError(
+            where, f"{str(path)!r}: vertex {int(bad[0])} is not finite ({len(bad)} such vertices)"
+        )
+    vertices = vertices * factor
+    vertices = vertices @ transform[:3, :3].T + transform[:3, 3] * unit_scale
+    return _checked(path, field, vertices, faces)
+
+
+def _read(path: Path, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """Parse the file with trimesh (no processing: NaN vertices are seen, not dropped)."""
+    import trimesh  # imported here: trimesh costs about 0.3 s to import and most assemblies have no mesh
+
+    try:
+        mesh = trimesh.load(
+            str(path), file_type=MESH_SUFFIXES[path.suffix.lower()], force="mesh", process=False
+        )
+    except Exception as exc:  # trimesh raises many kinds (ValueError, struct.error, KeyError...) on bad files
+        raise InputError(
+            where, f"{str(path)!r}: cannot read the mesh ({type(exc).__name__}: {exc})"
+        ) from None
+    vertices = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=float).reshape(-1, 3)
+    faces = np.asarray(getattr(mesh, "faces", np.zeros((0, 3))), dtype=np.int64).reshape(-1, 3)
+    if len(faces) == 0:
+        raise InputError(where, f"{str(path)!r}: the file holds no triangles")
+    return vertices, faces
+
+
+def _checked(path: Path, field: str, vertices: np.ndarray, faces: np.ndarray) -> MeshPart:
+    """Merge coincident vertices, then refuse open, inconsistently oriented, degenerate or empty meshes."""
+    where = f"{field}.file"
+    name = repr(str(path))
+    vertices, faces = _merge_vertices(vertices, faces)
+    diagonal = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
+    if diagonal == 0.0:
+        raise InputError(where, f"{name}: zero volume (all vertices coincide)")
+    corners = vertices[faces]
+    areas = 0.5 * np.linalg.norm(
+        np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1
+    )
+    degenerate = np.nonzero(areas <= DEGENERATE_AREA * diagonal * diagonal)[0]
+    if len(degenerate):
+        raise InputError(
+            where,
+            f"{name}: {len(degenerate)} degenerate face(s) of zero area (first: face {int(degenerate[0])})",
+        )
+    _check_closed_and_oriented(faces, where, name)
+    volume, centroid = _volume_centroid(corners)
+    if abs(volume) <= ZERO_VOLUME * diagonal**3:
+        raise InputError(where, f"{name}: zero volume (a flat or empty surface)")
+    if volume < 0:
+        raise InputError(where, f"{name}: the faces point inward (negative enclosed volume {volume:.3g})")
+    return MeshPart(field, str(path), vertices, faces, float(volume), centroid)
+
+
+def _merge_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Merge bit-identical vertex positions (STL repeats every corner), dropping unused vertices."""
+    unique, inverse = np.unique(vertices, axis=0, return_inverse=True)
+    faces = inverse.reshape(-1)[faces]
+    used, remap = np.unique(faces, return_inverse=True)
+    return unique[used], remap.reshape(-1, 3)
+
+
+def _check_closed_and_oriented(faces: np.ndarray, where: str, name: str) -> None:
+    """Refuse a surface unless every edge is in two faces, traversed once each way (closed, oriented)."""
+    directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    undirected = np.sort(directed, axis=1)
+    _, counts = np.unique(undirected, axis=0, return_counts=True)
+    open_edges = int(np.sum(counts == 1))
+    shared = int(np.sum(counts > 2))
+    if open_edges:
+        raise InputError(where, f"{name}: not watertight: {open_edges} open edge(s) (in only one face)")
+    if shared:
+        raise InputError(
+            where, f"{name}: not a manifold surface: {shared} edge(s) shared by more than two faces"
+        )
+    _, directed_counts = np.unique(directed, axis=0, return_counts=True)
+    flipped = int(np.sum(directed_counts > 1))
+    if flipped:
+        raise InputError(
+            where, f"{name}: inconsistently oriented: {flipped} edge(s) traversed the same way by both faces"
+        )
+
+
+def _volume_centroid(corners: np.ndarray) -> tuple[float, np.ndarray]:
+    """Volume and centroid of a closed oriented surface: signed tetrahedra to a reference point."""
+    reference = corners.reshape(-1, 3).mean(axis=0)
+    a, b, c = (corners[:, k] - reference for k in range(3))
+    tets = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
+    volume = float(tets.sum())
+    if volume == 0.0:
+        return 0.0, reference
+    return volume, reference + (tets[:, None] * (a + b + c)).sum(axis=0) / (4.0 * volume)
+
+
+def _face_count_hint(path: Path) -> int | None:
+    """Return the face count a file declares, read without parsing it (binary STL, PLY header) or None."""
+    suffix = path.suffix.lower()
+    with path.open("rb") as handle:
+        head = handle.read(4096)
+    if suffix == ".stl" and not head.lstrip().lower().startswith(b"solid") and len(head) >= 84:
+        return int(struct.unpack("<I", head[80:84])[0])
+    if suffix == ".ply" and head.startswith(b"ply"):
+        for line in head.split(b"\n"):
+            words = line.split()
+            if len(words) == 3 and words[0] == b"element" and words[1] == b"face":
+                try:
+                    return int(words[2])
+                except ValueError:
+                    return None
+            if line.strip() == b"end_header":
+                break
+        return None
+    if suffix in (".obj", ".stl"):
+        # Text formats: a face is a line starting 'f ' (OBJ) or 'facet' (ASCII STL); counting is one read.
+        marker = b"\nf " if suffix == ".obj" else b"facet"
+        count = 0
+        with path.open("rb") as handle:
+            tail = b""
+            while chunk := handle.read(1 << 20):
+                block = tail + chunk
+                count += block.count(marker) - tail.count(marker)
+                tail = block[-8:]
+        return count
+    return None
+
+
+def part_bounds(parts: Sequence[Any]) -> tuple[np.ndarray, np.ndarray]:
+    """Return the lower and upper corners of the bounding box of parts (convex pieces or meshes)."""
+    return np.min([p.lower for p in parts], axis=0), np.max([p.upper for p in parts], axis=0)
