@@ -59,8 +59,28 @@ def player(ros_domain: int, listen: Any, bag: tuple[Path, list[int]]) -> Iterato
     bp.end(process)
 
 
+@pytest.fixture(scope="module")
+def key_player(ros_domain: int, bag: tuple[Path, list[int]]) -> Iterator[tuple[subprocess.Popen, int]]:
+    """A player whose stdin is a terminal (a pty), started with the other so their start-ups overlap."""
+    master, slave = pty.openpty()
+    process = subprocess.Popen(
+        [*bp.FEEDER, "play", str(bag[0]), "--start-paused", "--node-name", "key_player"]
+        + ["--playback-duration", "0.5", "--linger", "0", "--json"],
+        stdin=slave,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    os.close(slave)
+    yield process, master
+    os.close(master)
+    bp.end(process)
+
+
 @pytest.mark.ros
-def test_paused_start_play_next_and_burst(ros_client: Any, listen: Any, player: Any, bag: Any) -> None:
+def test_paused_start_play_next_and_burst(
+    ros_client: Any, listen: Any, player: Any, key_player: Any, bag: Any
+) -> None:
     stamps = bag[1]
     out = listen(String, OUT)
     assert _call(ros_client, IsPaused, "is_paused").paused
@@ -115,35 +135,22 @@ def test_seek_rate_and_resume_play_the_rest(ros_client: Any, listen: Any, player
 
 
 @pytest.mark.ros
-def test_keyboard_on_a_terminal(ros_client: Any, bag: Any) -> None:
-    master, slave = pty.openpty()
-    process = subprocess.Popen(
-        [*bp.FEEDER, "play", str(bag[0]), "--start-paused", "--node-name", "key_player"]
-        + ["--playback-duration", "0.5", "--linger", "0", "--json"],
-        stdin=slave,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
+def test_keyboard_on_a_terminal(ros_client: Any, key_player: Any) -> None:
+    process, master = key_player
+    assert _call(ros_client, IsPaused, "is_paused", node="key_player").paused
+    os.write(master, b"\x1b[A")  # up arrow: rate x 1.1
+    bp.wait_until(
+        lambda: abs(_call(ros_client, GetRate, "get_rate", node="key_player").rate - 1.1) < 1e-9,
+        30,
+        "the up arrow to raise the rate",
     )
-    os.close(slave)
-    try:
-        assert _call(ros_client, IsPaused, "is_paused", node="key_player").paused
-        os.write(master, b"\x1b[A")  # up arrow: rate x 1.1
-        bp.wait_until(
-            lambda: abs(_call(ros_client, GetRate, "get_rate", node="key_player").rate - 1.1) < 1e-9,
-            30,
-            "the up arrow to raise the rate",
-        )
-        # ~/toggle_paused is the space key's control as a service: toggled twice, paused again.
-        _call(ros_client, TogglePaused, "toggle_paused", node="key_player")
-        assert not _call(ros_client, IsPaused, "is_paused", node="key_player").paused
-        _call(ros_client, TogglePaused, "toggle_paused", node="key_player")
-        assert _call(ros_client, IsPaused, "is_paused", node="key_player").paused
-        os.write(master, b" ")  # space: resume; 0.5 s of bag time later the player ends
-        out, err = process.communicate(timeout=60)
-        assert process.returncode == 0, err
-        assert json.loads(out)["topics"]["/seq"]["count"] == 26  # stamps 0 .. 0.5 s, 20 ms apart
-        assert "space pause/resume" in err
-    finally:
-        os.close(master)
-        bp.end(process)
+    # ~/toggle_paused is the space key's control as a service: toggled twice, paused again.
+    _call(ros_client, TogglePaused, "toggle_paused", node="key_player")
+    assert not _call(ros_client, IsPaused, "is_paused", node="key_player").paused
+    _call(ros_client, TogglePaused, "toggle_paused", node="key_player")
+    assert _call(ros_client, IsPaused, "is_paused", node="key_player").paused
+    os.write(master, b" ")  # space: resume; 0.5 s of bag time later the player ends
+    out, err = process.communicate(timeout=60)
+    assert process.returncode == 0, err
+    assert json.loads(out)["topics"]["/seq"]["count"] == 26  # stamps 0 .. 0.5 s, 20 ms apart
+    assert "space pause/resume" in err

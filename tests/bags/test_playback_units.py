@@ -1,11 +1,10 @@
 """Play timing and controls without ROS: the window, the bag clock, the play loop's controls, keys, and
-the refusal of a damaged bag by ``feeder play`` (which starts no node for it)."""
+the refusal of a damaged bag by ``feeder play`` (in process: it refuses before any node starts)."""
 
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
+import shutil
 import threading
 import time
 from pathlib import Path
@@ -16,9 +15,8 @@ import pytest
 from feeder_cell.bag.keyboard import KeyboardControls, KeyDecoder
 from feeder_cell.bag.playback import NS, BagClock, Item, Playback, Window, playback_window
 from feeder_cell.bag.player import check_integrity, parse_remap
+from feeder_cell.cli.main import main
 from feeder_planner.errors import InputError
-
-FEEDER = [sys.executable, "-m", "feeder_cell.cli.main"]
 
 
 class FakeWall:
@@ -160,24 +158,31 @@ def test_keys_decode_even_split_and_controls_stay_off_without_a_terminal() -> No
             pass  # nothing read, nothing to restore
 
 
-def test_a_damaged_or_cut_bag_is_refused_naming_file_offset_and_reindex(tmp_path: Path) -> None:
-    bag = tmp_path / "bag"
-    pb.write_seq_bag(bag, 200, NS // 100)
-    check_integrity(bag)  # the intact bag passes
-    mcap = next(bag.glob("*.mcap"))
-    data = bytearray(mcap.read_bytes())
-    for case, damaged in (
-        ("garbage in a chunk", data[: len(data) // 2] + b"\xff" * 64 + data[len(data) // 2 + 64 :]),
-        ("cut at half", data[: len(data) // 2]),
-    ):
-        mcap.write_bytes(bytes(damaged))
+def test_a_damaged_or_cut_bag_is_refused_naming_file_offset_and_reindex(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    intact = tmp_path / "intact"
+    pb.write_seq_bag(intact, 200, NS // 100)
+    check_integrity(intact)  # the intact bag passes
+    data = next(intact.glob("*.mcap")).read_bytes()
+    half = len(data) // 2
+    cases = {
+        "garbage in a chunk": data[:half] + b"\xff" * 64 + data[half + 64 :],
+        "cut at half": data[:half],
+    }
+    bags = {}
+    for case, damaged in cases.items():
+        bag = tmp_path / case.replace(" ", "_")
+        shutil.copytree(intact, bag)
+        mcap = next(bag.glob("*.mcap"))
+        mcap.write_bytes(damaged)
         with pytest.raises(InputError, match="bag-reindex") as error:
             check_integrity(bag)
         assert mcap.name in str(error.value) and "byte" in str(error.value), case
-        # The command refuses it in one line before any node starts (exit 2, no traceback).
-        result = subprocess.run([*FEEDER, "play", str(bag)], capture_output=True, text=True, timeout=60)
-        assert result.returncode == 2 and "Traceback" not in result.stderr, (case, result.stderr)
-        lines = result.stderr.strip().splitlines()
-        assert len(lines) == 1 and mcap.name in lines[0] and "byte" in lines[0] and "bag-reindex" in lines[0]
-    mcap.write_bytes(bytes(data))
-    check_integrity(bag)
+        bags[case] = bag
+    # The command refuses each in one line before any node starts (exit 2, no traceback).
+    for case, bag in bags.items():
+        assert main(["play", str(bag)]) == 2, case
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert len(lines) == 1, (case, lines)
+        assert "byte" in lines[0] and "bag-reindex" in lines[0] and str(bag) in lines[0], case
