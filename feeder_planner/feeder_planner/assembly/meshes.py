@@ -159,15 +159,17 @@ def load_mesh_part(
     """
     where = f"{field}.file"
     size = path.stat().st_size
-    if size > MAX_MESH_BYTES:
-        raise InputError(where, f"{str(path)!r}: {size} bytes is more than the {MAX_MESH_BYTES} byte limit")
-    faces_hint = _face_count_hint(path)
+    # The declared face count first (binary STL, PLY headers; text files up to the byte limit are counted):
+    # a 2-million-face export is refused for its faces, before the byte limit.
+    faces_hint = _face_count_hint(path) if size <= MAX_MESH_BYTES or _has_header(path) else None
     if faces_hint is not None and faces_hint > MAX_MESH_FACES:
         raise InputError(
             where,
             f"{str(path)!r}: {faces_hint} faces is more than the limit of {MAX_MESH_FACES} "
             "(decimate the mesh: contacts need only its planar faces)",
         )
+    if size > MAX_MESH_BYTES:
+        raise InputError(where, f"{str(path)!r}: {size} bytes is more than the {MAX_MESH_BYTES} byte limit")
     vertices, faces = _read(path, where)
     if len(faces) > MAX_MESH_FACES:
         raise InputError(
@@ -267,6 +269,16 @@ def _volume_centroid(corners: np.ndarray) -> tuple[float, np.ndarray]:
     if volume == 0.0:
         return 0.0, reference
     return volume, reference + (tets[:, None] * (a + b + c)).sum(axis=0) / (4.0 * volume)
+
+
+def _has_header(path: Path) -> bool:
+    """Whether the file declares its face count in a header (binary STL or PLY): read in O(1)."""
+    with path.open("rb") as handle:
+        head = handle.read(5)
+    suffix = path.suffix.lower()
+    return (suffix == ".stl" and not head.lower().startswith(b"solid")) or (
+        suffix == ".ply" and head.startswith(b"ply")
+    )
 
 
 def _face_count_hint(path: Path) -> int | None:
