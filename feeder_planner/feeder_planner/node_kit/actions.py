@@ -26,6 +26,8 @@ from rclpy.action.server import ServerGoalHandle
 
 from feeder_planner.errors import FeederError
 from feeder_planner.node_kit.device import ManagedDevice
+from feeder_planner.node_kit.qos import request_qos
+from feeder_planner.node_kit.services import request_queue_depth
 
 __all__ = ["serve_device_action"]
 
@@ -67,6 +69,8 @@ def serve_device_action(
     def on_cancel(goal_handle: ServerGoalHandle) -> CancelResponse:
         return CancelResponse.ACCEPT
 
+    # Goal, cancel and result requests queue as deep as the device's services (node_kit.services).
+    queue = request_qos(request_queue_depth(device))
     return ActionServer(
         device,
         action_type,
@@ -74,4 +78,7 @@ def serve_device_action(
         execute_callback=on_execute,
         goal_callback=on_goal,
         cancel_callback=on_cancel,
+        goal_service_qos_profile=queue,
+        result_service_qos_profile=queue,
+        cancel_service_qos_profile=queue,
     )

@@ -33,6 +33,7 @@ from feeder_planner.errors import FeederError, InputError
 from feeder_planner.node_kit.parameters import ParameterSpec, check_value, declare_parameters, positive
 from feeder_planner.node_kit.qos import LATCHED
 from feeder_planner.node_kit.rate import RateMonitor, RateReport
+from feeder_planner.node_kit.services import REQUEST_QUEUE_PARAMETER, serve
 
 __all__ = [
     "DeviceState",
@@ -183,6 +184,7 @@ DEVICE_PARAMETERS = (
         "hardware_id in /diagnostics (empty: sim:<fully qualified node name>)",
         read_only=True,
     ),
+    REQUEST_QUEUE_PARAMETER,
 )
 
 
@@ -212,9 +214,9 @@ class ManagedDevice(LifecycleNode):
         self._last_status: tuple[Any, ...] | None = None
         self._status_pub = self.create_publisher(DeviceStatus, "~/status", LATCHED)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
-        self.create_service(Trigger, "~/stop", self._on_stop)
-        self.create_service(Trigger, "~/reset", self._on_reset)
-        self.create_service(InjectFault, "~/inject_fault", self._on_inject_fault)
+        serve(self, Trigger, "~/stop", self._on_stop)
+        serve(self, Trigger, "~/reset", self._on_reset)
+        serve(self, InjectFault, "~/inject_fault", self._on_inject_fault)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         # Under use_sim_time the node clock reads 0 until the first /clock arrives; the device's model
         # starts from that first reading, whatever the order in which the clock and the device came up.

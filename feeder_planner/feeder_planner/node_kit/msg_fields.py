@@ -13,6 +13,7 @@ from typing import Any, Protocol, TypeVar
 
 from feeder_planner.errors import InputError
 from feeder_planner.mems.fields import ProgramStep, check_field_type, field_from_mapping, field_parameters
+from feeder_planner.node_kit.request_limits import MAX_PROGRAM_STEPS, check_count
 
 __all__ = [
     "FieldSpecLike",
@@ -105,6 +106,7 @@ def program_from_msg(msg: FieldProgramLike, field: str = "program") -> tuple[Pro
     """
     if len(msg.steps) == 0:
         raise InputError(f"{field}.steps", "a field program needs at least one step")
+    check_count(len(msg.steps), MAX_PROGRAM_STEPS, f"{field}.steps", "steps")
     steps = []
     for i, spec in enumerate(msg.steps):
         where = f"{field}.steps[{i}]"

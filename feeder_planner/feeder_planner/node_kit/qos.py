@@ -2,9 +2,16 @@
 
 from __future__ import annotations
 
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-__all__ = ["LATCHED", "STREAM_DEPTH", "EVENT_DEPTH"]
+__all__ = [
+    "LATCHED",
+    "STREAM_DEPTH",
+    "EVENT_DEPTH",
+    "DEFAULT_REQUEST_QUEUE_DEPTH",
+    "MAX_REQUEST_QUEUE_DEPTH",
+    "request_qos",
+]
 
 # Descriptions (parts, field programs, regions) change rarely and a late subscriber needs the current
 # one: reliable, transient-local, keep only the last (the ROS 2 "latched" idiom).
@@ -17,3 +24,25 @@ STREAM_DEPTH = 10
 
 # Discrete events (throws, sensor edges) must not be lost to a short stall of a subscriber.
 EVENT_DEPTH = 50
+
+# Requests to services and action servers: rclpy's default keeps the last 10, so a burst of 200 calls
+# loses 190 without a word. A deep reliable queue keeps every request of a burst until it is served;
+# nodes take the depth from their ``request_queue_depth`` parameter (node_kit.services).
+DEFAULT_REQUEST_QUEUE_DEPTH = 1000
+MAX_REQUEST_QUEUE_DEPTH = 100_000
+
+
+def request_qos(depth: int = DEFAULT_REQUEST_QUEUE_DEPTH) -> QoSProfile:
+    """Return the QoS of a service's or action server's request queue (and a bursting client's replies).
+
+    Parameters
+    ----------
+    depth
+        Requests kept while the server is busy (keep last, reliable, volatile).
+    """
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST,
+        depth=depth,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.VOLATILE,
+    )

@@ -5,10 +5,11 @@ from __future__ import annotations
 from typing import Callable, TypeVar
 
 import rclpy
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import Executor, ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
 
 from feeder_planner.errors import InputError
+from feeder_planner.node_kit.names import EXIT_DUPLICATE_NAME, DuplicateNameError, watch_for_namesake
 
 __all__ = ["build_node", "run_node"]
 
@@ -28,13 +29,29 @@ def build_node(factory: Callable[[], NodeType], name: str, args: list[str] | Non
         raise SystemExit(EXIT_BAD_CONFIGURATION) from None
 
 
-def run_node(factory: Callable[[], Node], name: str, args: list[str] | None = None) -> None:
-    """Build and spin one node: a bad configuration is a FATAL log and exit 2; Ctrl-C a clean stop."""
+def run_node(factory: Callable[[], Node], name: str, args: list[str] | None = None, threads: int = 1) -> None:
+    """Build and spin one node: a bad configuration is a FATAL log and exit 2; Ctrl-C a clean stop.
+
+    ``threads`` > 1 spins a multi-threaded executor: a planner whose services have their own callback
+    groups (``services.serve(own_group=True)``) then serves a long request beside its other work. A
+    namesake in the graph at start-up ends the node with exit 1 (node_kit.names).
+    """
     node = build_node(factory, name, args)
+    executor: Executor = (
+        MultiThreadedExecutor(num_threads=threads) if threads > 1 else SingleThreadedExecutor()
+    )
+    executor.add_node(node)
+    watch_for_namesake(node)
+    code = 0
     try:
-        rclpy.spin(node)
+        executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except DuplicateNameError:
+        code = EXIT_DUPLICATE_NAME
     finally:
+        executor.shutdown(timeout_sec=1.0)
         node.destroy_node()
         rclpy.try_shutdown()
+    if code:
+        raise SystemExit(code)

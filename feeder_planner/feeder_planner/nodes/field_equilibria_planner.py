@@ -43,6 +43,8 @@ from feeder_planner.node_kit import (
 )
 from feeder_planner.node_kit.msg_fields import program_from_msg
 from feeder_planner.node_kit.msg_parts import part_from_msg
+from feeder_planner.node_kit.request_limits import check_part_size
+from feeder_planner.node_kit.services import REQUEST_QUEUE_PARAMETER, serve
 from feeder_planner.parts import Part
 
 __all__ = ["PARAMETERS", "FieldEquilibriaPlanner", "main"]
@@ -80,7 +82,11 @@ PARAMETERS = (
         _device_name,
         read_only=True,
     ),
+    REQUEST_QUEUE_PARAMETER,
 )
+
+# The service's thread and one for the subscriptions and the prediction timer.
+THREADS = 3
 
 
 class FieldEquilibriaPlanner(Node):
@@ -91,7 +97,7 @@ class FieldEquilibriaPlanner(Node):
         self.p = declare_parameters(self, PARAMETERS)
         device = self.p["device"].rstrip("/")
         self.add_on_set_parameters_callback(self.on_parameters)
-        self.create_service(EquilibriaCompute, "~/equilibria", service_guard(self)(self.on_compute))
+        serve(self, EquilibriaCompute, "~/equilibria", service_guard(self)(self.on_compute), own_group=True)
         self.prediction_pub = self.create_publisher(EquilibriaPrediction, "~/predicted_poses", LATCHED)
         try:
             self.create_subscription(FieldProgram, f"{device}/field_program", self.on_program, LATCHED)
@@ -126,6 +132,7 @@ class FieldEquilibriaPlanner(Node):
         self, request: EquilibriaCompute.Request, response: EquilibriaCompute.Response
     ) -> EquilibriaCompute.Response:
         """Answer an equilibria request with the mechanics' result (method, certified, pivot, area, all)."""
+        check_part_size(request.part)
         part = part_from_msg(request.part, "part")
         method = check_method(request.method or self.p["default_method"])
         result = find_equilibria(part, request.delta, method)
@@ -195,7 +202,7 @@ class FieldEquilibriaPlanner(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the node until shut down."""
-    run_node(FieldEquilibriaPlanner, "field_equilibria_planner", args)
+    run_node(FieldEquilibriaPlanner, "field_equilibria_planner", args, threads=THREADS)
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from rclpy.node import Node
 
 from feeder_msgs.msg import StabilityRegion
@@ -11,8 +12,9 @@ from feeder_msgs.srv import StabilityCheck, StablePath, StableRegion
 from feeder_planner.assembly import (
     DEFAULT_PATH_STEP,
     MIN_FACETS,
+    Assembly,
     PreparedAssembly,
-    assembly_from_text,
+    assembly_from_document,
     check_result,
     path_result,
     prepare,
@@ -27,8 +29,18 @@ from feeder_planner.node_kit.msg_assembly import (
     load_assembly_parameter,
     region_msg,
 )
+from feeder_planner.node_kit.request_limits import (
+    MAX_FACETS,
+    MAX_PATH_SAMPLES,
+    bounded_yaml_mapping,
+    check_count,
+)
+from feeder_planner.node_kit.services import REQUEST_QUEUE_PARAMETER, serve
 
 __all__ = ["PARAMETERS", "StableRegionPlanner", "main"]
+
+# One thread per service and one for the rest: a long path occupies its service's thread only.
+THREADS = 4
 
 PARAMETERS = ASSEMBLY_PARAMETERS
 
@@ -42,15 +54,15 @@ class StableRegionPlanner(Node):
 
     def __init__(self) -> None:
         super().__init__("stable_region_planner")
-        self.p = declare_parameters(self, PARAMETERS)
+        self.p = declare_parameters(self, (*PARAMETERS, REQUEST_QUEUE_PARAMETER))
         self.assembly = load_assembly_parameter(self.p["assembly_file"])
         self.prepared = prepare(
             self.assembly, self.p["mu"] if self.p["override_mu"] else None, self.p["facets"]
         )
         guard = service_guard(self)
-        self.create_service(StableRegion, "~/stable_region", guard(self.on_region))
-        self.create_service(StabilityCheck, "~/check_stability", guard(self.on_check))
-        self.create_service(StablePath, "~/safe_path", guard(self.on_path))
+        serve(self, StableRegion, "~/stable_region", guard(self.on_region), own_group=True)
+        serve(self, StabilityCheck, "~/check_stability", guard(self.on_check), own_group=True)
+        serve(self, StablePath, "~/safe_path", guard(self.on_path), own_group=True)
         self.region_pub = self.create_publisher(StabilityRegion, "~/region", LATCHED)
         self.region_pub.publish(region_msg(region_result(self.prepared)))
         self.get_logger().info(
@@ -62,21 +74,18 @@ class StableRegionPlanner(Node):
         self, request: StableRegion.Request | StabilityCheck.Request | StablePath.Request
     ) -> PreparedAssembly:
         """Return the node's prepared assembly, or the request's own assembly / mu / K (fields validated)."""
-        if request.override_mu:
+        if request.override_mu or not math.isfinite(request.mu):  # NaN is refused even when unused
             validate_mu(request.mu, "mu")
         if request.facets != 0 and request.facets < MIN_FACETS:
             raise InputError("facets", f"must be 0 (node default) or >= {MIN_FACETS}, got {request.facets}")
+        check_count(request.facets, MAX_FACETS, "facets", "friction-pyramid facets")
         if (
             not request.assembly_yaml
             and not request.override_mu
             and request.facets in (0, self.prepared.facets)
         ):
             return self.prepared
-        assembly = (
-            assembly_from_text(request.assembly_yaml, "assembly_yaml")
-            if request.assembly_yaml
-            else self.assembly
-        )
+        assembly = _request_assembly(request.assembly_yaml) if request.assembly_yaml else self.assembly
         mu = request.mu if request.override_mu else (self.prepared.mu if not request.assembly_yaml else None)
         return prepare(assembly, mu, request.facets or self.prepared.facets)
 
@@ -104,15 +113,35 @@ class StableRegionPlanner(Node):
         start, goal = from_vec(request.start, "start"), from_vec(request.goal, "goal")
         if not math.isfinite(request.step) or request.step < 0:
             raise InputError("step", f"must be 0 (1 degree) or a positive angle in rad, got {request.step!r}")
+        step = request.step or DEFAULT_PATH_STEP
+        arc = math.acos(
+            max(-1.0, min(1.0, float(start @ goal) / (np.linalg.norm(start) * np.linalg.norm(goal))))
+        )
+        samples = math.ceil(arc / step) + 1
+        if samples > MAX_PATH_SAMPLES:
+            raise InputError(
+                "step",
+                f"{step:.3g} rad over the {arc:.3g} rad arc is {samples} samples; the limit per request is "
+                f"{MAX_PATH_SAMPLES} (a step of at least {arc / (MAX_PATH_SAMPLES - 1):.3g} rad)",
+            )
         result = path_result(self._prepared(request), start, goal, request.step or DEFAULT_PATH_STEP)
         response.path = [vec(g) for g in result.path]
         response.min_margin = result.min_margin_rad
         return response
 
 
+def _request_assembly(text: str, mesh_base_dir: str | None = None) -> Assembly:
+    """Parse a request's ``assembly_yaml`` (size, aliases, nesting bounded; meshes relative to the base)."""
+    document = bounded_yaml_mapping(text, "assembly_yaml")
+    try:
+        return assembly_from_document(document, "assembly_yaml", mesh_base_dir)
+    except InputError as error:
+        raise InputError(f"assembly_yaml ({error.field})", error.problem) from None
+
+
 def main(args: list[str] | None = None) -> None:
     """Run the node until shutdown."""
-    run_node(StableRegionPlanner, "stable_region_planner", args)
+    run_node(StableRegionPlanner, "stable_region_planner", args, threads=THREADS)
 
 
 if __name__ == "__main__":

@@ -20,6 +20,20 @@ from feeder_planner.node_kit import (
     service_guard,
 )
 from feeder_planner.node_kit.msg_parts import part_from_msg
+from feeder_planner.node_kit.request_limits import (
+    LENGTH_RANGE_M,
+    MAX_DESIGNS,
+    MAX_SPEED,
+    MAX_STARTS_PER_EDGE,
+    MAX_THROW_WORK,
+    MAX_THROWS,
+    MIN_THROWS,
+    check_count,
+    check_design,
+    check_magnitude,
+    check_part_size,
+)
+from feeder_planner.node_kit.services import REQUEST_QUEUE_PARAMETER, serve
 from feeder_planner.throwing import (
     DEFAULT_STARTS_PER_EDGE,
     DEFAULT_THROWS,
@@ -49,10 +63,14 @@ PARAMETERS = (
         "default_throws",
         DEFAULT_THROWS,
         "throws per start when a request leaves it 0",
-        integer_at_least(3),
+        integer_at_least(MIN_THROWS),
         read_only=True,
     ),
+    REQUEST_QUEUE_PARAMETER,
 )
+
+# One thread per service and one for the rest: a long limit set occupies its service's thread only.
+THREADS = 6
 
 
 class _ThrowRequest(Protocol):
@@ -73,12 +91,22 @@ class _LimitRequest(_ThrowRequest, Protocol):
 
 def _params(request: _ThrowRequest) -> ThrowParams:
     """Return the request's design parameters, checked (errors name the request field)."""
+    check_design(
+        {
+            "offset": request.offset,
+            "release_speed": request.release_speed,
+            "gravity": request.gravity,
+            "mu": request.mu,
+        }
+    )
     return ThrowParams(request.offset, request.release_speed, request.gravity, request.mu)
 
 
 def _height(value: float) -> float | None:
     """Return a request's sensing height: negative means the default (None); NaN or inf is refused."""
-    return None if math.isfinite(value) and value < 0 else check_sensing_height(value)
+    if math.isfinite(value) and value < 0:
+        return None
+    return check_sensing_height(check_magnitude(value, LENGTH_RANGE_M[1], "sensing_height", "m"))
 
 
 class ThrowPlanner(Node):
@@ -91,14 +119,16 @@ class ThrowPlanner(Node):
         super().__init__("throw_planner")
         self.p = declare_parameters(self, PARAMETERS)
         guard = service_guard(self)
-        self.create_service(GraspRadii, "~/grasp_radii", guard(self.on_grasp))
-        self.create_service(ThrowCompute, "~/throw", guard(self.on_throw))
-        self.create_service(LimitSetCompute, "~/limit_set", guard(self.on_limit_set))
-        self.create_service(SensorTriggerRadii, "~/trigger_radii", guard(self.on_trigger))
-        self.create_service(DesignSearch, "~/design_search", guard(self.on_design))
+        serve(self, GraspRadii, "~/grasp_radii", guard(self.on_grasp), own_group=True)
+        serve(self, ThrowCompute, "~/throw", guard(self.on_throw), own_group=True)
+        serve(self, LimitSetCompute, "~/limit_set", guard(self.on_limit_set), own_group=True)
+        serve(self, SensorTriggerRadii, "~/trigger_radii", guard(self.on_trigger), own_group=True)
+        serve(self, DesignSearch, "~/design_search", guard(self.on_design), own_group=True)
 
     def on_grasp(self, request: GraspRadii.Request, response: GraspRadii.Response) -> GraspRadii.Response:
         """Answer R_grasp for every stable edge (eqs. 1-4)."""
+        check_part_size(request.part)
+        check_design({"offset": request.offset, "mu": request.mu})
         part = part_from_msg(request.part)
         check_grasp_parameters(request.offset, request.mu)
         radii = grasp_radii(arm_part(part), request.offset, request.mu)
@@ -110,23 +140,34 @@ class ThrowPlanner(Node):
         self, request: ThrowCompute.Request, response: ThrowCompute.Response
     ) -> ThrowCompute.Response:
         """Answer one application of the throw map."""
+        check_part_size(request.part)
+        params = _params(request)
+        check_design({"radius": request.radius}, radius="radius")
         part = part_from_msg(request.part)
-        result = throw(arm_part(part), request.edge, request.radius, _params(request))
+        result = throw(arm_part(part), request.edge, request.radius, params)
         response.edge_after, response.radius_after = result.edge, result.radius
         response.kind, response.turns = result.kind, result.turns
         return response
 
     def _limit(self, request: _LimitRequest, goal: int | None, starts: int, throws: int) -> LimitSet:
         """Return the limit set a request asks for; 0 starts or throws mean the node's defaults."""
-        part = part_from_msg(request.part)
-        return limit_set(
-            arm_part(part),
-            _params(request),
-            goal,
-            starts or self.p["default_starts_per_edge"],
-            throws or self.p["default_throws"],
-            sensing_height=_height(request.sensing_height),
-        )
+        check_part_size(request.part)
+        params = _params(request)
+        check_count(starts, MAX_STARTS_PER_EDGE, "starts_per_edge", "starts per edge")
+        check_count(throws, MAX_THROWS, "throws", "throws per start")
+        if 0 < throws < MIN_THROWS:
+            raise InputError("throws", f"must be 0 (node default) or >= {MIN_THROWS}, got {throws}")
+        starts = starts or self.p["default_starts_per_edge"]
+        throws = throws or self.p["default_throws"]
+        part = arm_part(part_from_msg(request.part))
+        work = starts * throws * len(part.stable_edges)
+        if work > MAX_THROW_WORK:
+            raise InputError(
+                "starts_per_edge, throws",
+                f"{starts} starts x {throws} throws x {len(part.stable_edges)} stable edges = {work} "
+                f"throw states; the limit per request is {MAX_THROW_WORK}",
+            )
+        return limit_set(part, params, goal, starts, throws, sensing_height=_height(request.sensing_height))
 
     def on_limit_set(
         self, request: LimitSetCompute.Request, response: LimitSetCompute.Response
@@ -175,12 +216,23 @@ class ThrowPlanner(Node):
         self, request: DesignSearch.Request, response: DesignSearch.Response
     ) -> DesignSearch.Response:
         """Answer every design of the (h, W) grid and the best one."""
+        check_part_size(request.part)
+        offsets, speeds = list(request.offsets), list(request.release_speeds)
+        # Counted before any list is read: 1e5 x 1e5 values must cost nothing.
+        check_count(len(offsets), MAX_DESIGNS, "offsets", "values")
+        check_count(len(speeds), MAX_DESIGNS, "release_speeds", "values")
+        check_count(len(offsets) * len(speeds), MAX_DESIGNS, "offsets x release_speeds", "designs")
+        for i, value in enumerate(offsets):
+            check_magnitude(value, LENGTH_RANGE_M[1], f"offsets[{i}]", "m")
+        for i, value in enumerate(speeds):
+            check_magnitude(value, MAX_SPEED, f"release_speeds[{i}]", "rad/s")
+        check_design({"gravity": request.gravity, "mu": request.mu})
         part = part_from_msg(request.part)
         found = search(
             arm_part(part),
             request.goal_edge,
-            np.array(list(request.offsets)),
-            np.array(list(request.release_speeds)),
+            np.array(offsets),
+            np.array(speeds),
             request.gravity,
             request.mu,
             _height(request.sensing_height),
@@ -209,7 +261,7 @@ def _candidate(row: DesignRow) -> DesignCandidate:
 
 def main(args: list[str] | None = None) -> None:
     """Run the throw_planner node."""
-    run_node(ThrowPlanner, "throw_planner", args)
+    run_node(ThrowPlanner, "throw_planner", args, threads=THREADS)
 
 
 if __name__ == "__main__":

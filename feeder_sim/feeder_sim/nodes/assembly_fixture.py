@@ -56,6 +56,8 @@ from feeder_planner.node_kit import (
 from feeder_planner.node_kit.actions import serve_device_action
 from feeder_planner.node_kit.device import ActiveFault, DeviceError, FaultSpec, ManagedDevice
 from feeder_planner.node_kit.msg_assembly import ASSEMBLY_PARAMETERS, force_msgs, load_assembly_parameter
+from feeder_planner.node_kit.request_limits import MAX_WAYPOINTS, check_count
+from feeder_planner.node_kit.services import serve
 from feeder_sim.fixture import (
     CATCH_UP_PERIODS,
     FAULT_INFO,
@@ -245,7 +247,7 @@ class AssemblyFixture(ManagedDevice):
         self._release()
         # Kit workaround: ManagedDevice reports a fault code only for a stopping fault; rate_limit has a code
         # (FAULT_RATE_LIMIT) but does not stop the fixture, so status and diagnostics are amended here.
-        self.create_service(FixtureMove, "~/move", service_guard(self)(self.on_move))
+        serve(self, FixtureMove, "~/move", service_guard(self)(self.on_move))
         serve_device_action(self, FollowPath, FOLLOW_PATH, self._validate_follow, self._execute_follow)
 
     def _release(self) -> None:
@@ -419,6 +421,7 @@ class AssemblyFixture(ManagedDevice):
             raise DeviceError(f"move refused: a {FOLLOW_PATH} goal is executing; cancel it first")
         if not request.waypoints:
             raise InputError("waypoints", "needs at least one gravity direction")
+        check_count(len(request.waypoints), MAX_WAYPOINTS, "waypoints", "waypoints")
         waypoints = [from_vec(w, f"waypoints[{i}]") for i, w in enumerate(request.waypoints)]
         self._advance_to(self.get_clock().now().nanoseconds)
         self.require_ready("move")  # the table may have stalled on its way here
@@ -444,6 +447,8 @@ class AssemblyFixture(ManagedDevice):
         assert table is not None  # require_ready: configured
         if table.moving:
             raise DeviceError(f"{FOLLOW_PATH} goal refused: a ~/move is in progress; wait for it or ~/stop")
+        check_count(len(goal.gravity_waypoints), MAX_WAYPOINTS, "gravity_waypoints", "waypoints")
+        check_count(len(goal.tilt_waypoints) // 2, MAX_WAYPOINTS, "tilt_waypoints", "waypoints")
         waypoints = goal_waypoints(
             [(v.x, v.y, v.z) for v in goal.gravity_waypoints], list(goal.tilt_waypoints), self.limits
         )

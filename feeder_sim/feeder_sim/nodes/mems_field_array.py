@@ -66,6 +66,8 @@ from feeder_planner.node_kit.actions import serve_device_action
 from feeder_planner.node_kit.device import ActiveFault, DeviceError, FaultSpec, ManagedDevice
 from feeder_planner.node_kit.msg_fields import fill_field_spec, program_from_msg
 from feeder_planner.node_kit.msg_parts import part_to_msg
+from feeder_planner.node_kit.request_limits import MAX_NAMES, check_count
+from feeder_planner.node_kit.services import serve
 from feeder_planner.parts import Part, load_part
 from feeder_sim.mems import FIDELITIES, Body, Grid, Scene, random_poses
 from feeder_sim.mems.settling import (
@@ -100,6 +102,9 @@ FEEDBACK_PERIOD = 0.1
 # A cancel is looked at this often (Hz, steady clock) besides at every tick, so that a goal under a
 # held /clock can still be cancelled: cancelling moves nothing, it needs no tick.
 CANCEL_POLL_RATE = 10.0
+# ~/place_parts keeps parts within this many array extents of the origin, and angles within +-MAX_PLACE_ANGLE.
+PLACE_REACH_FACTOR = 10.0
+MAX_PLACE_ANGLE = 1e6  # rad: far beyond any turn count, short of where float angles lose their meaning
 OUTCOME_NAMES = {
     RunProgram.Result.SETTLED: "SETTLED",
     RunProgram.Result.TIMEOUT: "TIMEOUT",
@@ -284,8 +289,8 @@ class MemsFieldArray(ManagedDevice):
         self.goal_running = False
         self.goal_wake: Future | None = None
         self._release()
-        self.create_service(FieldSetProgram, "~/set_program", service_guard(self)(self.on_set_program))
-        self.create_service(MemsPlaceParts, "~/place_parts", service_guard(self)(self.on_place_parts))
+        serve(self, FieldSetProgram, "~/set_program", service_guard(self)(self.on_set_program))
+        serve(self, MemsPlaceParts, "~/place_parts", service_guard(self)(self.on_place_parts))
         serve_device_action(
             self, RunProgram, "~/run_program", self.validate_run_program, self.execute_run_program
         )
@@ -617,6 +622,8 @@ class MemsFieldArray(ManagedDevice):
             self.publish_status()
             return response
         n = len(request.names)
+        check_count(n, MAX_NAMES, "names", "names")
+        reach = self.placement_reach()
         for key in ("x", "y", "theta"):
             values = list(getattr(request, key))
             if len(values) != n:
@@ -624,6 +631,13 @@ class MemsFieldArray(ManagedDevice):
             bad = [i for i, v in enumerate(values) if not math.isfinite(v)]
             if bad:
                 raise InputError(f"{key}[{bad[0]}]", "must be finite")
+            limit = reach if key != "theta" else MAX_PLACE_ANGLE
+            far = [i for i, v in enumerate(values) if abs(v) > limit]
+            if far:
+                unit = "rad" if key == "theta" else "m (the array's extent)"
+                raise InputError(
+                    f"{key}[{far[0]}]", f"must be within +-{limit:.6g} {unit}, got {values[far[0]]:.6g}"
+                )
         targets = []
         for i, name in enumerate(request.names):
             if name not in self.names:
@@ -635,6 +649,15 @@ class MemsFieldArray(ManagedDevice):
         self.count["placements"] += 1
         self.publish_status()
         return response
+
+    def placement_reach(self) -> float:
+        """Return the largest |x| or |y| (m) a part may be placed at: the array's extent, with a margin.
+
+        A part placed far off the array only drifts in no field; one at 1e308 m makes the model's
+        arithmetic overflow into NaN poses for every subscriber, so placements stay near the array.
+        """
+        nx, ny = self.p["array_size"]
+        return PLACE_REACH_FACTOR * max(nx, ny) * float(self.p["pitch"])
 
     # --- ~/run_program --------------------------------------------------------------------------------
     def validate_run_program(self, goal: RunProgram.Goal) -> None:

@@ -49,6 +49,8 @@ from feeder_planner.node_kit import (
 )
 from feeder_planner.node_kit.actions import serve_device_action
 from feeder_planner.node_kit.device import ActiveFault, DeviceError, DeviceState, FaultSpec, ManagedDevice
+from feeder_planner.node_kit.request_limits import MAX_QUEUED_THROWS
+from feeder_planner.node_kit.services import serve
 from feeder_planner.parts import load_part
 from feeder_planner.throwing import ArmPart, ThrowParams, arm_part, lowest_radius
 from feeder_sim.throwing import (
@@ -199,8 +201,8 @@ class ThrowingArmNode(ManagedDevice):
         self._reset_run()
         guard = service_guard(self)
         # Served from the start; refused unless the device is ready (require_ready names the state).
-        self.create_service(ArmCommand, "~/command", guard(self._command))
-        self.create_service(ArmPlacePart, "~/place_part", guard(self._place))
+        serve(self, ArmCommand, "~/command", guard(self._command))
+        serve(self, ArmPlacePart, "~/place_part", guard(self._place))
         serve_device_action(self, FeedPart, "~/feed_part", self._validate_feed, self._execute_feed)
 
     def _reset_run(self) -> None:
@@ -378,6 +380,13 @@ class ThrowingArmNode(ManagedDevice):
         if command == "throw":
             if request.count < 1:
                 raise InputError("count", f"must be >= 1 for 'throw', got {request.count}")
+            # pending is a uint32 in the reply: a queue past the limit is refused, never wrapped
+            if self.pending + request.count > MAX_QUEUED_THROWS:
+                raise InputError(
+                    "count",
+                    f"{request.count} more throws on {self.pending} queued exceeds the queue limit of "
+                    f"{MAX_QUEUED_THROWS}",
+                )
             self.pending += request.count
         elif command == "start":
             self.running = True
@@ -394,6 +403,11 @@ class ThrowingArmNode(ManagedDevice):
             raise DeviceError("place_part refused: a ~/feed_part goal is executing (cancel it first)")
         if not math.isfinite(request.radius):
             raise InputError("radius", f"must be finite, got {request.radius!r}")
+        if abs(request.radius) > self.p["arm_length"]:
+            raise InputError(
+                "radius",
+                f"must be on the arm (|R| <= arm_length {self.p['arm_length']:g} m), got {request.radius:g}",
+            )
         self._model().place(request.edge, request.radius)
         self.motion = None
         if "part_lost" in self.faults:

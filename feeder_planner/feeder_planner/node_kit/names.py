@@ -1,0 +1,57 @@
+"""One node per fully qualified name: a node that finds a namesake at start-up refuses to run.
+
+Two nodes under one name run side by side without a word from ROS 2: their streams interleave, stamps go
+backwards, and every service has two servers (a lifecycle ``change_state`` may reach either). A cell must
+never run two devices under one name, so each feeder node watches the ROS graph for its first
+``DUPLICATE_WINDOW`` seconds (discovery of a node already running takes a moment) and, if another node
+has its fully qualified name, logs an error naming it and ends with ``EXIT_DUPLICATE_NAME``.
+
+Managed devices end too rather than refusing to configure: an unconfigured lifecycle node still serves
+its lifecycle and parameter services under the shared name, which is what must not happen.
+"""
+
+from __future__ import annotations
+
+import time
+
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+
+__all__ = ["DUPLICATE_WINDOW", "EXIT_DUPLICATE_NAME", "DuplicateNameError", "namesakes", "watch_for_namesake"]
+
+DUPLICATE_WINDOW = 2.0  # s (steady): Fast DDS discovery on one host takes well under a second
+EXIT_DUPLICATE_NAME = 1
+_POLL = 0.1  # s between looks at the graph
+
+
+class DuplicateNameError(RuntimeError):
+    """Another node in the graph has this node's fully qualified name."""
+
+
+def namesakes(node: Node) -> int:
+    """Return how many other nodes in the graph have ``node``'s name and namespace."""
+    own = (node.get_name(), node.get_namespace())
+    return sum(1 for entry in node.get_node_names_and_namespaces() if entry == own) - 1
+
+
+def watch_for_namesake(node: Node, window: float = DUPLICATE_WINDOW) -> None:
+    """Look for a namesake every 0.1 s for ``window`` s while the node spins.
+
+    A namesake found makes the timer raise ``DuplicateNameError`` out of the executor's spin (after an
+    error log naming the name); ``run_node`` then ends the process with ``EXIT_DUPLICATE_NAME``.
+    """
+    start = time.monotonic()
+    timer = None
+
+    def look() -> None:
+        if namesakes(node) > 0:
+            name = node.get_fully_qualified_name()
+            node.get_logger().error(
+                f"another node named {name} is already running: one name, one node "
+                f"(exit {EXIT_DUPLICATE_NAME}); start this one under another name or namespace"
+            )
+            raise DuplicateNameError(name)
+        if time.monotonic() - start > window and timer is not None:
+            node.destroy_timer(timer)
+
+    timer = node.create_timer(_POLL, look, clock=Clock(clock_type=ClockType.STEADY_TIME))

@@ -1,0 +1,221 @@
+"""The stated limits of a request to a node, checked before any work or allocation.
+
+A request is one message, but one message can ask for hours of work or gigabytes (1e5 x 1e5 designs, a
+path step of 1e-7 rad, 10,000 waypoints, 10 MB of YAML whose aliases expand a billion times). Each
+service checks its counts here first and answers ``ok: false`` naming the field and the limit; the
+limits are the README's node table. Magnitudes are checked to the models' stated ranges, so that a
+number the float type holds but the mechanics do not (R = 1e308 m) is refused by name rather than
+answered ``internal error``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sized
+from typing import Any
+
+import yaml
+
+from feeder_planner.errors import InputError
+
+__all__ = [
+    "MAX_LOOP_VERTICES",
+    "MAX_HOLES",
+    "MAX_PART_VERTICES",
+    "MAX_DESIGNS",
+    "MAX_STARTS_PER_EDGE",
+    "MAX_THROWS",
+    "MIN_THROWS",
+    "MAX_THROW_WORK",
+    "MAX_PATH_SAMPLES",
+    "MAX_FACETS",
+    "MAX_YAML_CHARS",
+    "MAX_YAML_NODES",
+    "MAX_YAML_DEPTH",
+    "MAX_WAYPOINTS",
+    "MAX_PROGRAM_STEPS",
+    "MAX_NAMES",
+    "MAX_NAME_CHARS",
+    "MAX_QUEUED_THROWS",
+    "LENGTH_RANGE_M",
+    "MAX_SPEED",
+    "MAX_GRAVITY",
+    "MAX_MU",
+    "check_count",
+    "check_magnitude",
+    "check_text",
+    "check_part_size",
+    "check_design",
+    "bounded_yaml_mapping",
+]
+
+MAX_LOOP_VERTICES = 1000  # per loop (outer or hole) of a feeder_msgs/Part
+MAX_HOLES = 100
+MAX_PART_VERTICES = 2000  # outer and holes together
+MAX_DESIGNS = 64  # offsets x release_speeds of one DesignSearch (each a limit set, ~0.5 s)
+MAX_STARTS_PER_EDGE = 1000
+MAX_THROWS = 10_000
+MIN_THROWS = 3  # fewer throws per start cannot show a cycle (the planner's default_throws has the same)
+MAX_THROW_WORK = 2_000_000  # starts_per_edge x throws x stable edges: the trajectory arrays' cells
+MAX_PATH_SAMPLES = 10_000  # samples of one StablePath (each an LP certificate)
+MAX_FACETS = 64  # friction-pyramid facets K of a request (the LP grows with K per contact)
+MAX_YAML_CHARS = 1 << 20  # characters of an assembly_yaml field
+MAX_YAML_NODES = 100_000  # YAML nodes after alias expansion (a billion-laughs document is refused)
+MAX_YAML_DEPTH = 64
+MAX_WAYPOINTS = 100  # FixtureMove / FollowPath waypoints (a device is single-threaded: ~0.3 s)
+MAX_PROGRAM_STEPS = 1000  # steps of one field program
+MAX_NAMES = 10_000  # entries of a list of part names
+MAX_NAME_CHARS = 256
+MAX_QUEUED_THROWS = 100_000  # throws an arm keeps queued (ArmCommand count and pending)
+# The models' length scale (issue 16: the mechanics are meaningful from nanometres to kilometres).
+LENGTH_RANGE_M = (1e-9, 1e4)
+MAX_SPEED = 1e4  # rad/s, |release speed|
+MAX_GRAVITY = 1e4  # m/s^2, |gravity|
+MAX_MU = 1e3
+
+
+def check_count(count: int, limit: int, field: str, what: str) -> None:
+    """Raise InputError naming ``field`` when ``count`` exceeds ``limit``.
+
+    Parameters
+    ----------
+    count, limit
+        The request's count and the stated limit.
+    field
+        The request field (or fields) the count comes from.
+    what
+        What is counted, e.g. ``"waypoints"``.
+    """
+    if count > limit:
+        raise InputError(field, f"has {count} {what}; the limit per request is {limit}")
+
+
+def check_magnitude(value: float, limit: float, field: str, unit: str) -> float:
+    """Return ``value`` as a float if finite and ``|value| <= limit``; else InputError naming ``field``."""
+    number = float(value)
+    if not math.isfinite(number):
+        raise InputError(field, f"must be finite, got {number!r}")
+    if abs(number) > limit:
+        raise InputError(field, f"must be within +-{limit:g} {unit}, got {number:.6g}")
+    return number
+
+
+def check_text(text: str, limit: int, field: str) -> str:
+    """Return ``text`` if at most ``limit`` characters, else raise InputError naming ``field``."""
+    if len(text) > limit:
+        raise InputError(field, f"has {len(text)} characters; the limit is {limit}")
+    return text
+
+
+def check_part_size(msg: Any, field: str = "part") -> None:
+    """Refuse a feeder_msgs/Part whose loops exceed the vertex and hole limits, before reading them."""
+    check_text(msg.name, MAX_NAME_CHARS, f"{field}.name")
+    check_text(msg.length_unit, MAX_NAME_CHARS, f"{field}.length_unit")
+    check_count(len(msg.holes), MAX_HOLES, f"{field}.holes", "holes")
+    loops: list[tuple[str, Any]] = [(f"{field}.outer", msg.outer)]
+    loops += [(f"{field}.holes[{i}]", hole) for i, hole in enumerate(msg.holes)]
+    total = 0
+    for where, loop in loops:
+        for axis in ("x", "y"):
+            values: Sized = getattr(loop, axis)
+            check_count(len(values), MAX_LOOP_VERTICES, f"{where}.{axis}", "vertices")
+        total += len(loop.x)
+    check_count(total, MAX_PART_VERTICES, field, "vertices in its loops")
+
+
+def check_design(
+    fields: dict[str, float], *, lengths: tuple[str, ...] = ("offset",), radius: str | None = None
+) -> None:
+    """Check a throwing design's magnitudes against the model's stated ranges, naming the field.
+
+    ``fields`` maps request field names (offset, release_speed, gravity, mu, radius...) to values;
+    lengths are within the length range's upper end, speed, gravity and mu within their own limits.
+    """
+    for name, value in fields.items():
+        if name in lengths or name == radius:
+            check_magnitude(value, LENGTH_RANGE_M[1], name, "m")
+        elif name in ("release_speed", "release_speeds"):
+            check_magnitude(value, MAX_SPEED, name, "rad/s")
+        elif name == "gravity":
+            check_magnitude(value, MAX_GRAVITY, name, "m/s^2")
+        elif name == "mu":
+            check_magnitude(value, MAX_MU, name, "")
+
+
+def _expanded_size(root: yaml.Node) -> tuple[int, int]:
+    """Return (nodes after alias expansion, depth) of a composed YAML graph, without expanding it."""
+    sizes: dict[int, tuple[int, int]] = {}
+    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
+    while stack:
+        node, done = stack.pop()
+        if id(node) in sizes:
+            continue
+        children: list[yaml.Node] = []
+        if isinstance(node, yaml.SequenceNode):
+            children = list(node.value)
+        elif isinstance(node, yaml.MappingNode):
+            children = [item for pair in node.value for item in pair]
+        if not done:
+            stack.append((node, True))
+            stack.extend((child, False) for child in children if id(child) not in sizes)
+            continue
+        total, depth = 1, 0
+        for child in children:
+            if id(child) not in sizes:  # a cycle (a recursive alias) is not a document
+                raise InputError("<yaml>", "an alias refers to its own ancestor (a recursive document)")
+            size, child_depth = sizes[id(child)]
+            total, depth = total + size, max(depth, child_depth)
+            if total > MAX_YAML_NODES:
+                total = MAX_YAML_NODES + 1  # enough to refuse; the true figure can be astronomical
+        sizes[id(node)] = (total, depth + 1)
+    return sizes[id(root)]
+
+
+def bounded_yaml_mapping(text: str, field: str) -> dict[str, Any]:
+    """Parse a request's YAML text into a mapping with its size, alias expansion and nesting bounded.
+
+    Parameters
+    ----------
+    text
+        The YAML document (a request field such as ``assembly_yaml``).
+    field
+        The request field, named by every error.
+
+    Raises
+    ------
+    InputError
+        Over ``MAX_YAML_CHARS`` characters, over ``MAX_YAML_NODES`` nodes once aliases are expanded,
+        nested deeper than ``MAX_YAML_DEPTH``, not YAML, or not a mapping. Messages quote nothing of
+        the text but a line number.
+    """
+    check_text(text, MAX_YAML_CHARS, field)
+    try:
+        loader = yaml.SafeLoader(text)
+    except yaml.YAMLError as exc:  # the reader refuses control characters before any parsing
+        raise InputError(field, f"not valid YAML text: {str(exc)[:120]}") from None
+    try:
+        root = loader.get_single_node()
+        if root is None:
+            raise InputError(field, "expected a mapping of fields, got an empty document")
+        try:
+            nodes, depth = _expanded_size(root)
+        except InputError as error:
+            raise InputError(field, error.problem) from None
+        if nodes > MAX_YAML_NODES:
+            raise InputError(
+                field, f"expands (aliases included) to more than the limit of {MAX_YAML_NODES} YAML nodes"
+            )
+        if depth > MAX_YAML_DEPTH:
+            raise InputError(field, f"is nested {depth} levels deep; the limit is {MAX_YAML_DEPTH}")
+        document = loader.construct_document(root)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}" if mark else f": {str(exc)[:120]}"
+        raise InputError(field, f"not valid YAML{where}") from None
+    except RecursionError:
+        raise InputError(field, f"is nested too deeply; the limit is {MAX_YAML_DEPTH} levels") from None
+    finally:
+        loader.dispose()
+    if not isinstance(document, dict):
+        raise InputError(field, f"expected a mapping of fields, got {type(document).__name__}")
+    return document
