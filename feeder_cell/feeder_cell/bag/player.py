@@ -71,20 +71,9 @@ def open_bag(path: Path) -> Reader:
     return reader
 
 
-def check_integrity(path: Path) -> None:
-    """Read every record of the bag's MCAP files; a damaged one is refused naming file and byte offset.
-
-    A bag whose summary is intact can still hold a damaged chunk (a bad copy, a disk error). rosbags
-    would fail only on reaching it, after part of the bag was played: reading it all first means play
-    is never a silent or unannounced partial replay. Chunks are CRC-checked where the writer set one.
-
-    Raises
-    ------
-    InputError
-        (field ``bag``) naming the file, the byte offset where the damage starts and bag-reindex.
-    """
-    files = sorted(path.glob("*.mcap")) if path.is_dir() else []
-    for mcap_file in files:
+def _first_damage(path: Path) -> tuple[Path, FileReport] | None:
+    """Scan every MCAP file of the bag; return the first one that does not read to its end, and why."""
+    for mcap_file in sorted(path.glob("*.mcap")) if path.is_dir() else []:
         size = mcap_file.stat().st_size
         report = FileReport(mcap_file.name, size, 0)
         try:
@@ -94,11 +83,38 @@ def check_integrity(path: Path) -> None:
         except OSError as exc:
             raise InputError("bag", f"{mcap_file} cannot be read: {exc.strerror}") from None
         if not report.complete:
-            raise InputError(
-                "bag",
-                f"{mcap_file} is damaged or cut short: {report.stopped_by} (intact up to byte "
-                f"{report.recovered_bytes} of {size}); {_reindex_hint(path)}",
-            )
+            return mcap_file, report
+    return None
+
+
+def check_integrity(path: Path) -> None:
+    """Read every record of the bag's MCAP files; a damaged one is refused naming file and byte offset.
+
+    A bag whose summary is intact can still hold a damaged chunk (a bad copy, a disk error). rosbags
+    would fail only on reaching it, after part of the bag was played: reading it all first means play
+    is never a silent or unannounced partial replay. Chunks are CRC-checked where the writer set one.
+    A bag that :func:`open_bag` refuses (no ``metadata.yaml``, a file without its summary) is refused
+    with its reason and, where a file is cut, the byte offset where the intact part ends.
+
+    Raises
+    ------
+    InputError
+        (field ``bag``) naming the file, the byte offset where the damage starts and bag-reindex.
+    """
+    damage = _first_damage(path)
+    where = ""
+    if damage is not None:
+        mcap_file, report = damage
+        where = (
+            f"{mcap_file} is intact up to byte {report.recovered_bytes} of {report.size} "
+            f"({report.stopped_by})"
+        )
+    try:
+        open_bag(path).close()
+    except InputError as error:
+        raise InputError("bag", f"{error.problem}; {where}" if where else error.problem) from None
+    if damage is not None:
+        raise InputError("bag", f"{where}: it is damaged; {_reindex_hint(path)}")
 
 
 def parse_remap(rule: str) -> tuple[str, str]:
