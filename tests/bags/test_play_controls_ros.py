@@ -3,10 +3,12 @@ remapping, service-event topics never replayed, and keyboard controls on a termi
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import pty
 import subprocess
+import termios
 from pathlib import Path
 from typing import Any, Iterator
 
@@ -70,6 +72,10 @@ def key_player(ros_domain: int, bag: tuple[Path, list[int]]) -> Iterator[tuple[s
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        start_new_session=True,
+        # The pty becomes the player's controlling terminal, its process group the foreground one, as
+        # in a shell: only then does it read keys.
+        preexec_fn=lambda: fcntl.ioctl(0, termios.TIOCSCTTY, 0),
     )
     os.close(slave)
     yield process, master

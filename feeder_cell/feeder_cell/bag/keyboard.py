@@ -3,8 +3,8 @@
 Space pauses and resumes, the right arrow plays the next message, the up and down arrows multiply the
 rate by 1.1 and 0.9.
 
-Only a terminal gets them: with stdin a pipe, a file or /dev/null nothing is read, so a scripted
-``feeder play`` never blocks on or consumes its input.
+Only a terminal gets them, and only in the foreground: with stdin a pipe, a file or /dev/null, or run as
+a background job, nothing is read, so a scripted ``feeder play`` never blocks on or consumes its input.
 """
 
 from __future__ import annotations
@@ -74,8 +74,10 @@ class KeyboardControls:
         self._thread: threading.Thread | None = None
         self._saved: list | None = None
         try:
-            is_tty = self._stream.isatty()
-        except (AttributeError, ValueError):  # a closed or fake stream
+            # A background job (`feeder play ... &`) that changed its terminal's mode would be stopped
+            # by SIGTTOU: only the foreground process group of a terminal reads keys.
+            is_tty = self._stream.isatty() and os.tcgetpgrp(self._stream.fileno()) == os.getpgrp()
+        except (AttributeError, ValueError, OSError):  # a closed or fake stream
             is_tty = False
         self.active = enabled and is_tty
 
