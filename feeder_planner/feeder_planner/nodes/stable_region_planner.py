@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 from rclpy.node import Node
@@ -22,7 +23,15 @@ from feeder_planner.assembly import (
     validate_mu,
 )
 from feeder_planner.errors import InputError
-from feeder_planner.node_kit import LATCHED, declare_parameters, from_vec, run_node, service_guard, vec
+from feeder_planner.node_kit import (
+    LATCHED,
+    ParameterSpec,
+    declare_parameters,
+    from_vec,
+    run_node,
+    service_guard,
+    vec,
+)
 from feeder_planner.node_kit.msg_assembly import (
     ASSEMBLY_PARAMETERS,
     force_msgs,
@@ -42,7 +51,16 @@ __all__ = ["PARAMETERS", "StableRegionPlanner", "main"]
 # One thread per service and one for the rest: a long path occupies its service's thread only.
 THREADS = 4
 
-PARAMETERS = ASSEMBLY_PARAMETERS
+PARAMETERS = (
+    *ASSEMBLY_PARAMETERS,
+    ParameterSpec(
+        "mesh_base_dir",
+        "",
+        "directory relative mesh paths of a request's assembly_yaml resolve against (meshes: [{file}]); "
+        "empty: the directory of assembly_file, and with no assembly_file only absolute paths",
+        read_only=True,
+    ),
+)
 
 
 class StableRegionPlanner(Node):
@@ -85,7 +103,8 @@ class StableRegionPlanner(Node):
             and request.facets in (0, self.prepared.facets)
         ):
             return self.prepared
-        assembly = _request_assembly(request.assembly_yaml) if request.assembly_yaml else self.assembly
+        base = self.p["mesh_base_dir"] or (os.path.dirname(self.p["assembly_file"]) or None)
+        assembly = _request_assembly(request.assembly_yaml, base) if request.assembly_yaml else self.assembly
         mu = request.mu if request.override_mu else (self.prepared.mu if not request.assembly_yaml else None)
         return prepare(assembly, mu, request.facets or self.prepared.facets)
 
