@@ -39,6 +39,11 @@ __all__ = [
     "MIN_SPEED_SCALE",
     "MAX_SPEED_ERROR",
     "MAX_TICK_PERIODS",
+    "LIFT_GUARD",
+    "CONTACT_RTOL",
+    "CONTACT_ATOL",
+    "SLIDE_TIME_LIMIT",
+    "MAX_CONTACT_EVENTS",
 ]
 
 # --- Time stepping -----------------------------------------------------------------------------------
@@ -123,3 +128,19 @@ MAX_SPEED_ERROR: Final = 1.0
 # clock (a slow machine, a long dynamic throw, a big clock step) loses the rest, and its recorded
 # simulated time lags the clock visibly (status behind_real_time) instead of jumping ahead unseen.
 MAX_TICK_PERIODS: Final = 10
+
+# --- The contact fidelity (contact.py) ---------------------------------------------------------------
+# A vertex that has just lifted off starts with height, velocity (and at the instant N = 0, acceleration)
+# zero, so its own next crossing is searched from this much rotation (rad) later (or this fraction of
+# the free-fall time sqrt(r / |g|) without spin): its height there is ~1e-12 of the part radius, above
+# rounding (1e-16), and no vertex can come back to the arm within 1e-4 rad of rising.
+LIFT_GUARD: Final = 1e-4
+# Relative and absolute (part radii per free-fall time) tolerances of the sliding-contact ODE (DOP853);
+# its events (lift-off, stick, strike) are located by the solver's root finding to about these.
+CONTACT_RTOL: Final = 1e-10
+CONTACT_ATOL: Final = 1e-12
+# A slide lasts at most this many free-fall times sqrt(r / |g|): friction stops a slide within a few.
+SLIDE_TIME_LIMIT: Final = 1000.0
+# Events (impacts, lift-offs, slides) of one contact throw before it is a SolverError: the paper's own
+# settling takes tens of impacts; this only catches a model that does not settle.
+MAX_CONTACT_EVENTS: Final = 5000
