@@ -34,14 +34,17 @@ def namesakes(node: Node) -> int:
     return sum(1 for entry in node.get_node_names_and_namespaces() if entry == own) - 1
 
 
-def watch_for_namesake(node: Node, window: float = DUPLICATE_WINDOW) -> None:
-    """Look for a namesake every 0.1 s for ``window`` s while the node spins.
+def watch_for_namesake(node: Node, window: float = DUPLICATE_WINDOW) -> list[str]:
+    """Look for a namesake every 0.1 s for ``window`` s while the node spins; return the findings.
 
-    A namesake found makes the timer raise ``DuplicateNameError`` out of the executor's spin (after an
-    error log naming the name); ``run_node`` then ends the process with ``EXIT_DUPLICATE_NAME``.
+    A namesake found is logged as an error naming the name, appended to the returned list, and shuts
+    the node's context down, which ends the executor's spin; ``run_node`` then ends the process with
+    ``EXIT_DUPLICATE_NAME``. (An exception raised in a timer does not reliably leave a multi-threaded
+    executor's spin, so the context is the signal.)
     """
     start = time.monotonic()
     timer = None
+    found: list[str] = []
 
     def look() -> None:
         if namesakes(node) > 0:
@@ -50,8 +53,11 @@ def watch_for_namesake(node: Node, window: float = DUPLICATE_WINDOW) -> None:
                 f"another node named {name} is already running: one name, one node "
                 f"(exit {EXIT_DUPLICATE_NAME}); start this one under another name or namespace"
             )
-            raise DuplicateNameError(name)
+            found.append(name)
+            node.context.try_shutdown()
+            return
         if time.monotonic() - start > window and timer is not None:
             node.destroy_timer(timer)
 
     timer = node.create_timer(_POLL, look, clock=Clock(clock_type=ClockType.STEADY_TIME))
+    return found

@@ -41,7 +41,7 @@ def run_node(factory: Callable[[], Node], name: str, args: list[str] | None = No
         MultiThreadedExecutor(num_threads=threads) if threads > 1 else SingleThreadedExecutor()
     )
     executor.add_node(node)
-    watch_for_namesake(node)
+    namesakes = watch_for_namesake(node)
     code = 0
     try:
         executor.spin()
@@ -50,6 +50,8 @@ def run_node(factory: Callable[[], Node], name: str, args: list[str] | None = No
     except DuplicateNameError:
         code = EXIT_DUPLICATE_NAME
     finally:
+        if namesakes:
+            code = EXIT_DUPLICATE_NAME
         executor.shutdown(timeout_sec=1.0)
         node.destroy_node()
         rclpy.try_shutdown()
