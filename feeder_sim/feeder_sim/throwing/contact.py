@@ -173,23 +173,40 @@ class _Run:
 
 def sliding_impulse(
     rx: float, ry: float, vx: float, vy: float, omega: float, rho: float, mu: float
-) -> tuple[float, float, float]:
-    """Return the impulse (J_t, J_n) per unit mass and d omega of a plastic Coulomb sliding impact.
+) -> tuple[float, float, float, bool]:
+    """Return (J_t, J_n, d omega, stuck) of a perfectly plastic impact with Coulomb friction at a vertex.
 
-    The vertex at (rx, ry) from the centre of mass slides with tangential velocity v_t = vx - omega ry;
-    the normal impulse makes its normal velocity zero, and J_t = -sigma mu J_n opposes the slip
-    (Stronge 2000, ch. 3.3, slip in one direction throughout the impact; the caller applies it only when
-    the sticking impulse of eqs. (7)-(9) lies outside the cone). With D = 1 + rx (rx + sigma mu ry) / rho^2,
-    J_n = -(vy + omega rx) / D. D <= 0 (Painleve's inconsistency of rigid-body friction) is refused.
+    Stronge's incremental law (Stronge, *Impact Mechanics*, 2000, ch. 3.3-3.4; Brach 1991, ch. 3): the
+    contact velocity is linear in the impulse, dv = K dP with K_tt = 1 + ry^2/rho^2, K_nn = 1 + rx^2/rho^2,
+    K_tn = K_nt = -rx ry / rho^2 (per unit mass, (rx, ry) from the centre of mass to the vertex). While
+    the vertex slips in direction sigma, dP_t = -sigma mu dP_n; if the slip stops before the normal
+    velocity is zero (the end of compression, restitution 0), the vertex sticks when the ratio that holds
+    it, |K_tn / K_tt|, is within mu, else it slips back the other way. ``stuck``: the vertex ends at rest.
+    A normal velocity that would not rise with the normal impulse (Painleve's inconsistency of rigid-body
+    friction) is refused.
     """
-    v_t = vx - omega * ry
-    sigma = 1.0 if v_t > 0 else -1.0
     rho2 = rho * rho
-    denominator = 1.0 + rx * (rx + sigma * mu * ry) / rho2
-    if denominator <= 0:
-        raise SolverError("sliding impact inconsistent (Painleve): mu too large for this contact geometry")
-    j_n = -(vy + omega * rx) / denominator
-    return -sigma * mu * j_n, j_n, j_n * (rx + sigma * mu * ry) / rho2
+    k_tt, k_nn, k_tn = 1.0 + ry * ry / rho2, 1.0 + rx * rx / rho2, -rx * ry / rho2
+    v_t, v_n = vx - omega * ry, vy + omega * rx
+    hold = -k_tn / k_tt  # dP_t / dP_n that keeps v_t = 0
+    p_t = p_n = 0.0
+    sigma = math.copysign(1.0, v_t) if v_t != 0 else -math.copysign(1.0, hold)
+    stuck = v_t == 0 and abs(hold) <= mu
+    for _ in range(3):  # slip, possibly stop, then stick or slip back: at most three phases
+        ratio = hold if stuck else -sigma * mu
+        rate_t, rate_n = (0.0 if stuck else k_tt * ratio + k_tn), k_tn * ratio + k_nn
+        if rate_n <= 0:
+            raise SolverError("impact inconsistent (Painleve): mu too large for this contact geometry")
+        to_end = -v_n / rate_n
+        to_stop = -v_t / rate_t if rate_t * v_t < 0 else math.inf
+        step = min(to_end, to_stop)
+        p_n, p_t = p_n + step, p_t + ratio * step
+        v_n, v_t = v_n + rate_n * step, (0.0 if step == to_stop else v_t + rate_t * step)
+        if step == to_end:
+            break
+        stuck = abs(hold) <= mu
+        sigma = -sigma
+    return p_t, p_n, (rx * p_n - ry * p_t) / rho2, stuck
 
 
 def _level_travel(s: float, gamma: float, theta: float, direction: float, span: float, level: float) -> float:
@@ -321,10 +338,12 @@ def _impact(run: _Run, st: _State, k: int, kind: str) -> _Rest:
         after = _State(st.x, st.y, st.theta, float(xp[0]), float(yp[0]), float(om[0]))
         run.log(kind, k, after)
         return _roll(run, k, st.theta, float(om[0]), st.x + rx)
-    j_t, j_n, d_omega = sliding_impulse(rx, ry, st.vx, st.vy, st.omega, run.geo.rho, run.mu)
+    j_t, j_n, d_omega, stuck = sliding_impulse(rx, ry, st.vx, st.vy, st.omega, run.geo.rho, run.mu)
     slip = st.vx - st.omega * ry
     after = _State(st.x, st.y, st.theta, st.vx + j_t, st.vy + j_n, st.omega + d_omega)
     run.log("slide", k, after, impulse=(j_t, j_n), slip=slip)
+    if stuck:
+        return _roll(run, k, st.theta, after.omega, st.x + rx)
     return _slide(run, after, k)
 
 
@@ -380,13 +399,15 @@ def _strike_sliding(run: _Run, st: _State, j: int, e: int, old: int) -> _Rest:
     """
     run.impacts += 1
     rx, ry = run.r(j, st.theta)
-    j_t, j_n, d_omega = sliding_impulse(rx, ry, st.vx, st.vy, st.omega, run.geo.rho, run.mu)
+    j_t, j_n, d_omega, stuck = sliding_impulse(rx, ry, st.vx, st.vy, st.omega, run.geo.rho, run.mu)
     slip = st.vx - st.omega * ry
     after = _State(st.x, st.y, st.theta, st.vx + j_t, st.vy + j_n, st.omega + d_omega)
     run.log("slide", j, after, impulse=(j_t, j_n), slip=slip)
     ox, _ = run.r(old, st.theta)
     if after.omega * (ox - rx) < 0 or after.omega == 0:  # the old pivot would move into the arm
         return _flat(run, st, j, e)
+    if stuck:
+        return _roll(run, j, st.theta, after.omega, st.x + rx)
     return _slide(run, after, j)
 
 
