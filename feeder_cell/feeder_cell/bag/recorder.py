@@ -10,12 +10,20 @@ Durability: a topic is subscribed only once it has a publisher (a subscriber alo
 visible, with no QoS to learn from), with the publishers' reliability and durability, and re-checked on
 every :meth:`Recorder.discover`: a newly appeared latched or best-effort publisher makes the recorder
 subscribe again with a profile that matches it.
+
+Selection (:class:`Selection`) follows ``ros2 bag record``: explicit topics, all topics, a regex, an
+exclude regex, topic types, hidden topics, service events (``<service>/_service_event``) and action
+feedback and status (``<action>/_action/feedback``, ``<action>/_action/status``). Splitting
+(``max_bag_size``, ``max_bag_duration``) closes the current MCAP file with its summary and goes on in
+``<bag>_<n>.mcap``; ``metadata.yaml`` lists every file. Compression is MCAP chunk compression (zstd or
+lz4): each chunk is compressed, so any MCAP reader decodes the files and crash safety is unchanged.
 """
 
 from __future__ import annotations
 
 import math
 import os
+import re
 import threading
 import time
 from collections import deque
@@ -25,10 +33,11 @@ from typing import Any, Callable, Iterable
 
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
+from rosbags.rosbag2.storage_mcap import McapWriter
 
 from feeder_cell.bag.qos import to_bag_qos
-from feeder_cell.bag.types import message_class, typestore
+from feeder_cell.bag.types import connection_definition, is_known, message_class
 from feeder_planner.errors import InputError
 
 # Infrastructure topics every node has; recording them by default only adds noise.
@@ -39,6 +48,128 @@ DEFAULT_FLUSH_INTERVAL = 1.0
 # Subscription depth: a backlog larger than this between two executor turns (a slow disk, a loaded
 # machine) would be dropped by DDS; only a backlog costs its memory.
 SUBSCRIPTION_DEPTH = 1000
+
+SERVICE_EVENT_SUFFIX = "/_service_event"
+ACTION_TOPIC_SUFFIXES = ("/_action/feedback", "/_action/status")
+
+# MCAP chunk compressions the recorder writes (the names MCAP readers know).
+COMPRESSIONS = ("none", "zstd", "lz4")
+
+
+def service_of(topic: str) -> str | None:
+    """Return the service whose events ``topic`` carries, or None for any other topic."""
+    return topic[: -len(SERVICE_EVENT_SUFFIX)] if topic.endswith(SERVICE_EVENT_SUFFIX) else None
+
+
+def action_of(topic: str) -> str | None:
+    """Return the action whose feedback or status ``topic`` carries, or None for any other topic."""
+    for suffix in ACTION_TOPIC_SUFFIXES:
+        if topic.endswith(suffix):
+            return topic[: -len(suffix)]
+    return None
+
+
+def is_hidden(topic: str) -> bool:
+    """Return whether a name component starts with an underscore (ROS 2 hides such topics)."""
+    return any(part.startswith("_") for part in topic.split("/"))
+
+
+def _compile(flag: str, pattern: str | None) -> re.Pattern[str] | None:
+    if pattern is None:
+        return None
+    try:
+        return re.compile(pattern)
+    except re.error as exc:
+        raise InputError(flag, f"is not a valid regular expression ({exc}): {pattern!r}") from None
+
+
+@dataclass(frozen=True)
+class Selection:
+    """Which topics a recording takes, as ``ros2 bag record`` selects them.
+
+    Parameters
+    ----------
+    topics
+        Topics recorded whatever the other rules say (except ``exclude`` and ``topic_types``).
+    all_topics
+        Every topic except ``DEFAULT_EXCLUDED``, hidden topics (unless ``include_hidden``) and
+        service events.
+    regex
+        Topics whose name matches this regular expression (``re.search``) are recorded.
+    exclude
+        Topics (service events and action topics included) matching this regex are never recorded.
+    topic_types
+        When not empty, only topics of these types (``pkg/msg/Type``); service events are not affected.
+    include_hidden
+        Hidden topics (a name component starting with ``_``) may be taken by ``all_topics`` and ``regex``.
+    services
+        None: no service events; empty: every service's; else these services' (names, no suffix).
+    actions
+        None: no action topics; empty: every action's feedback and status; else these actions'.
+    """
+
+    topics: tuple[str, ...] = ()
+    all_topics: bool = False
+    regex: str | None = None
+    exclude: str | None = None
+    topic_types: tuple[str, ...] = ()
+    include_hidden: bool = False
+    services: tuple[str, ...] | None = None
+    actions: tuple[str, ...] | None = None
+
+    def __post_init__(self) -> None:
+        _compile("--regex", self.regex)
+        _compile("--exclude", self.exclude)
+        for type_name in self.topic_types:
+            if len(type_name.split("/")) != 3:
+                raise InputError("--topic-types", f"must name types as pkg/msg/Type, got {type_name!r}")
+
+    def wants(self, topic: str, type_name: str) -> bool:
+        """Return whether ``topic`` (of type ``type_name``) is recorded."""
+        exclude = _compile("--exclude", self.exclude)
+        if exclude is not None and exclude.search(topic):
+            return False
+        service = service_of(topic)
+        if service is not None:
+            return self.services is not None and (not self.services or service in self.services)
+        action = action_of(topic)
+        if action is not None and self.actions is not None and (not self.actions or action in self.actions):
+            return True
+        if self.topic_types and type_name not in self.topic_types:
+            return False
+        if topic in self.topics:
+            return True
+        if is_hidden(topic) and not self.include_hidden:
+            return False
+        regex = _compile("--regex", self.regex)
+        if regex is not None and regex.search(topic):
+            return True
+        return self.all_topics and topic not in DEFAULT_EXCLUDED
+
+
+class _SplitFile(McapWriter):
+    """rosbags' MCAP storage writing ``<bag>/<file_name>.mcap`` (McapWriter names it after its directory)."""
+
+    def __init__(self, bag: Path, compression: CompressionMode, file_name: str) -> None:
+        # Created in a directory of the wanted name and moved next to the bag's other files while open
+        # (a rename within the directory: the open descriptor follows it).
+        scratch = bag / file_name
+        scratch.mkdir()
+        super().__init__(scratch, compression)
+        target = bag / f"{file_name}.mcap"
+        os.replace(scratch / f"{file_name}.mcap", target)
+        scratch.rmdir()
+        self.path = target
+
+
+@dataclass
+class FileStats:
+    """One MCAP file of the bag: name, first and last receive time (ns) and message count."""
+
+    name: str
+    start: int = 0
+    end: int = 0
+    count: int = 0
 
 
 @dataclass
@@ -68,9 +199,22 @@ class Recorder:
     path
         Bag directory to create; an existing path is refused.
     topics
-        Topics to record; empty: every topic except ``DEFAULT_EXCLUDED`` and action internals.
+        Topics to record when no ``selection`` is given; empty: every topic except ``DEFAULT_EXCLUDED``
+        and hidden ones (action internals, service events).
     flush_interval
         Seconds (> 0): the longest a received message stays in memory before it is on disk.
+    selection
+        Which topics to record (overrides ``topics``).
+    compression
+        MCAP chunk compression: ``none``, ``zstd`` or ``lz4``.
+    max_bag_size
+        Bytes (0: no limit): a file reaching this size is closed and the next one started.
+    max_bag_duration
+        Seconds (0: no limit): a file spanning this long is closed and the next one started.
+    qos_overrides
+        Per topic the subscription profile to use instead of the one learned from the publishers.
+    paused
+        Start paused: messages are received and dropped until :meth:`resume`.
     """
 
     node: Node
@@ -78,15 +222,38 @@ class Recorder:
     topics: tuple[str, ...] = ()
     stats: dict[str, TopicStats] = field(default_factory=dict)
     flush_interval: float = DEFAULT_FLUSH_INTERVAL
+    selection: Selection | None = None
+    compression: str = "none"
+    max_bag_size: int = 0
+    max_bag_duration: float = 0.0
+    qos_overrides: dict[str, QoSProfile] = field(default_factory=dict)
+    paused: bool = False
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.flush_interval) and self.flush_interval > 0):
             raise InputError(
                 "flush_interval", f"must be a finite number of seconds > 0, got {self.flush_interval}"
             )
+        if self.compression not in COMPRESSIONS:
+            raise InputError(
+                "compression", f"must be one of {', '.join(COMPRESSIONS)}, got {self.compression!r}"
+            )
+        if not (isinstance(self.max_bag_size, int) and self.max_bag_size >= 0):
+            raise InputError(
+                "max_bag_size", f"must be a whole number of bytes >= 0, got {self.max_bag_size!r}"
+            )
+        if not (math.isfinite(self.max_bag_duration) and self.max_bag_duration >= 0):
+            raise InputError(
+                "max_bag_duration", f"must be a finite number of seconds >= 0, got {self.max_bag_duration}"
+            )
+        if self.selection is None:
+            self.selection = Selection(topics=self.topics, all_topics=not self.topics)
         if self.path.exists():
             raise InputError("output", f"{self.path} already exists; bags are never overwritten")
         self._writer: Writer | None = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
+        if self.compression != "none":
+            # STORAGE is rosbags' MCAP chunk compression (zstd); lz4 swaps the chunk compressor below.
+            self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
         self._writer.open()
         # The chunk boundary is forced through the storage's own close_chunk (rosbags 0.11): fail here,
         # not after a crash, if a rosbags version no longer has it.
@@ -94,6 +261,7 @@ class Recorder:
         if not (hasattr(storage, "close_chunk") and hasattr(storage, "chunk") and hasattr(storage, "bio")):
             self._writer.close()
             raise RuntimeError("this rosbags version's MCAP writer cannot be flushed chunk by chunk")
+        self._set_compressor(storage)
         # The header on disk at once: a recorder killed before its first flush leaves an MCAP file.
         storage.bio.flush()
         self._lock = threading.Lock()
@@ -104,9 +272,26 @@ class Recorder:
         self._subscriptions: dict[str, Any] = {}
         # Per topic the keys of the last SUBSCRIPTION_DEPTH samples written (oldest first, and as a set).
         self._seen: dict[str, tuple[deque[tuple[int, int]], set[tuple[int, int]]]] = {}
+        self.files: list[FileStats] = [FileStats(storage.path.name)]
+        self.dropped_paused = 0  # messages received while paused (not written)
         self._stop = threading.Event()
         self._flusher = threading.Thread(target=self._flush_loop, name="bag-flusher", daemon=True)
         self._flusher.start()
+
+    def _set_compressor(self, storage: Any) -> None:
+        if self.compression == "lz4":
+            import lz4.frame  # type: ignore[import-untyped]
+
+            storage.compression = "lz4"
+            storage.compressor = lz4.frame.compress
+
+    def pause(self) -> None:
+        """Stop writing: messages received from now on are dropped (subscriptions stay, as rosbag2)."""
+        self.paused = True
+
+    def resume(self) -> None:
+        """Write received messages again."""
+        self.paused = False
 
     def discover(self) -> list[str]:
         """Subscribe to matching topics that have publishers now; re-check those already subscribed.
@@ -117,11 +302,12 @@ class Recorder:
             The topics newly subscribed or subscribed again with another profile.
         """
         changed = []
+        assert self.selection is not None
         for name, types in self.node.get_topic_names_and_types():
-            if not self._wanted(name) or len(types) != 1:
+            if len(types) != 1 or not self.selection.wants(name, types[0]):
                 continue
             type_name = types[0]
-            if type_name not in typestore().fielddefs:
+            if not is_known(type_name):
                 continue  # a type we cannot describe in the bag's schema is not silently half-recorded
             offer = self._offer(name)
             if offer is None or offer == self._offers.get(name):
@@ -129,11 +315,6 @@ class Recorder:
             self._subscribe(name, type_name, offer)
             changed.append(name)
         return changed
-
-    def _wanted(self, name: str) -> bool:
-        if self.topics:
-            return name in self.topics
-        return name not in DEFAULT_EXCLUDED and "/_action/" not in name
 
     def _offer(self, name: str) -> _Offer | None:
         """Return what a subscription must match now, or None while the topic has no publisher."""
@@ -152,7 +333,7 @@ class Recorder:
         return offer
 
     def _subscribe(self, name: str, type_name: str, offer: _Offer) -> None:
-        qos = QoSProfile(
+        qos = self.qos_overrides.get(name) or QoSProfile(
             depth=SUBSCRIPTION_DEPTH,
             reliability=ReliabilityPolicy.RELIABLE if offer.reliable else ReliabilityPolicy.BEST_EFFORT,
             durability=DurabilityPolicy.TRANSIENT_LOCAL if offer.latched else DurabilityPolicy.VOLATILE,
@@ -162,8 +343,9 @@ class Recorder:
             if self._writer is None:
                 return
             if name not in self._connections:
+                msgdef, rihs01 = connection_definition(type_name)
                 self._connections[name] = self._writer.add_connection(
-                    name, type_name, typestore=typestore(), offered_qos_profiles=[profile]
+                    name, type_name, msgdef=msgdef, rihs01=rihs01, offered_qos_profiles=[profile]
                 )
                 self.stats[name] = TopicStats(type_name)
             else:
@@ -174,6 +356,9 @@ class Recorder:
                     profiles.append(profile)
             self._offers[name] = offer
         old = self._subscriptions.pop(name, None)
+        if old is not None and name in self.qos_overrides:
+            self._subscriptions[name] = old  # an overridden profile does not follow the publishers
+            return
         if old is not None:
             # Replaced before the new reader exists: a gap of a few milliseconds for volatile samples;
             # a latched publisher's samples come again from its history (repeats are dropped by key).
@@ -195,6 +380,9 @@ class Recorder:
         with self._lock:
             if self._writer is None:
                 return
+            if self.paused:
+                self.dropped_paused += 1
+                return
             if key != (0, 0):
                 seen = self._seen.setdefault(topic, (deque(maxlen=SUBSCRIPTION_DEPTH), set()))
                 recent, keys = seen
@@ -204,8 +392,53 @@ class Recorder:
                     keys.discard(recent[0])
                 recent.append(key)
                 keys.add(key)
-            self._writer.write(self._connections[topic], time.time_ns(), data)
+            now = time.time_ns()
+            if self._split_due(now):
+                self._split()
+            self._writer.write(self._connections[topic], now, data)
             self.stats[topic].count += 1
+            current = self.files[-1]
+            current.start = current.start or now
+            current.end = now
+            current.count += 1
+
+    def _split_due(self, now: int) -> bool:
+        current = self.files[-1]
+        if not current.count:
+            return False  # a file holds at least one message, whatever the limits
+        assert self._writer is not None
+        storage = self._writer.storage
+        if self.max_bag_size and storage.bio.tell() + storage.chunk.bio.tell() >= self.max_bag_size:
+            return True
+        # As rosbag2: a file's duration runs from its first message.
+        return bool(self.max_bag_duration) and now - current.start >= self.max_bag_duration * 1e9
+
+    def _split(self) -> None:
+        """Close the current file with its summary and continue in ``<bag>_<n>.mcap`` (lock held)."""
+        assert self._writer is not None
+        writer = self._writer
+        old = writer.storage
+        index = len(self.files)
+        if index == 1:
+            # A split bag's files are numbered from 0, as rosbag2 names them; the open file is renamed.
+            first = self.path / f"{self.path.name}_0.mcap"
+            os.replace(old.path, first)
+            old.path = first
+            self.files[0].name = first.name
+        old.close(writer.version, "")
+        _sync_path(old.path)
+        new = _SplitFile(self.path, writer.compression_mode, f"{self.path.name}_{index}")
+        self._set_compressor(new)
+        added: set[str] = set()
+        for connection in writer.connections:
+            if connection.msgtype not in added:
+                new.add_msgtype(connection)
+                added.add(connection.msgtype)
+            new.add_connection(connection, _dumped_qos(connection.ext.offered_qos_profiles))
+        new.bio.flush()
+        writer.storage = new
+        self._synced = 0
+        self.files.append(FileStats(new.path.name))
 
     def flush(self) -> None:
         """Close the pending chunk (if it holds a message) and push the file to disk."""
@@ -220,12 +453,17 @@ class Recorder:
                 if written == self._synced:
                     return  # nothing new since the last sync (an idle topic costs no disk writes)
                 storage.bio.flush()
-                descriptor = storage.bio.fileno()
+                # A duplicate: a split may close the file's own descriptor while this one syncs.
+                descriptor = os.dup(storage.bio.fileno())
             # fsync outside the write lock: on a busy disk it takes a while, and the executor writing
-            # received messages must not wait on it (its reader queue would overflow). The sync lock
-            # keeps close() from closing the descriptor meanwhile.
-            os.fsync(descriptor)
-            self._synced = written
+            # received messages must not wait on it (its reader queue would overflow).
+            try:
+                os.fsync(descriptor)
+            finally:
+                os.close(descriptor)
+            with self._lock:
+                if self._writer is not None and self._writer.storage is storage:
+                    self._synced = written
 
     def _flush_loop(self) -> None:
         # Half the interval between flushes: a message waits at most that plus one flush's duration.
@@ -248,7 +486,56 @@ class Recorder:
             if self._writer is not None:
                 self._writer.close()
                 self._writer = None
+                if len(self.files) > 1:
+                    self._write_file_list()
         return self.stats
+
+    def _write_file_list(self) -> None:
+        """Make metadata.yaml list every file of a split bag (rosbags' writer knows only the last)."""
+        from ruamel.yaml import YAML
+
+        yaml = YAML(typ="safe")
+        yaml.default_flow_style = False
+        metapath = self.path / "metadata.yaml"
+        with metapath.open() as stream:
+            metadata = yaml.load(stream)
+        info = metadata["rosbag2_bagfile_information"]
+        info["relative_file_paths"] = [f.name for f in self.files]
+        info["files"] = [
+            {
+                "path": f.name,
+                "starting_time": {"nanoseconds_since_epoch": f.start},
+                "duration": {"nanoseconds": max(0, f.end - f.start)},
+                "message_count": f.count,
+            }
+            for f in self.files
+        ]
+        temporary = metapath.with_suffix(".yaml.tmp")
+        with temporary.open("w") as stream:
+            yaml.dump(metadata, stream)
+        os.replace(temporary, metapath)
+
+
+def _dumped_qos(profiles: list[Any]) -> str:
+    """QoS profiles as rosbags stores them in an MCAP channel's metadata."""
+    from io import StringIO
+
+    from rosbags.rosbag2.metadata import dump_qos_v9
+    from ruamel.yaml import YAML
+
+    stream = StringIO()
+    yaml = YAML(typ="safe")
+    yaml.default_flow_style = False
+    yaml.dump(dump_qos_v9(list(profiles)), stream)
+    return stream.getvalue().strip()
+
+
+def _sync_path(path: Path) -> None:
+    descriptor = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(descriptor)
+    finally:
+        os.close(descriptor)
 
 
 def missing_topics(stats: dict[str, TopicStats], wanted: Iterable[str]) -> list[str]:

@@ -24,7 +24,7 @@ from mcap.stream_reader import get_chunk_data_stream
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.rosbag2.metadata import parse_qos
 
-from feeder_cell.bag.types import typestore
+from feeder_cell.bag.types import type_hash
 from feeder_planner.errors import InputError
 
 MAGIC = b"\x89MCAP0\r\n"
@@ -162,10 +162,8 @@ def _chunk_records(chunk: Chunk, consumed: int, length: int) -> list[Any]:
 
 
 def _type_hash(msgtype: str) -> str:
-    try:
-        return str(typestore().hash_rihs01(msgtype))
-    except Exception:  # noqa: BLE001 -- a type unknown to the typestore
-        return UNKNOWN_TYPE_HASH
+    # Service events and action parts included (their hashes come from rosidl's type descriptions).
+    return type_hash(msgtype) or UNKNOWN_TYPE_HASH
 
 
 def reindex(bag: Path) -> ReindexReport:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 import time
 from pathlib import Path
 from typing import Any
@@ -12,19 +13,110 @@ from feeder_cell.ros_session import with_node
 from feeder_planner.errors import InputError
 
 
+def _selection(args: argparse.Namespace) -> Any:
+    from feeder_cell.bag.recorder import Selection
+
+    selective = args.topics or args.regex is not None or args.services is not None or args.actions is not None
+    return Selection(
+        topics=tuple(args.topics or ()),
+        all_topics=args.all or not selective,
+        regex=args.regex,
+        exclude=args.exclude,
+        topic_types=tuple(args.topic_types or ()),
+        include_hidden=args.include_hidden_topics,
+        services=() if args.all and args.services is None else _names(args.services),
+        actions=() if args.all and args.actions is None else _names(args.actions),
+    )
+
+
+def _names(values: list[str] | None) -> tuple[str, ...] | None:
+    return None if values is None else tuple(values)
+
+
+def _compression(args: argparse.Namespace) -> str:
+    """Return the MCAP chunk compression the flags ask for (rosbag2's file and message modes map to it)."""
+    if args.compression is not None:
+        if args.compression_mode not in (None, "none") or args.compression_format is not None:
+            raise InputError(
+                "--compression", "give either --compression or --compression-mode/--compression-format"
+            )
+        return str(args.compression)
+    mode = args.compression_mode or "none"
+    if mode == "none":
+        if args.compression_format is not None:
+            raise InputError("--compression-format", "needs --compression-mode file or message")
+        return "none"
+    return str(args.compression_format or "zstd")
+
+
+def _pause_services(node: Any, recorder: Any) -> list[Any]:
+    """Serve ~/pause, ~/resume, ~/toggle_paused and ~/is_paused on the recorder node (as rosbag2 does)."""
+    from feeder_msgs.srv import IsPaused, Pause, Resume, TogglePaused
+
+    def pause(_request: Any, response: Any) -> Any:
+        recorder.pause()
+        return response
+
+    def resume(_request: Any, response: Any) -> Any:
+        recorder.resume()
+        return response
+
+    def toggle(_request: Any, response: Any) -> Any:
+        recorder.resume() if recorder.paused else recorder.pause()
+        return response
+
+    def is_paused(_request: Any, response: Any) -> Any:
+        response.paused = recorder.paused
+        return response
+
+    return [
+        node.create_service(Pause, "~/pause", pause),
+        node.create_service(Resume, "~/resume", resume),
+        node.create_service(TogglePaused, "~/toggle_paused", toggle),
+        node.create_service(IsPaused, "~/is_paused", is_paused),
+    ]
+
+
 def _record(args: argparse.Namespace) -> int:
+    from feeder_cell.bag.qos import load_qos_overrides
     from feeder_cell.bag.recorder import Recorder, missing_topics
 
     if args.duration is not None and args.duration <= 0:
         raise InputError("--duration", f"must be > 0 seconds, got {args.duration}")
     if args.flush_interval <= 0:
         raise InputError("--flush-interval", f"must be > 0 seconds, got {args.flush_interval}")
+    if args.max_bag_size < 0:
+        raise InputError("--max-bag-size", f"must be >= 0 bytes (0: no splitting), got {args.max_bag_size}")
+    if args.max_bag_duration < 0:
+        raise InputError(
+            "--max-bag-duration", f"must be >= 0 seconds (0: no splitting), got {args.max_bag_duration}"
+        )
+    if not _NODE_NAME.fullmatch(args.node_name):
+        raise InputError(
+            "--node-name", f"must be a ROS node name (letters, digits, _), got {args.node_name!r}"
+        )
+    selection = _selection(args)
+    compression = _compression(args)
+    overrides = (
+        load_qos_overrides(Path(args.qos_profile_overrides_path)) if args.qos_profile_overrides_path else {}
+    )
     output = Path(args.output)
     if output.exists():
         raise InputError("output", f"{output} already exists; bags are never overwritten")
 
     def work(node: Any, executor: Any, keep_going: Any) -> dict[str, Any]:
-        recorder = Recorder(node, output, tuple(args.topics or ()), flush_interval=args.flush_interval)
+        recorder = Recorder(
+            node,
+            output,
+            flush_interval=args.flush_interval,
+            selection=selection,
+            compression=compression,
+            max_bag_size=args.max_bag_size,
+            max_bag_duration=args.max_bag_duration,
+            qos_overrides=overrides,
+            paused=args.start_paused,
+        )
+        services = _pause_services(node, recorder)
         started = time.monotonic()
         next_discovery = 0.0
         try:
@@ -35,16 +127,24 @@ def _record(args: argparse.Namespace) -> int:
                 executor.spin_once(timeout_sec=0.05)
         finally:
             stats = recorder.close()
+            for service in services:
+                node.destroy_service(service)
         return {
             "path": str(output.resolve()),
             "duration": time.monotonic() - started,
+            "files": [f.name for f in recorder.files],
+            "compression": compression,
+            "dropped_while_paused": recorder.dropped_paused,
             "topics": {name: {"type": s.type_name, "count": s.count} for name, s in sorted(stats.items())},
             "missing": missing_topics(stats, args.topics or ()),
         }
 
-    result = with_node("feeder_recorder", work)
+    result = with_node(args.node_name, work)
     emit(args, result, _summary)
     return 0
+
+
+_NODE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
 
 def _summary(result: dict[str, Any]) -> str:
@@ -59,21 +159,9 @@ def _summary(result: dict[str, Any]) -> str:
 
 
 def _info(args: argparse.Namespace) -> int:
-    from feeder_cell.bag.player import open_bag
+    from feeder_cell.bag.info import bag_info, info_text
 
-    reader = open_bag(Path(args.bag))
-    try:
-        topics = {c.topic: {"type": c.msgtype, "count": c.msgcount} for c in reader.connections}
-        empty = reader.message_count == 0  # rosbags reports the "no message yet" sentinel as the start
-        result = {
-            "path": str(Path(args.bag).resolve()),
-            "duration": 0.0 if empty else reader.duration / 1e9,
-            "start_time": None if empty else reader.start_time / 1e9,
-            "topics": dict(sorted(topics.items())),
-        }
-    finally:
-        reader.close()
-    emit(args, result, _summary)
+    emit(args, bag_info(Path(args.bag)), info_text)
     return 0
 
 
@@ -128,7 +216,107 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     record.add_argument("output", help="bag directory to create (never overwritten), e.g. bags/run1")
     record.add_argument(
-        "--topics", nargs="+", help="topics to record (default: all but /rosout, /parameter_events)"
+        "--topics",
+        nargs="+",
+        metavar="TOPIC",
+        help="record these topics (default, when no other selection is given: every topic but /rosout, "
+        "/parameter_events and hidden ones)",
+    )
+    record.add_argument(
+        "-a",
+        "--all",
+        action="store_true",
+        help="every topic (as the default), every service's calls (as --services) and every action's "
+        "feedback and status (as --actions)",
+    )
+    record.add_argument(
+        "-e",
+        "--regex",
+        metavar="REGEX",
+        help="also record topics whose name matches REGEX (Python re.search)",
+    )
+    record.add_argument(
+        "-x",
+        "--exclude",
+        "--exclude-regex",
+        dest="exclude",
+        metavar="REGEX",
+        help="never record topics (service events and action topics included) whose name matches REGEX",
+    )
+    record.add_argument(
+        "--topic-types",
+        nargs="+",
+        metavar="TYPE",
+        help="record only topics of these types (pkg/msg/Type); service events are not affected",
+    )
+    record.add_argument(
+        "--include-hidden-topics",
+        action="store_true",
+        help="let the default selection, --all and --regex take hidden topics (a name part starting with _)",
+    )
+    record.add_argument(
+        "--services",
+        nargs="*",
+        metavar="SERVICE",
+        help="record service calls: the <service>/_service_event topics of these services, every "
+        "service's with no name (nodes publish their calls' requests and responses by default: parameter "
+        "service_introspection); play never re-issues them",
+    )
+    record.add_argument(
+        "--actions",
+        nargs="*",
+        metavar="ACTION",
+        help="record these actions' <action>/_action/feedback and _action/status topics (goal states and "
+        "feedback), every action's with no name; Jazzy cannot introspect actions' goal and result services",
+    )
+    record.add_argument(
+        "--max-bag-size",
+        type=int,
+        default=0,
+        metavar="BYTES",
+        help="split: close the current file once it holds BYTES and continue in the next "
+        "(<bag>_0.mcap, <bag>_1.mcap, ...; metadata.yaml lists them; default 0: no splitting)",
+    )
+    record.add_argument(
+        "--max-bag-duration",
+        type=finite_float,
+        default=0.0,
+        metavar="SECONDS",
+        help="split: start the next file once the current one spans SECONDS (default 0: no splitting)",
+    )
+    record.add_argument(
+        "--compression",
+        choices=("none", "zstd", "lz4"),
+        help="MCAP chunk compression (each chunk compressed; every MCAP reader decodes it, and crash safety "
+        "is unchanged); the way rosbag2's MCAP storage compresses",
+    )
+    record.add_argument(
+        "--compression-mode",
+        choices=("none", "file", "message"),
+        help="rosbag2's compression flags, mapped to MCAP chunk compression of --compression-format: a "
+        "file compressed whole at close would lose a killed recording, and per-message compression "
+        "leaves messages no MCAP reader decodes",
+    )
+    record.add_argument(
+        "--compression-format", choices=("zstd", "lz4"), help="with --compression-mode (default zstd)"
+    )
+    record.add_argument(
+        "--start-paused",
+        action="store_true",
+        help="start paused: nothing is written until the recorder's ~/resume (or ~/toggle_paused) service "
+        "is called; ~/pause pauses again, ~/is_paused tells (rosbag2_interfaces-shaped, feeder_msgs/srv)",
+    )
+    record.add_argument(
+        "--qos-profile-overrides-path",
+        metavar="YAML",
+        help="subscribe to these topics with these QoS profiles instead of the publishers' (rosbag2's "
+        "format: {topic: {history, depth, reliability, durability, deadline, lifespan, liveliness, "
+        "liveliness_lease_duration, avoid_ros_namespace_conventions}})",
+    )
+    record.add_argument(
+        "--node-name",
+        default="feeder_recorder",
+        help="name of the recorder node (default feeder_recorder): its services are <name>/pause etc.",
     )
     record.add_argument(
         "--duration", type=finite_float, help="seconds to record (default: until Ctrl-C, SIGTERM or SIGHUP)"
@@ -146,9 +334,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     info = subparsers.add_parser(
         "bag-info",
-        help="topics, types, counts and duration of a bag",
-        description="Print a bag's topics, types, counts and duration. A bag whose recording did not end "
-        "cleanly (no metadata.yaml, or an MCAP file without its summary) is refused naming bag-reindex.",
+        help="what a bag holds, as ros2 bag info prints it",
+        description="Print a bag's files, size, storage id, duration, start and end (wall time, to the "
+        "nanosecond), message count, compression, and per topic its type, count, serialization format and "
+        "offered QoS; service calls (<service>/_service_event topics) are listed as services with their "
+        "request and response counts. A bag whose recording did not end cleanly (no metadata.yaml, or an "
+        "MCAP file without its summary) is refused naming bag-reindex.",
     )
     info.add_argument("bag")
     add_json_flag(info)

@@ -9,6 +9,7 @@ from rclpy.executors import Executor, ExternalShutdownException, MultiThreadedEx
 from rclpy.node import Node
 
 from feeder_planner.errors import InputError
+from feeder_planner.node_kit.introspection import configure_service_introspection
 from feeder_planner.node_kit.names import EXIT_DUPLICATE_NAME, DuplicateNameError, watch_for_namesake
 
 __all__ = ["build_node", "run_node"]
@@ -22,7 +23,9 @@ def build_node(factory: Callable[[], NodeType], name: str, args: list[str] | Non
     """Init rclpy and build one node: a bad configuration is a FATAL log naming the field, and exit 2."""
     rclpy.init(args=args)
     try:
-        return factory()
+        node = factory()
+        configure_service_introspection(node)  # after the factory: every service and client exists
+        return node
     except InputError as error:
         rclpy.logging.get_logger(name).fatal(f"bad configuration: {error}")
         rclpy.try_shutdown()
