@@ -84,7 +84,8 @@ def test_fault_outcome_constructor_and_fault_of_a_landing():
 
 
 def test_arm_commands_and_fidelities_are_closed_sets_checked_by_name():
-    assert ARM_COMMANDS == ("throw", "start", "stop") and FIDELITIES == ("analytic", "dynamic")
+    assert ARM_COMMANDS == ("throw", "start", "stop") and FIDELITIES == ("paper", "contact", "dynamic")
+    assert check_fidelity("analytic") == "paper"  # the paper model's earlier name stays accepted
     assert parse_command("  Throw ") == "throw" and parse_command("STOP") == "stop"
     with pytest.raises(InputError) as info:
         parse_command("dance")

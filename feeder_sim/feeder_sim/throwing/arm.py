@@ -8,11 +8,12 @@ from typing import Literal, get_args
 
 import numpy as np
 
-from feeder_planner.errors import FeederError, InputError
+from feeder_planner.errors import FeederError, InputError, SolverError
 from feeder_planner.throwing.flight import flight_state, rest_pose
 from feeder_planner.throwing.geometry import ArmPart
 from feeder_planner.throwing.sensor import reads, reads_pose
-from feeder_planner.throwing.throw_map import ThrowParams, check_start, throw
+from feeder_planner.throwing.throw_map import ThrowParams, ThrowResult, check_start, throw
+from feeder_sim.throwing.contact import contact_throw
 from feeder_sim.throwing.dynamic import dynamic_throw
 from feeder_sim.throwing.outcome import PathPoint, ThrowOutcome
 from feeder_sim.throwing.tolerances import DEFAULT_STEP, PATH_SAMPLES
@@ -20,25 +21,71 @@ from feeder_sim.throwing.tolerances import DEFAULT_STEP, PATH_SAMPLES
 __all__ = [
     "Fidelity",
     "FIDELITIES",
+    "FIDELITY_ALIASES",
     "check_fidelity",
+    "fidelity_throw",
     "ArmCommandName",
     "ARM_COMMANDS",
     "parse_command",
     "ThrowingArm",
 ]
 
-Fidelity = Literal["analytic", "dynamic"]
+# paper: the paper's model (section III); contact: paper plus lift-off and Coulomb impacts (contact.py);
+# dynamic: pymunk. "analytic", the paper model's name before the contact fidelity, stays accepted.
+Fidelity = Literal["paper", "contact", "dynamic"]
 FIDELITIES: tuple[Fidelity, ...] = get_args(Fidelity)
+FIDELITY_ALIASES: dict[str, Fidelity] = {"analytic": "paper"}
 ArmCommandName = Literal["throw", "start", "stop"]  # the commands of feeder_msgs/ArmCommand
 ARM_COMMANDS: tuple[ArmCommandName, ...] = get_args(ArmCommandName)
 
 
 def check_fidelity(value: object, field: str = "fidelity") -> Fidelity:
-    """Return ``value`` as a fidelity, or raise InputError naming ``field`` if it is none of FIDELITIES."""
+    """Return ``value`` as a fidelity (an alias as its name), or raise InputError naming ``field``."""
     for fidelity in FIDELITIES:
         if value == fidelity:
             return fidelity
-    raise InputError(field, f"must be one of {', '.join(FIDELITIES)}, got {value!r}")
+    if isinstance(value, str) and value in FIDELITY_ALIASES:
+        return FIDELITY_ALIASES[value]
+    names = ", ".join((*FIDELITIES, *(f"{a} (= {b})" for a, b in FIDELITY_ALIASES.items())))
+    raise InputError(field, f"must be one of {names}, got {value!r}")
+
+
+def fidelity_throw(
+    part: ArmPart,
+    edge: int,
+    radius: float,
+    params: ThrowParams,
+    fidelity: str,
+    dynamic_step: float = DEFAULT_STEP,
+) -> ThrowResult:
+    """Return one throw at ``fidelity`` as the paper model's result type (`feeder throw`).
+
+    A dynamic throw has no certified flight time or impact count (NaN and -1 here) and makes none of
+    the paper's assumptions (its flags are false but ``off_arm``, the part lost); a dynamic throw that
+    faults (carry out of the grasp, part lost, rest tilted) raises SolverError with the reason.
+    """
+    chosen = check_fidelity(fidelity)
+    if chosen == "paper":
+        return throw(part, edge, radius, params)
+    if chosen == "contact":
+        return contact_throw(part, edge, radius, params)
+    check_start(part, edge, radius, params)
+    out = dynamic_throw(part, params, edge, radius, step=dynamic_step, arm_length=params.arm_length)
+    if out.kind == "fault":
+        raise SolverError(f"dynamic throw: {out.fault}")
+    return ThrowResult(
+        edge=out.edge_after,
+        radius=out.radius_after,
+        kind="jog" if out.kind == "jog" else "flip",
+        rotation=out.rotation,
+        turns=out.turns,
+        flight_time=math.nan,
+        impacts=-1,
+        start_edge=edge,
+        start_radius=radius,
+        off_arm=out.lost,
+        fidelity="dynamic",
+    )
 
 
 def parse_command(text: str, field: str = "command") -> ArmCommandName:
@@ -63,7 +110,7 @@ class ThrowingArm:
         params: ThrowParams,
         edge: int,
         radius: float,
-        fidelity: str = "analytic",
+        fidelity: str = "paper",
         arm_length: float = math.inf,
         dynamic_step: float = DEFAULT_STEP,
     ) -> None:
@@ -134,10 +181,11 @@ class ThrowingArm:
         return out
 
     def _simulate(self, edge: int, radius: float, params: ThrowParams) -> ThrowOutcome:
-        """Return one throw at the arm's fidelity (the analytic one with its flight path for display)."""
+        """Return one throw at the arm's fidelity (paper or contact with the paper's flight path shown)."""
         if self.fidelity == "dynamic":
             return dynamic_throw(self.part, params, edge, radius, step=self.dynamic_step)
-        res = throw(self.part, edge, radius, params)
+        model = contact_throw if self.fidelity == "contact" else throw
+        res = model(self.part, edge, radius, params)
         path = self._flight_path(edge, radius, res.flight_time, params)
         return ThrowOutcome(edge, radius, res.edge, res.radius, res.kind, res.turns, res.rotation, "", path)
 
