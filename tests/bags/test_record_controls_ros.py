@@ -1,9 +1,10 @@
-"""Record controls over DDS, as ``ros2 bag record`` has them: one talker, eight recorders at once.
+"""Record controls over DDS, as ``ros2 bag record`` has them: one talker, six recorders at once.
 
 The talker publishes /ctl/a (String), /ctl/b (Int32) and the hidden /ctl/_hidden/c (String), numbered,
 at 100 Hz. Recorders run side by side, each with other flags: --regex with --exclude, --topic-types,
---include-hidden-topics, splitting by size (zstd chunks) and by duration (lz4 chunks),
---start-paused with the ~/resume, ~/toggle_paused and ~/is_paused services, and a QoS override file.
+--include-hidden-topics, splitting by size (zstd chunks) and by duration (lz4 chunks), --start-paused
+with the ~/resume, ~/toggle_paused and ~/is_paused services, and a QoS override file (on the --regex
+recorder).
 Every bag is read back with the independent ``mcap`` reader; split bags also through bag-info and
 bag-reindex.
 """
@@ -49,7 +50,6 @@ RECORDERS = {
         ["/ctl/a"],
     ),
     "rec_paused": (["--topics", "/ctl/a", "--start-paused"], ["/ctl/a"]),
-    "rec_qos": (["--topics", "/ctl/a"], ["/ctl/a"]),  # plus the override file, added below
 }
 
 
@@ -109,7 +109,7 @@ def runs(ros_client: Any, tmp_path_factory: pytest.TempPathFactory) -> Iterator[
     seen: dict[str, Any] = {}
     try:
         for name, (flags, _) in RECORDERS.items():
-            extra = ["--qos-profile-overrides-path", str(overrides)] if name == "rec_qos" else []
+            extra = ["--qos-profile-overrides-path", str(overrides)] if name == "rec_regex" else []
             processes[name] = bp.start_recorder(root / name, *flags, *extra, "--node-name", name)
         for name, (_, topics) in RECORDERS.items():
             bp.wait_until(
@@ -117,7 +117,7 @@ def runs(ros_client: Any, tmp_path_factory: pytest.TempPathFactory) -> Iterator[
                 WAIT,
                 f"{name} subscribed to {topics}",
             )
-        seen["qos"] = [s.qos_profile for s in bp.subscribed(ros_client, "/ctl/a", "rec_qos")]
+        seen["qos"] = [s.qos_profile for s in bp.subscribed(ros_client, "/ctl/a", "rec_regex")]
         seen["paused_at_start"] = _paused(ros_client, "rec_paused")
         # Data flows to every recorder; splitting by size and duration needs a few seconds of it.
         bp.wait_until(lambda: _files_on_disk(root / "rec_size") >= 2, WAIT, "two files of rec_size")
@@ -211,7 +211,7 @@ def test_start_paused_resume_and_toggle(runs: dict[str, Any]) -> None:
 def test_qos_override_is_the_subscription_profile(runs: dict[str, Any]) -> None:
     (profile,) = runs["seen"]["qos"]
     assert profile.reliability == ReliabilityPolicy.BEST_EFFORT
-    assert runs["summaries"]["rec_qos"]["topics"]["/ctl/a"]["count"] > 0
+    assert runs["summaries"]["rec_regex"]["topics"]["/ctl/a"]["count"] > 0
     # The bag keeps what the publisher offered (reliable), as rosbag2 does.
-    info = bag_info(runs["root"] / "rec_qos")
+    info = bag_info(runs["root"] / "rec_regex")
     assert info["topics"]["/ctl/a"]["offered_qos_profiles"][0]["reliability"] == "reliable"
