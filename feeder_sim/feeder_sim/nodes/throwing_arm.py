@@ -57,6 +57,7 @@ from feeder_sim.throwing import (
     DEFAULT_STEP,
     FAULT_INFO,
     FIDELITIES,
+    FIDELITY_ALIASES,
     MAX_TICK_PERIODS,
     ArmFaults,
     ThrowingArm,
@@ -100,9 +101,10 @@ PARAMETERS = (
     ParameterSpec("mu", 0.5, "friction coefficient between arm and part (> 0)", positive, read_only=True),
     ParameterSpec(
         "fidelity",
-        "analytic",
-        "analytic (the paper's model) or dynamic (pymunk, restitution and friction)",
-        one_of(FIDELITIES),
+        "paper",
+        "paper (the paper's model; analytic is accepted for it), contact (paper plus lift-off and "
+        "Coulomb impacts) or dynamic (pymunk, restitution and friction)",
+        one_of((*FIDELITIES, *FIDELITY_ALIASES)),
         read_only=True,
     ),
     ParameterSpec(

@@ -1,4 +1,4 @@
-"""Simulated throwing arm: the paper's analytic model and a pymunk dynamic model, with faults reported.
+"""Simulated throwing arm: the paper's model, the contact model and a pymunk model, with faults reported.
 
 The public surface the throwing_arm node, the benchmark and the tests use; injected faults and their
 effects are in ``faults``; tolerances and model constants live in ``tolerances``.
@@ -7,12 +7,15 @@ effects are in ``faults``; tolerances and model constants live in ``tolerances``
 from feeder_sim.throwing.arm import (
     ARM_COMMANDS,
     FIDELITIES,
+    FIDELITY_ALIASES,
     ArmCommandName,
     Fidelity,
     ThrowingArm,
     check_fidelity,
+    fidelity_throw,
     parse_command,
 )
+from feeder_sim.throwing.contact import contact_throw, contact_trace
 from feeder_sim.throwing.dynamic import dynamic_throw, rest_outcome
 from feeder_sim.throwing.faults import (
     ARM_FAULTS,
@@ -29,7 +32,11 @@ __all__ = [
     "ThrowingArm",
     "Fidelity",
     "FIDELITIES",
+    "FIDELITY_ALIASES",
     "check_fidelity",
+    "fidelity_throw",
+    "contact_throw",
+    "contact_trace",
     "ArmCommandName",
     "ARM_COMMANDS",
     "parse_command",
