@@ -218,6 +218,14 @@ def _declared_parameters(package: str, executable: str) -> dict[str, Any]:
     from importlib import import_module
     from importlib.metadata import entry_points
 
+    # The packages' convention first (PACKAGE.nodes.EXECUTABLE), which needs no installed metadata.
+    try:
+        module = import_module(f"{package}.nodes.{executable}")
+    except ImportError:
+        pass
+    else:
+        if hasattr(module, "PARAMETERS"):
+            return {spec.name: spec for spec in module.PARAMETERS}
     for point in entry_points(group="console_scripts", name=executable):
         module_name = point.value.partition(":")[0]
         if module_name.split(".")[0] != package:

@@ -25,6 +25,7 @@ __all__ = [
     "MAX_ASSEMBLY_PIECES",
     "MAX_CONVEX_VERTICES",
     "MAX_CONTACTS",
+    "MAX_FACETS",
     "CONTACT_DISTANCE_TOLERANCE",
     "MAX_DENSITY",
     "MAX_RELEASE_SPEED",
@@ -79,6 +80,10 @@ MAX_CONTACTS: Final = 10_000
 # An explicit contact point must lie within this fraction of the assembly's size (its bounding-box
 # diagonal) of both bodies' surfaces: a contact is where the bodies touch.
 CONTACT_DISTANCE_TOLERANCE: Final = 1e-3
+
+# Facets K of the friction pyramids (the paper's is 4; `--exact-cone` compares up to 32): the LP has K
+# columns per contact point.
+MAX_FACETS: Final = 256
 
 # --- The throwing planner's flags ------------------------------------------------------------------------
 # |W| (rad/s): the paper's designs release at about 5.6 rad/s; 1000 rad/s is 160 turns a second.

@@ -131,6 +131,8 @@ def _region_summary(result: dict[str, Any]) -> str:
 def _check_stability(args: argparse.Namespace) -> int:
     """Run ``feeder check-stability``."""
     g = np.asarray(args.g, dtype=float)
+    if np.all(np.isfinite(g)) and not np.isfinite(np.linalg.norm(g)):
+        g = g / np.abs(g).max()  # a direction: components near the double's range would overflow its norm
     unit_gravity(g, "--g")  # refuses a zero direction before the file is read; check_result normalises g
     prepared = _prepared(args)
     result = check_result(prepared, g, exact_cone=args.exact_cone)

@@ -8,6 +8,7 @@ from typing import Any
 
 from feeder_cell.cli.common import add_json_flag, emit, finite_float
 from feeder_cell.plots.flag import add_plot_flag, write_plot
+from feeder_planner.errors import InputError
 from feeder_planner.mems import METHODS, find_equilibria
 from feeder_planner.parts import load_part
 
@@ -68,7 +69,12 @@ def _summary(result: dict[str, Any]) -> str:
 def run(args: argparse.Namespace) -> int:
     """Print the equilibria of the part file for --delta and --method; return the exit status."""
     part = load_part(args.part)
-    result = find_equilibria(part, args.delta, args.method)
+    try:
+        result = find_equilibria(part, args.delta, args.method)
+    except InputError as error:
+        if error.source is None and error.field == "delta":  # name the flag, as it was given
+            raise InputError("--delta", error.problem) from None
+        raise
     emit(args, result.to_json(), _summary)
     write_plot(args, "equilibria", part, result)
     return 0

@@ -11,6 +11,7 @@ from feeder_cell.cli import SUBCOMMAND_MODULES
 from feeder_planner.errors import FeederError, InputError, SolverError
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_NOT_CERTIFIED = 0, 1, 2, 3
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as a shell reports a command ended by Ctrl-C
 # An argument error quotes the user's text: at most this much of it, so that a hostile flag stays one line.
 MAX_ERROR_CHARS = 300
 
@@ -56,6 +57,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except FeederError as error:  # a device or node refused (a lifecycle transition, a start-up)
         sys.stderr.write(f"feeder {args.command}: {error}\n")
         return EXIT_FAILED
+    except KeyboardInterrupt:  # Ctrl-C: one line and the shell's status for SIGINT, not a traceback
+        sys.stderr.write(f"feeder {args.command}: interrupted\n")
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ from feeder_planner.assembly.geometry import tangent_basis
 from feeder_planner.assembly.model import Assembly
 from feeder_planner.assembly.tolerances import DEFAULT_FACETS, MIN_FACETS, STANDARD_GRAVITY
 from feeder_planner.errors import InputError
+from feeder_planner.limits import MAX_FACETS, quote
 
 __all__ = [
     "EquilibriumSystem",
@@ -52,7 +53,9 @@ class EquilibriumSystem:
 def validate_facets(facets: object, field: str = "facets") -> int:
     """Return ``facets`` as an int K >= MIN_FACETS; InputError naming ``field`` otherwise (bools refused)."""
     if isinstance(facets, bool) or not isinstance(facets, (int, np.integer)) or facets < MIN_FACETS:
-        raise InputError(field, f"must be an integer >= {MIN_FACETS}, got {facets!r}")
+        raise InputError(field, f"must be an integer >= {MIN_FACETS}, got {quote(facets)}")
+    if facets > MAX_FACETS:  # the pyramids' edges are allocated per contact and facet
+        raise InputError(field, f"{int(facets)} exceeds the limit of {MAX_FACETS}")
     return int(facets)
 
 
