@@ -12,6 +12,7 @@ __all__ = [
     "brick_wall",
     "dovetail_joint",
     "extruded_prism",
+    "mesh_brick_wall",
     "mesh_pallet",
     "random_assembly",
     "stepped_stack",
@@ -343,3 +344,33 @@ def stepped_stack(directory: str | Path | None = None, mu: float = 0.5) -> dict[
         "bodies": bodies,
         "contacts": "auto",
     }
+
+
+def mesh_brick_wall(directory: str | Path, rows: int, columns: int, mu: float = 0.6) -> dict[str, Any]:
+    """Return ``brick_wall(rows, columns)`` with every body a mesh: one brick and one footing file, moved.
+
+    The solids are those of the box wall, so the stable region is the same; it measures the mesh route
+    (reading, planar regions, intersections) on a large connected assembly. Paths are relative to the
+    parent of ``directory``.
+    """
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    boxes = brick_wall(rows, columns, mu)
+    brick = directory / "wall_brick.stl"
+    write_mesh(brick, *extruded_prism(box_profile(0.0, 0.0, 2.0, 1.0), 0.0, 1.0))
+    footing = boxes["bodies"][0]["boxes"][0]
+    (x0, y0, z0), (x1, y1, z1) = footing["min"], footing["max"]
+    write_mesh(directory / "wall_footing.stl", *extruded_prism(box_profile(x0, z0, x1, z1), y0, y1))
+    bodies: list[dict[str, Any]] = [
+        {"name": "footing", "grounded": True, "meshes": [{"file": f"{directory.name}/wall_footing.stl"}]}
+    ]
+    for body in boxes["bodies"][1:]:
+        x, y, z = body["boxes"][0]["min"]
+        move = [[1.0, 0.0, 0.0, x], [0.0, 1.0, 0.0, y], [0.0, 0.0, 1.0, z], [0.0, 0.0, 0.0, 1.0]]
+        bodies.append(
+            {
+                "name": body["name"],
+                "meshes": [{"file": f"{directory.name}/wall_brick.stl", "transform": move}],
+            }
+        )
+    return {**boxes, "name": f"mesh_wall_{rows}x{columns}", "bodies": bodies}

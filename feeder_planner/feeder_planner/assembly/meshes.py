@@ -9,6 +9,7 @@ body's density. The contact side (coplanar faces merged into planar polygons) is
 
 from __future__ import annotations
 
+import functools
 import os
 import struct
 from collections.abc import Sequence
@@ -170,45 +171,58 @@ def load_mesh_part(
         )
     if size > MAX_MESH_BYTES:
         raise InputError(where, f"{str(path)!r}: {size} bytes is more than the {MAX_MESH_BYTES} byte limit")
-    vertices, faces = _read(path, where)
-    if len(faces) > MAX_MESH_FACES:
-        raise InputError(
-            where, f"{str(path)!r}: {len(faces)} faces is more than the limit of {MAX_MESH_FACES}"
-        )
-    bad = np.nonzero(~np.isfinite(vertices).all(axis=1))[0]
-    if len(bad):
-        raise InputError(
-            where, f"{str(path)!r}: vertex {int(bad[0])} is not finite ({len(bad)} such vertices)"
-        )
+    stat = path.stat()
+    try:
+        vertices, faces = _file_mesh(str(path), stat.st_size, stat.st_mtime_ns)
+    except _MeshFileError as error:
+        raise InputError(where, f"{str(path)!r}: {error}") from None
     vertices = vertices * factor
     vertices = vertices @ transform[:3, :3].T + transform[:3, 3] * unit_scale
     return _checked(path, field, vertices, faces)
 
 
-def _read(path: Path, where: str) -> tuple[np.ndarray, np.ndarray]:
-    """Parse the file with trimesh (no processing: NaN vertices are seen, not dropped)."""
+class _MeshFileError(Exception):
+    """What is wrong with a mesh file itself (the caller adds the file and the field)."""
+
+
+@functools.lru_cache(maxsize=32)
+def _file_mesh(path: str, size: int, mtime_ns: int) -> tuple[np.ndarray, np.ndarray]:
+    """Parse a file with trimesh and merge its coincident vertices; cached by path, size and time.
+
+    A pallet or a wall places one file many times: parsing it once saves most of the reading time. The
+    size and modification time in the key make an edited file be read again. No trimesh processing, so
+    NaN vertices are seen, not dropped.
+    """
     import trimesh  # imported here: trimesh costs about 0.3 s to import and most assemblies have no mesh
 
+    del size, mtime_ns  # only part of the cache key
     try:
         mesh = trimesh.load(
-            str(path), file_type=MESH_SUFFIXES[path.suffix.lower()], force="mesh", process=False
+            path, file_type=MESH_SUFFIXES[Path(path).suffix.lower()], force="mesh", process=False
         )
     except Exception as exc:  # trimesh raises many kinds (ValueError, struct.error, KeyError...) on bad files
-        raise InputError(
-            where, f"{str(path)!r}: cannot read the mesh ({type(exc).__name__}: {exc})"
-        ) from None
+        raise _MeshFileError(f"cannot read the mesh ({type(exc).__name__}: {exc})") from None
     vertices = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=float).reshape(-1, 3)
     faces = np.asarray(getattr(mesh, "faces", np.zeros((0, 3))), dtype=np.int64).reshape(-1, 3)
     if len(faces) == 0:
-        raise InputError(where, f"{str(path)!r}: the file holds no triangles")
+        raise _MeshFileError("the file holds no triangles")
+    if len(faces) > MAX_MESH_FACES:
+        raise _MeshFileError(f"{len(faces)} faces is more than the limit of {MAX_MESH_FACES}")
+    if len(faces) and (faces.min() < 0 or faces.max() >= len(vertices)):
+        raise _MeshFileError("a face refers to a vertex the file does not have")
+    bad = np.nonzero(~np.isfinite(vertices).all(axis=1))[0]
+    if len(bad):
+        raise _MeshFileError(f"vertex {int(bad[0])} is not finite ({len(bad)} such vertices)")
+    vertices, faces = _merge_vertices(vertices, faces)
+    vertices.flags.writeable = False  # shared by every body that places this file
+    faces.flags.writeable = False
     return vertices, faces
 
 
 def _checked(path: Path, field: str, vertices: np.ndarray, faces: np.ndarray) -> MeshPart:
-    """Merge coincident vertices, then refuse open, inconsistently oriented, degenerate or empty meshes."""
+    """Refuse open, inconsistently oriented, degenerate or empty meshes (vertices already merged)."""
     where = f"{field}.file"
     name = repr(str(path))
-    vertices, faces = _merge_vertices(vertices, faces)
     diagonal = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
     if diagonal == 0.0:
         raise InputError(where, f"{name}: zero volume (all vertices coincide)")
