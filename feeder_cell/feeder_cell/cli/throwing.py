@@ -10,7 +10,12 @@ import numpy as np
 from feeder_cell.cli.common import add_json_flag, angle, emit, finite_float
 from feeder_cell.plots.flag import add_plot_flag, write_plot
 from feeder_planner.errors import InputError
-from feeder_planner.limits import check_limit_set_counts, check_throw_design, check_throw_flight
+from feeder_planner.limits import (
+    check_flag_length,
+    check_limit_set_counts,
+    check_throw_design,
+    check_throw_flight,
+)
 from feeder_planner.parts import Part, load_part
 from feeder_planner.throwing import (
     DEFAULT_STARTS_PER_EDGE,
@@ -223,6 +228,7 @@ def _height(args: argparse.Namespace, part: Part) -> float | None:
     """Return --sensing-height in metres (None: the default), checked in the unit it was given in."""
     if args.sensing_height is None:
         return None
+    check_flag_length(args.sensing_height * part.unit_scale, "--sensing-height")
     return check_sensing_height(args.sensing_height) * part.unit_scale
 
 
