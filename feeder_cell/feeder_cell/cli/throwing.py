@@ -8,6 +8,14 @@ from typing import Callable
 import numpy as np
 
 from feeder_cell.cli.common import add_json_flag, angle, emit, finite_float
+from feeder_cell.cli.throwing_studies import (
+    ATTRACTORS,
+    EXIT_INTERRUPTED,
+    add_robust_flags,
+    attractor_lines,
+    run_robust,
+    run_with_progress,
+)
 from feeder_cell.plots.flag import add_plot_flag, write_plot
 from feeder_planner.errors import InputError
 from feeder_planner.limits import (
@@ -89,7 +97,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="grasp radii, forward limit set and sensor trigger range",
         description="Grasp radii (eqs. 1-4), R_flip and R_max (Prop. IV.4), the forward limit "
         "set from a grid of starts (Figs. 7, 8) and the sensor trigger radius range "
-        "for the goal edge.\n" + CONVENTIONS,
+        "for the goal edge.\n" + ATTRACTORS + "\n" + CONVENTIONS,
         formatter_class=fmt,
     )
     _common(q)
@@ -110,7 +118,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--throws",
         type=int,
         default=DEFAULT_THROWS,
-        help=f"throws from each start (default {DEFAULT_THROWS})",
+        help=f"cap on throws per start; each start stops once it recurs (default {DEFAULT_THROWS})",
     )
     add_plot_flag(q)
     q.set_defaults(handler=_guard(run_limit_set))
@@ -128,6 +136,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     d.add_argument("--mu", type=finite_float, required=True)
     d.add_argument("--goal-edge", type=int, required=True)
     d.add_argument("--sensing-height", type=finite_float, default=None)
+    add_robust_flags(d)
     add_json_flag(d)
     add_plot_flag(d)
     d.set_defaults(handler=_guard(run_design))
@@ -205,6 +214,7 @@ def _summary_limit(result: LimitSet, unit: float) -> str:
         else f"cycle: edges {c.edges}, {c.throws_per_cycle:.1f} throws per cycle ({c.throws_range[0]}-"
         f"{c.throws_range[1]}), unique from all {result.starts} starts"
     )
+    lines += attractor_lines(result, unit)
     for e, (lo, hi) in result.edge_radius_ranges.items():
         lines.append(f"  edge {e} in the limit set: R in [{lo / unit:.6g}, {hi / unit:.6g}]")
     t = result.trigger
@@ -279,18 +289,26 @@ def run_design(args: argparse.Namespace) -> int:
         "--release-speeds",
         "--offsets",
     )
+    if args.robust is not None:
+        return run_robust(args, part, _height(args, part))
     try:
-        result = search(
-            arm_part(part),
-            args.goal_edge,
-            np.array([h * s for h in args.offsets]),
-            np.array(args.release_speeds),
-            args.gravity * s,
-            args.mu,
-            _height(args, part),
+        result = run_with_progress(
+            "throw-design",
+            lambda progress: search(
+                arm_part(part),
+                args.goal_edge,
+                np.array([h * s for h in args.offsets]),
+                np.array(args.release_speeds),
+                args.gravity * s,
+                args.mu,
+                _height(args, part),
+                progress=progress,
+            ),
         )
     except OffsetBelowDMinError as error:
         raise error.in_unit(s, _unit_name(part)) from None  # as the flag was given
+    if result is None:
+        return EXIT_INTERRUPTED
     emit(args, result.to_json(), lambda _: _summary_design(result, s))
     write_plot(args, "throw-design", result, s, part.name)
     return 0
