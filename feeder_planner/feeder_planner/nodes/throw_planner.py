@@ -9,7 +9,7 @@ from typing import Any, Protocol
 import numpy as np
 from rclpy.node import Node
 
-from feeder_msgs.msg import DesignCandidate, LimitEdgeRange
+from feeder_msgs.msg import DesignCandidate, LimitAttractor, LimitEdgeRange
 from feeder_msgs.srv import DesignSearch, GraspRadii, LimitSetCompute, SensorTriggerRadii, ThrowCompute
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit import (
@@ -48,6 +48,7 @@ from feeder_planner.throwing import (
     search,
     throw,
 )
+from feeder_planner.throwing.attractors import Attractor
 
 __all__ = ["PARAMETERS", "ThrowPlanner", "main"]
 
@@ -109,6 +110,40 @@ def _height(value: float) -> float | None:
     return check_sensing_height(check_magnitude(value, LENGTH_RANGE_M[1], "sensing_height", "m"))
 
 
+def attractor_msg(a: Attractor, ls: LimitSet) -> LimitAttractor:
+    """Return the LimitAttractor of one attractor of a limit set (NaN throws per round: none found)."""
+    per = a.throws_per_round or (math.nan, math.nan, math.nan)
+    pattern = a.pattern or []
+    return LimitAttractor(
+        edges=a.edges,
+        ranges=[
+            LimitEdgeRange(
+                edge=e,
+                grasp_radius=ls.bounds.grasp[e],
+                flip_radius=ls.bounds.flip[e],
+                max_radius=ls.bounds.max[e],
+                in_limit_set=True,
+                range_min=lo,
+                range_max=hi,
+            )
+            for e, (lo, hi) in a.edge_radius_ranges.items()
+        ],
+        periodic=a.periodic,
+        cycle=a.cycle or [],
+        pattern_edge=[p[0] for p in pattern],
+        pattern_min=[p[1] for p in pattern],
+        pattern_max=[p[2] for p in pattern],
+        throws_per_round_min=float(per[0]),
+        throws_per_round_mean=float(per[1]),
+        throws_per_round_max=float(per[2]),
+        basin=a.basin,
+        longest_transient=a.longest_transient,
+        lift_off=a.violations["lift_off"],
+        slip=a.violations["slip"],
+        off_arm=a.violations["off_arm"],
+    )
+
+
 class ThrowPlanner(Node):
     """Private services (``~/throw``...: under the node's namespace and name); each response has ok and error.
 
@@ -147,6 +182,8 @@ class ThrowPlanner(Node):
         result = throw(arm_part(part), request.edge, request.radius, params)
         response.edge_after, response.radius_after = result.edge, result.radius
         response.kind, response.turns = result.kind, result.turns
+        response.lift_off, response.slip = result.lift_off, result.slip
+        response.off_arm, response.toe_stub = result.off_arm, result.toe_stub
         return response
 
     def _limit(self, request: _LimitRequest, goal: int | None, starts: int, throws: int) -> LimitSet:
@@ -195,6 +232,8 @@ class ThrowPlanner(Node):
         response.has_trigger = ls.trigger is not None
         if ls.trigger:
             response.trigger_min, response.trigger_max = ls.trigger
+        response.attractors = [attractor_msg(a, ls) for a in ls.attractors]
+        response.converged, response.trigger_note = ls.converged, ls.trigger_note or ""
         response.json = json.dumps(ls.to_json(), allow_nan=False)
         return response
 
