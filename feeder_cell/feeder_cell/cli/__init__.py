@@ -15,4 +15,5 @@ SUBCOMMAND_MODULES = (
     "feeder_cell.cli.equilibria",
     "feeder_cell.cli.throwing",
     "feeder_cell.cli.assembly",
+    "feeder_cell.cli.bridge",
 )

@@ -17,6 +17,7 @@ from rclpy.parameter import Parameter
 
 from feeder_msgs.msg import EquilibriaPrediction, Equilibrium, FieldProgram, MemsParts, MemsPartStates
 from feeder_msgs.srv import EquilibriaCompute
+from feeder_planner.drawing import part_shapes
 from feeder_planner.errors import FeederError, InputError
 from feeder_planner.mems import (
     METHODS,
@@ -45,6 +46,7 @@ from feeder_planner.node_kit.msg_fields import program_from_msg
 from feeder_planner.node_kit.msg_parts import part_from_msg
 from feeder_planner.node_kit.request_limits import check_part_size
 from feeder_planner.node_kit.services import REQUEST_QUEUE_PARAMETER, serve
+from feeder_planner.node_kit.viz import ResultMarkers
 from feeder_planner.parts import Part
 
 __all__ = ["PARAMETERS", "FieldEquilibriaPlanner", "main"]
@@ -99,6 +101,7 @@ class FieldEquilibriaPlanner(Node):
         self.add_on_set_parameters_callback(self.on_parameters)
         serve(self, EquilibriaCompute, "~/equilibria", service_guard(self)(self.on_compute), own_group=True)
         self.prediction_pub = self.create_publisher(EquilibriaPrediction, "~/predicted_poses", LATCHED)
+        self.markers = ResultMarkers(self)  # the predicted final poses as ghosts, in the array's frame
         try:
             self.create_subscription(FieldProgram, f"{device}/field_program", self.on_program, LATCHED)
             self.create_subscription(MemsParts, f"{device}/parts", self.on_parts, LATCHED)
@@ -197,6 +200,12 @@ class FieldEquilibriaPlanner(Node):
             summary.append((round(x, 12), round(y, 12), round(e.theta, 9)))
         if summary != self.last_published:
             self.prediction_pub.publish(out)
+            ghosts = [
+                shape
+                for part, pose in zip(self.parts, summary, strict=False)  # as above: parts may lead states
+                for shape in part_shapes(part, pose, "equilibria", "ghost")
+            ]
+            self.markers.publish(ghosts, out.header.frame_id)
             self.last_published = summary
 
 

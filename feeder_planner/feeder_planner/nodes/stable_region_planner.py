@@ -22,12 +22,14 @@ from feeder_planner.assembly import (
     region_result,
     validate_mu,
 )
+from feeder_planner.assembly.drawing import path_shape, region_shapes
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit import (
     LATCHED,
     ParameterSpec,
     declare_parameters,
     from_vec,
+    positive,
     run_node,
     service_guard,
     vec,
@@ -45,6 +47,7 @@ from feeder_planner.node_kit.request_limits import (
     check_count,
 )
 from feeder_planner.node_kit.services import REQUEST_QUEUE_PARAMETER, serve
+from feeder_planner.node_kit.viz import ResultMarkers
 
 __all__ = ["PARAMETERS", "StableRegionPlanner", "main"]
 
@@ -54,10 +57,24 @@ THREADS = 4
 PARAMETERS = (
     *ASSEMBLY_PARAMETERS,
     ParameterSpec(
+        "frame_id",
+        "",
+        "frame of ~/markers (the assembly frame); empty: assembly under the node's namespace, the "
+        "fixture's default frame beside it",
+        read_only=True,
+    ),
+    ParameterSpec(
         "mesh_base_dir",
         "",
         "directory relative mesh paths of a request's assembly_yaml resolve against (meshes: [{file}]); "
         "empty: the directory of assembly_file, and with no assembly_file only absolute paths",
+        read_only=True,
+    ),
+    ParameterSpec(
+        "sphere_radius",
+        0.1,
+        "radius (m) of the sphere of gravity directions ~/markers draws the region on",
+        positive,
         read_only=True,
     ),
 )
@@ -83,6 +100,10 @@ class StableRegionPlanner(Node):
         serve(self, StablePath, "~/safe_path", guard(self.on_path), own_group=True)
         self.region_pub = self.create_publisher(StabilityRegion, "~/region", LATCHED)
         self.region_pub.publish(region_msg(region_result(self.prepared)))
+        namespace = self.get_namespace().strip("/")
+        self.frame_id = self.p["frame_id"] or (f"{namespace}/assembly" if namespace else "assembly")
+        self.markers = ResultMarkers(self)  # the node's region, and the last safe path it planned
+        self.markers.publish(region_shapes(self.prepared.region, self.p["sphere_radius"]), self.frame_id)
         self.get_logger().info(
             f"{self.assembly.name}: stable region is {self.prepared.region.kind} "
             f"({len(self.prepared.contacts)} contact points)"
@@ -143,8 +164,13 @@ class StableRegionPlanner(Node):
                 f"{step:.3g} rad over the {arc:.3g} rad arc is {samples} samples; the limit per request is "
                 f"{MAX_PATH_SAMPLES} (a step of at least {arc / (MAX_PATH_SAMPLES - 1):.3g} rad)",
             )
-        result = path_result(self._prepared(request), start, goal, request.step or DEFAULT_PATH_STEP)
+        prepared = self._prepared(request)
+        result = path_result(prepared, start, goal, request.step or DEFAULT_PATH_STEP)
         response.path = [vec(g) for g in result.path]
+        if prepared is self.prepared:  # the node's own assembly: its region and this path
+            radius = self.p["sphere_radius"]
+            shapes = [*region_shapes(self.prepared.region, radius), path_shape(result.path, radius)]
+            self.markers.publish(shapes, self.frame_id)
         response.min_margin = result.min_margin_rad
         return response
 

@@ -58,6 +58,8 @@ from feeder_planner.node_kit.device import ActiveFault, DeviceError, FaultSpec, 
 from feeder_planner.node_kit.msg_assembly import ASSEMBLY_PARAMETERS, force_msgs, load_assembly_parameter
 from feeder_planner.node_kit.request_limits import MAX_WAYPOINTS, check_count
 from feeder_planner.node_kit.services import serve
+from feeder_planner.node_kit.tf import quaternion_from_matrix
+from feeder_planner.node_kit.viz import VIZ_PARAMETERS, DeviceViz, Drawing, MovingFrame
 from feeder_sim.fixture import (
     CATCH_UP_PERIODS,
     FAULT_INFO,
@@ -79,12 +81,15 @@ from feeder_sim.fixture import (
     plan_goal,
     plan_path,
 )
+from feeder_sim.fixture.drawing import body_shapes, gravity_shape, table_rotation, table_shapes
 from feeder_sim.fixture.tolerances import ON_SAMPLE
 
 __all__ = ["PARAMETERS", "FAULTS", "AssemblyFixture", "InterlockRefusedError", "main"]
 
 NODE_NAME = "assembly_fixture"
 BASE_FRAME = "assembly"
+# The fixture's base (z up), which the cell places and in which the assembly frame tilts (on /tf).
+TABLE_BASE_FRAME = "fixture_base"
 NANOSECONDS = 1_000_000_000
 FOLLOW_PATH = "~/follow_path"
 # A running goal looks for a cancel this often (Hz, steady clock) besides at every tick: a table standing on a
@@ -194,6 +199,7 @@ PARAMETERS = ASSEMBLY_PARAMETERS + (
         f"frame of every stream (the assembly frame); empty: {BASE_FRAME} under the node's namespace",
         read_only=True,
     ),
+    *VIZ_PARAMETERS,
 )
 
 FAULTS = {
@@ -249,6 +255,7 @@ class AssemblyFixture(ManagedDevice):
         # (FAULT_RATE_LIMIT) but does not stop the fixture, so status and diagnostics are amended here.
         serve(self, FixtureMove, "~/move", service_guard(self)(self.on_move))
         serve_device_action(self, FollowPath, FOLLOW_PATH, self._validate_follow, self._execute_follow)
+        self.viz = DeviceViz(self, self.drawing)
 
     def _release(self) -> None:
         """Forget the model and everything configure or activate made (publishers, timer)."""
@@ -274,6 +281,7 @@ class AssemblyFixture(ManagedDevice):
         # streams said (a second reading would draw the encoder noise again and change the streams' sequence).
         self.last_reading: np.ndarray | None = None
         self.last_stability = (False, math.nan)
+        self.last_unbalanced: list[str] = []
 
     # --- configure / activate / deactivate / cleanup ----------------------------------------------
     def configure_device(self, p: dict[str, Any]) -> None:
@@ -747,8 +755,25 @@ class AssemblyFixture(ManagedDevice):
             status.unbalanced_bodies = [f"(not certified: {error})"]
         self.stability_pub.publish(status)
         self.last_stability = (bool(status.stable), float(status.margin))
+        self.last_unbalanced = list(status.unbalanced_bodies)
         # Last: a goal waiting in next_tick resumes after this and reads what this tick published.
         self.record_tick(table.time)
+
+    def drawing(self) -> Drawing | None:
+        """Return what ~/markers shows: the table (static), the bodies (unbalanced in red), gravity; the tilt.
+
+        The assembly frame moves on /tf under the fixture's base frame by the true joints (the encoder
+        faults change what the streams report, not where the table is).
+        """
+        table, prepared = self.table, self.prepared
+        if table is None or prepared is None:
+            return None
+        assembly = prepared.assembly
+        base = self.frame(TABLE_BASE_FRAME)
+        dynamic = [*body_shapes(assembly, self.last_unbalanced), gravity_shape(assembly, table.gravity())]
+        rotation = quaternion_from_matrix(table_rotation(table.joints))
+        tilt = MovingFrame(base, self.frame_id, (0.0, 0.0, 0.0), rotation)
+        return Drawing(self.frame_id, base, static=table_shapes(assembly), dynamic=dynamic, moving=[tilt])
 
 
 def main(args: list[str] | None = None) -> None:

@@ -45,6 +45,7 @@ from feeder_msgs.msg import (
     MemsPartStates,
 )
 from feeder_msgs.srv import FieldSetProgram, MemsPlaceParts
+from feeder_planner.drawing import triangulate_loops
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import load_yaml_mapping
 from feeder_planner.mems import DELTA_MAX, DELTA_MIN, CombinedField, Field, ProgramStep, program_from_mapping
@@ -68,8 +69,10 @@ from feeder_planner.node_kit.msg_fields import fill_field_spec, program_from_msg
 from feeder_planner.node_kit.msg_parts import part_to_msg
 from feeder_planner.node_kit.request_limits import MAX_NAMES, check_count
 from feeder_planner.node_kit.services import serve
+from feeder_planner.node_kit.viz import VIZ_PARAMETERS, DeviceViz, Drawing
 from feeder_planner.parts import Part, load_part
 from feeder_sim.mems import FIDELITIES, Body, Grid, Scene, random_poses
+from feeder_sim.mems.drawing import array_shapes, force_shapes, parts_shapes
 from feeder_sim.mems.settling import (
     Match,
     Prediction,
@@ -239,6 +242,13 @@ PARAMETERS = (
         f"frame of the published poses (the plane frame); empty: {BASE_FRAME} under the node's namespace",
         read_only=True,
     ),
+    ParameterSpec(
+        "marker_force_stride",
+        0,
+        "~/markers draws the force of every k-th cell in each direction (0: no force vectors); runtime",
+        integer_at_least(0),
+    ),
+    *VIZ_PARAMETERS,
 )
 
 FAULTS = {
@@ -294,6 +304,7 @@ class MemsFieldArray(ManagedDevice):
         serve_device_action(
             self, RunProgram, "~/run_program", self.validate_run_program, self.execute_run_program
         )
+        self.viz = DeviceViz(self, self.drawing)
 
     def _release(self) -> None:
         """Forget the scene and everything configure or activate made (publishers, timer)."""
@@ -308,6 +319,8 @@ class MemsFieldArray(ManagedDevice):
         self.last_tick_ns = 0
         self.owed_ns = 0
         self.last_cells: tuple[Any, ...] | None = None
+        self.last_grid_forces = np.zeros((0, 0, 2))
+        self.part_triangles: tuple[Scene | None, list[np.ndarray]] = (None, [])
         self.last_activity: tuple[bool, int, bool] | None = None
         self.program_stamp = 0
         self.count = {"steps": 0, "steps_dropped": 0, "programs": 0, "placements": 0, "program_goals": 0}
@@ -506,6 +519,7 @@ class MemsFieldArray(ManagedDevice):
         grid_forces = scene.forces.cell_forces(field)
         if grid_forces is None:  # ideal / dynamic: the ideal field sampled at the cell centres
             grid_forces = scene.faults.apply_to_cells(field.force_density(Grid(nx, ny, pitch).centers()))
+        self.last_grid_forces = grid_forces
         msg = MemsCellForces(
             nx=nx,
             ny=ny,
@@ -516,6 +530,21 @@ class MemsFieldArray(ManagedDevice):
         msg.header.stamp = self.get_clock().now().to_msg()
         msg.header.frame_id = self.frame_id
         self.cells_pub.publish(msg)
+
+    def drawing(self) -> Drawing | None:
+        """Return what ~/markers shows: the array and the force vectors (static), the parts at their poses."""
+        scene = self.scene
+        if scene is None:
+            return None
+        if self.part_triangles[0] is not scene:  # triangulated once per scene, placed at every update
+            self.part_triangles = (scene, [triangulate_loops(b.part.loops()) for b in scene.bodies])
+        nx, ny = self.p["array_size"]
+        grid = Grid(nx, ny, self.p["pitch"])
+        forces = force_shapes(grid, self.last_grid_forces, int(self.p["marker_force_stride"]))
+        parts = parts_shapes(
+            [b.part for b in scene.bodies], [b.pose for b in scene.bodies], self.part_triangles[1]
+        )
+        return Drawing(self.frame_id, self.frame_id, static=array_shapes(grid) + forces, dynamic=parts)
 
     def _max_steps(self) -> int:
         """Return the cap on steps per tick (max_steps_per_tick, or the automatic one for 0)."""

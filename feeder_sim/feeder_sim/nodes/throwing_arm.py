@@ -30,6 +30,7 @@ from std_msgs.msg import Bool
 from feeder_msgs.action import FeedPart
 from feeder_msgs.msg import DeviceStatus, ThrowEvent
 from feeder_msgs.srv import ArmCommand, ArmPlacePart
+from feeder_planner.drawing import triangulate_loops
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit import (
     EVENT_DEPTH,
@@ -51,6 +52,7 @@ from feeder_planner.node_kit.actions import serve_device_action
 from feeder_planner.node_kit.device import ActiveFault, DeviceError, DeviceState, FaultSpec, ManagedDevice
 from feeder_planner.node_kit.request_limits import MAX_QUEUED_THROWS
 from feeder_planner.node_kit.services import serve
+from feeder_planner.node_kit.viz import DeviceViz, Drawing, viz_parameters
 from feeder_planner.parts import load_part
 from feeder_planner.throwing import ArmPart, ThrowParams, arm_part, lowest_radius
 from feeder_sim.throwing import (
@@ -64,6 +66,7 @@ from feeder_sim.throwing import (
     ThrowOutcome,
     parse_command,
 )
+from feeder_sim.throwing.drawing import arm_shapes, display_length, part_on_arm_shapes, sensor_shapes
 from feeder_sim.throwing.feeding import FeedGoal, check_feed_goal
 
 __all__ = ["PARAMETERS", "FAULTS", "ThrowingArmNode", "main"]
@@ -172,6 +175,8 @@ PARAMETERS = (
         f"empty: {BASE_FRAME} under the node's namespace",
         read_only=True,
     ),
+    # The arm frame has gravity along -y: by default the cell (z up) sees it rolled a quarter turn.
+    *viz_parameters(cell_pose=(0.0, 0.0, 0.0, math.pi / 2, 0.0, 0.0)),
 )
 
 # The kit's specs of the model's faults (feeder_sim.throwing.faults), with their status codes.
@@ -206,6 +211,7 @@ class ThrowingArmNode(ManagedDevice):
         serve(self, ArmCommand, "~/command", guard(self._command))
         serve(self, ArmPlacePart, "~/place_part", guard(self._place))
         serve_device_action(self, FeedPart, "~/feed_part", self._validate_feed, self._execute_feed)
+        self.viz = DeviceViz(self, self.drawing)
 
     def _reset_run(self) -> None:
         """Forget the commands, the shown throw, the counters and the simulated time."""
@@ -221,6 +227,9 @@ class ThrowingArmNode(ManagedDevice):
         # first activation, then advanced per tick by the elapsed node-clock time, capped.
         self.simulated = 0
         self.last_tick: Time | None = None
+        self.shown: tuple[Pose, float] | None = None  # the pose and joint angle last published, for ~/markers
+        self.last_bit: bool | None = None  # the sensor bit last delivered
+        self.part_triangles: tuple[ArmPart | None, Any] = (None, None)
 
     # --- lifecycle hooks ---------------------------------------------------------------------------
     def configure_device(self, p: dict[str, Any]) -> None:
@@ -508,6 +517,7 @@ class ThrowingArmNode(ManagedDevice):
         reading = self._model().sensor(self.p["sensor_radius"], self.p["sensing_height"], pose)
         delivered = self._faults_model().sensor(reading)
         if delivered is not None:
+            self.last_bit = delivered
             self.pub_sensor.publish(Bool(data=delivered))
         if pose is None and self.feed is not None:
             self.feed.sample(delivered)  # the bit as published decides, faults and all
@@ -518,6 +528,7 @@ class ThrowingArmNode(ManagedDevice):
         joint = JointState()
         joint.header.stamp = stamp
         joint.name, joint.position, joint.velocity, joint.effort = ["arm_joint"], [0.0], [velocity], [0.0]
+        self.shown = (pose, joint.position[0])
         self.pub_joint.publish(joint)
         if not self._model().on_arm:
             return  # nothing on the arm to locate
@@ -526,6 +537,23 @@ class ThrowingArmNode(ManagedDevice):
         msg.pose.position.x, msg.pose.position.y = pose[0], pose[1]
         msg.pose.orientation = yaw_quaternion(pose[2])
         self.pub_pose.publish(msg)
+
+    def drawing(self) -> Drawing | None:
+        """Return what ~/markers shows: the arm at its joint angle, the part on it, the sensor by its bit."""
+        arm = self.arm
+        if arm is None:
+            return None
+        pose, joint = self.shown if self.shown is not None else (arm.rest_pose(), 0.0)
+        length = display_length(arm.arm_length, arm.radius, arm.part.radius, self.p["sensor_radius"])
+        width = 0.01 * length
+        offset = arm.params.offset
+        sensor = self.p["sensor_radius"], offset, self.p["sensing_height"], self.last_bit, width
+        shapes = arm_shapes(length, offset, joint, width) + sensor_shapes(*sensor)
+        if arm.on_arm:
+            if self.part_triangles[0] is not arm.part:
+                self.part_triangles = (arm.part, triangulate_loops(arm.part.part.loops()))
+            shapes += part_on_arm_shapes(arm.part.part, pose, self.part_triangles[1])
+        return Drawing(self.frame_id, self.frame_id, dynamic=shapes)
 
     def _animate(self, outcome: ThrowOutcome, fraction: float, speed: float) -> tuple[Pose, float]:
         """Return the pose along the flight path and the joint velocity (the arm moves only at release)."""

@@ -1,0 +1,29 @@
+"""The ``ros2msg`` schema of a topic's type, as rosbag2 writes it into MCAP (and Foxglove reads it).
+
+The definition text is the bag writer's (``feeder_cell.bag.types``): the type's .msg text, then every
+nested type after a separator line and ``MSG: pkg/Name``. So a live channel and a recorded one of the
+same topic carry the same schema.
+"""
+
+from __future__ import annotations
+
+from feeder_cell.bag import types
+
+__all__ = ["SCHEMA_ALIASES", "schema_of"]
+
+# Types advertised under another name with the same fields and bytes: our stand-in for tf2_msgs (see
+# feeder_planner.node_kit.tf) is the standard TFMessage to Foxglove, whose 3D panel then uses the frames.
+SCHEMA_ALIASES = {"feeder_msgs/msg/TFMessage": "tf2_msgs/msg/TFMessage"}
+
+
+def schema_of(type_name: str) -> tuple[str, str] | None:
+    """Return (schema name, ros2msg definition text) of a ROS type, or None when it cannot be described."""
+    name = SCHEMA_ALIASES.get(type_name, type_name)
+    source = name if name in types.typestore().fielddefs else type_name
+    describe = getattr(types, "connection_definition", None)
+    try:
+        if describe is not None:  # the bag writer's: also service event and action feedback types
+            return name, describe(source)[0]
+        return name, types.typestore().generate_msgdef(source, ros_version=2)[0]
+    except Exception:  # noqa: BLE001 -- rosbags raises several unrelated errors for a type it cannot describe
+        return None
