@@ -1,14 +1,16 @@
 """The contact fidelity: the paper's model where no assumption breaks, physical where one does (issue 14)."""
 
+import json
 import math
 
 import numpy as np
 import pytest
-from throwing_helpers import BRACKET_PARAMS, TRIANGLE_PARAMS, bracket, regular, triangle
+from throwing_helpers import BRACKET_PARAMS, EXAMPLES, TRIANGLE_PARAMS, bracket, regular, triangle
 
 from feeder_planner.errors import InputError, SolverError
 from feeder_planner.throwing.grasp import grasp_radius
 from feeder_planner.throwing.throw_map import ThrowParams, lowest_radius, throw
+from feeder_sim.throwing.arm import ThrowingArm
 from feeder_sim.throwing.contact import contact_throw, contact_trace, sliding_impulse
 
 HIGH_MU = 5.0
@@ -164,3 +166,43 @@ def test_domain_is_the_paper_models():
     with pytest.raises(InputError) as error:
         contact_throw(part, 99, 0.1, p)
     assert error.value.field == "edge"
+
+
+CLI_PAPER = ["--offset", "-0.5", "--release-speed", "320deg", "--gravity", "-966", "--mu", "0.5"]
+
+
+def test_feeder_throw_fidelity_flag(capsys):
+    from feeder_cell.cli.main import main
+
+    tri = str(EXAMPLES / "triangle.yaml")
+    start = ["throw", tri, "--edge", "1", "--radius", "14", *CLI_PAPER, "--json"]
+    got = {}
+    for fidelity in ("paper", "analytic", "contact", "dynamic"):
+        assert main([*start, "--fidelity", fidelity]) == 0
+        got[fidelity] = json.loads(capsys.readouterr().out)
+    assert main(start) == 0  # the default is the paper model, as before the flag
+    assert json.loads(capsys.readouterr().out) == got["paper"] == got["analytic"]
+    expected = contact_throw(triangle(), 1, 0.14, TRIANGLE_PARAMS)
+    assert got["contact"]["fidelity"] == "contact" and got["contact"]["radius"] == expected.radius
+    assert got["contact"]["lift_off"] == expected.lift_off and got["contact"]["impacts"] == expected.impacts
+    dyn = got["dynamic"]
+    assert dyn["fidelity"] == "dynamic" and dyn["flight_time"] is None and dyn["impacts"] is None
+    assert dyn["kind"] in ("jog", "flip") and 0.05 < dyn["radius"] < 0.5
+    with pytest.raises(SystemExit) as bad:
+        main([*start, "--fidelity", "magic"])
+    assert bad.value.code == 2
+    err = capsys.readouterr().err
+    assert "--fidelity" in err and len(err.strip().splitlines()) == 1
+
+
+def test_arm_throws_at_the_contact_fidelity():
+    part, p = triangle(), TRIANGLE_PARAMS
+    arm = ThrowingArm(part, p, 1, 0.14, fidelity="contact")
+    out = arm.throw()
+    expected = contact_throw(part, 1, 0.14, p)
+    assert arm.fidelity == "contact" and out.kind == expected.kind
+    assert (arm.edge, arm.radius) == (expected.edge, expected.radius)
+    assert ThrowingArm(part, p, 1, 0.14, fidelity="analytic").fidelity == "paper"
+    with pytest.raises(InputError) as error:
+        ThrowingArm(part, p, 1, 0.14, fidelity="exact")
+    assert error.value.field == "fidelity" and "contact" in error.value.problem

@@ -38,10 +38,10 @@ from feeder_planner.throwing import (
     check_sensing_height,
     limit_set,
     search,
-    throw,
 )
 from feeder_planner.throwing.tolerances import SENSING_HEIGHT_FRACTION
 from feeder_planner.units import LENGTH_UNITS
+from feeder_sim.throwing import FIDELITIES, FIDELITY_ALIASES, fidelity_throw
 
 __all__ = ["CONVENTIONS", "FLAGS", "register", "run_throw", "run_limit_set", "run_design"]
 
@@ -90,6 +90,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--edge", type=int, required=True, help="I: stable hull edge the part rests on")
     p.add_argument(
         "--radius", type=finite_float, required=True, help="R: throwing radius (>= R_grasp of the edge)"
+    )
+    p.add_argument(
+        "--fidelity",
+        choices=(*FIDELITIES, *FIDELITY_ALIASES),
+        default="paper",
+        help="paper: the paper's model (default; analytic is the same); contact: paper plus lift-off "
+        "and Coulomb impacts; dynamic: pymunk (no flight time or impact count: null in --json)",
     )
     p.set_defaults(handler=_guard(run_throw))
     q = subparsers.add_parser(
@@ -169,10 +176,12 @@ def _unit_name(part: Part) -> str:
 
 def _summary_throw(r: ThrowResult, unit: float) -> str:
     """Return the one-line summary of a throw, lengths in file units."""
+    counted = "pymunk" if r.fidelity == "dynamic" else f"{r.impacts} impact(s), flight {r.flight_time:.4g} s"
+    events = [name for name in ("lift_off", "slip") if getattr(r, name)] if r.fidelity == "contact" else []
     return (
         f"edge {r.start_edge} at R={r.start_radius / unit:.6g} -> edge {r.edge} at "
-        f"R={r.radius / unit:.6g} (file units): {r.kind}, {r.turns} whole turn(s), "
-        f"{r.impacts} impact(s), flight {r.flight_time:.4g} s"
+        f"R={r.radius / unit:.6g} (file units): {r.kind}, {r.turns} whole turn(s), {counted}"
+        + ("" if r.fidelity == "paper" else f" [{r.fidelity}{': ' + ', '.join(events) if events else ''}]")
     )
 
 
@@ -191,10 +200,15 @@ def run_throw(args: argparse.Namespace) -> int:
         "--release-speed",
     )
     try:
-        result = throw(arm_part(part), args.edge, args.radius * part.unit_scale, params)
+        result = fidelity_throw(
+            arm_part(part), args.edge, args.radius * part.unit_scale, params, args.fidelity
+        )
     except BelowGraspError as error:
         raise error.in_unit(part.unit_scale, _unit_name(part)) from None  # as the flag was given
-    emit(args, result.to_json(), lambda _: _summary_throw(result, part.unit_scale))
+    payload = result.to_json()
+    if result.fidelity == "dynamic":  # pymunk certifies neither a flight time nor an impact count
+        payload["flight_time"] = payload["impacts"] = None
+    emit(args, payload, lambda _: _summary_throw(result, part.unit_scale))
     return 0
 
 
