@@ -577,6 +577,9 @@ class ThrowingArmNode(ManagedDevice):
         ev.fault, ev.fault_reason = outcome.kind == "fault", outcome.fault
         ev.sensor_at_rest = bool(arm.sensor(self.p["sensor_radius"], self.p["sensing_height"]))
         ev.fidelity = self.p["fidelity"]
+        # The paper model's assumptions this throw broke (issue 14); off_arm made it a part lost above.
+        ev.lift_off, ev.slip = "lift_off" in outcome.flags, "slip" in outcome.flags
+        ev.off_arm, ev.toe_stub = "off_arm" in outcome.flags, "toe_stub" in outcome.flags
         if ev.sensor_at_rest and not ev.fault:
             self.presented += 1
         self.pub_event.publish(ev)

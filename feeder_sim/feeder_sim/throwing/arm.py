@@ -185,9 +185,27 @@ class ThrowingArm:
         if self.fidelity == "dynamic":
             return dynamic_throw(self.part, params, edge, radius, step=self.dynamic_step)
         model = contact_throw if self.fidelity == "contact" else throw
-        res = model(self.part, edge, radius, params)
+        # The arm's end bounds the catch and the rolling too: a contact past it is off_arm (issue 14).
+        res = model(self.part, edge, radius, replace(params, arm_length=self.arm_length))
         path = self._flight_path(edge, radius, res.flight_time, params)
-        return ThrowOutcome(edge, radius, res.edge, res.radius, res.kind, res.turns, res.rotation, "", path)
+        out = ThrowOutcome(
+            edge,
+            radius,
+            res.edge,
+            res.radius,
+            res.kind,
+            res.turns,
+            res.rotation,
+            "",
+            path,
+            flags=tuple(res.violations),
+        )
+        if res.off_arm:
+            # The part touched the arm left of the pivot or past its end on the way: it is lost.
+            return out.with_fault(
+                "part left the arm: a contact lay left of the pivot or past the arm's end", True
+            )
+        return out
 
     def _landing_fault(self, out: ThrowOutcome) -> tuple[str, bool]:
         """Return why a landing is a fault (unstable edge, off the arm, next throw out of the grasp) or "".

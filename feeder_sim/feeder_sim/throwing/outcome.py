@@ -27,6 +27,7 @@ class ThrowOutcome:
     fault: str = ""  # why the throw is a fault; empty otherwise
     path: tuple[PathPoint, ...] = ()
     lost: bool = False  # the part left the arm (a fault): it is no longer on the arm at all
+    flags: tuple[str, ...] = ()  # the paper model's assumptions this throw breaks (ThrowResult.violations)
 
     @classmethod
     def failure(
