@@ -20,6 +20,7 @@ from feeder_planner.assembly.generate import (
     stepped_stack,
     write_mesh,
 )
+from feeder_planner.assembly.meshes import body_surface
 from feeder_planner.assembly.model import assembly_from_document, assembly_from_text, load_assembly
 from feeder_planner.assembly.planner import prepare
 from feeder_planner.errors import InputError
@@ -82,6 +83,10 @@ def test_pallet_of_parts_is_a_region_and_every_body_rests_on_the_deck_or_its_bra
     assert prepared.region.kind == "region" and prepared.region.contains(np.array([0.0, 0.0, -1.0]))
     names = {prepared.assembly.bodies[k].name for c in prepared.contacts for k in (c.a, c.b)} - {"deck"}
     assert names == {b.name for b in prepared.assembly.bodies if not b.grounded}
+    bracket = prepared.assembly.bodies[1]
+    surface = body_surface(bracket)  # what drawings use: the mesh's triangles, inside its bounds
+    assert len(surface) == len(bracket.meshes[0].faces) == 20
+    assert np.all(np.vstack(surface) >= bracket.meshes[0].lower - 1e-15)
 
 
 def _run(capsys, *argv: str) -> tuple[int, str, str]:

@@ -27,6 +27,7 @@ __all__ = [
     "MAX_MESH_FACES",
     "MESH_SUFFIXES",
     "MeshPart",
+    "body_surface",
     "load_mesh_part",
     "mesh_parts",
     "part_bounds",
@@ -330,3 +331,14 @@ def _face_count_hint(path: Path) -> int | None:
 def part_bounds(parts: Sequence[Any]) -> tuple[np.ndarray, np.ndarray]:
     """Return the lower and upper corners of the bounding box of parts (convex pieces or meshes)."""
     return np.min([p.lower for p in parts], axis=0), np.max([p.upper for p in parts], axis=0)
+
+
+def body_surface(body: Any) -> list[np.ndarray]:
+    """Return a body's surface as 3-D polygons (m): its pieces' faces, then its meshes' triangles.
+
+    For drawings and markers, which until meshes knew only ``body.pieces``: one list covers both.
+    """
+    polygons = [face.polygon for piece in body.pieces for face in piece.faces]
+    for mesh in body.meshes:
+        polygons.extend(mesh.triangles)
+    return polygons
