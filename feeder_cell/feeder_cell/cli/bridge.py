@@ -32,9 +32,7 @@ def _run(args: argparse.Namespace) -> int:
         try:
             bridge = GraphBridge(node, args.address, args.port)
         except RuntimeError as error:  # foxglove-sdk: the address cannot be bound
-            raise FeederError(
-                f"feeder bridge: cannot serve ws://{args.address}:{args.port}: {error}"
-            ) from None
+            raise FeederError(f"cannot serve ws://{args.address}:{args.port}: {error}") from None
         # The line a user (and a test) waits for: where to point Foxglove.
         sys.stdout.write(f"feeder bridge: serving ws://{args.address}:{bridge.port} (Ctrl-C stops)\n")
         sys.stdout.flush()
