@@ -111,6 +111,22 @@ def test_cli_stable_region_and_check_stability_on_mesh_examples(capsys) -> None:
     assert code == 0 and "NOT stable" in out and "tail" in out
 
 
+def test_cli_names_the_file_and_field_of_a_bad_mesh(capsys, tmp_path) -> None:
+    assembly = tmp_path / "bad.yaml"
+    assembly.write_text(
+        "bodies:\n  - {name: floor, grounded: true, boxes: [{min: [0, 0, -1], max: [1, 1, 0]}]}\n"
+        "  - {name: part, meshes: [{file: parts/gone.stl}]}\n"
+    )
+    code, out, err = _run(capsys, "stable-region", str(assembly), "--json")
+    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
+    assert (
+        str(assembly) in err
+        and "bodies[1].meshes[0].file" in err
+        and "gone.stl" in err
+        and "does not exist" in err
+    )
+
+
 def _box_mesh(path: Path, lower=(0.0, 0.0, 0.0), upper=(1.0, 1.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
     vertices, faces = extruded_prism(box_profile(lower[0], lower[2], upper[0], upper[2]), lower[1], upper[1])
     write_mesh(path, vertices, faces)
