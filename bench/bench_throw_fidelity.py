@@ -24,6 +24,7 @@ from feeder_sim.throwing.contact import contact_trace
 from feeder_sim.throwing.dynamic import dynamic_throw
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "throwing"
+IDEAL_CARRY = 0.002  # rad: a tenth of the dynamic model's default carry (CARRY_ANGLE)
 
 
 def _decagon() -> ArmPart:
@@ -77,6 +78,8 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     pd_by_flag = {True: [0, 0], False: [0, 0]}  # flagged -> [agree, total]
     near_flip = [0, 0]  # paper-vs-dynamic disagreements within 1 part radius of R_flip, all disagreements
     per_part = []
+    faults = [0, 0]  # dynamic throws that fault (carry out of the grasp, part lost): default, ideal
+    ideal_agree = [0, 0]  # ideal pymunk vs paper: agreeing, non-faulting
     for name, part, p in _cases():
         b = edge_bounds(part, p, points=100)
         starts = []
@@ -88,10 +91,12 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
         t0 = time.perf_counter()
         dyn = [dynamic_throw(part, p, e, r) for e, r in starts]
         t_dynamic.append((time.perf_counter() - t0) / len(starts))
+        # pymunk with the paper's catch and release: no restitution, a ten times shorter carry.
+        ideal = [dynamic_throw(part, p, e, r, elasticity=0.0, carry_angle=IDEAL_CARRY) for e, r in starts]
         t_paper.append(median_time(_each(throw, part, p, starts), repeats) / len(starts))
         t_contact.append(median_time(_each(contact_trace, part, p, starts), repeats) / len(starts))
         agree_part = 0
-        for (e, r), pa, tr, dy in zip(starts, paper, traces, dyn, strict=True):
+        for (e, r), pa, tr, dy, di in zip(starts, paper, traces, dyn, ideal, strict=True):
             c = tr.result
             kp, kc, kd = (pa.edge, pa.kind), (c.edge, c.kind), (dy.edge_after, dy.kind)
             n_total += 1
@@ -106,6 +111,12 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
                 cd_agree += 1
                 agree_part += 1
                 cd_dr.append(abs(c.radius - dy.radius_after) / part.radius)
+            faults[0] += dy.kind == "fault"
+            if di.kind == "fault":
+                faults[1] += 1
+            else:
+                ideal_agree[1] += 1
+                ideal_agree[0] += (di.edge_after, di.kind) == kp
             pd_by_flag[flagged][1] += 1
             if kp == kd:
                 pd_agree += 1
@@ -155,6 +166,20 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
                 f"contact {med(cd_dr):.2g}, paper {med(pd_dr):.2g} part radii; per part {', '.join(per_part)}"
             ),
             "met": cd_agree >= pd_agree,
+        }
+    )
+    rows.append(
+        {
+            "benchmark": "throwing fidelity: dynamic with e = 0 and a 0.002 rad carry vs paper",
+            "measure": "agreement on (edge, jog/flip), non-faulting throws",
+            "value": ideal_agree[0] / max(ideal_agree[1], 1),
+            "unit": "fraction",
+            "target": "> dynamic (e = 0.05, 0.02 rad carry) vs paper",
+            "baseline": (
+                f"default dynamic vs paper {pd_rate:.3f} ({faults[0]} faults counted as disagreeing); "
+                f"here {faults[1]} of {n_total} throws fault (the short carry leaves the grasp)"
+            ),
+            "met": ideal_agree[0] / max(ideal_agree[1], 1) > pd_rate,
         }
     )
     rows.append(
