@@ -57,6 +57,9 @@ SERVED_SUBPROTOCOL = "foxglove.sdk.v1"
 UNKNOWN_CHANNEL = re.compile(r"Unknown channel ID: (\d+)")
 RESUBSCRIBE_DELAY = 0.2  # s before asking again for a channel the server said it did not know yet
 ARRAY, ARM, FIXTURE = f"{NS}/mems_field_array", f"{NS}/throwing_arm", f"{NS}/assembly_fixture"
+PLANNER = f"{NS}/stable_region_planner"
+CUBE = EXAMPLES / "assembly" / "cube_in_corner.yaml"  # a 2-D stable region
+SPHERE_RADIUS = 0.2
 
 
 @pytest.fixture(scope="module")
@@ -101,6 +104,14 @@ def devices(launch_module_node: Any) -> None:
         namespace=NS,
         lifecycle="inactive",
         wait_topics=(f"{FIXTURE}/markers",),
+    )
+    launch_module_node(
+        "feeder_planner",
+        "stable_region_planner",
+        {"assembly_file": str(CUBE), "sphere_radius": SPHERE_RADIUS},
+        namespace=NS,
+        wait_topics=(f"{PLANNER}/markers",),
+        wait_services=(f"{PLANNER}/safe_path",),
     )
 
 
@@ -225,6 +236,35 @@ def test_arm_markers_draw_the_part_at_rest_and_the_sensor_by_its_bit(
     assert rgba(sensor) == pytest.approx(STYLES["sensor_on"])
     assert xy(sensor) == pytest.approx(
         np.array([[RADIUS, PAPER["offset"]], [RADIUS, PAPER["offset"] + 0.001]])
+    )
+
+
+def test_region_planner_draws_its_region_and_the_path_it_planned(
+    devices: None, ros_client: Any, history: Any
+) -> None:
+    from geometry_msgs.msg import Vector3
+
+    from feeder_msgs.srv import StablePath
+    from feeder_planner.assembly import load_assembly, prepare
+
+    region = prepare(load_assembly(CUBE)).region
+    (boundary,) = markers_with(history, PLANNER, "region")
+    assert boundary.header.frame_id == "viz/assembly"  # the fixture's frame beside it: drawn on the table
+    points = np.array([[p.x, p.y, p.z] for p in boundary.points])
+    assert np.linalg.norm(points, axis=1) == pytest.approx(SPHERE_RADIUS)
+    assert all(
+        region.contains(g, tolerance=1e-6) and abs(region.margin(g)) < 1e-6 for g in points / SPHERE_RADIUS
+    )
+    (center,) = markers_with(history, PLANNER, "center")
+    c = center.pose.position
+    assert (c.x, c.y, c.z) == pytest.approx(np.asarray(region.center) * SPHERE_RADIUS)
+    request = StablePath.Request(start=Vector3(x=-0.5, y=-0.6, z=-0.6), goal=Vector3(x=-0.6, y=-0.5, z=-0.6))
+    response = ros_harness.call_service(ros_client, StablePath, f"{PLANNER}/safe_path", request)
+    (path,) = markers_with(history, PLANNER, "safe_path")
+    drawn = np.array([[p.x, p.y, p.z] for p in path.points])
+    planned = np.array([[g.x, g.y, g.z] for g in response.path])
+    assert len(planned) > 2 and drawn == pytest.approx(
+        planned / np.linalg.norm(planned, axis=1)[:, None] * SPHERE_RADIUS
     )
 
 
