@@ -33,7 +33,7 @@ def _chunk_compressions(path: Path) -> list[str]:
         summary = make_reader(stream).get_summary()
     if summary is None:
         return []
-    return sorted({index.compression for index in summary.chunk_indexes})
+    return sorted({index.compression or "none" for index in summary.chunk_indexes})
 
 
 def _qos_dicts(profiles: list[Any]) -> list[dict[str, Any]]:
@@ -113,7 +113,7 @@ def bag_info(path: Path) -> dict[str, Any]:
             "message_count": reader.message_count,
             "compression_mode": metadata.get("compression_mode", ""),
             "compression_format": metadata.get("compression_format", ""),
-            "chunk_compression": ",".join(c for c in chunk if c) or "none",
+            "chunk_compression": ",".join(c for c in chunk if c != "none") or "none",
             "topics": dict(sorted(topics.items())),
             "services": dict(sorted(services.items())),
         }
