@@ -40,6 +40,16 @@ def planner(launch_module_node):
     )
 
 
+def paper_params() -> dict:
+    """Return PAPER as ThrowParams keywords."""
+    return {
+        "offset": PAPER["offset"],
+        "speed": PAPER["release_speed"],
+        "gravity": PAPER["gravity"],
+        "mu": PAPER["mu"],
+    }
+
+
 def _trigger(ros_client):
     from feeder_msgs.srv import SensorTriggerRadii
 
@@ -165,6 +175,20 @@ def test_sensor_at_planned_radius_reads_true_only_on_goal_edge_and_every_cycle(
     # The event's own record: at rest the sensor is true only on the goal edge.
     assert not any(ev.sensor_at_rest and ev.edge_after != GOAL for ev in events_)
     assert not any(ev.fault for ev in events_), [ev.fault_reason for ev in events_ if ev.fault][:3]
+    # Each event carries the paper model's assumption flags of its throw (issue 14 item 2).
+    from feeder_planner.parts import load_part
+    from feeder_planner.throwing import ThrowParams, arm_part, throw
+
+    arm = arm_part(load_part(TRIANGLE))
+    for ev in events_[:20]:
+        again = throw(arm, ev.edge_before, ev.radius_before, ThrowParams(**paper_params(), arm_length=0.4))
+        assert (ev.lift_off, ev.slip, ev.off_arm, ev.toe_stub) == (
+            again.lift_off,
+            again.slip,
+            again.off_arm,
+            again.toe_stub,
+        )
+    assert any(ev.slip or ev.lift_off for ev in events_)  # the triangle's cycle breaks them (doc'd)
     rest_reads = rest_reads[burn_in:]
     wrong = [(e, r) for e, r in rest_reads if e != GOAL and any(r)]
     assert not wrong, f"sensor read true off the goal edge: {wrong[:5]}"
@@ -347,9 +371,9 @@ def test_planner_non_simple_part_and_grasp_radii(planner, ros_client):
 def test_planner_limit_set_and_design_services_match_the_cli_library(planner, ros_client):
     import json
 
-    from feeder_msgs.srv import DesignSearch, LimitSetCompute
+    from feeder_msgs.srv import DesignSearch, LimitSetCompute, ThrowCompute
     from feeder_planner.parts import load_part
-    from feeder_planner.throwing import ThrowParams, arm_part, limit_set
+    from feeder_planner.throwing import ThrowParams, arm_part, limit_set, throw
 
     response = ros_harness.call_service(
         ros_client,
@@ -372,6 +396,31 @@ def test_planner_limit_set_and_design_services_match_the_cli_library(planner, ro
     assert json.loads(response.json) == expected
     assert list(response.cycle_edges) == expected["cycle"]["edges"] and response.unique
     assert (response.trigger_min, response.trigger_max) == tuple(expected["trigger"]["radius_range"])
+    # The attractors as messages (issue 14): the one periodic attractor of the triangle, [1, 0, 2].
+    (only,) = response.attractors
+    (want,) = expected["attractors"]
+    assert (
+        list(only.edges) == want["edges"] and only.periodic and list(only.cycle) == want["cycle"] == [1, 0, 2]
+    )
+    assert only.basin == 1.0 and response.converged and response.trigger_note == ""
+    assert only.throws_per_round_mean == want["throws_per_round"][1]
+    assert [r.edge for r in only.ranges] == want["edges"]
+    assert only.slip == want["assumption_violations"]["slip"] and only.off_arm == 0.0
+    thrown = ros_harness.call_service(
+        ros_client,
+        ThrowCompute,
+        "/throw_planner/throw",
+        ThrowCompute.Request(part=part_msg(), edge=1, radius=0.12, **PAPER),
+        60,
+    )
+    assert thrown.ok, thrown.error
+    flags = throw(arm_part(load_part(TRIANGLE)), 1, 0.12, ThrowParams(**paper_params()))
+    assert (thrown.lift_off, thrown.slip, thrown.off_arm, thrown.toe_stub) == (
+        flags.lift_off,
+        flags.slip,
+        flags.off_arm,
+        flags.toe_stub,
+    )
     design = ros_harness.call_service(
         ros_client,
         DesignSearch,

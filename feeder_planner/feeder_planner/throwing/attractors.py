@@ -16,7 +16,7 @@ from typing import Any, Callable
 import numpy as np
 
 from feeder_planner.throwing.throw_map import ASSUMPTIONS, ThrowBatch, radius_in_domain
-from feeder_planner.throwing.tolerances import ATTRACTOR_WINDOW, MAX_MOTIF
+from feeder_planner.throwing.tolerances import ATTRACTOR_WINDOW, MAX_MOTIF, MIN_WINDOW
 
 __all__ = [
     "Rows",
@@ -87,9 +87,10 @@ def _cell_codes(rows: Rows, idx: np.ndarray, edge: np.ndarray, radius: np.ndarra
 def default_window(throws: int) -> int:
     """Return the recurrence window: ATTRACTOR_WINDOW throws, at most a sixth of the cap.
 
-    A sixth leaves a start five chances (windows 2..6) to show recurrence before a short cap.
+    A sixth leaves a start five chances (windows 2..6) to show recurrence before a short cap; never
+    below MIN_WINDOW, so a cap under two such windows cannot converge at all.
     """
-    return max(1, min(ATTRACTOR_WINDOW, throws // 6))
+    return max(MIN_WINDOW, min(ATTRACTOR_WINDOW, throws // 6))
 
 
 def iterate_to_recurrence(

@@ -30,6 +30,7 @@ from feeder_planner.throwing.tolerances import (
     FLIP_REFINE,
     MAX_GROWTH_ROUNDS,
     MAX_SCAN_RADII,
+    MIN_WINDOW,
     SCAN_GROWTH,
 )
 
@@ -231,7 +232,7 @@ def evaluate(
         rows,
         lambda idx, e, r: throw_rows(part, e, r, h[idx], w[idx], gravity, mu[idx]),
         throws,
-        min(window, max(1, throws // 3)),
+        max(MIN_WINDOW, min(window, throws // 3)),
     )
     for d, design in enumerate(designs):
         if notes[d] is not None:

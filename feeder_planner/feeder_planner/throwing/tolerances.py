@@ -27,6 +27,7 @@ __all__ = [
     "BURN_IN_DIVISOR",
     "ATTRACTOR_WINDOW",
     "MAX_MOTIF",
+    "MIN_WINDOW",
     "SENSING_HEIGHT_FRACTION",
     "SLAB_SLACK",
     "HORIZONTAL_EDGE",
@@ -100,6 +101,9 @@ BURN_IN_DIVISOR: Final = 3
 # attractor (40.6 throws per round), so one window shows every cell a round visits; a short cap
 # shrinks the window to a sixth of it.
 ATTRACTOR_WINDOW: Final = 200
+# The shortest recurrence window: a window shorter than a cycle of the paper's parts (12-23 throws)
+# could repeat cells by chance within one cycle, so a cap below two windows of 20 never converges.
+MIN_WINDOW: Final = 20
 # Longest motif (in visits) of a block of a quasi-periodic attractor's round: convex12 alternates
 # 3/2 then 0/6 (motifs of 2); 4 allows motifs of up to four edges before a stretch counts as irregular.
 MAX_MOTIF: Final = 4
