@@ -374,7 +374,7 @@ def test_namespaced_fixture_and_planner_keep_everything_under_the_namespace(laun
     assert diagnostic(ros_client, device).hardware_id == f"sim:{device}"
     for node in (NODE, "stable_region_planner"):
         published = {n for n, _ in ros_client.get_publisher_names_and_types_by_node(node, namespace)}
-        stray = published - {"/diagnostics", "/rosout", "/parameter_events"}
+        stray = published - {"/diagnostics", "/rosout", "/parameter_events", "/tf", "/tf_static"}
         assert stray and all(t.startswith(f"{namespace}/{node}/") for t in stray), stray
         assert "/clock" not in published
         served = {n for n, _ in ros_client.get_service_names_and_types_by_node(node, namespace)}

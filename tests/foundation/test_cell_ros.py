@@ -33,7 +33,7 @@ ARM_PARAMETERS = {
     "/cell/feeder_a": {"gravity": -9.66, "offset": -0.005, "release_speed": 5.585053606381854},
     "/cell/feeder_b": {"gravity": -2.2, "offset": -0.0025, "release_speed": 5.585053606381854},
 }
-STANDARD_TOPICS = {"/diagnostics", "/rosout", "/parameter_events", "/clock"}
+STANDARD_TOPICS = {"/diagnostics", "/rosout", "/parameter_events", "/clock", "/tf", "/tf_static"}
 
 
 def multi_instance_scene(path: Path) -> Path:

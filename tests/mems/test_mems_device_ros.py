@@ -349,7 +349,7 @@ def test_a_namespaced_array_and_its_planner_find_each_other(
     assert response.ok, response.error
     for node in ("mems_field_array", "field_equilibria_planner"):
         published = {n for n, _ in ros_client.get_publisher_names_and_types_by_node(node, namespace)}
-        own = published - {"/diagnostics", "/rosout", "/parameter_events"}
+        own = published - {"/diagnostics", "/rosout", "/parameter_events", "/tf_static"}
         assert own and all(t.startswith(f"{namespace}/{node}/") for t in own), own
         served = {n for n, _ in ros_client.get_service_names_and_types_by_node(node, namespace)}
         assert all(s.startswith(f"{namespace}/{node}/") for s in served), served

@@ -108,7 +108,7 @@ class DeviceViz:
         self.static_book, self.update_book = MarkerBook(), MarkerBook()
         self.static_key: tuple[Any, ...] | None = None
         self.frames = StaticFrames(node)
-        self.moving = FramePublisher(node)
+        self.moving: FramePublisher | None = None  # made for the first moving frame: no idle /tf writer
         self.steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.rate = self._valid_rate(node.get_parameter("marker_rate").value)
         self.timer: Any = None
@@ -172,9 +172,12 @@ class DeviceViz:
             self.static_key = key
             self.static_pub.publish(self.static_book.update(drawing.static, drawing.frame_id, stamp))
         self.update_pub.publish(self.update_book.update(drawing.dynamic, drawing.frame_id, stamp))
-        self.moving.publish(
-            [transform(f.parent, f.child, f.translation, f.rotation, stamp) for f in drawing.moving]
-        )
+        if drawing.moving:
+            if self.moving is None:
+                self.moving = FramePublisher(self.node)
+            self.moving.publish(
+                [transform(f.parent, f.child, f.translation, f.rotation, stamp) for f in drawing.moving]
+            )
 
 
 class ResultMarkers:
