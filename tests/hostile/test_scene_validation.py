@@ -72,3 +72,23 @@ def test_feeder_launch_starts_nothing_for_a_bad_scene(tmp_path: Path, capsys) ->
         f"feeder launch: {path}: nodes[0].parameters.gravity: is declared double, got integer -9 (write -9.0)"
     ]
     assert not logs.exists()  # no node was started: the launcher creates the log folder first
+
+
+def test_an_output_directory_under_a_file_is_refused_before_any_work(tmp_path: Path, capsys) -> None:
+    from feeder_cell.cli.common import output_directory
+    from feeder_cell.cli.main import main
+
+    blocker = tmp_path / "not_a_dir"
+    blocker.write_text("x")
+    with pytest.raises(InputError, match=r"--record: cannot create .*: .*not_a_dir is not a directory"):
+        output_directory(blocker / "bags" / "run1", "--record", must_be_new=True)
+    with pytest.raises(InputError, match="already exists"):
+        output_directory(tmp_path, "output", must_be_new=True)
+    assert output_directory(tmp_path / "new" / "run", "output") == tmp_path / "new" / "run"
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(yaml.safe_dump({"name": "s", "nodes": [ARM]}))
+    assert (
+        main(["launch", str(scene), "--record", str(blocker / "bag"), "--log-dir", str(tmp_path / "l")]) == 2
+    )
+    assert capsys.readouterr().err.count("\n") == 1
+    assert not (tmp_path / "l").exists()
