@@ -136,6 +136,8 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     fig.savefig(out_dir / "throwing_fidelity_vs_step.png", dpi=110)
     plt.close(fig)
 
+    rows += _design_rows(tri, quick)
+
     # Figs. 7 / 8: convergence of a grid of starts to one cycle
     for name, params, throws in (("triangle", TRIANGLE, 150), ("bracket", BRACKET, 150)):
         pa = arm_part(load_part(EXAMPLES / f"{name}.yaml"))
@@ -160,6 +162,67 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
         fig.savefig(out_dir / f"throwing_limit_set_{name}.png", dpi=110)
         plt.close(fig)
     return rows
+
+
+def _design_rows(tri, quick: bool) -> list[dict]:
+    """Issue 14 item 5: the batched 20 x 20 design search against the per-design loop, robust throughput."""
+    from feeder_planner.throwing.design import search, search_loop
+    from feeder_planner.throwing.studies import robust_study
+
+    out: list[dict] = []
+    offsets = np.linspace(-0.008, -0.001, 20)
+    speeds = np.radians(np.linspace(250, 400, 20))
+    t0 = time.perf_counter()
+    batched = search(tri, 1, offsets, speeds, TRIANGLE.gravity, TRIANGLE.mu)
+    t_batched = time.perf_counter() - t0
+    # Today's loop (one limit set per design) on a 5 x 5 corner of the grid, per design, in the same run.
+    sub_h, sub_w = offsets[::4], speeds[::4]
+    t0 = time.perf_counter()
+    search_loop(tri, 1, sub_h, sub_w, TRIANGLE.gravity, TRIANGLE.mu)
+    per_design = (time.perf_counter() - t0) / (len(sub_h) * len(sub_w))
+    unique = sum(r.unique for r in batched.designs)
+    out.append(
+        {
+            "benchmark": "throwing: throw-design 20 x 20 (h, W) grid, triangle, batched",
+            "measure": "wall time",
+            "value": t_batched,
+            "unit": "s",
+            "target": "< 10 s",
+            "baseline": (
+                f"per-design loop: {per_design:.2f} s a design (5 x 5 sample), {400 * per_design:.0f} s for "
+                f"400 ({400 * per_design / t_batched:.0f}x slower); {unique}/400 designs unique"
+            ),
+            "met": t_batched < 10.0,
+        }
+    )
+    samples = 4 if quick else 10
+    # Eight grid points (tasks) so that two workers have work to share; start-up is reported apart.
+    grid = (np.array([-0.007, -0.005, -0.003, -0.001]), np.radians([300.0, 340.0]))
+    rates, startup = {}, {}
+    for workers in (1, 2):
+        study = robust_study(
+            tri, 1, *grid, TRIANGLE.gravity, TRIANGLE.mu, samples, 0.03, 0.03, 0.03, seed=0, workers=workers
+        )
+        rates[workers] = len(study.points) * samples / study.seconds
+        startup[workers] = study.startup
+    for workers in (1, 2):
+        out.append(
+            {
+                "benchmark": f"throwing: robust study (8 grid points x {samples} perturbed designs), "
+                + (f"{workers} Dask workers (LocalCluster)" if workers > 1 else "one process"),
+                "measure": "throughput",
+                "value": rates[workers],
+                "unit": "limit sets/s",
+                "target": "reported",
+                "baseline": (
+                    f"one process {rates[1]:.1f}/s; cluster start-up {startup[workers]:.1f} s not counted"
+                    if workers > 1
+                    else "-"
+                ),
+                "met": True,
+            }
+        )
+    return out
 
 
 if __name__ == "__main__":

@@ -61,7 +61,8 @@ class RobustStudy:
     sigmas: dict[str, float]
     points: list[RobustPoint]
     workers: int
-    seconds: float
+    seconds: float  # evaluating the designs (a cluster's start-up not included)
+    startup: float = 0.0  # starting or connecting to the cluster (s)
 
     @property
     def best(self) -> RobustPoint | None:
@@ -81,6 +82,7 @@ class RobustStudy:
             "best": None if best is None else best.to_json(),
             "workers": self.workers,
             "limit_sets_per_second": len(self.points) * self.samples / self.seconds if self.seconds else None,
+            "startup_seconds": self.startup,
         }
 
 
@@ -180,16 +182,19 @@ def robust_study(
         _check_sigma("mu_sigma", mu_sigma),
     )
     tasks = perturbed_designs(offsets, speeds, mu, samples, sigmas, seed)
-    start = time.perf_counter()
+    startup = 0.0
     if workers == 1 and scheduler is None:
+        start = time.perf_counter()
         counts = []
         for designs in tasks:
             counts.append(evaluate_point(part, goal_edge, designs, gravity, sensing_height))
             if progress is not None:
                 progress(len(counts), len(tasks))
+        seconds = time.perf_counter() - start
     else:
-        counts = _on_dask(part, goal_edge, tasks, gravity, sensing_height, workers, scheduler, progress)
-    seconds = time.perf_counter() - start
+        counts, startup, seconds = _on_dask(
+            part, goal_edge, tasks, gravity, sensing_height, workers, scheduler, progress
+        )
     grid = [(float(h), float(w)) for h in offsets for w in speeds]
     points = [
         RobustPoint(h, w, samples, u / samples, t / samples, bad)
@@ -203,6 +208,7 @@ def robust_study(
         points,
         workers,
         seconds,
+        startup,
     )
 
 
@@ -215,10 +221,11 @@ def _on_dask(
     workers: int,
     scheduler: str | None,
     progress: Callable[[int, int], None] | None,
-) -> list[tuple[int, int, int]]:
-    """Run every task on Dask and return the results in task order; the cluster is closed on any exit."""
+) -> tuple[list[tuple[int, int, int]], float, float]:
+    """Run every task on Dask: (results in task order, start-up s, compute s); the cluster always closes."""
     from dask.distributed import Client, LocalCluster, as_completed
 
+    begin = time.perf_counter()
     cluster = None
     if scheduler is None:
         cluster = LocalCluster(
@@ -228,6 +235,9 @@ def _on_dask(
     else:
         client = Client(scheduler, timeout=10)
     try:
+        client.wait_for_workers(1 if scheduler is not None else workers, timeout=60)
+        startup = time.perf_counter() - begin
+        start = time.perf_counter()
         shared = client.scatter(part, broadcast=True)
         futures = [
             client.submit(evaluate_point, shared, goal_edge, designs, gravity, sensing_height, pure=False)
@@ -239,7 +249,7 @@ def _on_dask(
             results[index[future.key]] = future.result()
             if progress is not None:
                 progress(done, len(tasks))
-        return [r for r in results if r is not None]
+        return [r for r in results if r is not None], startup, time.perf_counter() - start
     finally:
         client.close()
         if cluster is not None:
