@@ -19,11 +19,8 @@ SCHEMA_ALIASES = {"feeder_msgs/msg/TFMessage": "tf2_msgs/msg/TFMessage"}
 def schema_of(type_name: str) -> tuple[str, str] | None:
     """Return (schema name, ros2msg definition text) of a ROS type, or None when it cannot be described."""
     name = SCHEMA_ALIASES.get(type_name, type_name)
-    source = name if name in types.typestore().fielddefs else type_name
-    describe = getattr(types, "connection_definition", None)
+    source = name if types.is_known(name) else type_name
     try:
-        if describe is not None:  # the bag writer's: also service event and action feedback types
-            return name, describe(source)[0]
-        return name, types.typestore().generate_msgdef(source, ros_version=2)[0]
+        return name, types.connection_definition(source)[0]  # also service event and action feedback types
     except Exception:  # noqa: BLE001 -- rosbags raises several unrelated errors for a type it cannot describe
         return None
