@@ -31,6 +31,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -64,6 +65,7 @@ from feeder_planner.throwing.throw_map import ThrowParams, ThrowResult, check_st
 from feeder_sim.throwing.tolerances import (
     CONTACT_ATOL,
     CONTACT_RTOL,
+    LEVEL_SLACK,
     LIFT_GUARD,
     MAX_CONTACT_EVENTS,
     SLIDE_TIME_LIMIT,
@@ -328,7 +330,18 @@ class _Rest:
     theta: float
 
 
-def _impact(run: _Run, st: _State, k: int, kind: str) -> _Rest:
+@dataclass(frozen=True)
+class _Next:
+    """The next phase of a throw (a trampoline: phases chain without growing the call stack)."""
+
+    step: Callable[..., _Rest | _Next]
+    args: tuple[Any, ...]
+
+
+_Outcome = _Rest | _Next
+
+
+def _impact(run: _Run, st: _State, k: int, kind: str) -> _Outcome:
     """Resolve an impact of vertex k (the only vertex on the arm): stick and roll, or slide."""
     run.impacts += 1
     rx, ry = run.r(k, st.theta)
@@ -337,17 +350,17 @@ def _impact(run: _Run, st: _State, k: int, kind: str) -> _Rest:
     if not bool(outside_cone(xp - st.vx, yp - st.vy, run.mu)[0]):
         after = _State(st.x, st.y, st.theta, float(xp[0]), float(yp[0]), float(om[0]))
         run.log(kind, k, after)
-        return _roll(run, k, st.theta, float(om[0]), st.x + rx)
+        return _Next(_roll, (run, k, st.theta, float(om[0]), st.x + rx))
     j_t, j_n, d_omega, stuck = sliding_impulse(rx, ry, st.vx, st.vy, st.omega, run.geo.rho, run.mu)
     slip = st.vx - st.omega * ry
     after = _State(st.x, st.y, st.theta, st.vx + j_t, st.vy + j_n, st.omega + d_omega)
     run.log("slide", k, after, impulse=(j_t, j_n), slip=slip)
     if stuck:
-        return _roll(run, k, st.theta, after.omega, st.x + rx)
-    return _slide(run, after, k)
+        return _Next(_roll, (run, k, st.theta, after.omega, st.x + rx))
+    return _Next(_slide, (run, after, k))
 
 
-def _roll(run: _Run, k: int, theta: float, omega: float, pivot_x: float) -> _Rest:
+def _roll(run: _Run, k: int, theta: float, omega: float, pivot_x: float) -> _Outcome:
     """Roll about vertex k as ``rolling.settle`` does (same steps), leaving it at a lift-off or a slip.
 
     One swing per round: its end and the struck vertex come from the paper's own functions, so that a
@@ -374,13 +387,13 @@ def _roll(run: _Run, k: int, theta: float, omega: float, pivot_x: float) -> _Res
             st = run.pivot_state(pivot, lift[0], lift[1], float(pp[0]))
             run.log("lift_off", pivot, st)
             t, hit = _flight(run, st, pivot)
-            return _impact(run, _fly(run, st, t), hit, "catch")
+            return _Next(_impact, (run, _fly(run, st, t), hit, "catch"))
         j, e, cm_x, om_new, p_new = _strike(geo, kk, direction, target, h_target, om_end, pp)
         if bool(_strike_slip(geo, kk, j, target, h_target, om_end, om_new, run.mu)[0]):
             # The sticking strike would need more friction than mu: a sliding impact at j instead.
             before = run.pivot_state(pivot, float(target[0]), float(om_end[0]), float(pp[0]))
             run.touch(float(p_new[0]))
-            return _strike_sliding(run, before, int(j[0]), int(e[0]), pivot)
+            return _Next(_strike_sliding, (run, before, int(j[0]), int(e[0]), pivot))
         run.impacts += 1
         run.touch(float(p_new[0]))
         after = run.pivot_state(int(j[0]), float(target[0]), float(om_new[0]), float(p_new[0]))
@@ -390,7 +403,7 @@ def _roll(run: _Run, k: int, theta: float, omega: float, pivot_x: float) -> _Res
         k_a, th, om, px = j, target, om_new, p_new
 
 
-def _strike_sliding(run: _Run, st: _State, j: int, e: int, old: int) -> _Rest:
+def _strike_sliding(run: _Run, st: _State, j: int, e: int, old: int) -> _Outcome:
     """Resolve a sliding strike of vertex j as the old pivot leaves the arm (edge e comes down flat).
 
     If the impact's spin would press the old pivot into the arm, edge e lies flat: both vertices take
@@ -405,13 +418,13 @@ def _strike_sliding(run: _Run, st: _State, j: int, e: int, old: int) -> _Rest:
     run.log("slide", j, after, impulse=(j_t, j_n), slip=slip)
     ox, _ = run.r(old, st.theta)
     if after.omega * (ox - rx) < 0 or after.omega == 0:  # the old pivot would move into the arm
-        return _flat(run, st, j, e)
+        return _Next(_flat, (run, st, j, e))
     if stuck:
-        return _roll(run, j, st.theta, after.omega, st.x + rx)
-    return _slide(run, after, j)
+        return _Next(_roll, (run, j, st.theta, after.omega, st.x + rx))
+    return _Next(_slide, (run, after, j))
 
 
-def _flat(run: _Run, st: _State, j: int, e: int) -> _Rest:
+def _flat(run: _Run, st: _State, j: int, e: int) -> _Outcome:
     """Edge e lands flat: plastic in the normal direction, Coulomb-limited in the tangential one."""
     normal = -st.vy  # the normal impulse per unit mass that stops the fall (both vertices together)
     vx = st.vx - math.copysign(min(abs(st.vx), run.mu * max(normal, 0.0)), st.vx)
@@ -423,10 +436,10 @@ def _flat(run: _Run, st: _State, j: int, e: int) -> _Rest:
     if bool(run.part.stable[e]):
         run.log("rest", j, rest)
         return _Rest(e, x, st.theta)
-    return _roll(run, j, st.theta, 0.0, x + rx)
+    return _Next(_roll, (run, j, st.theta, 0.0, x + rx))
 
 
-def _slide(run: _Run, st: _State, k: int, sigma: float = 0.0) -> _Rest:
+def _slide(run: _Run, st: _State, k: int, sigma: float = 0.0) -> _Outcome:
     """Slide on vertex k (one contact, kinetic Coulomb friction) until it sticks, lifts off or strikes.
 
     Per unit mass, with r the vertex from the centre of mass, sigma the slip direction and
@@ -456,17 +469,33 @@ def _slide(run: _Run, st: _State, k: int, sigma: float = 0.0) -> _Rest:
         return z[2] - z[3] * run.r(k, z[1])[1]
 
     def strike(m: int) -> Callable[[float, np.ndarray], float]:
+        # A neighbour still on the arm (the other end of an edge that has just come down) starts at a
+        # height of zero up to rounding, whose sign the solver would misread: measure it from its start.
+        start = run.r(m, st.theta)[1] - run.r(k, st.theta)[1]
+        level = start if abs(start) <= LEVEL_SLACK * run.part.radius else 0.0
+
         def height(_t: float, z: np.ndarray) -> float:
-            return run.r(m, z[1])[1] - run.r(k, z[1])[1]
+            return run.r(m, z[1])[1] - run.r(k, z[1])[1] - level
 
         height.terminal, height.direction = True, -1  # type: ignore[attr-defined]
         return height
 
+    def painleve(_t: float, z: np.ndarray) -> float:
+        rx, ry = run.r(k, z[1])
+        return 1.0 + rx * (rx + sigma * mu * ry) / rho2
+
     lift.terminal, lift.direction = True, -1  # type: ignore[attr-defined]
     # Only a slip running down to zero ends it (a slip starting from rest begins at zero).
     stuck.terminal, stuck.direction = True, -sigma  # type: ignore[attr-defined]
-    events = [lift, stuck, strike(neighbours[0]), strike(neighbours[1])]
+    painleve.terminal, painleve.direction = True, -1  # type: ignore[attr-defined]
+    events = [lift, stuck, strike(neighbours[0]), strike(neighbours[1]), painleve]
     z0 = np.array([st.x, st.theta, st.vx, st.omega])
+    if painleve(0.0, z0) <= 0:
+        raise SolverError("sliding contact inconsistent (Painleve): mu too large for this contact geometry")
+    if lift(0.0, z0) < 0:  # the slide would need a pulling normal force: the part leaves at once
+        run.log("lift_off", k, st)
+        t, hit = _flight(run, st, k)
+        return _Next(_impact, (run, _fly(run, st, t), hit, "catch"))
     sol = solve_ivp(
         rates,
         (0.0, SLIDE_TIME_LIMIT * scale),
@@ -480,6 +509,8 @@ def _slide(run: _Run, st: _State, k: int, sigma: float = 0.0) -> _Rest:
     if not fired:
         raise SolverError("sliding contact did not end within its time limit")
     which = min(fired, key=lambda i: sol.t_events[i][0])
+    if which == 4:
+        raise SolverError("sliding contact became inconsistent (Painleve): mu too large for this geometry")
     x, theta, vx, omega = (float(v) for v in sol.y_events[which][0])
     rx, ry = run.r(k, theta)
     now = _State(x, run.h - ry, theta, vx, -omega * rx, omega)
@@ -487,15 +518,15 @@ def _slide(run: _Run, st: _State, k: int, sigma: float = 0.0) -> _Rest:
     if which == 0:
         run.log("lift_off", k, now)
         t, hit = _flight(run, now, k)
-        return _impact(run, _fly(run, now, t), hit, "catch")
+        return _Next(_impact, (run, _fly(run, now, t), hit, "catch"))
     if which == 1:
-        return _stick(run, now, k, sigma)
+        return _Next(_stick, (run, now, k, sigma))
     m = neighbours[which - 2]
     e = k if m == (k + 1) % n else m  # the edge between k and m (edge i joins vertices i, i + 1)
-    return _strike_general(run, now, m, e, k)
+    return _Next(_strike_general, (run, now, m, e, k))
 
 
-def _stick(run: _Run, st: _State, k: int, sigma: float) -> _Rest:
+def _stick(run: _Run, st: _State, k: int, sigma: float) -> _Outcome:
     """Roll about k from where the slip stopped if friction holds the rolling, else slide the other way."""
     geo, g = run.geo, run.g
     rx, ry = run.r(k, st.theta)
@@ -506,22 +537,28 @@ def _stick(run: _Run, st: _State, k: int, sigma: float) -> _Rest:
     normal = ay - g
     if normal >= 0 and abs(ax) <= run.mu * normal:
         run.log("stick", k, st)
-        return _roll(run, k, st.theta, st.omega, st.x + rx)
+        return _Next(_roll, (run, k, st.theta, st.omega, st.x + rx))
     if normal < 0:
         run.log("lift_off", k, st)
         t, hit = _flight(run, st, k)
-        return _impact(run, _fly(run, st, t), hit, "catch")
+        return _Next(_impact, (run, _fly(run, st, t), hit, "catch"))
     # Static friction cannot hold: slip starts against the force it would have needed.
     run.log("slip_start", k, st)
-    return _slide(run, st, k, -math.copysign(1.0, ax))
+    return _Next(_slide, (run, st, k, -math.copysign(1.0, ax)))
 
 
-def _strike_general(run: _Run, st: _State, j: int, e: int, old: int) -> _Rest:
-    """Vertex j strikes while the part slides on ``old``: a sticking or a sliding impact at j."""
+def _strike_general(run: _Run, st: _State, j: int, e: int, old: int) -> _Outcome:
+    """Vertex j strikes while the part slides on ``old``: a sticking or a sliding impact at j.
+
+    A vertex reaching the arm without approaching it (the other end of an edge lying flat, found at the
+    slide's start) is no impact: the edge rests flat on both vertices (``_flat``).
+    """
     rx, ry = run.r(j, st.theta)
+    if st.vy + st.omega * rx >= -LEVEL_SLACK * math.sqrt(run.part.radius * -run.g):
+        return _Next(_flat, (run, st, j, e))
     xp, yp, om = sticking_impact(_arr(rx), _arr(ry), _arr(st.vx), _arr(st.vy), _arr(st.omega), run.geo.rho)
     if bool(outside_cone(xp - st.vx, yp - st.vy, run.mu)[0]):
-        return _strike_sliding(run, st, j, e, old)
+        return _Next(_strike_sliding, (run, st, j, e, old))
     run.impacts += 1
     run.touch(st.x + rx)
     omega = float(om[0])
@@ -533,7 +570,7 @@ def _strike_general(run: _Run, st: _State, j: int, e: int, old: int) -> _Rest:
     if omega == 0.0 and bool(run.part.stable[e]):
         run.log("rest", j, after)
         return _Rest(e, st.x, st.theta)
-    return _roll(run, j, st.theta, omega, st.x + rx)
+    return _Next(_roll, (run, j, st.theta, omega, st.x + rx))
 
 
 def contact_trace(part: ArmPart, edge: int, radius: float, params: ThrowParams) -> ContactThrow:
@@ -548,7 +585,10 @@ def contact_trace(part: ArmPart, edge: int, radius: float, params: ThrowParams) 
     x, y, theta, vx, vy, om = (
         float(v) for v in flight_state(part, edge, radius, params.offset, params.speed, params.gravity, t)[0]
     )
-    rest = _impact(run, _State(x, y, theta, vx, vy, om), int(k[0]), "catch")
+    step: _Outcome = _impact(run, _State(x, y, theta, vx, vy, om), int(k[0]), "catch")
+    while isinstance(step, _Next):  # bounded: every phase logs an event, MAX_CONTACT_EVENTS in all
+        step = step.step(*step.args)
+    rest = step
     theta0 = float(rest_pose(part, edge, radius, params.offset)[2])
     rotation = rest.theta - theta0
     left = rest.x + float(part.u_left[rest.edge])

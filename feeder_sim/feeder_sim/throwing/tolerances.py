@@ -40,6 +40,7 @@ __all__ = [
     "MAX_SPEED_ERROR",
     "MAX_TICK_PERIODS",
     "LIFT_GUARD",
+    "LEVEL_SLACK",
     "CONTACT_RTOL",
     "CONTACT_ATOL",
     "SLIDE_TIME_LIMIT",
@@ -135,6 +136,9 @@ MAX_TICK_PERIODS: Final = 10
 # the free-fall time sqrt(r / |g|) without spin): its height there is ~1e-12 of the part radius, above
 # rounding (1e-16), and no vertex can come back to the arm within 1e-4 rad of rising.
 LIFT_GUARD: Final = 1e-4
+# A vertex within this fraction of the part radius of the arm when a slide starts counts as on the arm
+# (the other end of an edge that has just come down, level up to rounding ~1e-16 of the radius).
+LEVEL_SLACK: Final = 1e-9
 # Relative and absolute (part radii per free-fall time) tolerances of the sliding-contact ODE (DOP853);
 # its events (lift-off, stick, strike) are located by the solver's root finding to about these.
 CONTACT_RTOL: Final = 1e-10
