@@ -190,6 +190,7 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
 
     rows += _peer_rows(quick)
     rows += _cone_rows(out_dir, quick, plt)
+    rows += _scaling_rows(out_dir, quick, plt)
 
     # Plot: exact region time against contact points, and the sampling cost per size (LP time x samples).
     figure, axis = plt.subplots(figsize=(6, 4))
@@ -398,3 +399,153 @@ def _plot_fig14(out_dir: Path, plt: Any) -> None:
     axis.set_title("Stable g of the L-bracket assembly (paper Figs. 12, 14)")
     figure.savefig(out_dir / "assembly_fig14_regions.png", dpi=120)
     plt.close(figure)
+
+
+# Connected running-bond walls (rows, columns) from 128 to 10,580 contact points: the scaling of issue 15.
+SCALING_WALLS = ((4, 4), (8, 6), (12, 8), (16, 12), (20, 16), (32, 29))
+# The child process of one large region: its wall time and its peak resident memory (every library's, not
+# only Python's allocations).
+_CHILD = """
+import resource, sys, time, tempfile
+from pathlib import Path
+from feeder_planner.assembly.generate import brick_wall, mesh_brick_wall
+from feeder_planner.assembly.model import assembly_from_document
+from feeder_planner.assembly.planner import prepare
+rows, columns, kind = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
+start = time.perf_counter()
+if kind == "mesh":
+    folder = Path(tempfile.mkdtemp())
+    document = mesh_brick_wall(folder / "meshes", rows, columns)
+    assembly = assembly_from_document(document, "mesh wall", folder)
+else:
+    assembly = assembly_from_document(brick_wall(rows, columns))
+prepared = prepare(assembly)
+loaded = time.perf_counter()
+region = prepared.region
+done = time.perf_counter()
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+print(len(prepared.contacts), loaded - start, done - loaded, peak, region.kind, region.area_sr,
+      region.lp_count)
+"""
+
+
+def _child_region(rows: int, columns: int, kind: str) -> tuple[int, float, float, float, str, float, int]:
+    """Run one wall's region in a fresh process: points, prepare s, region s, peak bytes, kind, area, LPs."""
+    import subprocess
+    import sys
+
+    out = subprocess.run(
+        [sys.executable, "-c", _CHILD, str(rows), str(columns), kind],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=3600,
+    ).stdout.split()
+    return int(out[0]), float(out[1]), float(out[2]), float(out[3]), out[4], float(out[5]), int(out[6])
+
+
+def _growth_exponent(points: list[int], times: list[float]) -> float:
+    """Least-squares slope of log(time) against log(points): time ~ points^exponent."""
+    return float(np.polyfit(np.log(points), np.log(times), 1)[0])
+
+
+def _scaling_rows(out_dir: Path, quick: bool, plt: Any) -> list[dict]:
+    """Region time from ~100 to ~10,000 contact points: connected walls as boxes and as meshes, the fitted
+    growth exponent, peak memory at 10,000 points, mesh contact finding, and 1,000 bodies' contacts."""
+    import tempfile
+
+    from feeder_planner.assembly.contacts import auto_contacts
+    from feeder_planner.assembly.generate import mesh_brick_wall
+
+    rows: list[dict] = []
+    walls = SCALING_WALLS[:-1] if quick else SCALING_WALLS
+    series: dict[str, tuple[list[int], list[float]]] = {"boxes": ([], []), "mesh": ([], [])}
+    folder = Path(tempfile.mkdtemp())
+    for wall_rows, wall_columns in walls:
+        for kind in ("boxes", "mesh"):
+            if (wall_rows, wall_columns) == SCALING_WALLS[-1]:
+                points, prepare_s, region_s, peak, region_kind, _, lps = _child_region(
+                    wall_rows, wall_columns, kind
+                )
+                rows.append(
+                    row(
+                        "assembly scaling",
+                        f"peak memory, exact region of the {wall_rows}x{wall_columns} wall as {kind}, "
+                        f"{points} contact points (whole process)",
+                        peak / 2**20,
+                        "MiB",
+                        "report",
+                        "none",
+                        True,
+                    )
+                )
+            else:
+                if kind == "mesh":
+                    document = mesh_brick_wall(folder / "meshes", wall_rows, wall_columns)
+                    assembly = assembly_from_document(document, "mesh wall", folder)
+                else:
+                    assembly = assembly_from_document(brick_wall(wall_rows, wall_columns))
+                start = time.perf_counter()
+                prepared = prepare(assembly)
+                prepare_s = time.perf_counter() - start
+                points = len(prepared.contacts)
+                repeats = 3 if points < 3000 else 1
+                region_s, region = median_time_and_result(lambda p=prepared: stable_region(p.system), repeats)
+                region_kind, lps = region.kind, region.lp_count
+            series[kind][0].append(points)
+            series[kind][1].append(region_s)
+            if points > 3000:
+                target = 2.0 if points < 5000 else 10.0
+                rows.append(
+                    row(
+                        "assembly scaling",
+                        f"exact region, connected {wall_rows}x{wall_columns} wall as {kind}, {points} "
+                        f"contact points ({region_kind}, {lps} LPs); contacts and set-up {prepare_s:.2f} s",
+                        region_s,
+                        "s",
+                        f"< {target:.0f} s",
+                        "issue 15: 5.1 s at 3,504 points",
+                        region_s < target,
+                    )
+                )
+    for kind, (points, times) in series.items():
+        rows.append(
+            row(
+                "assembly scaling",
+                f"growth exponent of region time, walls as {kind}, {points[0]}..{points[-1]} contact points "
+                "(time ~ points^k, least squares)",
+                _growth_exponent(points, times),
+                "k",
+                "report",
+                "linear is 1",
+                True,
+            )
+        )
+    many = assembly_from_document(random_assembly(1, 1000, walls=True))
+    contact_time, found = median_time_and_result(lambda: auto_contacts(many), 3)
+    rows.append(
+        row(
+            "assembly scaling",
+            f"contacts of {len(many.bodies)} bodies (broad phase + face pairs, {len(found)} contact points)",
+            contact_time,
+            "s",
+            "< 1 s",
+            "none",
+            contact_time < 1.0,
+        )
+    )
+    figure, axis = plt.subplots(figsize=(6, 4))
+    for kind, marker in (("boxes", "o-"), ("mesh", "s--")):
+        points, times = series[kind]
+        exponent = _growth_exponent(points, times)
+        axis.loglog(points, times, marker, label=f"connected walls as {kind} (k = {exponent:.2f})")
+    axis.axhline(2.0, color="grey", lw=0.5)
+    axis.axhline(10.0, color="grey", lw=0.5)
+    axis.set_xlabel("contact points")
+    axis.set_ylabel("exact region time (s)")
+    axis.legend()
+    axis.set_title("Stable region: scaling with the assembly")
+    figure.tight_layout()
+    figure.savefig(out_dir / "assembly_region_scaling.png", dpi=120)
+    plt.close(figure)
+    return rows
