@@ -221,7 +221,8 @@ def evaluate(
         return [_failed(x, notes[k] or "") for k, x in enumerate(designs)]
     own = np.array(owner)
     # One cell width per design for all its edges: its grid's coarsest spacing (``single_design_rows``).
-    spacing = np.where(np.isfinite(low), top - low, 0.0).max(axis=1) / starts_per_edge
+    finite = np.isfinite(low)
+    spacing = (np.where(finite, top, 0.0) - np.where(finite, low, 0.0)).max(axis=1) / starts_per_edge
     ceiling = np.where(np.isfinite(top), top, 0.0).max(axis=1)
     width = np.tile(np.maximum(spacing, FLIP_REFINE * ceiling)[:, None], (1, part.n))
     rows = Rows(np.array(edges), np.array(radii), low[own], width[own])
