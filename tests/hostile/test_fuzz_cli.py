@@ -94,7 +94,7 @@ class Case:
     label: str
     argv: list[str]
     expect: str  # "bad" (exit 2, or 3 if allowed), "valid" (exit 0, same JSON as `reference`), "any"
-    field: str = ""  # a substring the one stderr line must contain for "bad"
+    field: str = ""  # a substring the one stderr line must contain for "bad" ("a|b": either)
     files: dict[str, bytes] = dataclasses.field(
         default_factory=dict
     )  # name -> content, written into the case folder
@@ -350,6 +350,45 @@ def _set_flag(argv: list[str], flag: str, value: str) -> list[str]:
     return [*out, f"{flag}={value}"]
 
 
+# Every subcommand: argument errors end before any work (no ROS, no file), in one line naming the argument.
+SUBCOMMANDS = (
+    "doctor",
+    "record",
+    "bag-info",
+    "bag-reindex",
+    "play",
+    "bag-plot",
+    "launch",
+    "lifecycle",
+    "equilibria",
+    "throw",
+    "limit-set",
+    "throw-design",
+    "stable-region",
+    "check-stability",
+    "bridge",
+)
+
+
+def _cli_mutations(rng: random.Random) -> list[tuple[str, list[str], str]]:
+    """(label, argv, expected text) of argument errors over every subcommand."""
+    command = rng.choice(SUBCOMMANDS)
+    junk = "".join(rng.choice("abcxyz_") for _ in range(rng.randint(1, 12)))
+    return [
+        (
+            f"{command} unknown flag",
+            [command, f"--no-such-flag-{junk}", "x"],
+            "unrecognized arguments|arguments are required",
+        ),
+        ("run unknown package", ["run", f"nopkg_{junk}", "x"], "package"),
+        ("run unknown executable", ["run", "feeder_sim", f"no_such_{junk}"], "executable"),
+        ("clock bad action", ["clock", f"bogus{junk}"], "action"),
+        ("no subcommand", [], "COMMAND"),
+        ("unknown subcommand", [f"frob{junk}"], "invalid choice"),
+        ("run without arguments", ["run"], "required"),
+    ]
+
+
 def _valid_rewrites(rng: random.Random, base: dict[str, Any]) -> list[tuple[str, bytes]]:
     """Rewrites of a valid document that mean the same: the result must not change."""
     text = _block(base)
@@ -390,6 +429,15 @@ def _issue_cases() -> list[Case]:
     cases = [
         Case(f"flag/throw {flag}={value}", _set_flag(commands["throw"], flag, value), "bad", flag, triangle)
         for flag, value in (("--radius", "1e308"), ("--release-speed", "1e308"))
+    ]
+    cases += [
+        Case(
+            f"cli/{command} unknown flag",
+            [command, "--no-such-flag", "x"],
+            "bad",
+            "unrecognized arguments|arguments are required",
+        )
+        for command in SUBCOMMANDS
     ]
     cases += [
         Case(
@@ -448,6 +496,7 @@ def generate(seed: int, count: int) -> list[Case]:
         "special",
         "valid",
         "random_edit",
+        "cli",
     ]
     n = 0
     while len(cases) < count:
@@ -501,6 +550,9 @@ def generate(seed: int, count: int) -> list[Case]:
                     f"valid/{key}/{label}/{name}", commands[name], "valid", "", {"f0": data}, f"{key}/{name}"
                 )
             )
+        elif kind == "cli":
+            label, argv, fld = rng.choice(_cli_mutations(rng))
+            cases.append(Case(f"cli/{label}", argv, "bad", fld))
         else:
             base = rng.choice([TRIANGLE, SQUARE, CORNER, BRACKET])
             is_part = "vertices" in base
@@ -616,7 +668,7 @@ def check(case: Case, result: dict[str, Any], references: dict[str, str], folder
             return f"exit {code}, expected 2: {stderr[:400]!r}"
         if len(lines) != 1:
             return f"{len(lines)} stderr lines, expected 1: {stderr[:600]!r}"
-        if case.field not in lines[0]:
+        if not any(text in lines[0] for text in case.field.split("|")):
             return f"stderr does not name {case.field!r}: {lines[0][:400]!r}"
         return ""
     if case.expect == "valid":
@@ -671,7 +723,7 @@ def test_the_generator_covers_every_category_and_is_reproducible() -> None:
     assert len(cases) >= 500
     assert [c.label for c in cases] == [c.label for c in generate(SEED, CASES)]
     prefixes = {c.label.split("/")[0] for c in cases}
-    assert prefixes == {"part", "assembly", "scene", "flag", "special", "valid", "random edit"}
+    assert prefixes == {"part", "assembly", "scene", "flag", "special", "valid", "random edit", "cli"}
     labels = " ".join(c.label for c in cases)
     for category in (
         "alias bomb",
