@@ -28,6 +28,8 @@ from feeder_planner.node_kit.viz import MARKER_RATE
 from feeder_planner.parts import load_part
 from feeder_planner.polygon import point_in_polygon
 from feeder_planner.throwing import ThrowParams, arm_part
+from feeder_planner.throwing.drawing import limit_set_shapes
+from feeder_planner.throwing.limit_set import limit_set
 from feeder_sim.fixture import gravity_of
 from feeder_sim.fixture.drawing import body_shapes, gravity_shape, table_rotation, table_shapes
 from feeder_sim.mems.coverage import Grid
@@ -245,3 +247,20 @@ def test_marker_rate_refuses_bad_values(value: object) -> None:
 def test_marker_rate_accepts_off_and_its_range() -> None:
     assert MARKER_RATE.check is not None
     assert all(MARKER_RATE.check(v) is None for v in (0.0, 0.5, 30.0, 5))
+
+
+# --- the throw planner's limit set --------------------------------------------------------------------
+def test_limit_set_segments_are_its_edges_ranges_and_its_trigger_range() -> None:
+    part = arm_part(load_part(EXAMPLES / "throwing" / "triangle.yaml"))
+    ls = limit_set(part, ThrowParams(-0.005, math.radians(320), -9.66, 0.5), 1, 5, 200)
+    assert ls.trigger is not None and ls.edge_radius_ranges
+    shapes = limit_set_shapes(ls, -0.005)
+    ranges = [s for s in shapes if s.namespace == "limit_set"]
+    assert len(ranges) == len(ls.edge_radius_ranges)
+    expected = [ls.edge_radius_ranges[e] for e in sorted(ls.edge_radius_ranges)]
+    for segment, (low, high) in zip(ranges, expected, strict=True):
+        assert segment.points[:, 0].tolist() == [low, high] and np.all(segment.points[:, 1] == -0.005)
+    labels = [s.text for s in shapes if s.kind == "text"]
+    assert labels == [f"edge {e}" for e in sorted(ls.edge_radius_ranges)]
+    (trigger,) = [s for s in shapes if s.namespace == "trigger_range"]
+    assert trigger.points[:, 0].tolist() == list(ls.trigger) and trigger.style == "sensor_on"

@@ -14,6 +14,7 @@ stable region), published when a result is computed.
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
@@ -187,7 +188,9 @@ class ResultMarkers:
         self.node = node
         self.publisher = node.create_publisher(MarkerArray, "~/markers", LATCHED)
         self.book = MarkerBook()
+        self.lock = threading.Lock()  # a planner may answer its services on several threads
 
     def publish(self, shapes: Sequence[Shape], frame_id: str) -> None:
         """Publish ``shapes`` in ``frame_id`` (the markers of the last result no longer drawn are deleted)."""
-        self.publisher.publish(self.book.update(shapes, frame_id, self.node.get_clock().now().to_msg()))
+        with self.lock:
+            self.publisher.publish(self.book.update(shapes, frame_id, self.node.get_clock().now().to_msg()))

@@ -34,6 +34,7 @@ from feeder_planner.node_kit.request_limits import (
     check_part_size,
 )
 from feeder_planner.node_kit.services import REQUEST_QUEUE_PARAMETER, serve
+from feeder_planner.node_kit.viz import ResultMarkers
 from feeder_planner.throwing import (
     DEFAULT_STARTS_PER_EDGE,
     DEFAULT_THROWS,
@@ -49,6 +50,7 @@ from feeder_planner.throwing import (
     throw,
 )
 from feeder_planner.throwing.attractors import Attractor
+from feeder_planner.throwing.drawing import limit_set_shapes
 
 __all__ = ["PARAMETERS", "ThrowPlanner", "main"]
 
@@ -68,6 +70,12 @@ PARAMETERS = (
         read_only=True,
     ),
     REQUEST_QUEUE_PARAMETER,
+    ParameterSpec(
+        "frame_id",
+        "",
+        "frame of ~/markers (the arm frame); empty: arm_pivot under the node's namespace, the arm's default",
+        read_only=True,
+    ),
 )
 
 # One thread per service and one for the rest: a long limit set occupies its service's thread only.
@@ -159,6 +167,9 @@ class ThrowPlanner(Node):
         serve(self, LimitSetCompute, "~/limit_set", guard(self.on_limit_set), own_group=True)
         serve(self, SensorTriggerRadii, "~/trigger_radii", guard(self.on_trigger), own_group=True)
         serve(self, DesignSearch, "~/design_search", guard(self.on_design), own_group=True)
+        namespace = self.get_namespace().strip("/")
+        self.frame_id = self.p["frame_id"] or (f"{namespace}/arm_pivot" if namespace else "arm_pivot")
+        self.markers = ResultMarkers(self)  # the last limit set's R ranges and trigger range on the arm
 
     def on_grasp(self, request: GraspRadii.Request, response: GraspRadii.Response) -> GraspRadii.Response:
         """Answer R_grasp for every stable edge (eqs. 1-4)."""
@@ -235,6 +246,7 @@ class ThrowPlanner(Node):
         response.attractors = [attractor_msg(a, ls) for a in ls.attractors]
         response.converged, response.trigger_note = ls.converged, ls.trigger_note or ""
         response.json = json.dumps(ls.to_json(), allow_nan=False)
+        self.markers.publish(limit_set_shapes(ls, request.offset), self.frame_id)
         return response
 
     def on_trigger(
@@ -249,6 +261,7 @@ class ThrowPlanner(Node):
             response.radius_min, response.radius_max = ls.trigger
         if ls.cycle:
             response.cycle_edges = ls.cycle.edges
+        self.markers.publish(limit_set_shapes(ls, request.offset), self.frame_id)
         return response
 
     def on_design(
