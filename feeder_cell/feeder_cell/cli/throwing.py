@@ -223,7 +223,11 @@ def _summary_limit(result: LimitSet, unit: float) -> str:
         )
     c = result.cycle
     lines.append(
-        "cycle: none common to all starts"
+        (
+            "cycle: none (the one attractor is quasi-periodic)"
+            if result.unique
+            else "cycle: none common to all starts"
+        )
         if c is None
         else f"cycle: edges {c.edges}, {c.throws_per_cycle:.1f} throws per cycle ({c.throws_range[0]}-"
         f"{c.throws_range[1]}), unique from all {result.starts} starts"
@@ -233,7 +237,7 @@ def _summary_limit(result: LimitSet, unit: float) -> str:
         lines.append(f"  edge {e} in the limit set: R in [{lo / unit:.6g}, {hi / unit:.6g}]")
     t = result.trigger
     lines.append(
-        "trigger: none"
+        "trigger: none" + (f" ({result.trigger_note})" if result.trigger_note else "")
         if t is None
         else f"trigger for edge {result.goal_edge}: sensor radius in [{t[0] / unit:.6g}, "
         f"{t[1] / unit:.6g}] (file units)"

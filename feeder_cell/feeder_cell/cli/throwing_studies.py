@@ -75,8 +75,6 @@ def attractor_lines(result: LimitSet, unit: float) -> list[str]:
             f"  throws breaking the model's assumptions: lift_off {v['lift_off']:.3g}, slip {v['slip']:.3g}, "
             f"off_arm {v['off_arm']:.3g}"
         )
-    if result.trigger_note:
-        lines.append(f"trigger: none ({result.trigger_note})")
     return lines
 
 
