@@ -5,6 +5,7 @@ module's own ``__all__`` lists the rest. Results are frozen dataclasses with ``t
 contract's JSON objects (SI units); numerical tolerances and model constants live in ``tolerances``.
 """
 
+from feeder_planner.throwing.attractors import Attractor
 from feeder_planner.throwing.design import DesignRow, DesignSearch, search
 from feeder_planner.throwing.flight import earliest_impact, flight_state, rest_pose, vertex_positions
 from feeder_planner.throwing.geometry import ArmPart, arm_part
@@ -27,6 +28,7 @@ from feeder_planner.throwing.sensor import (
     sensing_height_or_default,
     trigger_range,
 )
+from feeder_planner.throwing.studies import RobustPoint, RobustStudy, robust_study
 from feeder_planner.throwing.throw_map import (
     THROW_KINDS,
     BelowGraspError,
@@ -89,4 +91,8 @@ __all__ = [
     "DesignRow",
     "DesignSearch",
     "search",
+    "Attractor",
+    "RobustPoint",
+    "RobustStudy",
+    "robust_study",
 ]
