@@ -17,15 +17,22 @@ from typing import Any, Callable
 
 import numpy as np
 
-from feeder_planner.errors import InputError
+from feeder_planner.errors import FeederError, InputError
 from feeder_planner.throwing.design import Design, DesignRow, check_grid, evaluate
 from feeder_planner.throwing.geometry import ArmPart
 from feeder_planner.throwing.sensor import check_sensing_height
 
-__all__ = ["RobustPoint", "RobustStudy", "perturbed_designs", "robust_study", "MAX_PERTURBED"]
+__all__ = ["RobustPoint", "RobustStudy", "perturbed_designs", "robust_study", "MAX_PERTURBED", "MAX_WORKERS"]
 
 # Perturbed designs of one study at most: 10^5 limit sets take about an hour on two cores here.
 MAX_PERTURBED = 100_000
+# Worker processes of a LocalCluster at most: each imports numpy and the planner (~100 MB); more than
+# this on one machine only adds memory and start-up time.
+MAX_WORKERS = 64
+# Seconds to wait for an existing scheduler to answer (Dask retries a refused connection until then),
+# and for the workers to be there (a LocalCluster's start in a few seconds here).
+CONNECT_TIMEOUT = 10
+WORKERS_TIMEOUT = 60
 
 
 @dataclass(frozen=True)
@@ -172,8 +179,8 @@ def robust_study(
     total = samples * len(offsets) * len(speeds)
     if total > MAX_PERTURBED:
         raise InputError("robust", f"{total} perturbed designs; one study takes at most {MAX_PERTURBED}")
-    if workers < 1:
-        raise InputError("workers", f"must be >= 1, got {workers}")
+    if not 1 <= workers <= MAX_WORKERS:
+        raise InputError("workers", f"must be in 1..{MAX_WORKERS}, got {workers}")
     if sensing_height is not None:
         check_sensing_height(sensing_height)
     sigmas = (
@@ -233,9 +240,12 @@ def _on_dask(
         )
         client = Client(cluster)
     else:
-        client = Client(scheduler, timeout=10)
+        try:
+            client = Client(scheduler, timeout=CONNECT_TIMEOUT)
+        except (OSError, TimeoutError, ValueError) as error:
+            raise FeederError(f"cannot reach the Dask scheduler at {scheduler!r}: {error}") from None
     try:
-        client.wait_for_workers(1 if scheduler is not None else workers, timeout=60)
+        client.wait_for_workers(1 if scheduler is not None else workers, timeout=CONNECT_TIMEOUT)
         startup = time.perf_counter() - begin
         start = time.perf_counter()
         shared = client.scatter(part, broadcast=True)
