@@ -245,7 +245,7 @@ def _on_dask(
         except (OSError, TimeoutError, ValueError) as error:
             raise FeederError(f"cannot reach the Dask scheduler at {scheduler!r}: {error}") from None
     try:
-        client.wait_for_workers(1 if scheduler is not None else workers, timeout=CONNECT_TIMEOUT)
+        client.wait_for_workers(1 if scheduler is not None else workers, timeout=WORKERS_TIMEOUT)
         startup = time.perf_counter() - begin
         start = time.perf_counter()
         shared = client.scatter(part, broadcast=True)
