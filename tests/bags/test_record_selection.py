@@ -158,3 +158,22 @@ def test_every_record_flag_is_in_the_help() -> None:
         "--duration", "--flush-interval", "--json",
     ):  # fmt: skip
         assert flag in result.stdout, flag
+
+
+@pytest.mark.parametrize("kind", ["parent_is_a_file", "bag_exists"])
+def test_record_refuses_an_unusable_output_before_any_node(tmp_path: Path, kind: str) -> None:
+    if kind == "parent_is_a_file":
+        (tmp_path / "plain").write_text("not a directory")
+        output, reason = tmp_path / "plain" / "bag", "is not a directory"
+    else:
+        (tmp_path / "bag").mkdir()
+        output, reason = tmp_path / "bag", "already exists"
+    result = subprocess.run(
+        [sys.executable, "-m", "feeder_cell.cli.main", "record", str(output), "--duration", "1"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("feeder record: output:") and reason in lines[0], lines

@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from feeder_cell.cli.common import add_json_flag, emit, finite_float
+from feeder_cell.cli.common import add_json_flag, emit, finite_float, output_directory
 from feeder_cell.ros_session import with_node
 from feeder_planner.errors import InputError
 
@@ -100,9 +100,8 @@ def _record(args: argparse.Namespace) -> int:
     overrides = (
         load_qos_overrides(Path(args.qos_profile_overrides_path)) if args.qos_profile_overrides_path else {}
     )
-    output = Path(args.output)
-    if output.exists():
-        raise InputError("output", f"{output} already exists; bags are never overwritten")
+    # Before any node starts: an existing bag, or a parent that is a file, is refused by name.
+    output = output_directory(args.output, "output", must_be_new=True)
 
     def work(node: Any, executor: Any, keep_going: Any) -> dict[str, Any]:
         recorder = Recorder(
