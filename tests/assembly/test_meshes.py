@@ -87,6 +87,10 @@ def test_pallet_of_parts_is_a_region_and_every_body_rests_on_the_deck_or_its_bra
     surface = body_surface(bracket)  # what drawings use: the mesh's triangles, inside its bounds
     assert len(surface) == len(bracket.meshes[0].faces) == 20
     assert np.all(np.vstack(surface) >= bracket.meshes[0].lower - 1e-15)
+    from feeder_sim.fixture.drawing import body_shapes
+
+    # The fixture's markers draw every mesh body (3 corners per triangle).
+    assert [len(s.points) for s in body_shapes(prepared.assembly)][:2] == [36, 60]
 
 
 def _run(capsys, *argv: str) -> tuple[int, str, str]:

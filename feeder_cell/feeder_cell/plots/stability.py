@@ -15,6 +15,7 @@ from feeder_cell.plots.common import (
     new_figure,
 )
 from feeder_planner.assembly import Assembly, CheckResult, ContactLoad
+from feeder_planner.assembly.meshes import body_surface, part_bounds
 
 __all__ = ["FORCE_GID", "GRAVITY_GID", "FORCE_FLOOR", "drawn_forces", "stability_figure"]
 
@@ -56,7 +57,7 @@ def stability_figure(assembly: Assembly, result: CheckResult) -> Figure:
     unbalanced = set(result.unbalanced_bodies)
     for body in assembly.bodies:
         colour = "0.7" if body.grounded else (HIGHLIGHT_COLOUR if body.name in unbalanced else PART_COLOUR)
-        faces = [face.polygon / scale for piece in body.pieces for face in piece.faces]
+        faces = [polygon / scale for polygon in body_surface(body)]  # pieces' faces, mesh triangles
         ax.add_collection3d(
             Poly3DCollection(faces, facecolor=colour, edgecolor="k", linewidths=0.4, alpha=0.35)
         )
@@ -86,8 +87,8 @@ def stability_figure(assembly: Assembly, result: CheckResult) -> Figure:
             label="gravity",
             gid=GRAVITY_GID,
         )
-    lower = np.min([p.lower for b in assembly.bodies for p in b.pieces], axis=0) / scale
-    upper = np.max([p.upper for b in assembly.bodies for p in b.pieces], axis=0) / scale
+    parts = [p for b in assembly.bodies for p in (*b.pieces, *b.meshes)]
+    lower, upper = (corner / scale for corner in part_bounds(parts))
     middle, half = (lower + upper) / 2, 0.6 * float(np.max(upper - lower))
     ax.set(xlim=(middle[0] - half, middle[0] + half), ylim=(middle[1] - half, middle[1] + half))
     ax.set_zlim(middle[2] - half, middle[2] + half)
