@@ -12,26 +12,8 @@ PALLET = str(EXAMPLES / "mesh_pallet.yaml")
 REGION = "/stable_region_planner/stable_region"
 
 
-def _fixture_assembly(folder) -> str:
-    """The pallet with its parts as meshes (absolute paths) on a box deck: the fixture draws box pieces."""
-    import yaml
-
-    document = yaml.safe_load((EXAMPLES / "mesh_pallet.yaml").read_text())
-    document["bodies"][0] = {
-        "name": "deck",
-        "grounded": True,
-        "boxes": [{"min": [0.0, 0.0, -5.0], "max": [90.0, 60.0, 0.0]}],
-    }
-    for body in document["bodies"][1:]:
-        for mesh in body["meshes"]:
-            mesh["file"] = str(EXAMPLES / mesh["file"])
-    path = folder / "pallet_on_box_deck.yaml"
-    path.write_text(yaml.safe_dump(document))
-    return str(path)
-
-
 @pytest.fixture(scope="module")
-def nodes(launch_module_node, tmp_path_factory):
+def nodes(launch_module_node):
     launch_module_node(
         "feeder_planner",
         "stable_region_planner",
@@ -42,7 +24,7 @@ def nodes(launch_module_node, tmp_path_factory):
     launch_module_node(
         "feeder_sim",
         "assembly_fixture",
-        parameters={"assembly_file": _fixture_assembly(tmp_path_factory.mktemp("fixture"))},
+        parameters={"assembly_file": PALLET},  # every body a mesh; its markers draw them
         wait_topics=("/assembly_fixture/stability",),
     )
     return True
