@@ -199,6 +199,17 @@ def test_run_program_inline_and_files(tmp_path: Path) -> None:
         ("../secrets.yaml", "inside program_dir"),
         ("/etc/passwd", "inside program_dir"),
         ("missing", "no program 'missing'"),
+        ("{steps: [", "inline program: not valid YAML"),
+        (
+            "{a: &a [1, 1, 1, 1, 1, 1, 1, 1, 1, 1], "
+            + ", ".join(
+                f"{chr(98 + i)}: &{chr(98 + i)} [" + ", ".join([f"*{chr(97 + i)}"] * 10) + "]"
+                for i in range(6)
+            )
+            + "}",
+            "aliases expanded",
+        ),
+        ("{" + "x" * (2 << 20) + "}", "characters, at most"),
     ):
         error = _refused(
             check_run_program, RUN, [Argument(text, "String"), d(5.0), d(0.0), d(0.0)], str(programs)

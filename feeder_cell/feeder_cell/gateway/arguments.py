@@ -13,12 +13,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from feeder_cell.gateway.layout import MethodSpec
 from feeder_planner.errors import FeederError, InputError
-from feeder_planner.fields_io import load_yaml_mapping
+from feeder_planner.fields_io import load_yaml_mapping, yaml_mapping_from_text
 from feeder_planner.mems import ProgramStep, program_from_mapping
+from feeder_planner.node_kit.request_limits import MAX_YAML_CHARS
 
 __all__ = [
     "Argument",
@@ -177,10 +176,13 @@ def resolve_program(text: str, program_dir: str) -> tuple[str, tuple[ProgramStep
             field, "is empty: name a program file of program_dir or give an inline '{steps: [...]}'"
         )
     if stripped.startswith("{"):
+        # A PLC string is unbounded: the request layer's size, alias and depth bounds apply to it too.
+        if len(stripped) > MAX_YAML_CHARS:
+            raise InputError(field, f"inline program: {len(stripped)} characters, at most {MAX_YAML_CHARS}")
         try:
-            document = yaml.safe_load(stripped)
-        except yaml.YAMLError:
-            raise InputError(field, "inline program is not valid YAML") from None
+            document = yaml_mapping_from_text(stripped, "inline program", field)
+        except InputError as error:
+            raise InputError(field, f"inline program: {error.problem}") from None
         return "inline", program_from_mapping(document, field)
     if not program_dir:
         raise InputError(field, f"names a file ({stripped!r}), but the gateway's program_dir is empty")
