@@ -81,3 +81,18 @@ def test_throw_design_shows_progress_and_stops_cleanly_on_ctrl_c():
             proc.wait()
     assert proc.returncode == 130 and out == ""
     assert "interrupted after" in err and "Traceback" not in err
+
+
+def test_limit_set_reports_progress_on_a_long_run(capsys, monkeypatch):
+    # A long run (a part with many hull vertices takes minutes) says how far it is; here every
+    # window reports, since the threshold is set to zero, and the result is still one JSON object.
+    import feeder_cell.cli.throwing_studies as studies
+
+    monkeypatch.setattr(studies, "PROGRESS_AFTER", 0.0)
+    code, out, err = _run(
+        capsys, ["limit-set", CONVEX12, *CONVEX12_FLAGS, "--starts-per-edge", "2", "--json"]
+    )
+    assert code == 0, err
+    lines = err.splitlines()
+    assert lines and all(line.startswith("feeder limit-set: ") and " done (" in line for line in lines), lines
+    assert json.loads(out)["converged"]

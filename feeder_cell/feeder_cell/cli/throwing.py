@@ -267,18 +267,27 @@ def run_limit_set(args: argparse.Namespace) -> int:
     check_throw_design(params.speed, params.gravity, params.offset, "--release-speed", "--offset")
     check_limit_set_counts(args.starts_per_edge, args.throws, "--starts-per-edge", "--throws")
     height = _height(args, part)
+    starts = _positive_int(args.starts_per_edge, "--starts-per-edge")
+    throws = _positive_int(args.throws, "--throws")
     try:
-        result = limit_set(
-            arm_part(part),
-            params,
-            args.goal_edge,
-            _positive_int(args.starts_per_edge, "--starts-per-edge"),
-            _positive_int(args.throws, "--throws"),
-            sensing_height=height,
-            keep_trajectories=args.plot is not None,  # the plot draws every start's states
+        # A part with many hull vertices takes minutes: say how far it is, and stop cleanly on Ctrl-C.
+        result = run_with_progress(
+            "limit-set",
+            lambda progress: limit_set(
+                arm_part(part),
+                params,
+                args.goal_edge,
+                starts,
+                throws,
+                sensing_height=height,
+                keep_trajectories=args.plot is not None,  # the plot draws every start's states
+                progress=progress,
+            ),
         )
     except OffsetBelowDMinError as error:
         raise error.in_unit(part.unit_scale, _unit_name(part)) from None  # as the flag was given
+    if result is None:
+        return EXIT_INTERRUPTED
     emit(args, result.to_json(), lambda _: _summary_limit(result, part.unit_scale))
     write_plot(args, "limit-set", result, part.unit_scale, part.name)
     return 0
