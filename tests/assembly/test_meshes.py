@@ -273,3 +273,36 @@ def test_stepped_stack_generator_matches_between_boxes_and_meshes_in_volume(tmp_
     boxes = assembly_from_document(stepped_stack(None))
     meshes = assembly_from_document(stepped_stack(tmp_path / "m"), "t", tmp_path)
     assert [b.mass for b in boxes.bodies] == pytest.approx([b.mass for b in meshes.bodies], rel=1e-12)
+
+
+def test_mesh_surface_distance_is_exact_at_faces_edges_and_corners() -> None:
+    stack = load_assembly(EXAMPLES / "stepped_stack_meshes.yaml")
+    (cube,) = stack.bodies[stack.index["block"]].meshes  # the unit cube [1, 2] x [0, 1] x [1, 2]
+    for point, expected in (
+        ((1.5, 0.5, 1.5), 0.5),  # inside: the nearest faces
+        ((1.5, 0.5, 2.3), 0.3),  # above the top face
+        ((2.3, 1.4, 1.5), np.hypot(0.3, 0.4)),  # beside an edge
+        ((2.3, 1.4, 2.3), np.sqrt(0.09 + 0.16 + 0.09)),  # beyond a corner
+        ((1.25, 0.0, 1.75), 0.0),  # on a face
+    ):
+        assert cube.surface_distance(np.array(point)) == pytest.approx(expected, abs=1e-12), point
+
+
+@pytest.mark.parametrize(("z", "accepted"), [(1.0, True), (5.0, False)])
+def test_explicit_contacts_on_mesh_bodies_are_checked_against_the_mesh_surface(
+    z: float, accepted: bool
+) -> None:
+    text = (
+        (EXAMPLES / "stepped_stack_meshes.yaml")
+        .read_text()
+        .replace(
+            "contacts: auto",
+            f"contacts:\n- {{a: block, b: l_shape, point: [1.5, 0.5, {z}], normal: [0, 0, 1]}}",
+        )
+    )
+    if accepted:
+        (contact,) = assembly_from_text(text, "stack", base_dir=EXAMPLES).explicit_contacts or ()
+        assert contact.point[2] == z
+    else:
+        with pytest.raises(InputError, match=r"contacts\[0\]\.point.*from the surface of body 'block'"):
+            assembly_from_text(text, "stack", base_dir=EXAMPLES)

@@ -80,6 +80,34 @@ class MeshPart:
         """The (m, 3, 3) corner coordinates of every face."""
         return self.vertices[self.faces]
 
+    def surface_distance(self, point: np.ndarray) -> float:
+        """Return the exact distance (m) from ``point`` to the nearest face of the mesh.
+
+        Per triangle: the distance to its plane where the foot of the perpendicular lies inside it
+        (barycentric coordinates all >= 0), else the distance to the nearest of its three edges.
+        """
+        corners = self.triangles
+        a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+        normal = np.cross(b - a, c - a)
+        area2 = np.einsum("ij,ij->i", normal, normal)  # > 0: degenerate faces are refused when read
+        offset = point - a
+        height = np.einsum("ij,ij->i", offset, normal) / area2
+        foot = point - height[:, None] * normal
+        inside = np.ones(len(corners), dtype=bool)
+        for start, end in ((a, b), (b, c), (c, a)):
+            inside &= np.einsum("ij,ij->i", np.cross(end - start, foot - start), normal) >= 0.0
+        plane = np.abs(height) * np.sqrt(area2)
+        edges = np.full(len(corners), np.inf)
+        for start, end in ((a, b), (b, c), (c, a)):
+            direction = end - start
+            along = np.clip(
+                np.einsum("ij,ij->i", point - start, direction) / np.einsum("ij,ij->i", direction, direction),
+                0.0,
+                1.0,
+            )
+            edges = np.minimum(edges, np.linalg.norm(start + along[:, None] * direction - point, axis=1))
+        return float(np.min(np.where(inside, plane, edges)))
+
 
 def mesh_parts(
     raw: dict[str, Any], field_name: str, scale: float, base_dir: str | Path | None

@@ -376,7 +376,7 @@ def _check_interpenetration(assembly: Assembly) -> None:
 
 
 def _surface_distance(body: Body, point: np.ndarray) -> float:
-    """Return a lower bound of the distance (m) from ``point`` to the body's surface, exact inside a piece.
+    """Return a lower bound of the distance (m) from ``point`` to the body's surface (exact for meshes).
 
     Per convex piece, the largest signed plane distance max(n . p - offset) is the distance to the
     boundary for a point inside, and at most the true distance for one outside (equal when the nearest
@@ -386,6 +386,8 @@ def _surface_distance(body: Body, point: np.ndarray) -> float:
     for piece in body.pieces:
         signed = max(float(face.normal @ point - face.offset) for face in piece.faces)
         best = min(best, abs(signed))
+    for mesh in body.meshes:  # a non-convex surface: the exact distance to its nearest triangle
+        best = min(best, mesh.surface_distance(point))
     return best
 
 
