@@ -1,14 +1,16 @@
 """bag-reindex on bags written here (no ROS): a zero-filled tail, cuts at every kind of place, an empty
-file, a complete bag rebuilt unchanged; an independent reader (the `mcap` package) checks each result."""
+file, a complete bag rebuilt unchanged; split bags keep their files in numeric order and their chunk
+compression; an independent reader (the `mcap` package) checks each result."""
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import bag_procs as bp
 import pytest
 from mcap.reader import make_reader
-from rosbags.rosbag2 import Reader, StoragePlugin, Writer
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, Reader, StoragePlugin, Writer
 
 from feeder_cell.bag.qos import to_bag_qos
 from feeder_cell.bag.reindex import is_complete, reindex
@@ -103,3 +105,81 @@ def test_an_empty_file_gives_an_empty_bag_and_bad_paths_are_named(tmp_path: Path
     (tmp_path / "empty").mkdir()
     with pytest.raises(InputError, match="no .mcap file"):
         reindex(tmp_path / "empty")
+
+
+def _write_split_bag(bag: Path, files: int, per_file: int, compression: str = "none") -> None:
+    """A split bag without metadata.yaml: ``files`` files ``<bag>_<i>.mcap`` of ``per_file`` messages."""
+    bag.mkdir()
+    seq = 0
+    for index in range(files):
+        part = bag.parent / f"{bag.name}_{index}"
+        writer = Writer(part, version=9, storage_plugin=StoragePlugin.MCAP)
+        if compression == "zstd":
+            writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+        writer.open()
+        if compression == "lz4":
+            import lz4.frame  # type: ignore[import-untyped]
+
+            writer.storage.compression = "lz4"  # type: ignore[union-attr]  -- as the recorder sets it
+            writer.storage.compressor = lz4.frame.compress  # type: ignore[union-attr]
+        connection = writer.add_connection(
+            "/seq",
+            "std_msgs/msg/String",
+            typestore=typestore(),
+            offered_qos_profiles=[to_bag_qos(True, False)],
+        )
+        for _ in range(per_file):
+            writer.write(connection, 1_000_000_000 + seq, _cdr(f"{seq} 0"))
+            seq += 1
+        writer.close()
+        (part / f"{part.name}.mcap").rename(bag / f"{part.name}.mcap")
+        shutil.rmtree(part)
+
+
+def _listed(bag: Path) -> list[str]:
+    from ruamel.yaml import YAML
+
+    info = YAML(typ="safe").load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    return [str(name) for name in info["relative_file_paths"]]
+
+
+def _chunk_compressions(path: Path) -> set[str]:
+    with path.open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None
+    return {index.compression for index in summary.chunk_indexes}
+
+
+def test_split_files_keep_their_numeric_order_and_names(tmp_path: Path) -> None:
+    bag = tmp_path / "run"
+    _write_split_bag(bag, 12, 3)  # run_10 and run_11 sort after run_9, as numbers
+    report = reindex(bag)
+    names = [f"run_{i}.mcap" for i in range(12)]
+    assert [f.name for f in report.files] == names
+    with Reader(bag) as reader:
+        assert [bp.seq_and_sent(data)[0] for _, _, data in reader.messages()] == list(range(36))
+    assert _listed(bag) == names
+    assert sorted(p.name for p in bag.iterdir()) == sorted([*names, "metadata.yaml"])
+
+
+@pytest.mark.parametrize("compression", ["zstd", "lz4"])
+def test_reindexed_files_keep_their_chunk_compression(tmp_path: Path, compression: str) -> None:
+    bag = tmp_path / "run"
+    _write_split_bag(bag, 2, 5, compression)
+    reindex(bag)
+    for index in range(2):
+        assert _chunk_compressions(bag / f"run_{index}.mcap") == {compression}
+    with Reader(bag) as reader:
+        assert reader.message_count == 10
+
+
+def test_a_split_bag_with_no_message_keeps_one_empty_file(tmp_path: Path) -> None:
+    bag = tmp_path / "run"
+    _write_split_bag(bag, 2, 0)
+    (bag / "run_1.mcap").write_bytes(b"")
+    report = reindex(bag)
+    assert not report.files[0].left_out and "empty file" in report.files[1].left_out
+    assert sorted(p.name for p in bag.iterdir()) == ["metadata.yaml", "run_0.mcap"]
+    with Reader(bag) as reader:
+        assert reader.message_count == 0
+    assert _listed(bag) == ["run_0.mcap"]

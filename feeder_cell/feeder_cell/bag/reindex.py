@@ -2,14 +2,16 @@
 
 A killed recorder leaves the MCAP file without its summary (schemas, channels, chunk indexes,
 statistics, footer) and the bag without ``metadata.yaml``; a truncated copy cuts a chunk in two. The
-records before the damage are intact: this module scans the file record by record, keeps every complete
+records before the damage are intact: this module scans each file record by record, keeps every complete
 chunk (and any top-level schema, channel and message records) up to the first incomplete or unreadable
-one, and writes them again as a complete bag, summary and ``metadata.yaml`` included.
+one, and writes them again as a complete bag, summary and ``metadata.yaml`` included. A split bag
+(``<bag>_0.mcap``, ``<bag>_1.mcap``...) keeps its files: each is recovered on its own.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import struct
 from dataclasses import dataclass, field
@@ -21,8 +23,9 @@ from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import Channel, Chunk, Message, Schema
 from mcap.stream_reader import get_chunk_data_stream
-from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.rosbag2 import CompressionMode, StoragePlugin, Writer
 from rosbags.rosbag2.metadata import parse_qos
+from rosbags.rosbag2.storage_mcap import McapWriter
 
 from feeder_cell.bag.types import type_hash
 from feeder_planner.errors import InputError
@@ -34,6 +37,9 @@ MESSAGE_HEADER_SIZE = 22  # channel id, sequence, log time, publish time
 # A type missing from our typestore (a bag recorded elsewhere) keeps its schema text; its rosbag2 type
 # hash cannot be computed without the type, and rosbag2 treats this all-zero value as unknown.
 UNKNOWN_TYPE_HASH = "RIHS01_" + "0" * 64
+
+# A file from which nothing could be recovered is renamed with this suffix, out of the bag's file set.
+LEFT_OUT_SUFFIX = ".left-out"
 
 
 @dataclass
@@ -47,6 +53,9 @@ class FileReport:
     messages: int = 0
     complete: bool = False  # the file had its footer: nothing was lost
     stopped_by: str = ""  # why the scan ended before the footer
+    compression: str = ""  # chunk compression of its first chunk ("" none, "zstd", "lz4")
+    left_out: str = ""  # why the file is not in metadata.yaml ("" when it is)
+    kept_as: str = ""  # the name a left-out file with bytes in it was renamed to
 
 
 @dataclass
@@ -102,7 +111,9 @@ def _scan(stream: BinaryIO, size: int, report: FileReport) -> Iterator[Any]:
         try:
             data = ReadDataStream(BytesIO(body))
             if opcode == Opcode.CHUNK:
-                records = _chunk_records(Chunk.read(data), data.count, length)
+                chunk = Chunk.read(data)
+                records = _chunk_records(chunk, data.count, length)
+                report.compression = report.compression or chunk.compression
                 report.chunks += 1
             elif opcode == Opcode.SCHEMA:
                 records = [Schema.read(data)]
@@ -166,8 +177,73 @@ def _type_hash(msgtype: str) -> str:
     return type_hash(msgtype) or UNKNOWN_TYPE_HASH
 
 
+def _file_order(path: Path) -> tuple[Any, ...]:
+    """Sort key putting ``<bag>_2.mcap`` before ``<bag>_10.mcap`` (numbers compared as numbers)."""
+    return tuple(int(part) if part.isdigit() else part for part in re.split(r"(\d+)", path.name))
+
+
+class _NamedFile(McapWriter):
+    """rosbags' MCAP storage writing ``<directory>/<name>`` (McapWriter names it after its directory)."""
+
+    def __init__(self, directory: Path, name: str) -> None:
+        scratch = directory / Path(name).stem
+        scratch.mkdir()
+        super().__init__(scratch, CompressionMode.NONE)
+        target = directory / name
+        # A rename within the file system: the open descriptor follows it.
+        os.replace(scratch / f"{scratch.name}.mcap", target)
+        scratch.rmdir()
+        self.path = target
+        self.types: set[str] = set()  # message types whose schema this file holds
+        self.channels_added: set[int] = set()  # connection ids whose channel this file holds
+
+    def use_compression(self, compression: str) -> None:
+        """Compress this file's chunks as its original's were (``zstd``, ``lz4`` or none)."""
+        if compression == "zstd":
+            self.compression, self.compressor = "zstd", _zstd_compress
+        elif compression == "lz4":
+            import lz4.frame  # type: ignore[import-untyped]
+
+            self.compression, self.compressor = "lz4", lz4.frame.compress
+
+
+def _zstd_compress(data: bytes) -> bytes:
+    try:  # the zstd module rosbags itself uses (the standard library's from Python 3.14)
+        from compression import zstd  # type: ignore[import-not-found]
+    except ImportError:
+        from backports import zstd  # type: ignore[no-redef,unused-ignore]
+    return zstd.compress(data)
+
+
+@dataclass
+class _Span:
+    """First and last log time (ns) of the messages kept from one file."""
+
+    start: int = 2**63 - 1
+    end: int = 0
+
+
+def _leave_out(path: Path, file_report: FileReport) -> None:
+    """Take a file with no recoverable message out of the bag's file set, keeping any bytes it has."""
+    file_report.left_out = file_report.stopped_by or "it holds no message"
+    if file_report.size == 0:
+        path.unlink()  # nothing reached the disk: nothing to keep
+        return
+    kept = path.with_name(path.name + LEFT_OUT_SUFFIX)
+    os.replace(path, kept)
+    file_report.kept_as = kept.name
+
+
 def reindex(bag: Path) -> ReindexReport:
-    """Rebuild a bag's MCAP summary and ``metadata.yaml`` from the complete records it holds.
+    """Rebuild a bag's MCAP summaries and ``metadata.yaml`` from the complete records it holds.
+
+    Each MCAP file is recovered on its own, as ``ros2 bag reindex`` does: a split bag keeps its files
+    (same names, same order), each rewritten up to its last complete chunk, and ``metadata.yaml`` lists
+    them in order with their own message counts and times. A file from which no message can be
+    recovered (empty, no MCAP magic, damaged from its first chunk) is left out of the metadata, its
+    reason in the report; an empty one is removed, any other renamed ``<name>.left-out`` so that no
+    byte is destroyed. When no file holds a message, the first stays as an empty file so that the bag
+    still opens.
 
     Parameters
     ----------
@@ -186,24 +262,34 @@ def reindex(bag: Path) -> ReindexReport:
     """
     if not bag.is_dir():
         raise InputError("BAG", f"{bag} is not a bag directory")
-    files = sorted(bag.glob("*.mcap"))
+    files = sorted(bag.glob("*.mcap"), key=_file_order)
     if not files:
         raise InputError("BAG", f"{bag} holds no .mcap file to reindex")
     work = bag / ".reindex"
     if work.exists():
         shutil.rmtree(work)  # left by an interrupted reindex: the originals are still in place
     work.mkdir()
+    rebuilt = work / bag.name
     report = ReindexReport(bag)
-    writer = Writer(work / bag.name, version=9, storage_plugin=StoragePlugin.MCAP)
-    writer.open()
+    writer = Writer(rebuilt, version=9, storage_plugin=StoragePlugin.MCAP)
+    # The writer's own storage would be named after the bag: each file gets its storage below instead.
+    rebuilt.mkdir()
+    spans: dict[str, _Span] = {}
+    written: list[FileReport] = []  # files rewritten into the work directory, in order
     try:
-        schemas: dict[int, Any] = {}
         connections: dict[tuple[str, str, str], Any] = {}
         for path in files:
             size = path.stat().st_size
             file_report = FileReport(path.name, size, 0)
             report.files.append(file_report)
-            # Channel ids are per file: map them to this bag's connections by topic, type and QoS.
+            storage = _NamedFile(rebuilt, path.name)
+            if writer.storage is not None:
+                writer.storage.close(writer.version, "")
+            writer.storage = storage
+            written.append(file_report)
+            span = spans[path.name] = _Span()
+            # Schema and channel ids are per file: map them to this bag's connections by topic, type, QoS.
+            schemas: dict[int, Schema] = {}
             channel_map: dict[int, Any] = {}
             with path.open("rb") as stream:
                 for record in _scan(stream, size, file_report):
@@ -213,38 +299,91 @@ def reindex(bag: Path) -> ReindexReport:
                         schema = schemas.get(record.schema_id)
                         if schema is None:
                             continue  # a channel without its schema cannot be described in the bag
-                        qos = record.metadata.get("offered_qos_profiles", "")
-                        key = (record.topic, schema.name, qos)
-                        if key not in connections:
-                            connections[key] = writer.add_connection(
-                                record.topic,
-                                schema.name,
-                                msgdef=schema.data.decode(),
-                                rihs01=_type_hash(schema.name),
-                                serialization_format=record.message_encoding,
-                                offered_qos_profiles=parse_qos(qos),
-                            )
-                        channel_map[record.id] = connections[key]
+                        channel_map[record.id] = _connect(writer, storage, connections, record, schema)
                     elif isinstance(record, Message) and record.channel_id in channel_map:
+                        if not file_report.messages:
+                            storage.use_compression(file_report.compression)
                         connection = channel_map[record.channel_id]
                         writer.write(connection, record.log_time, record.data)
                         file_report.messages += 1
+                        span.start = min(span.start, record.log_time)
+                        span.end = max(span.end, record.log_time)
                         topic = report.topics.setdefault(
                             connection.topic, {"type": connection.msgtype, "count": 0}
                         )
                         topic["count"] += 1
-    except BaseException:
         writer.close()
+    except BaseException:
+        if writer.storage is not None:
+            writer.storage.bio.close()
         shutil.rmtree(work, ignore_errors=True)
         raise
-    writer.close()
-    rebuilt = work / bag.name
-    new_file = rebuilt / f"{bag.name}.mcap"
-    # Replace, never delete first: a crash in between leaves either the old file or the new one.
-    os.replace(new_file, bag / new_file.name)
-    for path in files:
-        if path.name != new_file.name:
-            path.unlink()
+    listed = [f for f in written if f.messages] or written[:1]
+    for file_report in written:
+        path = bag / file_report.name
+        if file_report in listed:
+            # Replace, never delete first: a crash in between leaves either the old file or the new one.
+            os.replace(rebuilt / file_report.name, path)
+        else:
+            _leave_out(path, file_report)
+    _write_metadata(rebuilt / "metadata.yaml", listed, spans)
     os.replace(rebuilt / "metadata.yaml", bag / "metadata.yaml")
     shutil.rmtree(work)
     return report
+
+
+def _connect(
+    writer: Writer,
+    storage: _NamedFile,
+    connections: dict[tuple[str, str, str], Any],
+    channel: Channel,
+    schema: Schema,
+) -> Any:
+    """Return the bag's connection for a file's channel, declaring it (and its type) in this file."""
+    qos = channel.metadata.get("offered_qos_profiles", "")
+    key = (channel.topic, schema.name, qos)
+    connection = connections.get(key)
+    if schema.name in writer.added_types and schema.name not in storage.types:
+        # The type is known from an earlier file; rosbags' writer declares a type once per bag.
+        storage.add_msgtype(next(c for c in writer.connections if c.msgtype == schema.name))
+    storage.types.add(schema.name)
+    if connection is None:
+        connection = connections[key] = writer.add_connection(
+            channel.topic,
+            schema.name,
+            msgdef=schema.data.decode(),
+            rihs01=_type_hash(schema.name),
+            serialization_format=channel.message_encoding,
+            offered_qos_profiles=parse_qos(qos),
+        )
+    elif connection.id not in storage.channels_added:
+        storage.add_connection(connection, qos)
+    storage.channels_added.add(connection.id)
+    return connection
+
+
+def _write_metadata(metapath: Path, listed: list[FileReport], spans: dict[str, _Span]) -> None:
+    """Make the writer's metadata.yaml list every kept file in order (it knows only the last one)."""
+    from ruamel.yaml import YAML
+
+    yaml = YAML(typ="safe")
+    yaml.default_flow_style = False
+    with metapath.open() as stream:
+        metadata = yaml.load(stream)
+    info = metadata["rosbag2_bagfile_information"]
+    info["relative_file_paths"] = [f.name for f in listed]
+    entries = []
+    for file_report in listed:
+        span = spans[file_report.name]
+        start = span.start if file_report.messages else info["starting_time"]["nanoseconds_since_epoch"]
+        entries.append(
+            {
+                "path": file_report.name,
+                "starting_time": {"nanoseconds_since_epoch": start},
+                "duration": {"nanoseconds": max(0, span.end - span.start) if file_report.messages else 0},
+                "message_count": file_report.messages,
+            }
+        )
+    info["files"] = entries
+    with metapath.open("w") as stream:
+        yaml.dump(metadata, stream)

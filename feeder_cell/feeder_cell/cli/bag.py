@@ -179,6 +179,8 @@ def _reindex(args: argparse.Namespace) -> int:
                 "messages": f.messages,
                 "complete": f.complete,
                 "stopped_by": f.stopped_by,
+                "left_out": f.left_out,
+                "kept_as": f.kept_as,
             }
             for f in report.files
         ],
@@ -194,6 +196,10 @@ def _reindex_summary(result: dict[str, Any]) -> str:
         state = (
             "complete" if f["complete"] else f"recovered up to byte {f['recovered_bytes']}: {f['stopped_by']}"
         )
+        if f["left_out"]:
+            kept = f", renamed {f['kept_as']}" if f["kept_as"] else ", removed"
+            lines.append(f"  {f['name']}: left out of metadata.yaml ({f['left_out']}){kept}")
+            continue
         lines.append(
             f"  {f['name']}: {f['size']} bytes, {f['chunks']} chunks, {f['messages']} messages, {state}"
         )
@@ -349,7 +355,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="recover a bag whose recording was killed or cut short (as ros2 bag reindex)",
         description="Scan BAG's MCAP files record by record, keep everything up to the last complete chunk "
         "and write the bag again with its MCAP summary and metadata.yaml, so that bag-info, play and other "
-        "readers accept it. A complete bag is rebuilt unchanged. Prints what was kept per file and topic.",
+        "readers accept it. A complete bag is rebuilt unchanged. A split bag keeps its files (<bag>_0.mcap, "
+        "<bag>_1.mcap...), each recovered on its own and listed in order; a file with nothing to recover is "
+        "left out of metadata.yaml (an empty one removed, any other renamed NAME.left-out). Prints what was "
+        "kept per file and topic.",
     )
     reindex.add_argument("bag")
     add_json_flag(reindex)
