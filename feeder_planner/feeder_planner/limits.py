@@ -22,6 +22,7 @@ __all__ = [
     "MIN_LENGTH_M",
     "MAX_LENGTH_M",
     "MAX_PART_VERTICES",
+    "MAX_ASSEMBLY_MESH_FACES",
     "MAX_ASSEMBLY_PIECES",
     "MAX_CONVEX_VERTICES",
     "MAX_CONTACTS",
@@ -72,13 +73,16 @@ MAX_DENSITY: Final = 1e9
 # Vertices of a part, outer boundary and holes together (the readers are linear; the planners evaluate
 # every edge per step).
 MAX_PART_VERTICES: Final = 10_000
-# Pieces (boxes and convex polyhedra) of an assembly, all bodies together; vertices of one polyhedron;
-# explicit contacts. The interpenetration check is quadratic in the pieces that overlap.
+# Pieces (boxes, convex polyhedra and meshes) of an assembly, all bodies together; vertices of one
+# polyhedron; explicit contacts. The interpenetration check is quadratic in the pieces that overlap.
 MAX_ASSEMBLY_PIECES: Final = 2_000
+# Triangles of all of an assembly's meshes together (one mesh has its own limit, assembly.meshes): five
+# meshes at that limit, about half a gigabyte of checked triangles.
+MAX_ASSEMBLY_MESH_FACES: Final = 1_000_000
 MAX_CONVEX_VERTICES: Final = 10_000
 MAX_CONTACTS: Final = 10_000
 # An explicit contact point must lie within this fraction of the assembly's size (its bounding-box
-# diagonal) of both bodies' surfaces: a contact is where the bodies touch.
+# diagonal) of one of its bodies' surfaces: a contact is where the bodies touch.
 CONTACT_DISTANCE_TOLERANCE: Final = 1e-3
 
 # Facets K of the friction pyramids (the paper's is 4; `--exact-cone` compares up to 32): the LP has K

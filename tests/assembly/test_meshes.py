@@ -306,3 +306,14 @@ def test_explicit_contacts_on_mesh_bodies_are_checked_against_the_mesh_surface(
     else:
         with pytest.raises(InputError, match=r"contacts\[0\]\.point.*from the surface of body 'block'"):
             assembly_from_text(text, "stack", base_dir=EXAMPLES)
+
+
+def test_mesh_triangles_of_a_whole_assembly_are_limited_as_they_are_read(monkeypatch) -> None:
+    import feeder_planner.assembly.model as model
+
+    stack = (EXAMPLES / "stepped_stack_meshes.yaml").read_text()
+    monkeypatch.setattr(model, "MAX_ASSEMBLY_MESH_FACES", 30)  # the floor alone has 12, the L shape more
+    with pytest.raises(
+        InputError, match=r"bodies\[\d\]\.meshes: \d+ mesh triangles in all exceed the limit of 30"
+    ):
+        assembly_from_text(stack, "stack", base_dir=EXAMPLES)

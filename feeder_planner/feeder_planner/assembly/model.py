@@ -27,6 +27,7 @@ from feeder_planner.fields_io import (
 )
 from feeder_planner.limits import (
     CONTACT_DISTANCE_TOLERANCE,
+    MAX_ASSEMBLY_MESH_FACES,
     MAX_ASSEMBLY_PIECES,
     MAX_CONTACTS,
     MAX_CONVEX_VERTICES,
@@ -133,7 +134,13 @@ def assembly_from_document(
     if not isinstance(raw_bodies, list) or not raw_bodies:
         raise InputError("bodies", "expected a non-empty list of bodies")
     _check_piece_count(raw_bodies)
-    bodies = [_body(raw, f"bodies[{i}]", scale, base_dir) for i, raw in enumerate(raw_bodies)]
+    bodies = []
+    faces = 0
+    for i, raw in enumerate(raw_bodies):
+        bodies.append(_body(raw, f"bodies[{i}]", scale, base_dir))
+        # Counted as the meshes are read, so memory stays within the limit plus one mesh.
+        faces += sum(len(mesh.faces) for mesh in bodies[-1].meshes)
+        check_count(faces, MAX_ASSEMBLY_MESH_FACES, f"bodies[{i}].meshes", "mesh triangles in all")
     lower, upper = part_bounds([p for b in bodies for p in (*b.pieces, *b.meshes)])
     check_length_scale(
         float(max(np.abs(lower).max(), np.abs(upper).max())), float((upper - lower).max()), "bodies"
@@ -275,14 +282,14 @@ def _check_convex_position(points: np.ndarray, field: str) -> None:
 
 
 def _check_piece_count(raw_bodies: list[Any]) -> None:
-    """Refuse more than MAX_ASSEMBLY_PIECES boxes and polyhedra, all bodies together, before reading them."""
+    """Refuse more than MAX_ASSEMBLY_PIECES boxes, polyhedra and meshes (all bodies) before reading them."""
     count = 0
     for raw in raw_bodies:
         if isinstance(raw, dict):
-            for key in ("boxes", "convex"):
+            for key in ("boxes", "convex", "meshes"):
                 value = raw.get(key)
                 count += len(value) if isinstance(value, list) else 0
-    check_count(count, MAX_ASSEMBLY_PIECES, "bodies", "boxes and convex polyhedra")
+    check_count(count, MAX_ASSEMBLY_PIECES, "bodies", "boxes, convex polyhedra and meshes")
 
 
 def _mass_properties(
