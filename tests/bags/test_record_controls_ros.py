@@ -174,12 +174,13 @@ def test_split_by_size_lists_every_file_and_loses_nothing(runs: dict[str, Any]) 
     assert sum(f["message_count"] for f in info["files"]) == info["message_count"]
     assert info["chunk_compression"] == "zstd" and info["storage_identifier"] == "mcap"
     assert info["bag_size"] == sum(f.stat().st_size for f in files)
-    # A split bag whose metadata is lost: bag-reindex recovers every message (into one file).
+    # A split bag whose metadata is lost: bag-reindex recovers every message and keeps every file.
     copy = runs["root"] / "rec_size_copy"
     shutil.copytree(bag, copy)
     (copy / "metadata.yaml").unlink()
     report = reindex(copy)
     assert [f.complete for f in report.files] == [True] * len(files)
+    assert [f.name for f in _files(copy)] == summary["files"]
     assert _counts(copy) == _counts(bag)
 
 
