@@ -15,10 +15,12 @@ from feeder_msgs.msg import Part, Polygon2D
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit.request_limits import (
     MAX_LOOP_VERTICES,
+    MAX_MOVE_SAMPLES,
     MAX_YAML_CHARS,
     MAX_YAML_DEPTH,
     MAX_YAML_NODES,
     bounded_yaml_mapping,
+    check_arc_samples,
     check_count,
     check_design,
     check_magnitude,
@@ -74,3 +76,26 @@ def test_part_size_counted_before_reading() -> None:
     holes = Part(outer=Polygon2D(x=[0.0, 1.0, 0.0], y=[0.0, 0.0, 1.0]), holes=[Polygon2D()] * 101)
     assert refused(check_part_size, holes).field == "part.holes"
     assert refused(check_part_size, Part(name="n" * 1000)).field == "part.name"
+
+
+def test_path_samples_counted_before_sampling() -> None:
+    down, side = (0.0, 0.0, -1.0), (1.0, 0.0, 0.0)
+    step = math.radians(0.5)
+    # As the samplers count: the start, then ceil(angle / step) per arc; a repeated point adds none.
+    assert check_arc_samples(down, [side], step, "waypoints", MAX_MOVE_SAMPLES) == 1 + 180
+    assert check_arc_samples(down, [side, side, down], step, "waypoints", MAX_MOVE_SAMPLES) == 1 + 360
+    assert check_arc_samples(down, [(0.0, 0.0, -5.0)], step, "waypoints", MAX_MOVE_SAMPLES) == 1
+    # A zero direction is the sampler's to refuse by name; it is not counted here.
+    assert check_arc_samples(down, [(0.0, 0.0, 0.0)], step, "waypoints", MAX_MOVE_SAMPLES) == 0
+    # 100 waypoints swinging a quarter turn each are 18,001 samples at the default step...
+    swing = [side, down] * 50
+    error = refused(check_arc_samples, down, swing, step, "waypoints", MAX_MOVE_SAMPLES)
+    assert error.field == "waypoints" and "18001 path samples" in error.problem
+    assert f"limit per request is {MAX_MOVE_SAMPLES}" in error.problem
+    # ...and one quarter turn at a tiny step is refused quickly, before 1.6e7 samples are made.
+    start = time.monotonic()
+    error = refused(check_arc_samples, down, [side], 1e-7, "tilt_waypoints", MAX_MOVE_SAMPLES)
+    assert time.monotonic() - start < 0.5 and error.field == "tilt_waypoints"
+    # The step the message suggests fits.
+    suggested = float(error.problem.rsplit("at least ", 1)[1].split(" rad")[0])
+    assert check_arc_samples(down, [side], suggested, "w", MAX_MOVE_SAMPLES) <= MAX_MOVE_SAMPLES

@@ -11,11 +11,13 @@ answered ``internal error``.
 from __future__ import annotations
 
 import math
-from collections.abc import Sized
+from collections.abc import Sequence, Sized
 from typing import Any
 
+import numpy as np
 import yaml
 
+from feeder_planner.assembly.tolerances import SAME_POINT_ANGLE
 from feeder_planner.errors import InputError
 
 __all__ = [
@@ -28,6 +30,7 @@ __all__ = [
     "MIN_THROWS",
     "MAX_THROW_WORK",
     "MAX_PATH_SAMPLES",
+    "MAX_MOVE_SAMPLES",
     "MAX_FACETS",
     "MAX_YAML_CHARS",
     "MAX_YAML_NODES",
@@ -46,6 +49,7 @@ __all__ = [
     "check_text",
     "check_part_size",
     "check_design",
+    "check_arc_samples",
     "bounded_yaml_mapping",
 ]
 
@@ -58,6 +62,10 @@ MAX_THROWS = 10_000
 MIN_THROWS = 3  # fewer throws per start cannot show a cycle (the planner's default_throws has the same)
 MAX_THROW_WORK = 2_000_000  # starts_per_edge x throws x stable edges: the trajectory arrays' cells
 MAX_PATH_SAMPLES = 10_000  # samples of one StablePath (each an LP certificate)
+# Certified samples of one fixture ~/move or ~/follow_path path (arc length / path_step, each a stability
+# LP of 1-20 ms on the example assemblies): the device is single-threaded, so this bounds how long one
+# request holds its ticks. At the default path_step (0.5 degree) it is 500 degrees of arc.
+MAX_MOVE_SAMPLES = 1000
 MAX_FACETS = 64  # friction-pyramid facets K of a request (the LP grows with K per contact)
 MAX_YAML_CHARS = 1 << 20  # characters of an assembly_yaml field
 MAX_YAML_NODES = 100_000  # YAML nodes after alias expansion (a billion-laughs document is refused)
@@ -140,6 +148,58 @@ def check_design(
             check_magnitude(value, MAX_GRAVITY, name, "m/s^2")
         elif name == "mu":
             check_magnitude(value, MAX_MU, name, "")
+
+
+def check_arc_samples(
+    start: Sequence[float], waypoints: Sequence[Sequence[float]], step: float, field: str, limit: int
+) -> int:
+    """Return how many samples the great arcs from ``start`` through ``waypoints`` take at ``step``.
+
+    Counted from the arcs' angles before any sample is made, as the samplers do: the start, then
+    ``ceil(angle / step)`` per arc (an arc shorter than ``SAME_POINT_ANGLE`` adds none).
+
+    Parameters
+    ----------
+    start, waypoints
+        Gravity directions (any non-zero length; zero or non-finite ones are left to the sampler).
+    step
+        The largest angle between samples (rad, positive).
+    field
+        The request field the waypoints came from, named by the error.
+    limit
+        The stated limit on samples (``MAX_MOVE_SAMPLES`` for the fixture).
+
+    Raises
+    ------
+    InputError
+        Naming ``field`` when the count exceeds ``limit``: the count, the total angle, the step and
+        the smallest step that would fit.
+    """
+    points = [np.asarray(start, dtype=float), *(np.asarray(w, dtype=float) for w in waypoints)]
+    units = []
+    for point in points:
+        norm = float(np.linalg.norm(point))
+        if not math.isfinite(norm) or norm == 0.0:
+            return 0  # the sampler refuses it by name; nothing to count
+        units.append(point / norm)
+    samples, total, arcs = 1, 0.0, 0
+    for a, b in zip(units, units[1:], strict=False):
+        angle = math.acos(float(np.clip(a @ b, -1.0, 1.0)))
+        if angle >= SAME_POINT_ANGLE:
+            samples += max(1, math.ceil(angle / step))
+            total, arcs = total + angle, arcs + 1
+    if samples > limit:
+        # Each arc's ceil may add one sample: a step that fits whatever the rounding, printed rounded up
+        # (4 digits round by at most 5e-4 relative).
+        fits = ""
+        if limit > arcs + 1:
+            fits = f", or a path_step of at least {total / (limit - 1 - arcs) * 1.001:.4g} rad"
+        raise InputError(
+            field,
+            f"{total:.4g} rad of great arcs at path_step {step:.3g} rad is {samples} path samples; the "
+            f"limit per request is {limit} (fewer or closer waypoints{fits})",
+        )
+    return samples
 
 
 def _expanded_size(root: yaml.Node) -> tuple[int, int]:

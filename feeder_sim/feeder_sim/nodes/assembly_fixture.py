@@ -56,7 +56,12 @@ from feeder_planner.node_kit import (
 from feeder_planner.node_kit.actions import serve_device_action
 from feeder_planner.node_kit.device import ActiveFault, DeviceError, FaultSpec, ManagedDevice
 from feeder_planner.node_kit.msg_assembly import ASSEMBLY_PARAMETERS, force_msgs, load_assembly_parameter
-from feeder_planner.node_kit.request_limits import MAX_WAYPOINTS, check_count
+from feeder_planner.node_kit.request_limits import (
+    MAX_MOVE_SAMPLES,
+    MAX_WAYPOINTS,
+    check_arc_samples,
+    check_count,
+)
 from feeder_planner.node_kit.services import serve
 from feeder_planner.node_kit.tf import quaternion_from_matrix
 from feeder_planner.node_kit.viz import VIZ_PARAMETERS, DeviceViz, Drawing, MovingFrame
@@ -433,6 +438,8 @@ class AssemblyFixture(ManagedDevice):
         waypoints = [from_vec(w, f"waypoints[{i}]") for i, w in enumerate(request.waypoints)]
         self._advance_to(self.get_clock().now().nanoseconds)
         self.require_ready("move")  # the table may have stalled on its way here
+        # Counted before sampling: every sample is an LP on this single-threaded device (request_limits).
+        check_arc_samples(table.gravity(), waypoints, self.p["path_step"], "waypoints", MAX_MOVE_SAMPLES)
         # Joint limits are checked before anything moves; the timing is at the rates the axes reach now.
         planned = plan_path(table, waypoints, self.p["path_step"])
         verdict = certify(prepared, planned.samples)
@@ -460,7 +467,9 @@ class AssemblyFixture(ManagedDevice):
         waypoints = goal_waypoints(
             [(v.x, v.y, v.z) for v in goal.gravity_waypoints], list(goal.tilt_waypoints), self.limits
         )
-        return waypoints, plan_goal(table, waypoints, self.p["path_step"])
+        step = self.p["path_step"]
+        check_arc_samples(table.gravity(), waypoints.gravity, step, waypoints.field, MAX_MOVE_SAMPLES)
+        return waypoints, plan_goal(table, waypoints, step)
 
     def _validate_follow(self, goal: FollowPath.Goal) -> None:
         """Goal-time check: the waypoints and the joint ranges along the path (not the interlock)."""
