@@ -13,7 +13,7 @@ from mcap.reader import make_reader
 from rosbags.rosbag2 import CompressionFormat, CompressionMode, Reader, StoragePlugin, Writer
 
 from feeder_cell.bag.qos import to_bag_qos
-from feeder_cell.bag.reindex import is_complete, reindex
+from feeder_cell.bag.reindex import LEFT_OUT_SUFFIX, MAGIC, is_complete, reindex
 from feeder_cell.bag.types import typestore
 from feeder_planner.errors import InputError
 
@@ -183,3 +183,27 @@ def test_a_split_bag_with_no_message_keeps_one_empty_file(tmp_path: Path) -> Non
     with Reader(bag) as reader:
         assert reader.message_count == 0
     assert _listed(bag) == ["run_0.mcap"]
+
+
+def test_files_holding_no_message_are_removed_and_garbage_is_kept_aside(tmp_path: Path) -> None:
+    bag = tmp_path / "run"
+    _write_split_bag(bag, 2, 3)
+    _write_split_bag(tmp_path / "more", 2, 0)  # complete files without a message
+    (tmp_path / "more" / "more_0.mcap").rename(bag / "run_2.mcap")
+    header_only = (tmp_path / "more" / "more_1.mcap").read_bytes()
+    header_end = len(MAGIC) + 9 + int.from_bytes(header_only[len(MAGIC) + 1 : len(MAGIC) + 9], "little")
+    (bag / "run_3.mcap").write_bytes(header_only[:header_end])  # as a kill right after a split leaves
+    (bag / "run_4.mcap").write_bytes(MAGIC + bytes(100))
+    report = reindex(bag)
+    assert [bool(f.left_out) for f in report.files] == [False, False, True, True, True]
+    assert "zeros" in report.files[4].left_out and report.files[4].kept_as == "run_4.mcap" + LEFT_OUT_SUFFIX
+    assert not report.files[2].kept_as and not report.files[3].kept_as
+    assert sorted(p.name for p in bag.iterdir()) == [
+        "metadata.yaml",
+        "run_0.mcap",
+        "run_1.mcap",
+        "run_4.mcap" + LEFT_OUT_SUFFIX,
+    ]
+    assert _listed(bag) == ["run_0.mcap", "run_1.mcap"]
+    with Reader(bag) as reader:
+        assert [bp.seq_and_sent(data)[0] for _, _, data in reader.messages()] == list(range(6))

@@ -226,8 +226,10 @@ class _Span:
 def _leave_out(path: Path, file_report: FileReport) -> None:
     """Take a file with no recoverable message out of the bag's file set, keeping any bytes it has."""
     file_report.left_out = file_report.stopped_by or "it holds no message"
-    if file_report.size == 0:
-        path.unlink()  # nothing reached the disk: nothing to keep
+    if file_report.complete or file_report.recovered_bytes == file_report.size:
+        # Every byte was read and none was a message (an empty file, or the header, schemas and channels
+        # a recorder killed just after a split leaves): nothing to keep.
+        path.unlink()
         return
     kept = path.with_name(path.name + LEFT_OUT_SUFFIX)
     os.replace(path, kept)
@@ -241,9 +243,9 @@ def reindex(bag: Path) -> ReindexReport:
     (same names, same order), each rewritten up to its last complete chunk, and ``metadata.yaml`` lists
     them in order with their own message counts and times. A file from which no message can be
     recovered (empty, no MCAP magic, damaged from its first chunk) is left out of the metadata, its
-    reason in the report; an empty one is removed, any other renamed ``<name>.left-out`` so that no
-    byte is destroyed. When no file holds a message, the first stays as an empty file so that the bag
-    still opens.
+    reason in the report; one whose bytes all read as records without a message is removed, any other
+    renamed ``<name>.left-out`` so that no byte is destroyed. When no file holds a message, the first
+    stays as an empty file so that the bag still opens.
 
     Parameters
     ----------
