@@ -100,6 +100,20 @@ def test_an_empty_file_gives_an_empty_bag_and_bad_paths_are_named(tmp_path: Path
     assert report.files[0].messages == 0 and "empty file" in report.files[0].stopped_by
     with Reader(bag) as reader:
         assert reader.message_count == 0
+    assert not report.files[0].kept_as and sorted(p.name for p in bag.iterdir()) == [
+        "bag.mcap",
+        "metadata.yaml",
+    ]
+    # Nothing readable at all: the bag still opens, empty, and the unreadable bytes are kept aside.
+    bp.mcap_file(bag).write_bytes(b"garbage")
+    report = reindex(bag)
+    assert (
+        "no MCAP magic" in report.files[0].stopped_by
+        and report.files[0].kept_as == "bag.mcap" + LEFT_OUT_SUFFIX
+    )
+    assert (bag / report.files[0].kept_as).read_bytes() == b"garbage" and is_complete(bag / "bag.mcap")
+    with Reader(bag) as reader:
+        assert reader.message_count == 0
     with pytest.raises(InputError, match="not a bag directory"):
         reindex(tmp_path / "absent")
     (tmp_path / "empty").mkdir()

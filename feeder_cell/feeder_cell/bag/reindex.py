@@ -223,10 +223,15 @@ class _Span:
     end: int = 0
 
 
+def _all_read(file_report: FileReport) -> bool:
+    """Whether the scan read the whole file (to its summary, or every byte as complete records)."""
+    return file_report.complete or file_report.recovered_bytes == file_report.size
+
+
 def _leave_out(path: Path, file_report: FileReport) -> None:
     """Take a file with no recoverable message out of the bag's file set, keeping any bytes it has."""
     file_report.left_out = file_report.stopped_by or "it holds no message"
-    if file_report.complete or file_report.recovered_bytes == file_report.size:
+    if _all_read(file_report):
         # Every byte was read and none was a message (an empty file, or the header, schemas and channels
         # a recorder killed just after a split leaves): nothing to keep.
         path.unlink()
@@ -323,11 +328,16 @@ def reindex(bag: Path) -> ReindexReport:
     listed = [f for f in written if f.messages] or written[:1]
     for file_report in written:
         path = bag / file_report.name
-        if file_report in listed:
-            # Replace, never delete first: a crash in between leaves either the old file or the new one.
-            os.replace(rebuilt / file_report.name, path)
-        else:
+        if file_report not in listed:
             _leave_out(path, file_report)
+            continue
+        if not file_report.messages and not _all_read(file_report):
+            # The empty file that keeps a bag of no message openable: bytes it could not read kept aside.
+            kept = path.with_name(path.name + LEFT_OUT_SUFFIX)
+            os.replace(path, kept)
+            file_report.kept_as = kept.name
+        # Replace, never delete first: a crash in between leaves either the old file or the new one.
+        os.replace(rebuilt / file_report.name, path)
     _write_metadata(rebuilt / "metadata.yaml", listed, spans)
     os.replace(rebuilt / "metadata.yaml", bag / "metadata.yaml")
     shutil.rmtree(work)

@@ -200,6 +200,8 @@ def _reindex_summary(result: dict[str, Any]) -> str:
             kept = f", renamed {f['kept_as']}" if f["kept_as"] else ", removed"
             lines.append(f"  {f['name']}: left out of metadata.yaml ({f['left_out']}){kept}")
             continue
+        if f["kept_as"]:
+            state += f"; its unreadable bytes kept as {f['kept_as']}"
         lines.append(
             f"  {f['name']}: {f['size']} bytes, {f['chunks']} chunks, {f['messages']} messages, {state}"
         )
