@@ -24,6 +24,8 @@ __all__ = [
     "iterate_to_recurrence",
     "Attractor",
     "group_attractors",
+    "visit_runs",
+    "find_period",
     "blocks",
     "round_pattern",
 ]
@@ -195,7 +197,7 @@ class Attractor:
         }
 
 
-def _visits(edge_row: np.ndarray, jog_row: np.ndarray) -> tuple[list[int], list[int]]:
+def visit_runs(edge_row: np.ndarray, jog_row: np.ndarray) -> tuple[list[int], list[int]]:
     """Return the visited edges (a visit starts at each flip) and the throws of each visit."""
     visits: list[int] = []
     lengths: list[int] = []
@@ -278,7 +280,7 @@ def round_pattern(
     return round_keys, rounds, throws, orders
 
 
-def _find_cycle(visits: list[int], lengths: list[int]) -> tuple[list[int], list[int]] | None:
+def find_period(visits: list[int], lengths: list[int]) -> tuple[list[int], list[int]] | None:
     """Return (one period of the visits, canonically rotated; throws of each whole period), or None."""
     visits, lengths = visits[1:-1], lengths[1:-1]
     total = len(visits)
@@ -290,6 +292,7 @@ def _find_cycle(visits: list[int], lengths: list[int]) -> tuple[list[int], list[
     if total < 2 * p:
         return None
     period = visits[:p]
+    # Start the cycle at the visit with the longest stay (ties: smallest edge), as the paper tells its cycles.
     start = max(
         range(p), key=lambda j: (sum(n for _, n in zip(visits[j::p], lengths[j::p], strict=True)), -period[j])
     )
@@ -355,9 +358,9 @@ def _describe(search: Search, group: list[int], total: int) -> Attractor:
         for k in range(len(ASSUMPTIONS)):
             counts[k] += int(((fl >> k) & 1).sum())
         n_throws += fl.size
-        seqs.append(_visits(e, search.jog[b, sl]))
+        seqs.append(visit_runs(e, search.jog[b, sl]))
     violations = {name: float(counts[ASSUMPTIONS.index(name)] / max(n_throws, 1)) for name in REPORTED}
-    cycles = [_find_cycle(v, n) for v, n in seqs]
+    cycles = [find_period(v, n) for v, n in seqs]
     names = [c[0] if c else None for c in cycles]
     periodic = names[0] is not None and all(n == names[0] for n in names)
     cycle = None

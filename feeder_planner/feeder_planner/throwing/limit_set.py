@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
@@ -14,8 +13,10 @@ from feeder_planner.throwing.attractors import (
     Attractor,
     Rows,
     Search,
+    find_period,
     group_attractors,
     iterate_to_recurrence,
+    visit_runs,
 )
 from feeder_planner.throwing.geometry import ArmPart
 from feeder_planner.throwing.grasp import grasp_radii
@@ -40,7 +41,6 @@ __all__ = [
     "EdgeBounds",
     "edge_bounds",
     "Cycle",
-    "find_cycle",
     "LimitSet",
     "default_burn_in",
     "OffsetBelowDMinError",
@@ -207,45 +207,6 @@ class Cycle:
             "throws_per_cycle": self.throws_per_cycle,
             "throws_range": list(self.throws_range),
         }
-
-
-def _visits(edge_row: np.ndarray, jog_row: np.ndarray) -> tuple[list[int], list[int]]:
-    """Return the visited edges (a visit starts at each flip) and the throws of each visit."""
-    visits: list[int] = []
-    lengths: list[int] = []
-    for n in range(len(edge_row)):
-        if n == 0 or not jog_row[n]:
-            visits.append(int(edge_row[n]))
-            lengths.append(1)
-        else:
-            lengths[-1] += 1
-    return visits, lengths
-
-
-def find_cycle(edge_row: np.ndarray, jog_row: np.ndarray) -> Cycle | None:
-    """Return the shortest period of the visited edges (a visit starts at each flip), canonically rotated."""
-    visits, lengths = _visits(edge_row, jog_row)
-    # Drop the first and last visits: the window cuts them.
-    visits, lengths = visits[1:-1], lengths[1:-1]
-    total = len(visits)
-    for p in range(1, total // 2 + 1):
-        if all(visits[i] == visits[i + p] for i in range(total - p)):
-            break
-    else:
-        return None
-    if total < 2 * p:
-        return None
-    dwell: Counter[int] = Counter()
-    for v, n in zip(visits, lengths, strict=True):
-        dwell[v] += n
-    period = visits[:p]
-    # Start the cycle at the visit with the longest stay (ties: smallest edge), as the paper tells its cycles.
-    start = max(
-        range(p), key=lambda j: (sum(n for _, n in zip(visits[j::p], lengths[j::p], strict=True)), -period[j])
-    )
-    canonical = period[start:] + period[:start]
-    per_cycle = [sum(lengths[c : c + p]) for c in range(0, total - p + 1, p)]
-    return Cycle(canonical, float(np.mean(per_cycle)), (min(per_cycle), max(per_cycle)))
 
 
 @dataclass(frozen=True)
@@ -436,8 +397,8 @@ def read_limit_set(
             cycles.append(None)
             continue
         sl = search.tail_slice(int(b))
-        c = find_cycle(search.edge[b, sl], search.jog[b, sl])
-        cycles.append(c.edges if c else None)
+        period = find_period(*visit_runs(search.edge[b, sl], search.jog[b, sl]))
+        cycles.append(period[0] if period else None)
     trigger, note = None, None
     if goal_edge is not None:
         missing = [a.edges for a in attractors if goal_edge not in a.edges]
