@@ -10,6 +10,7 @@ from typing import Callable, TypeVar
 import numpy as np
 
 from feeder_cell.cli.common import emit, finite_float
+from feeder_cell.cli.main import EXIT_INTERRUPTED
 from feeder_planner.errors import InputError
 from feeder_planner.parts import Part
 from feeder_planner.throwing.geometry import arm_part
@@ -34,8 +35,6 @@ of starts), longest_transient (throws), assumption_violations (fraction of its t
 slip, off_arm). "unique": one attractor from every start; "cycle" only for a periodic unique one.
 Exit 3 when no start recurs within --throws (the attractor search did not converge)."""
 
-# The exit status after Ctrl-C (128 + SIGINT, as shells report it); nothing is printed on stdout.
-EXIT_INTERRUPTED = 130
 # Progress lines go to stderr only for work that has already taken this long (s).
 PROGRESS_AFTER = 2.0
 
