@@ -10,6 +10,7 @@ from mpl_toolkits.mplot3d.axes3d import Axes3D
 
 from feeder_cell.plots.common import HIGHLIGHT_COLOUR, PART_COLOUR, SQUARE, STABLE_COLOUR, new_figure
 from feeder_planner.assembly import PathResult, RegionResult
+from feeder_planner.assembly.drawing import great_circle
 
 __all__ = ["VERTEX_GID", "CENTER_GID", "PATH_GID", "BOUNDARY_GID", "region_figure", "great_arc_points"]
 
@@ -19,6 +20,7 @@ PATH_GID = "safe path"
 BOUNDARY_GID = "boundary"
 FILL_POINTS = 6000  # directions sampled over the sphere to shade the region (about 1.6 deg apart)
 ARC_POINTS = 60
+CIRCLE_POINTS = 4 * ARC_POINTS  # a whole great circle (a hemisphere's or a great circle's region)
 VIEW_OFFSET_DEG = (15.0, 25.0)  # (elevation, azimuth) of the camera from the centre
 
 
@@ -40,16 +42,6 @@ def great_arc_points(a: np.ndarray, b: np.ndarray, through: np.ndarray | None = 
         return np.vstack([a, b])
     t = np.linspace(0.0, 1.0, ARC_POINTS)[:, None]
     return (np.sin((1 - t) * angle) * a + np.sin(t * angle) * b) / math.sin(angle)
-
-
-def _circle(normal: np.ndarray) -> np.ndarray:
-    """Return points of the great circle orthogonal to ``normal``."""
-    n = normal / np.linalg.norm(normal)
-    u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-    u /= np.linalg.norm(u)
-    v = np.cross(n, u)
-    t = np.linspace(0, 2 * math.pi, 4 * ARC_POINTS)[:, None]
-    return np.cos(t) * u + np.sin(t) * v
 
 
 def _fibonacci_sphere(count: int) -> np.ndarray:
@@ -117,9 +109,13 @@ def region_figure(result: RegionResult, path: PathResult | None = None) -> Figur
             *great_arc_points(vertices[0], vertices[1], center).T, color=STABLE_COLOUR, lw=3, gid=BOUNDARY_GID
         )
     elif region.kind == "hemisphere" and len(region.normals):
-        ax.plot(*_circle(region.normals[0]).T, color=STABLE_COLOUR, lw=2, gid=BOUNDARY_GID)
+        ax.plot(
+            *great_circle(region.normals[0], CIRCLE_POINTS).T, color=STABLE_COLOUR, lw=2, gid=BOUNDARY_GID
+        )
     elif region.kind == "great_circle" and len(region.equalities):
-        ax.plot(*_circle(region.equalities[0]).T, color=STABLE_COLOUR, lw=3, gid=BOUNDARY_GID)
+        ax.plot(
+            *great_circle(region.equalities[0], CIRCLE_POINTS).T, color=STABLE_COLOUR, lw=3, gid=BOUNDARY_GID
+        )
     ax.scatter(
         *vertices.T, s=30, color="k", depthshade=False, label=f"vertices ({len(vertices)})", gid=VERTEX_GID
     )

@@ -13,12 +13,22 @@ import numpy as np
 from feeder_planner.assembly.region import StableRegion
 from feeder_planner.drawing import Shape
 
-__all__ = ["BOUNDARY_SAMPLES", "boundary_points", "region_shapes", "path_shape"]
+__all__ = ["BOUNDARY_SAMPLES", "great_circle", "boundary_points", "region_shapes", "path_shape"]
 
 # Samples per bounding great circle: a 1 degree step.
 BOUNDARY_SAMPLES = 360
 # A boundary sample may violate another inequality by this much (unit vectors): the region's corners.
 BOUNDARY_SLACK = 1e-9
+
+
+def great_circle(normal: np.ndarray, points: int) -> np.ndarray:
+    """Return ``points`` unit vectors evenly around the great circle n . g = 0, the first repeated last."""
+    n = np.asarray(normal, float)
+    n = n / np.linalg.norm(n)
+    u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    angles = np.linspace(0.0, 2 * np.pi, points)
+    return np.outer(np.cos(angles), u) + np.outer(np.sin(angles), np.cross(n, u))
 
 
 def boundary_points(region: StableRegion, samples: int = BOUNDARY_SAMPLES) -> list[np.ndarray]:
@@ -31,13 +41,9 @@ def boundary_points(region: StableRegion, samples: int = BOUNDARY_SAMPLES) -> li
     normals = np.asarray(region.normals, float).reshape(-1, 3)
     equalities = np.asarray(region.equalities, float).reshape(-1, 3)
     circles = [*normals, *equalities]
-    angles = np.linspace(0.0, 2 * np.pi, samples + 1)
     arcs = []
     for index, n in enumerate(circles):
-        n = n / np.linalg.norm(n)
-        u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-        u /= np.linalg.norm(u)
-        circle = np.outer(np.cos(angles), u) + np.outer(np.sin(angles), np.cross(n, u))
+        circle = great_circle(n, samples + 1)
         inside = np.ones(len(circle), bool)
         for other, m in enumerate(circles):
             if other == index:
