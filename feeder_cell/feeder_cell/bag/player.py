@@ -21,6 +21,7 @@ from rosbags.rosbag2 import Reader, ReaderError
 
 from feeder_cell.bag.playback import Item, Playback, check_rate, playback_window
 from feeder_cell.bag.qos import from_bag_qos
+from feeder_cell.bag.recorder import SERVICE_EVENT_SUFFIX
 from feeder_cell.bag.reindex import FileReport, _scan, is_complete
 from feeder_cell.bag.types import message_class
 from feeder_planner.errors import InputError
@@ -35,9 +36,6 @@ __all__ = [
     "parse_remap",
     "play",
 ]
-
-# Topics of service introspection: replaying them would look like commands, so play never does.
-SERVICE_EVENT_SUFFIX = "/_service_event"
 
 
 def _reindex_hint(path: Path) -> str:
@@ -189,6 +187,7 @@ class Player:
         if unknown:
             raise InputError("--topics", f"not in {self.path}: {', '.join(unknown)}")
         chosen = [c for c in reader.connections if not wanted or c.topic in wanted]
+        # Topics of service introspection: replaying them would look like commands, so play never does.
         self.skipped: dict[str, int] = {
             c.topic: c.msgcount for c in chosen if c.topic.endswith(SERVICE_EVENT_SUFFIX)
         }
