@@ -10,6 +10,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProf
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
 from feeder_planner.errors import InputError
+from feeder_planner.reading import load_yaml_file
 
 _ZERO = QosTime(0, 0)
 
@@ -128,16 +129,15 @@ def parse_qos_overrides(document: Any, source: str = "--qos-profile-overrides-pa
 
 
 def load_qos_overrides(path: Path) -> dict[str, QoSProfile]:
-    """Read a rosbag2 QoS override YAML file (see :func:`parse_qos_overrides`)."""
-    from ruamel.yaml import YAML, YAMLError
+    """Read a rosbag2 QoS override YAML file (see :func:`parse_qos_overrides`).
 
+    It is read through the project's bounded reading layer, as every other input file: a missing or
+    special file (a FIFO, /dev/zero), an oversized file or an alias bomb is refused naming the flag.
+    """
     flag = "--qos-profile-overrides-path"
     try:
-        text = path.read_text()
-    except OSError as exc:
-        raise InputError(flag, f"cannot read {path}: {exc.strerror}") from None
-    try:
-        document = YAML(typ="safe").load(text)
-    except YAMLError as exc:
-        raise InputError(flag, f"{path} is not valid YAML: {exc}") from None
+        document = load_yaml_file(path)
+    except InputError as error:
+        where = "" if error.field == "<file>" else f" {error.field}:"
+        raise InputError(flag, f"{path}:{where} {error.problem}") from None
     return parse_qos_overrides(document, f"{flag} {path}")
