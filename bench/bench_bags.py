@@ -26,7 +26,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from benchlib import row
+from benchlib import lease_domain, row
 
 ROOT = Path(__file__).resolve().parents[1]
 FEEDER = [sys.executable, "-m", "feeder_cell.cli.main"]
@@ -89,20 +89,6 @@ print(json.dumps(seqs), flush=True)
 node.destroy_node()
 rclpy.try_shutdown()
 """
-
-
-def _domain() -> tuple[int, Any]:
-    """A ROS domain no test run holds (the test harness's lock files), held until the handle closes."""
-    import fcntl
-
-    for domain in range(60, 102):
-        handle = open(Path(tempfile.gettempdir()) / f"feeder-ros-domain-{domain}.lock", "w")
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            return domain, handle
-        except OSError:
-            handle.close()
-    raise RuntimeError("no free ROS domain for the bag bench")
 
 
 def _bag_seqs(bag: Path) -> list[int]:
@@ -260,7 +246,7 @@ def run(out: Path, quick: bool) -> list[dict]:
     rates = [1000, 2000, 4000, 8000] if quick else [500, 1000, 2000, 4000, 6000, 8000, 12000, 16000]
     step_s = 2.0 if quick else 5.0
     seconds = 60.0 if quick else 600.0
-    domain, handle = _domain()
+    domain, handle = lease_domain("bag")
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
     rows = []
     try:

@@ -12,7 +12,6 @@ sensor bit.
 from __future__ import annotations
 
 import asyncio
-import fcntl
 import os
 import signal
 import socket
@@ -25,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from benchlib import row
+from benchlib import lease_domain, row
 
 ROOT = Path(__file__).resolve().parents[1]
 FEEDER = [sys.executable, "-m", "feeder_cell.cli.main"]
@@ -35,18 +34,6 @@ WATCHDOG_S = 10.0
 SETTLE_S = 8.0
 PUBLISHING_INTERVAL_MS = 10
 TARGET_P99_MS = 100.0  # a PLC's usual publishing interval: the gateway must not be the slow part
-
-
-def _domain() -> tuple[int, Any]:
-    """A ROS domain no test run holds (the test harness's lock files), held until the handle closes."""
-    for domain in range(60, 102):
-        handle = open(Path(tempfile.gettempdir()) / f"feeder-ros-domain-{domain}.lock", "w")
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            return domain, handle
-        except OSError:
-            handle.close()
-    raise RuntimeError("no free ROS domain for the gateway bench")
 
 
 def _port() -> int:
@@ -112,7 +99,7 @@ async def _measure(url: str, seconds: float) -> dict[str, list[float]]:
 def run(out_dir: Path, quick: bool) -> list[dict]:
     """Return the gateway rows: update latency p50 and p99 for the arm's status and sensor."""
     seconds = 20.0 if quick else 60.0
-    domain, lease = _domain()
+    domain, lease = lease_domain("gateway")
     url = f"opc.tcp://127.0.0.1:{_port()}"
     scene = {
         "name": "bench_gateway",

@@ -11,7 +11,6 @@ subscriber's executor (Python), not only the player's timing: it is what a node 
 
 from __future__ import annotations
 
-import fcntl
 import os
 import random
 import statistics
@@ -21,26 +20,13 @@ import tempfile
 import threading
 import time
 from pathlib import Path
-from typing import Any
 
-from benchlib import row
+from benchlib import lease_domain, row
 
 FEEDER = [sys.executable, "-m", "feeder_cell.cli.main"]
 TOPIC = "/bench_replay"
 TARGET_P99_MS = 5.0  # half the mean gap: the replayed stream keeps its recorded rhythm
 START_NS = 1_700_000_000_000_000_000
-
-
-def _domain() -> tuple[int, Any]:
-    """A ROS domain no test run holds (the test harness's lock files), held until the handle closes."""
-    for domain in range(60, 102):
-        handle = open(Path(tempfile.gettempdir()) / f"feeder-ros-domain-{domain}.lock", "w")
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            return domain, handle
-        except OSError:
-            handle.close()
-    raise RuntimeError("no free ROS domain for the replay bench")
 
 
 def _cdr(text: str) -> bytes:
@@ -139,7 +125,7 @@ def measure(bag: Path, stamps: list[int], rate: float) -> dict[str, float]:
 def run(out_dir: Path, quick: bool = False) -> list[dict]:
     """Return the table rows of the replay timing benchmark."""
     count = 300 if quick else 1500
-    domain, lock = _domain()
+    domain, lock = lease_domain("replay")
     previous = {key: os.environ.get(key) for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")}
     os.environ["ROS_DOMAIN_ID"] = str(domain)
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"

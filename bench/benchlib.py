@@ -1,9 +1,12 @@
-"""Shared pieces of the device benchmarks: median timing and the table's row format."""
+"""Shared pieces of the device benchmarks: median timing, the table's row format, a free ROS domain."""
 
 from __future__ import annotations
 
+import fcntl
 import statistics
+import tempfile
 import time
+from pathlib import Path
 from typing import Any, Callable
 
 
@@ -51,3 +54,15 @@ def holds_rate(figures: dict[str, float]) -> bool:
         figures["achieved_rate_hz"] >= floor * figures["configured_rate_hz"]
         and figures["achieved_real_time_factor"] >= floor * figures["configured_real_time_factor"]
     )
+
+
+def lease_domain(bench: str) -> tuple[int, Any]:
+    """Return a ROS domain no test run holds (the test harness's lock files), held until the handle closes."""
+    for domain in range(60, 102):
+        handle = open(Path(tempfile.gettempdir()) / f"feeder-ros-domain-{domain}.lock", "w")
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            return domain, handle
+        except OSError:
+            handle.close()
+    raise RuntimeError(f"no free ROS domain for the {bench} bench")
