@@ -25,6 +25,7 @@ from feeder_cell.bag.recorder import SERVICE_EVENT_SUFFIX
 from feeder_cell.bag.reindex import FileReport, _scan, is_complete
 from feeder_cell.bag.types import message_class
 from feeder_planner.errors import InputError
+from feeder_planner.node_kit.qos import request_qos
 
 __all__ = [
     "SERVICE_EVENT_SUFFIX",
@@ -260,8 +261,6 @@ class Player:
         self.clock_pub.publish(msg)
 
     def _services(self) -> None:
-        from rclpy.qos import QoSProfile
-
         from feeder_msgs.srv import (
             Burst,
             GetRate,
@@ -276,7 +275,7 @@ class Player:
 
         playback, logger = self.playback, self.node.get_logger()
         # A burst of control calls (a script stepping with play_next) must not lose requests.
-        qos = QoSProfile(depth=1000)
+        qos = request_qos()
 
         def pause(_req: Any, res: Any) -> Any:
             playback.pause()
