@@ -34,6 +34,7 @@ from feeder_planner.node_kit.parameters import ParameterSpec, check_value, decla
 from feeder_planner.node_kit.qos import LATCHED
 from feeder_planner.node_kit.rate import RateMonitor, RateReport
 from feeder_planner.node_kit.services import REQUEST_QUEUE_PARAMETER, serve
+from feeder_planner.node_kit.tf import namespaced_frame
 
 __all__ = [
     "DeviceState",
@@ -368,8 +369,7 @@ class ManagedDevice(LifecycleNode):
 
     def frame(self, base: str) -> str:
         """Return a per-instance frame id: ``base`` under the node's namespace (``cell/feeder_a/base``)."""
-        namespace = self.get_namespace().strip("/")
-        return f"{namespace}/{base}" if namespace else base
+        return namespaced_frame(self, base)
 
     def record_tick(self, simulated: float | None = None) -> None:
         """Count one tick of the device's main stream for the rate and real-time-factor figures.

@@ -46,6 +46,7 @@ __all__ = [
     "TF_PARAMETERS",
     "ZERO_POSE",
     "tf_parameters",
+    "namespaced_frame",
     "cell_transform",
     "check_cell_pose",
     "quaternion_from_rpy",
@@ -160,6 +161,16 @@ def transform(
     x, y, z, w = (float(v) for v in rotation)
     t.transform.rotation = Quaternion(x=x, y=y, z=z, w=w)
     return t
+
+
+def namespaced_frame(node: Node, base: str) -> str:
+    """Return a per-instance frame id: ``base`` under the node's namespace (``cell/feeder_a/base``).
+
+    Devices name their frames so (``ManagedDevice.frame``), and a planner's markers use the same rule for
+    the frame of the device it plans for.
+    """
+    namespace = node.get_namespace().strip("/")
+    return f"{namespace}/{base}" if namespace else base
 
 
 def cell_transform(cell_frame: str, child: str, pose: Sequence[float], stamp: Time) -> TransformStamped:

@@ -47,6 +47,7 @@ from feeder_planner.node_kit.request_limits import (
     check_count,
 )
 from feeder_planner.node_kit.services import REQUEST_QUEUE_PARAMETER, serve
+from feeder_planner.node_kit.tf import namespaced_frame
 from feeder_planner.node_kit.viz import ResultMarkers
 
 __all__ = ["PARAMETERS", "StableRegionPlanner", "main"]
@@ -100,8 +101,7 @@ class StableRegionPlanner(Node):
         serve(self, StablePath, "~/safe_path", guard(self.on_path), own_group=True)
         self.region_pub = self.create_publisher(StabilityRegion, "~/region", LATCHED)
         self.region_pub.publish(region_msg(region_result(self.prepared)))
-        namespace = self.get_namespace().strip("/")
-        self.frame_id = self.p["frame_id"] or (f"{namespace}/assembly" if namespace else "assembly")
+        self.frame_id = self.p["frame_id"] or namespaced_frame(self, "assembly")
         self.markers = ResultMarkers(self)  # the node's region, and the last safe path it planned
         self.markers.publish(region_shapes(self.prepared.region, self.p["sphere_radius"]), self.frame_id)
         self.get_logger().info(

@@ -34,6 +34,7 @@ from feeder_planner.node_kit.request_limits import (
     check_part_size,
 )
 from feeder_planner.node_kit.services import REQUEST_QUEUE_PARAMETER, serve
+from feeder_planner.node_kit.tf import namespaced_frame
 from feeder_planner.node_kit.viz import ResultMarkers
 from feeder_planner.throwing import (
     DEFAULT_STARTS_PER_EDGE,
@@ -167,8 +168,7 @@ class ThrowPlanner(Node):
         serve(self, LimitSetCompute, "~/limit_set", guard(self.on_limit_set), own_group=True)
         serve(self, SensorTriggerRadii, "~/trigger_radii", guard(self.on_trigger), own_group=True)
         serve(self, DesignSearch, "~/design_search", guard(self.on_design), own_group=True)
-        namespace = self.get_namespace().strip("/")
-        self.frame_id = self.p["frame_id"] or (f"{namespace}/arm_pivot" if namespace else "arm_pivot")
+        self.frame_id = self.p["frame_id"] or namespaced_frame(self, "arm_pivot")
         self.markers = ResultMarkers(self)  # the last limit set's R ranges and trigger range on the arm
 
     def on_grasp(self, request: GraspRadii.Request, response: GraspRadii.Response) -> GraspRadii.Response:
