@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from feeder_planner.errors import InputError
-from feeder_planner.limits import MAX_NAME_CHARS, describe, quote
+from feeder_planner.limits import MAX_NAME_CHARS, MAX_YAML_NODES, describe, quote
 from feeder_planner.reading import load_yaml_file, parse_yaml
 
 
@@ -21,9 +21,11 @@ def load_yaml_mapping(path: str | Path) -> dict[str, Any]:
     return document
 
 
-def yaml_mapping_from_text(text: str, source: str, field: str = "<yaml>") -> dict[str, Any]:
+def yaml_mapping_from_text(
+    text: str, source: str, field: str = "<yaml>", max_nodes: int = MAX_YAML_NODES
+) -> dict[str, Any]:
     """Parse YAML text (a request field) whose top level is a mapping, with the file reader's bounds."""
-    document = parse_yaml(text, source, field)
+    document = parse_yaml(text, source, field, max_nodes)
     if not isinstance(document, dict):
         raise InputError("<top level>", "expected a mapping of fields", source)
     return document

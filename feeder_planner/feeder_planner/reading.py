@@ -119,8 +119,8 @@ def _line(event: Any) -> int:
     return int(mark.line) + 1 if mark is not None else 0
 
 
-def _check_events(text: str, source: str, field: str) -> None:
-    """Walk the YAML events: refuse nesting past MAX_YAML_DEPTH and expanded size past MAX_YAML_NODES."""
+def _check_events(text: str, source: str, field: str, max_nodes: int = MAX_YAML_NODES) -> None:
+    """Walk the YAML events: refuse nesting past MAX_YAML_DEPTH and expanded size past ``max_nodes``."""
     total = 0
     sizes: dict[str, int] = {}  # expanded node count of each anchor seen so far
     open_nodes: list[list[Any]] = []  # [anchor, expanded count] of each open collection
@@ -128,7 +128,9 @@ def _check_events(text: str, source: str, field: str) -> None:
         if isinstance(event, (yaml.SequenceStartEvent, yaml.MappingStartEvent)):
             if len(open_nodes) >= MAX_YAML_DEPTH:
                 raise InputError(
-                    field, f"nested deeper than the limit of {MAX_YAML_DEPTH} at line {_line(event)}", source
+                    field,
+                    f"nested deeper than the limit of {MAX_YAML_DEPTH} levels at line {_line(event)}",
+                    source,
                 )
             open_nodes.append([event.anchor, 1])
             total += 1
@@ -145,22 +147,30 @@ def _check_events(text: str, source: str, field: str) -> None:
             if event.anchor is not None:
                 sizes[event.anchor] = 1
         elif isinstance(event, yaml.AliasEvent):
+            # An alias inside the collection it names makes a recursive value, which no field can be
+            # and which would recurse forever in whatever walks it.
+            if any(anchor == event.anchor for anchor, _ in open_nodes):
+                raise InputError(
+                    field,
+                    f"an alias refers to its own ancestor at line {_line(event)} (a recursive value)",
+                    source,
+                )
             count = sizes.get(event.anchor or "", 1)  # an unknown anchor is the composer's error, below
         else:
             continue
         total += count
         if open_nodes:
             open_nodes[-1][1] += count
-        if total > MAX_YAML_NODES:
+        if total > max_nodes:
             raise InputError(
                 field,
-                f"more than {MAX_YAML_NODES} YAML nodes with aliases expanded (at line {_line(event)}): "
+                f"more than {max_nodes} YAML nodes with aliases expanded (at line {_line(event)}): "
                 "refused (an alias bomb, or a file past the limit)",
                 source,
             )
 
 
-def parse_yaml(text: str, source: str, field: str = "<file>") -> Any:
+def parse_yaml(text: str, source: str, field: str = "<file>", max_nodes: int = MAX_YAML_NODES) -> Any:
     """Parse one YAML document (safe types only) with bounded expansion and depth; errors name ``source``.
 
     Parameters
@@ -171,6 +181,8 @@ def parse_yaml(text: str, source: str, field: str = "<file>") -> Any:
         What the text came from (a file path or a request field), named in errors.
     field
         The field named in errors about the document as a whole.
+    max_nodes
+        The expanded-size bound (a request may state a smaller one than a file's).
 
     Returns
     -------
@@ -178,7 +190,7 @@ def parse_yaml(text: str, source: str, field: str = "<file>") -> Any:
         The document's value.
     """
     try:
-        _check_events(text, source, field)
+        _check_events(text, source, field, max_nodes)
         return yaml.load(text, Loader=_LOADER)  # noqa: S506 -- a SafeLoader: safe types only
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)

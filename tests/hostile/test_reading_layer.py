@@ -237,3 +237,10 @@ def test_read_text_refuses_a_file_grown_past_the_limit(tmp_path: Path) -> None:
     path.write_bytes(b"a: 1\n" * 10)
     assert read_text(path, max_bytes=50) == "a: 1\n" * 10
     assert "limit of 49 bytes" in refusal(read_text, path, 49).problem
+
+
+def test_an_alias_inside_the_collection_it_names_is_refused() -> None:
+    # A recursive value: no field can be one, and whatever walks it would recurse forever.
+    with pytest.raises(InputError, match="refers to its own ancestor at line 1"):
+        parse_yaml("vertices: &x [[0, 0], *x]", "part.yaml")
+    assert parse_yaml("a: &x [1, 2]\nb: [*x, *x]", "ok.yaml") == {"a": [1, 2], "b": [[1, 2], [1, 2]]}

@@ -15,10 +15,18 @@ from collections.abc import Sequence, Sized
 from typing import Any
 
 import numpy as np
-import yaml
 
 from feeder_planner.assembly.tolerances import SAME_POINT_ANGLE
 from feeder_planner.errors import InputError
+from feeder_planner.fields_io import yaml_mapping_from_text
+from feeder_planner.limits import (
+    MAX_GRAVITY,
+    MAX_LENGTH_M,
+    MAX_NAME_CHARS,
+    MAX_RELEASE_SPEED,
+    MAX_YAML_DEPTH,
+    MIN_LENGTH_M,
+)
 
 __all__ = [
     "MAX_LOOP_VERTICES",
@@ -69,16 +77,13 @@ MAX_MOVE_SAMPLES = 1000
 MAX_FACETS = 64  # friction-pyramid facets K of a request (the LP grows with K per contact)
 MAX_YAML_CHARS = 1 << 20  # characters of an assembly_yaml field
 MAX_YAML_NODES = 100_000  # YAML nodes after alias expansion (a billion-laughs document is refused)
-MAX_YAML_DEPTH = 64
 MAX_WAYPOINTS = 100  # FixtureMove / FollowPath waypoints (a device is single-threaded: ~0.3 s)
 MAX_PROGRAM_STEPS = 1000  # steps of one field program
 MAX_NAMES = 10_000  # entries of a list of part names
-MAX_NAME_CHARS = 256
 MAX_QUEUED_THROWS = 100_000  # throws an arm keeps queued (ArmCommand count and pending)
-# The models' length scale (issue 16: the mechanics are meaningful from nanometres to kilometres).
-LENGTH_RANGE_M = (1e-9, 1e4)
-MAX_SPEED = 1e4  # rad/s, |release speed|
-MAX_GRAVITY = 1e4  # m/s^2, |gravity|
+# The models' stated ranges are the files' and the command's (feeder_planner.limits): one definition.
+LENGTH_RANGE_M = (MIN_LENGTH_M, MAX_LENGTH_M)
+MAX_SPEED = MAX_RELEASE_SPEED  # rad/s, |release speed|
 MAX_MU = 1e3
 
 
@@ -202,35 +207,6 @@ def check_arc_samples(
     return samples
 
 
-def _expanded_size(root: yaml.Node) -> tuple[int, int]:
-    """Return (nodes after alias expansion, depth) of a composed YAML graph, without expanding it."""
-    sizes: dict[int, tuple[int, int]] = {}
-    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
-    while stack:
-        node, done = stack.pop()
-        if id(node) in sizes:
-            continue
-        children: list[yaml.Node] = []
-        if isinstance(node, yaml.SequenceNode):
-            children = list(node.value)
-        elif isinstance(node, yaml.MappingNode):
-            children = [item for pair in node.value for item in pair]
-        if not done:
-            stack.append((node, True))
-            stack.extend((child, False) for child in children if id(child) not in sizes)
-            continue
-        total, depth = 1, 0
-        for child in children:
-            if id(child) not in sizes:  # a cycle (a recursive alias) is not a document
-                raise InputError("<yaml>", "an alias refers to its own ancestor (a recursive document)")
-            size, child_depth = sizes[id(child)]
-            total, depth = total + size, max(depth, child_depth)
-            if total > MAX_YAML_NODES:
-                total = MAX_YAML_NODES + 1  # enough to refuse; the true figure can be astronomical
-        sizes[id(node)] = (total, depth + 1)
-    return sizes[id(root)]
-
-
 def bounded_yaml_mapping(text: str, field: str) -> dict[str, Any]:
     """Parse a request's YAML text into a mapping with its size, alias expansion and nesting bounded.
 
@@ -250,32 +226,6 @@ def bounded_yaml_mapping(text: str, field: str) -> dict[str, Any]:
     """
     check_text(text, MAX_YAML_CHARS, field)
     try:
-        loader = yaml.SafeLoader(text)
-    except yaml.YAMLError as exc:  # the reader refuses control characters before any parsing
-        raise InputError(field, f"not valid YAML text: {str(exc)[:120]}") from None
-    try:
-        root = loader.get_single_node()
-        if root is None:
-            raise InputError(field, "expected a mapping of fields, got an empty document")
-        try:
-            nodes, depth = _expanded_size(root)
-        except InputError as error:
-            raise InputError(field, error.problem) from None
-        if nodes > MAX_YAML_NODES:
-            raise InputError(
-                field, f"expands (aliases included) to more than the limit of {MAX_YAML_NODES} YAML nodes"
-            )
-        if depth > MAX_YAML_DEPTH:
-            raise InputError(field, f"is nested {depth} levels deep; the limit is {MAX_YAML_DEPTH}")
-        document = loader.construct_document(root)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark else f": {str(exc)[:120]}"
-        raise InputError(field, f"not valid YAML{where}") from None
-    except RecursionError:
-        raise InputError(field, f"is nested too deeply; the limit is {MAX_YAML_DEPTH} levels") from None
-    finally:
-        loader.dispose()
-    if not isinstance(document, dict):
-        raise InputError(field, f"expected a mapping of fields, got {type(document).__name__}")
-    return document
+        return yaml_mapping_from_text(text, field, field, MAX_YAML_NODES)
+    except InputError as error:  # one field for the whole text, whatever part of it is wrong
+        raise InputError(field, error.problem) from None
