@@ -321,6 +321,8 @@ class MemsFieldArray(ManagedDevice):
         self.last_cells: tuple[Any, ...] | None = None
         self.last_grid_forces = np.zeros((0, 0, 2))
         self.part_triangles: tuple[Scene | None, list[np.ndarray]] = (None, [])
+        # (cell forces drawn, (nx, ny, pitch, stride), shapes): the array's static drawing, rebuilt on change.
+        self.array_drawing: tuple[np.ndarray | None, tuple[Any, ...], list[Any]] = (None, (), [])
         self.last_activity: tuple[bool, int, bool] | None = None
         self.program_stamp = 0
         self.count = {"steps": 0, "steps_dropped": 0, "programs": 0, "placements": 0, "program_goals": 0}
@@ -539,12 +541,18 @@ class MemsFieldArray(ManagedDevice):
         if self.part_triangles[0] is not scene:  # triangulated once per scene, placed at every update
             self.part_triangles = (scene, [triangulate_loops(b.part.loops()) for b in scene.bodies])
         nx, ny = self.p["array_size"]
-        grid = Grid(nx, ny, self.p["pitch"])
-        forces = force_shapes(grid, self.last_grid_forces, int(self.p["marker_force_stride"]))
+        layout = (nx, ny, self.p["pitch"], int(self.p["marker_force_stride"]))
+        # The array and its force arrows change only with the cells' forces (a new array from publish_cells)
+        # or the layout: built then, not at every update (thousands of arrows on a large array).
+        forces, (drawn, drawn_layout, static) = self.last_grid_forces, self.array_drawing
+        if drawn is not forces or drawn_layout != layout:
+            grid = Grid(nx, ny, layout[2])
+            static = array_shapes(grid) + force_shapes(grid, forces, layout[3])
+            self.array_drawing = (forces, layout, static)
         parts = parts_shapes(
             [b.part for b in scene.bodies], [b.pose for b in scene.bodies], self.part_triangles[1]
         )
-        return Drawing(self.frame_id, self.frame_id, static=array_shapes(grid) + forces, dynamic=parts)
+        return Drawing(self.frame_id, self.frame_id, static=static, dynamic=parts)
 
     def _max_steps(self) -> int:
         """Return the cap on steps per tick (max_steps_per_tick, or the automatic one for 0)."""
