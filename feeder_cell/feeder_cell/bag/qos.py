@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 from rclpy.duration import Duration
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile, ReliabilityPolicy
@@ -13,6 +13,26 @@ from feeder_planner.errors import InputError
 from feeder_planner.reading import load_yaml_file
 
 _ZERO = QosTime(0, 0)
+
+
+def offered_qos(publishers: Sequence[Any]) -> tuple[bool, bool]:
+    """Return (reliable, latched) of a topic's publishers (``get_publishers_info_by_topic``).
+
+    Reliable only if every publisher is (one best-effort publisher needs a best-effort reader); latched
+    if any is transient-local (its stored samples are wanted).
+    """
+    reliable = all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE for p in publishers)
+    latched = any(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publishers)
+    return reliable, latched
+
+
+def matching_qos(reliable: bool, latched: bool, depth: int) -> QoSProfile:
+    """Return the subscription profile that matches publishers offering (reliable, latched)."""
+    return QoSProfile(
+        depth=depth,
+        reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+    )
 
 
 def to_bag_qos(reliable: bool, transient_local: bool, depth: int = 10) -> Qos:

@@ -32,11 +32,11 @@ from pathlib import Path
 from typing import Any, Callable, Iterable
 
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import QoSProfile
 from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
 from rosbags.rosbag2.storage_mcap import McapWriter
 
-from feeder_cell.bag.qos import to_bag_qos
+from feeder_cell.bag.qos import matching_qos, offered_qos, to_bag_qos
 from feeder_cell.bag.types import connection_definition, is_known, message_class
 from feeder_planner.errors import InputError
 
@@ -321,10 +321,7 @@ class Recorder:
         publishers = self.node.get_publishers_info_by_topic(name)
         if not publishers:
             return None
-        offer = _Offer(
-            reliable=all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE for p in publishers),
-            latched=any(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publishers),
-        )
+        offer = _Offer(*offered_qos(publishers))
         previous = self._offers.get(name)
         if previous is not None:
             # Never step back: a latched publisher that went away leaves its samples recorded, and a
@@ -333,11 +330,7 @@ class Recorder:
         return offer
 
     def _subscribe(self, name: str, type_name: str, offer: _Offer) -> None:
-        qos = self.qos_overrides.get(name) or QoSProfile(
-            depth=SUBSCRIPTION_DEPTH,
-            reliability=ReliabilityPolicy.RELIABLE if offer.reliable else ReliabilityPolicy.BEST_EFFORT,
-            durability=DurabilityPolicy.TRANSIENT_LOCAL if offer.latched else DurabilityPolicy.VOLATILE,
-        )
+        qos = self.qos_overrides.get(name) or matching_qos(offer.reliable, offer.latched, SUBSCRIPTION_DEPTH)
         profile = to_bag_qos(offer.reliable, offer.latched)
         with self._lock:
             if self._writer is None:

@@ -21,8 +21,8 @@ import foxglove
 from foxglove import Channel, Schema
 from foxglove.websocket import ChannelView, Client, ServerListener
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
+from feeder_cell.bag.qos import matching_qos, offered_qos
 from feeder_cell.bag.types import message_class
 from feeder_cell.bridge.defaults import DEFAULT_ADDRESS, DEFAULT_PORT
 from feeder_cell.bridge.schemas import schema_of
@@ -120,10 +120,7 @@ class GraphBridge:
         topic.channel.close()
 
     def _offer(self, name: str) -> tuple[bool, bool]:
-        publishers = self.node.get_publishers_info_by_topic(name)
-        reliable = all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE for p in publishers)
-        latched = any(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publishers)
-        return reliable, latched
+        return offered_qos(self.node.get_publishers_info_by_topic(name))
 
     def apply_subscriptions(self) -> None:
         """Subscribe to the channels some client wants, with the publishers' QoS; drop the others."""
@@ -142,12 +139,7 @@ class GraphBridge:
                 continue
             if topic.subscription is not None:
                 self.node.destroy_subscription(topic.subscription)
-            reliable, latched = offer
-            qos = QoSProfile(
-                depth=SUBSCRIPTION_DEPTH,
-                reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-                durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
-            )
+            qos = matching_qos(*offer, SUBSCRIPTION_DEPTH)
             channel = topic.channel
 
             def forward(data: bytes, channel: Channel = channel) -> None:
