@@ -6,6 +6,19 @@ import os
 from pathlib import Path
 
 
+def _is_resource_tracker(entry: Path) -> bool:
+    """The stdlib's multiprocessing resource tracker (started for Dask's spawned workers).
+
+    It is not a process the suite started but the interpreter's own helper: it lives exactly as long as
+    this pytest process and ends with it, so it is no leftover. Everything else the tests start counts.
+    """
+    try:
+        command = (entry / "cmdline").read_bytes().split(b"\0")
+    except OSError:
+        return False
+    return b"from multiprocessing.resource_tracker import main" in b" ".join(command)
+
+
 def _descendants(root: int) -> list[tuple[int, str]]:
     parents: dict[int, int] = {}
     names: dict[int, str] = {}
@@ -17,7 +30,7 @@ def _descendants(root: int) -> list[tuple[int, str]]:
             names[int(entry.name)] = (entry / "comm").read_text().strip()
         except (OSError, IndexError):
             continue  # the process ended while we looked
-        if fields[0] != "Z":
+        if fields[0] != "Z" and not _is_resource_tracker(entry):
             parents[int(entry.name)] = int(fields[1])
     found = []
     for pid in parents:
