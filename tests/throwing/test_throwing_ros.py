@@ -96,7 +96,7 @@ def test_sensor_at_planned_radius_reads_true_only_on_goal_edge_and_every_cycle(
     # previous rest's readings after the throw's event (rclpy's multi-threaded executor lagged by up to
     # 0.8 s at 100 Hz here). So this test listens on its own single-threaded node, the sensor runs at
     # 50 Hz, and only the newest readings of a run that starts after a settling pause are judged.
-    settle_s, run_length, judged_length = 0.1, 10, 3
+    settle_s, run_length, judged_length = 0.1, 6, 3
     events, readings, lock = [], [], threading.Lock()
 
     def on_event(msg):
@@ -120,7 +120,7 @@ def test_sensor_at_planned_radius_reads_true_only_on_goal_edge_and_every_cycle(
     executor.add_node(listener)
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()
-    burn_in, wanted = 30, 300
+    burn_in, wanted = 30, 200  # about 20 throws a goal-edge visit here: at least 10 complete visits
     rest_reads = []  # (edge at rest, readings while at rest)
     try:
         sim = launch_node(
@@ -201,7 +201,7 @@ def test_sensor_at_planned_radius_reads_true_only_on_goal_edge_and_every_cycle(
             visits.append(current)
             current = []
     complete = visits[1:]  # the first visit may be cut by the burn-in
-    assert len(complete) >= 15
+    assert len(complete) >= 10
     assert all(any(any(r) for r in visit) for visit in complete), [
         v for v in complete if not any(any(r) for r in v)
     ][:3]
