@@ -78,7 +78,10 @@ def split_bag(ros_client: Any, tmp_path_factory: pytest.TempPathFactory) -> Path
         bp.wait_until(lambda: publisher.get_subscription_count() > 0, 20, "the recorder matched")
         for seq in range(COUNT):
             publisher.publish(String(data=f"{seq} {time.time_ns()} {PAD}"))
-            time.sleep(0.002)
+            # Batches of 25 a flush interval apart: several chunks per file. (A sleep after every message
+            # took a minute: each waits for the GIL behind the executor that records in this process.)
+            if seq % 25 == 24:
+                time.sleep(0.05)
         bp.wait_until(lambda: recorder.stats[TOPIC].count == COUNT, 20, f"{COUNT} messages recorded")
     finally:
         recorder.close()
