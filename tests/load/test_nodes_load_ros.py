@@ -480,6 +480,97 @@ def test_hostile_requests_are_refused_by_name_with_flat_memory(ros_client: Any, 
     assert answer is not None and answer.ok
 
 
+def other_hostile_cases() -> list[tuple[Any, str, Any, str]]:
+    """Hostile contents for every other node's services: (type, service, request, the field named)."""
+    bomb = "a: &a [x, x, x, x, x, x, x, x, x, x]\n" + "".join(
+        f"{chr(98 + i)}: &{chr(98 + i)} [{', '.join([f'*{chr(97 + i)}'] * 10)}]\n" for i in range(7)
+    )
+    named = part()
+    named.name = "n" * 10_000_000
+    wide = part()
+    wide.outer.x, wide.outer.y = [0.1] * 100_000, [0.1] * 100_000
+    nan = Vector3(x=math.nan, y=0.0, z=-1.0)
+    down = Vector3(x=0.0, y=0.0, z=-1.0)
+    return [
+        (StableRegion, f"{REGION}/stable_region", StableRegion.Request(override_mu=True, mu=math.nan), "mu"),
+        (StableRegion, f"{REGION}/stable_region", StableRegion.Request(facets=100_000), "facets"),
+        (
+            StableRegion,
+            f"{REGION}/stable_region",
+            StableRegion.Request(assembly_yaml="x: " + "y" * 10_000_000),
+            "assembly_yaml",
+        ),
+        (StableRegion, f"{REGION}/stable_region", StableRegion.Request(assembly_yaml=bomb), "assembly_yaml"),
+        (
+            StableRegion,
+            f"{REGION}/stable_region",
+            StableRegion.Request(assembly_yaml="a: ["),
+            "assembly_yaml",
+        ),
+        (StabilityCheck, f"{REGION}/check_stability", StabilityCheck.Request(gravity=Vector3()), "gravity"),
+        (StabilityCheck, f"{REGION}/check_stability", StabilityCheck.Request(gravity=nan), "gravity"),
+        (
+            StablePath,
+            f"{REGION}/safe_path",
+            StablePath.Request(start=down, goal=Vector3(x=1.0), step=1e-9),
+            "step",
+        ),
+        (
+            EquilibriaCompute,
+            f"{EQUILIBRIA}/equilibria",
+            EquilibriaCompute.Request(part=part(), delta=math.nan),
+            "delta",
+        ),
+        (
+            EquilibriaCompute,
+            f"{EQUILIBRIA}/equilibria",
+            EquilibriaCompute.Request(part=part(), delta=0.3, method="spiral"),
+            "method",
+        ),
+        (
+            EquilibriaCompute,
+            f"{EQUILIBRIA}/equilibria",
+            EquilibriaCompute.Request(part=wide, delta=0.3),
+            "part.outer",
+        ),
+        (
+            EquilibriaCompute,
+            f"{EQUILIBRIA}/equilibria",
+            EquilibriaCompute.Request(part=named, delta=0.3),
+            "part.name",
+        ),
+        (MemsPlaceParts, f"{SIM}/place_parts", MemsPlaceParts.Request(names=["p"] * 20_000), "names"),
+        (
+            MemsPlaceParts,
+            f"{SIM}/place_parts",
+            MemsPlaceParts.Request(names=[""], x=[math.nan], y=[0.0], theta=[0.0]),
+            "x",
+        ),
+        (ArmCommand, f"{ARM}/command", ArmCommand.Request(command=""), "command"),
+        (ArmCommand, f"{ARM}/command", ArmCommand.Request(command="n" * 10_000_000), "command"),
+        (FixtureMove, f"{FIXTURE}/move", FixtureMove.Request(waypoints=[nan]), "waypoints"),
+        (FixtureMove, f"{FIXTURE}/move", FixtureMove.Request(waypoints=[Vector3()]), "waypoints"),
+    ]
+
+
+def test_hostile_requests_to_every_other_node_are_refused_by_name_and_each_keeps_serving(
+    ros_client: Any, nodes: dict
+) -> None:
+    for srv_type, name, request, field in other_hostile_cases():
+        answers = burst(burst_client(ros_client, srv_type, name), [request] * 5, 30.0)
+        assert all(a is not None for a in answers), f"{name}/{field}: a hostile request got no answer"
+        for answer in answers:
+            assert not answer.ok and field in answer.error, f"{name}/{field}: {answer.error[:200]}"
+            assert "internal error" not in answer.error and len(answer.error) <= 1000, answer.error[:200]
+    # every node still answers a good request
+    good = StabilityCheck.Request(gravity=Vector3(x=0.0, y=0.0, z=-1.0))
+    assert burst(burst_client(ros_client, StabilityCheck, f"{REGION}/check_stability"), [good], 30.0)[0].ok
+    assert burst(
+        burst_client(ros_client, EquilibriaCompute, f"{EQUILIBRIA}/equilibria"), [equilibria()], 30.0
+    )[0].ok
+    assert nodes[ARM].alive() and nodes[SIM].alive() and nodes[FIXTURE].alive()
+
+
 # --- one node per name (last: a namesake serves the module's planner's services while it lives) --------
 
 
