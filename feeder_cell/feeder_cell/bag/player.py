@@ -19,6 +19,7 @@ from typing import Any, Callable, Iterator
 from rclpy.node import Node
 from rosbags.rosbag2 import Reader, ReaderError
 
+from feeder_cell.bag.controls import serve_pause_controls
 from feeder_cell.bag.playback import Item, Playback, check_rate, playback_window
 from feeder_cell.bag.qos import from_bag_qos
 from feeder_cell.bag.recorder import SERVICE_EVENT_SUFFIX
@@ -261,37 +262,15 @@ class Player:
         self.clock_pub.publish(msg)
 
     def _services(self) -> None:
-        from feeder_msgs.srv import (
-            Burst,
-            GetRate,
-            IsPaused,
-            Pause,
-            PlayNext,
-            Resume,
-            Seek,
-            SetRate,
-            TogglePaused,
-        )
+        from feeder_msgs.srv import Burst, GetRate, PlayNext, Seek, SetRate
 
         playback, logger = self.playback, self.node.get_logger()
         # A burst of control calls (a script stepping with play_next) must not lose requests.
         qos = request_qos()
 
-        def pause(_req: Any, res: Any) -> Any:
-            playback.pause()
-            return res
-
-        def resume(_req: Any, res: Any) -> Any:
-            playback.resume()
-            return res
-
-        def toggle(_req: Any, res: Any) -> Any:
-            playback.toggle_paused()
-            return res
-
-        def is_paused(_req: Any, res: Any) -> Any:
-            res.paused = playback.is_paused()
-            return res
+        self._controls = serve_pause_controls(
+            self.node, playback.pause, playback.resume, playback.toggle_paused, playback.is_paused
+        )
 
         def play_next(_req: Any, res: Any) -> Any:
             res.success = playback.play_next()
@@ -323,10 +302,6 @@ class Player:
             return res
 
         for srv_type, name, callback in (
-            (Pause, "pause", pause),
-            (Resume, "resume", resume),
-            (TogglePaused, "toggle_paused", toggle),
-            (IsPaused, "is_paused", is_paused),
             (PlayNext, "play_next", play_next),
             (Seek, "seek", seek),
             (SetRate, "set_rate", set_rate),

@@ -51,30 +51,12 @@ def _compression(args: argparse.Namespace) -> str:
 
 def _pause_services(node: Any, recorder: Any) -> list[Any]:
     """Serve ~/pause, ~/resume, ~/toggle_paused and ~/is_paused on the recorder node (as rosbag2 does)."""
-    from feeder_msgs.srv import IsPaused, Pause, Resume, TogglePaused
+    from feeder_cell.bag.controls import serve_pause_controls
 
-    def pause(_request: Any, response: Any) -> Any:
-        recorder.pause()
-        return response
-
-    def resume(_request: Any, response: Any) -> Any:
-        recorder.resume()
-        return response
-
-    def toggle(_request: Any, response: Any) -> Any:
+    def toggle() -> None:
         recorder.resume() if recorder.paused else recorder.pause()
-        return response
 
-    def is_paused(_request: Any, response: Any) -> Any:
-        response.paused = recorder.paused
-        return response
-
-    return [
-        node.create_service(Pause, "~/pause", pause),
-        node.create_service(Resume, "~/resume", resume),
-        node.create_service(TogglePaused, "~/toggle_paused", toggle),
-        node.create_service(IsPaused, "~/is_paused", is_paused),
-    ]
+    return serve_pause_controls(node, recorder.pause, recorder.resume, toggle, lambda: recorder.paused)
 
 
 def _record(args: argparse.Namespace) -> int:
