@@ -325,16 +325,19 @@ class Player:
             logger.info(f"rate {playback.rate():.3f}")
 
     def wait_for_subscribers(self, keep_going: Callable[[], bool]) -> None:
-        """Wait (bounded by the option) until every publisher is matched, or a moment for discovery."""
+        """Wait (bounded by the option) until every publisher and /clock are matched."""
         seconds = self.options.wait_for_subscribers
         if seconds <= 0:
             time.sleep(0.5)  # DDS discovery is not instant; give existing subscribers a moment to match
             return
+        # With --clock, /clock counts too: a sim-time node that has not matched it yet would sit at its
+        # clock's origin through the first part of the replay and miss what happened there.
+        publishers = [*self.publishers.values(), *([self.clock_pub] if self.clock_pub is not None else [])]
         deadline = time.monotonic() + seconds
         while (
             keep_going()
             and time.monotonic() < deadline
-            and any(p.get_subscription_count() == 0 for p in self.publishers.values())
+            and any(p.get_subscription_count() == 0 for p in publishers)
         ):
             time.sleep(0.05)
 
