@@ -589,7 +589,12 @@ def main(args: list[str] | None = None) -> None:
         code = EXIT_SHUT_DOWN
     finally:
         if rclpy.ok():
-            node.publish_status()
+            from rclpy.impl.implementation_singleton import rclpy_implementation
+
+            try:
+                node.publish_status()
+            except rclpy_implementation.RCLError:
+                pass  # Ctrl-C shut the context down between the check and the publish: nothing to tell
         # The spinning thread must be gone before the node is destroyed and the process exits.
         executor.shutdown(timeout_sec=2.0)
         spinner.join(timeout=5.0)
