@@ -44,6 +44,7 @@ def test_interior_point_route_matches_linprog(seed: int) -> None:
     result = lp.solve_by_interior_point()
     assert result.status == "optimal"
     assert lp.crossovers == 1  # answered through the interior point, not the simplex fallback
+    assert lp.seconds["interior_point"] > 0 and lp.seconds["crossover"] > 0  # the profile saw both phases
     assert result.value == pytest.approx(reference.fun, abs=1e-7)
     assert np.abs(A @ result.x - b).max() < 1e-7
     assert np.all(result.x >= lower - 1e-9) and np.all(result.x <= upper + 1e-9)

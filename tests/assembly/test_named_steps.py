@@ -66,7 +66,7 @@ def test_region_kinds_are_the_contract_list() -> None:
     ],
 )
 def test_linear_regions_from_a_support_oracle(generators: np.ndarray, kind: str) -> None:
-    region = region_module._cone_region(RayOracle(generators), 4)
+    region = region_module.cone_region(RayOracle(generators), 4)
     assert region.kind == kind and region.area_sr == 0.0
     if kind == "point":
         assert region.vertices[0] == pytest.approx([0, 0, -1]) and region.contains(np.array([0, 0, -2.0]))
@@ -76,7 +76,7 @@ def test_linear_regions_from_a_support_oracle(generators: np.ndarray, kind: str)
 
 
 def test_octant_from_a_support_oracle_is_the_paper_fig11_region() -> None:
-    region = region_module._cone_region(RayOracle(-np.eye(3)), 4)
+    region = region_module.cone_region(RayOracle(-np.eye(3)), 4)
     assert region.kind == "region"
     assert region.area_sr == pytest.approx(math.pi / 2)
     assert region.center == pytest.approx(-np.ones(3) / math.sqrt(3))

@@ -75,7 +75,7 @@ def test_warm_restarted_region_equals_cold_reference(from_doc, document, monkeyp
     monkeypatch.setattr(SupportOracle, "__call__", counting)
     fast = region_module.stable_region(prepared.system)
     assert sum(restarts) >= 3  # the warm restart path was exercised
-    reference = region_module._cone_region(ColdOracle(prepared.system), prepared.facets)
+    reference = region_module.cone_region(ColdOracle(prepared.system), prepared.facets)
     _same_region(fast, reference)
 
 
@@ -85,7 +85,27 @@ def test_far_support_lps_go_through_interior_point_and_match_cold_reference(from
     prepared = from_doc(brick_wall(8, 6, mu=0.6))
     oracle = SupportOracle(prepared.system)
     assert oracle.lp.interior_point_available()  # clarabel is a pinned requirement, not optional here
-    fast = region_module._cone_region(oracle, prepared.facets)
+    fast = region_module.cone_region(oracle, prepared.facets)
     assert oracle.far_solves >= 1
-    reference = region_module._cone_region(ColdOracle(prepared.system), prepared.facets)
+    reference = region_module.cone_region(ColdOracle(prepared.system), prepared.facets)
     _same_region(fast, reference)
+
+
+def test_profile_tool_accounts_for_every_lp_and_phase() -> None:
+    """tools/profile_region.py (the issue-15 profile) prints one line per LP and the phase totals."""
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    tool = Path(__file__).resolve().parents[2] / "tools" / "profile_region.py"
+    out = subprocess.run(
+        [sys.executable, str(tool), "8", "6"], capture_output=True, text=True, timeout=120, check=True
+    ).stdout
+    lps = int(re.search(r"region: region, \d+ facets, (\d+) LPs", out).group(1))
+    lines = [line for line in out.splitlines() if line.lstrip().startswith("LP ")]
+    assert len(lines) == lps
+    assert any(line.endswith("interior point") for line in lines)  # the wall is large enough for that route
+    phases = dict(re.findall(r"^\s+(interior_point|crossover|simplex)\s+([0-9.]+) s", out, re.MULTILINE))
+    assert set(phases) == {"interior_point", "crossover", "simplex"}
+    assert all(float(seconds) > 0 for seconds in phases.values())

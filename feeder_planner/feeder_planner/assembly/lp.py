@@ -21,6 +21,7 @@ binding: with highspy's callbacks off it is the same. Kept for a public, pinned 
 from __future__ import annotations
 
 import threading
+import time
 from dataclasses import dataclass
 from typing import Any, Literal, get_args
 
@@ -38,11 +39,14 @@ except (
 ):  # pragma: no cover - requirements.lock installs it; without it far LPs stay on the simplex
     _clarabel = None
 
-__all__ = ["LP_STATUSES", "LPResult", "LPStatus", "WarmLP"]
+__all__ = ["LP_PHASES", "LP_STATUSES", "LPResult", "LPStatus", "WarmLP"]
 
 LPStatus = Literal["optimal", "infeasible", "limit", "failed"]
 """'optimal', 'infeasible', 'limit' (the pivot limit was reached) or 'failed' (anything else)."""
 LP_STATUSES: tuple[LPStatus, ...] = get_args(LPStatus)
+# Where a model's solving time goes (WarmLP.seconds): Clarabel's interior point, HiGHS's crossover, and every
+# HiGHS simplex run (warm restarts, certificates, cold solves and the linprog fallback).
+LP_PHASES = ("interior_point", "crossover", "simplex")
 
 # Clarabel's sparse LDL^T for the interior point route (see _DualInteriorPoint).
 INTERIOR_LINEAR_SOLVER = "faer"
@@ -94,6 +98,7 @@ class WarmLP:
         self.cost = np.zeros(self.A.shape[1])
         self.solves = 0
         self.crossovers = 0  # interior-point solves that reached a crossover basis (not a fallback)
+        self.seconds = dict.fromkeys(LP_PHASES, 0.0)  # wall-clock seconds per phase, summed over all solves
         self._model = self._build()
         self._has_run = False
         self._interior: _DualInteriorPoint | None = None  # built on first use, dropped when bounds change
@@ -204,7 +209,10 @@ class WarmLP:
             return self.solve()
         if not self._ensure_has_run():
             return self.solve()
-        self._model.crossover(self._crossover_start(*start))
+        crossover_start = self._crossover_start(*start)
+        started = time.perf_counter()
+        self._model.crossover(crossover_start)
+        self.seconds["crossover"] += time.perf_counter() - started
         basis = self._model.getBasis()
         if not basis.valid:
             return self.solve()
@@ -246,14 +254,20 @@ class WarmLP:
         multipliers. The Clarabel solver (ordering and symbolic factorisation) is kept while only the costs c
         change.
         """
-        if self._interior is None:
-            self._interior = _DualInteriorPoint(self.A, self.b, self.lower, self.upper)
-        return self._interior.solve(self.cost)
+        started = time.perf_counter()
+        try:
+            if self._interior is None:
+                self._interior = _DualInteriorPoint(self.A, self.b, self.lower, self.upper)
+            return self._interior.solve(self.cost)
+        finally:
+            self.seconds["interior_point"] += time.perf_counter() - started
 
     def _run(self) -> LPResult:
         """One HiGHS run with the current options, its status mapped to an LPResult."""
         self.solves += 1
+        started = time.perf_counter()
         self._model.run()
+        self.seconds["simplex"] += time.perf_counter() - started
         self._has_run = True
         status = self._model.getModelStatus()
         if status == highspy.HighsModelStatus.kOptimal:
@@ -264,7 +278,9 @@ class WarmLP:
         if status == highspy.HighsModelStatus.kIterationLimit:
             return LPResult("limit", None, float("nan"), "simplex pivot limit reached")
         # Anything else (a stalled warm start, say): one cold solve before giving up, and a fresh model.
+        started = time.perf_counter()
         result = self._solve_linprog()
+        self.seconds["simplex"] += time.perf_counter() - started
         self._model = self._build()
         self._has_run = False
         return result

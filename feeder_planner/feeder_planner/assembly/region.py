@@ -50,7 +50,15 @@ from feeder_planner.assembly.tolerances import (
 from feeder_planner.assembly.wrench import EquilibriumSystem, split_components
 from feeder_planner.errors import SolverError
 
-__all__ = ["KINDS", "ConstraintOracle", "Oracle", "RegionKind", "StableRegion", "stable_region"]
+__all__ = [
+    "KINDS",
+    "ConstraintOracle",
+    "Oracle",
+    "RegionKind",
+    "StableRegion",
+    "cone_region",
+    "stable_region",
+]
 
 RegionKind = Literal[
     "empty", "point", "antipodal_pair", "arc", "great_circle", "region", "hemisphere", "sphere"
@@ -123,8 +131,8 @@ def stable_region(system: EquilibriumSystem, far_pivots: int | None = FAR_PIVOTS
     """
     parts = split_components(system) if system.columns > SPLIT_COLUMNS else [system]
     if len(parts) == 1:
-        return _cone_region(SupportOracle(system, far_pivots), system.facets)
-    regions = [_cone_region(SupportOracle(part, far_pivots), part.facets) for part in parts]
+        return cone_region(SupportOracle(system, far_pivots), system.facets)
+    regions = [cone_region(SupportOracle(part, far_pivots), part.facets) for part in parts]
     spent = sum(r.lp_count for r in regions)
     empty = next((r for r in regions if r.kind == "empty"), None)
     if empty is not None:
@@ -132,7 +140,7 @@ def stable_region(system: EquilibriumSystem, far_pivots: int | None = FAR_PIVOTS
     oracle = ConstraintOracle(
         np.vstack([r.normals for r in regions]), np.vstack([r.equalities for r in regions])
     )
-    combined = _cone_region(oracle, system.facets)
+    combined = cone_region(oracle, system.facets)
     return replace(combined, lp_count=combined.lp_count + spent)
 
 
@@ -174,7 +182,7 @@ class ConstraintOracle:
         return float(np.asarray(direction, float) @ g), g
 
 
-def _cone_region(oracle: Oracle, facets: int) -> StableRegion:
+def cone_region(oracle: Oracle, facets: int) -> StableRegion:
     """Classify and describe V from its support oracle (Property 1's cases, then the spherical polygon)."""
     points, span = _span(oracle)
     if len(span) < 2:
