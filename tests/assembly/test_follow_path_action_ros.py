@@ -72,9 +72,8 @@ class Goals:
     """The test's action client of one fixture's ~/follow_path, kept for the module's life."""
 
     def __init__(self, client: Any, device: str) -> None:
-        from rclpy.action import ActionClient
-
         from feeder_msgs.action import FollowPath
+        from feeder_planner.node_kit.action_client import ActionClient
 
         self.action = FollowPath
         self.client = ActionClient(client, FollowPath, f"{device}/follow_path")

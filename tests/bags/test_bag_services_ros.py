@@ -103,10 +103,9 @@ def session(
     launch_module_node: Callable[..., Any], ros_client: Any, tmp_path_factory: pytest.TempPathFactory
 ) -> Iterator[dict[str, Any]]:
     """The arm, a recording of one service call and one goal, and what the controller saw."""
-    from rclpy.action import ActionClient
-
     from feeder_msgs.action import FeedPart
     from feeder_msgs.srv import ArmPlacePart
+    from feeder_planner.node_kit.action_client import ActionClient
 
     launch_module_node("feeder_sim", "throwing_arm", ARM_PARAMETERS, namespace="/cmd")
     bag = tmp_path_factory.mktemp("commands") / "commands"

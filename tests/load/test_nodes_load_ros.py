@@ -233,9 +233,9 @@ def test_fixture_rejects_a_follow_path_goal_past_its_sample_bound(
     ros_client: Any, nodes: dict, listen: Any
 ) -> None:
     from diagnostic_msgs.msg import DiagnosticArray
-    from rclpy.action import ActionClient
 
     from feeder_msgs.action import FollowPath
+    from feeder_planner.node_kit.action_client import ActionClient
 
     def rejection(message: Any) -> str:
         for entry in message.status:

@@ -113,9 +113,8 @@ class ProgramClient:
     """The module's one action client of an array's ~/run_program (one client per server, for its life)."""
 
     def __init__(self, client: Any, device: str) -> None:
-        from rclpy.action import ActionClient
-
         from feeder_msgs.action import RunProgram
+        from feeder_planner.node_kit.action_client import ActionClient
 
         self.action = ActionClient(client, RunProgram, f"{device}/run_program")
         assert self.action.wait_for_server(timeout_sec=30.0), f"{device}/run_program not available"

@@ -115,9 +115,8 @@ class Feeder:
     """One ActionClient of a device's ~/feed_part for the module's life (replies need discovery)."""
 
     def __init__(self, client: Any, device: str) -> None:
-        from rclpy.action import ActionClient
-
         from feeder_msgs.action import FeedPart
+        from feeder_planner.node_kit.action_client import ActionClient
 
         self.type = FeedPart
         self.client = ActionClient(client, FeedPart, f"{device}/feed_part")

@@ -20,7 +20,6 @@ from typing import Any, Coroutine
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3
 from rcl_interfaces.msg import Log
-from rclpy.action import ActionClient
 from rclpy.action.client import ClientGoalHandle
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import Executor
@@ -37,6 +36,7 @@ from feeder_cell.gateway.server import GatewayServer
 from feeder_msgs.action import FeedPart, FollowPath, RunProgram
 from feeder_msgs.msg import DeviceStatus, FieldProgram, FieldSpec, MemsPartStates, StabilityStatus
 from feeder_planner.node_kit import LATCHED, STREAM_DEPTH
+from feeder_planner.node_kit.action_client import ActionClient
 from feeder_planner.node_kit.msg_fields import fill_field_spec
 
 __all__ = ["STATUS_TIMEOUT", "REJECTION_WAIT", "DeviceLink", "RosBridge"]

@@ -27,7 +27,6 @@ from typing import Any
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3
-from rclpy.action import ActionClient
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
@@ -52,6 +51,7 @@ from feeder_planner.node_kit import (
     non_negative,
     positive,
 )
+from feeder_planner.node_kit.action_client import ActionClient
 from feeder_planner.node_kit.msg_fields import fill_field_spec
 from feeder_planner.node_kit.runner import build_node
 
