@@ -38,7 +38,7 @@ class _SlowSend:
 
 
 def _goal_answered(client_class: type, ros_client: Any, name: str) -> bool:
-    """Send one goal from this (non-executor) thread through a held-open window; tell whether it is answered."""
+    """Send one goal from this (non-executor) thread through a held-open window: is it answered?"""
     from feeder_msgs.action import FeedPart
 
     client = client_class(ros_client, FeedPart, name)
