@@ -293,6 +293,10 @@ class Recorder:
         """Write received messages again."""
         self.paused = False
 
+    def toggle_paused(self) -> None:
+        """Pause when writing, resume when paused."""
+        self.paused = not self.paused
+
     def discover(self) -> list[str]:
         """Subscribe to matching topics that have publishers now; re-check those already subscribed.
 

@@ -49,17 +49,8 @@ def _compression(args: argparse.Namespace) -> str:
     return str(args.compression_format or "zstd")
 
 
-def _pause_services(node: Any, recorder: Any) -> list[Any]:
-    """Serve ~/pause, ~/resume, ~/toggle_paused and ~/is_paused on the recorder node (as rosbag2 does)."""
-    from feeder_cell.bag.controls import serve_pause_controls
-
-    def toggle() -> None:
-        recorder.resume() if recorder.paused else recorder.pause()
-
-    return serve_pause_controls(node, recorder.pause, recorder.resume, toggle, lambda: recorder.paused)
-
-
 def _record(args: argparse.Namespace) -> int:
+    from feeder_cell.bag.controls import serve_pause_controls
     from feeder_cell.bag.qos import load_qos_overrides
     from feeder_cell.bag.recorder import Recorder, missing_topics
 
@@ -97,7 +88,10 @@ def _record(args: argparse.Namespace) -> int:
             qos_overrides=overrides,
             paused=args.start_paused,
         )
-        services = _pause_services(node, recorder)
+        # ~/pause, ~/resume, ~/toggle_paused and ~/is_paused on the recorder node, as rosbag2 serves them.
+        services = serve_pause_controls(
+            node, recorder.pause, recorder.resume, recorder.toggle_paused, lambda: recorder.paused
+        )
         started = time.monotonic()
         next_discovery = 0.0
         try:

@@ -29,6 +29,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
 from std_srvs.srv import Trigger
 
@@ -589,8 +590,6 @@ def main(args: list[str] | None = None) -> None:
         code = EXIT_SHUT_DOWN
     finally:
         if rclpy.ok():
-            from rclpy.impl.implementation_singleton import rclpy_implementation
-
             try:
                 node.publish_status()
             except rclpy_implementation.RCLError:

@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, Literal, get_args
 
@@ -210,9 +212,8 @@ class WarmLP:
         if not self._ensure_has_run():
             return self.solve()
         crossover_start = self._crossover_start(*start)
-        started = time.perf_counter()
-        self._model.crossover(crossover_start)
-        self.seconds["crossover"] += time.perf_counter() - started
+        with self._timed("crossover"):
+            self._model.crossover(crossover_start)
         basis = self._model.getBasis()
         if not basis.valid:
             return self.solve()
@@ -254,20 +255,25 @@ class WarmLP:
         multipliers. The Clarabel solver (ordering and symbolic factorisation) is kept while only the costs c
         change.
         """
-        started = time.perf_counter()
-        try:
+        with self._timed("interior_point"):
             if self._interior is None:
                 self._interior = _DualInteriorPoint(self.A, self.b, self.lower, self.upper)
             return self._interior.solve(self.cost)
+
+    @contextmanager
+    def _timed(self, phase: str) -> Iterator[None]:
+        """Add the wall-clock time of the block to ``seconds[phase]``."""
+        started = time.perf_counter()
+        try:
+            yield
         finally:
-            self.seconds["interior_point"] += time.perf_counter() - started
+            self.seconds[phase] += time.perf_counter() - started
 
     def _run(self) -> LPResult:
         """One HiGHS run with the current options, its status mapped to an LPResult."""
         self.solves += 1
-        started = time.perf_counter()
-        self._model.run()
-        self.seconds["simplex"] += time.perf_counter() - started
+        with self._timed("simplex"):
+            self._model.run()
         self._has_run = True
         status = self._model.getModelStatus()
         if status == highspy.HighsModelStatus.kOptimal:
@@ -278,9 +284,8 @@ class WarmLP:
         if status == highspy.HighsModelStatus.kIterationLimit:
             return LPResult("limit", None, float("nan"), "simplex pivot limit reached")
         # Anything else (a stalled warm start, say): one cold solve before giving up, and a fresh model.
-        started = time.perf_counter()
-        result = self._solve_linprog()
-        self.seconds["simplex"] += time.perf_counter() - started
+        with self._timed("simplex"):
+            result = self._solve_linprog()
         self._model = self._build()
         self._has_run = False
         return result
