@@ -227,7 +227,15 @@ def test_status_and_diagnostics_report_state_counters_and_rate(
     launch_node("feeder_sim", "mems_field_array", device_parameters(tmp_path), namespace="/stat")
     first = device.status(lambda s: s.state_name == "RUNNING")  # a part in motion
     assert first.ready and first.busy and first.fault_code == 0 and list(first.active_faults) == []
-    names = {"steps", "steps_dropped", "programs", "placements", "program_goals", "parts_settled"}
+    names = {
+        "steps",
+        "steps_dropped",
+        "programs",
+        "placements",
+        "program_goals",
+        "parts_settled",
+        "stiff_steps",
+    }
     assert set(first.counter_names) == names
     assert device.set_program(type="combined", delta=0.3).ok
     device.place_at_origin()

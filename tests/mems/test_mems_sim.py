@@ -138,3 +138,48 @@ def test_dynamic_parts_collide_instead_of_overlapping() -> None:
     # radial field pulls both to the origin; collisions keep their centroids apart
     distance = math.hypot(*(bodies[0].pose[:2] - bodies[1].pose[:2]))
     assert distance >= 0.5e-3
+
+
+def test_the_ideal_step_monitor_flags_a_step_that_stops_a_part_off_its_equilibrium() -> None:
+    """Heun at lambda dt = 2 freezes a part where k2 = -k1, at rest off its equilibrium: the monitor sees it.
+
+    The plus of examples/mems in the combined field at drag 1: stable below a step of about 5.2e-3 s
+    (the monitor's peak ratio at 2.5e-3 s says so), frozen off its equilibrium at 5.5e-3 s.
+    """
+    from pathlib import Path
+
+    from feeder_planner.mems import final_equilibrium
+    from feeder_planner.parts import load_part
+    from feeder_sim.mems.tolerances import STIFF_STEP_RATIO
+
+    part = load_part(Path(__file__).resolve().parents[2] / "examples" / "mems" / "plus.yaml")
+    from feeder_sim.mems.scene import random_poses
+
+    start = random_poses(1, 1e-3, 7)[0]  # the cell scene's part (seed 7)
+    field = CombinedField(0.2)
+    reached = final_equilibrium(find_equilibria(part, 0.2), start[2])
+
+    def run(dt: float) -> Scene:
+        scene = Scene([Body(part, start.copy())], (ProgramStep(field, math.inf),), "ideal", damping=1.0)
+        scene.step(dt)  # a placed part has no velocity yet: it reads as settled before its first step
+        while scene.time < 25.0 and not scene.settled()[0]:
+            scene.step(dt)
+        assert scene.settled()[0], f"not at rest after 25 s at dt {dt}"
+        return scene
+
+    def off(scene: Scene) -> float:
+        return abs(math.remainder(scene.bodies[0].pose[2] - reached.theta, 2 * math.pi))
+
+    fine = run(2.5e-3)
+    assert fine.stiff_steps == 0 and 0.5 < fine.peak_step_ratio < STIFF_STEP_RATIO
+    assert off(fine) < 1e-4
+    # The step that keeps the margin (ratio 1.5 of the limit's 2): about 3.9e-3 s.
+    assert 3e-3 < fine.stable_step_estimate(2.5e-3) < 5e-3
+    frozen = run(5.5e-3)
+    assert off(frozen) > 0.1  # at rest, and wrong: what the monitor exists for
+    assert frozen.stiff_steps > 100 and frozen.stiff_since_mark == frozen.stiff_steps
+    assert frozen.peak_step_ratio > 2.0
+    assert frozen.stable_step_estimate(5.5e-3) < 5.5e-3
+    # A new program or drag is judged afresh; the total stays.
+    frozen.set_damping(4.0)
+    assert frozen.stiff_since_mark == 0 and frozen.peak_step_ratio == 0.0 and frozen.stiff_steps > 100

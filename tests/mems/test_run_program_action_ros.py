@@ -289,6 +289,48 @@ def test_a_timeout_too_short_to_settle_aborts_with_timeout(device: Array) -> Non
 
 
 @pytest.mark.ros
+def test_parts_at_rest_after_steps_beyond_the_stability_margin_are_not_certified(device: Array) -> None:
+    """At a twentieth of the drag the 1e-3 s Heun step is far past its limit: the bracket freezes off its
+    equilibrium within a tenth of a second and reads as at rest. The goal ends FAULT (FAULT_TIME_STEP),
+    not SETTLED; status warns without stopping; the module's drag back, the next goal settles."""
+    from action_msgs.msg import GoalStatus
+
+    from feeder_msgs.action import RunProgram
+    from feeder_msgs.msg import DeviceStatus
+
+    before = counters(device.status())["stiff_steps"]
+    assert ros_harness.set_parameter(device.client, device.name, "damping", 0.05).successful
+    try:
+        status, result = device.program.send(run_goal(timeout=30.0)).result()
+        assert status == GoalStatus.STATUS_ABORTED, result.message
+        assert result.outcome == RunProgram.Result.FAULT and not result.settled, result.message
+        assert result.fault_code == DeviceStatus.FAULT_TIME_STEP
+        assert "every part stopped moving" in result.message and "time_step 0.001 s" in result.message
+        assert "damping 0.05" in result.message and "or more damping" in result.message
+        warned = device.status(lambda s: s.fault_code == DeviceStatus.FAULT_TIME_STEP)
+        assert warned.ready and warned.state_name == "IDLE"  # a warning, not a stop
+        assert counters(warned)["stiff_steps"] > before
+        from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+
+        def warns(msg: Any) -> bool:
+            return any(
+                e.name == device.name and e.level == DiagnosticStatus.WARN and "not certified" in e.message
+                for e in msg.status
+            )
+
+        device.listen(DiagnosticArray, "/diagnostics").wait(warns, 30.0)
+    finally:
+        assert ros_harness.set_parameter(device.client, device.name, "damping", 1.0).successful
+    cleared = device.status(lambda s: s.fault_code == 0)
+    stiff = counters(cleared)["stiff_steps"]
+    device.place(START)
+    status, result = device.program.send(run_goal(timeout=30.0)).result()
+    assert status == GoalStatus.STATUS_SUCCEEDED and result.settled, result.message
+    assert list(result.equilibrium) == [expected_equilibrium(START[2])[0]]
+    assert counters(device.status())["stiff_steps"] == stiff
+
+
+@pytest.mark.ros
 def test_power_loss_mid_goal_is_a_fault_then_reset_and_a_goal_succeeds(device: Array) -> None:
     from action_msgs.msg import GoalStatus
 

@@ -102,6 +102,7 @@ COUNTERS: dict[str, tuple[str, ...]] = {
         "placements",
         "parts_settled",
         "program_goals",
+        "stiff_steps",
     ),
     "assembly_fixture": (
         "moves",

@@ -28,12 +28,15 @@ from feeder_sim.mems.tolerances import (
     GRAVITY,
     SETTLED_ANGULAR_SPEED,
     SETTLED_SPEED,
+    STIFF_STEP_RATIO,
 )
 
 __all__ = ["FIDELITIES", "Fidelity", "Body", "Scene", "random_poses", "FIELD_OFF"]
 
 # What the cells push with while the array is switched off (a stopped device): nothing.
 FIELD_OFF: Field = ConstantField((0.0, 0.0))
+# Velocities in units of the settled speeds: one norm for (vx, vy, omega), and below 1 a part is at rest.
+SETTLED_SCALE = np.array([SETTLED_SPEED, SETTLED_SPEED, SETTLED_ANGULAR_SPEED])
 
 
 def random_poses(count: int, radius: float, seed: int) -> np.ndarray:
@@ -73,6 +76,10 @@ class Scene:
         self.friction = float(friction)
         self.time = 0.0
         self.switched_on = True
+        # The ideal model's step monitor (STIFF_STEP_RATIO): stiff steps in all, and since mark_steps().
+        self.stiff_steps = 0
+        self.stiff_since_mark = 0
+        self.peak_step_ratio = 0.0  # the largest |k2 - k1| / |k1| since mark_steps()
         self.set_program(program)
         self.forces: ForceModel = (
             ArrayForces(*array, directions=directions) if self.fidelity == "array" else IdealForces()
@@ -101,6 +108,7 @@ class Scene:
         if not (math.isfinite(damping) and damping > 0):
             raise InputError("damping", f"must be a finite number > 0, got {damping!r}")
         self.damping = float(damping)
+        self.mark_steps()  # the stiffness scales with 1 / damping: judged afresh
         if self._dynamic is not None:
             self._dynamic.damping = self.damping
 
@@ -116,10 +124,35 @@ class Scene:
             )
         self.friction = self._dynamic.friction = float(friction)
 
+    def mark_steps(self) -> None:
+        """Judge the ideal model's steps afresh (a new program or drag): stiff_since_mark, peak ratio."""
+        self.stiff_since_mark = 0
+        self.peak_step_ratio = 0.0
+
+    def _monitor_step(self, k1: np.ndarray, k2: np.ndarray) -> None:
+        """Count a Heun step whose velocity changed by more than STIFF_STEP_RATIO times itself within it."""
+        moving = float(np.linalg.norm(k1 / SETTLED_SCALE))
+        if moving <= 1.0:  # at rest: the rate is at its rounding floor, and its ratio means nothing
+            return
+        ratio = float(np.linalg.norm((k2 - k1) / SETTLED_SCALE)) / moving
+        self.peak_step_ratio = max(self.peak_step_ratio, ratio)
+        if ratio > STIFF_STEP_RATIO:
+            self.stiff_steps += 1
+            self.stiff_since_mark += 1
+
+    def stable_step_estimate(self, dt: float) -> float:
+        """Return the step (s) that would have kept the peak ratio since mark_steps() at STIFF_STEP_RATIO.
+
+        The ratio is lambda dt of the stiffest mode met, so it scales with the step; inf before any
+        step was judged.
+        """
+        return dt * STIFF_STEP_RATIO / self.peak_step_ratio if self.peak_step_ratio > 0 else math.inf
+
     def set_program(self, program: tuple[ProgramStep, ...]) -> None:
         """Start ``program`` now (its first step's time counts from the current scene time)."""
         self.program = tuple(program)
         self.program_start = self.time
+        self.mark_steps()
 
     def active_field(self) -> Field:
         """Return the field of the program step active now; the last step stays on when the program ends."""
@@ -154,8 +187,10 @@ class Scene:
     def step(self, dt: float) -> None:
         """Advance by dt seconds.
 
-        Heun's method for 'ideal'; forward Euler for 'array', whose cell discretisation error
-        dominates the step error (one force evaluation per step); 'dynamic' by its world.
+        Heun's method for 'ideal', whose two evaluations also measure how stiff the step is
+        (STIFF_STEP_RATIO: ``stiff_steps``); forward Euler for 'array', whose cell discretisation error
+        dominates the step error (one force evaluation per step, unmonitored: its cell forces change in
+        jumps as edges cross cells); 'dynamic' by its world.
         """
         field_now = self.output_field()
         if self._dynamic is not None:
@@ -165,6 +200,7 @@ class Scene:
                 k1, w = self._rate(body, body.pose, field_now)
                 if self.fidelity == "ideal":
                     k2, _ = self._rate(body, body.pose + dt * k1, field_now)
+                    self._monitor_step(k1, k2)
                     body.velocity = 0.5 * (k1 + k2)
                 else:
                     body.velocity = k1

@@ -11,6 +11,11 @@ tick, in whole ``time_step`` steps (the remainder carries to the next tick), but
 (``steps_dropped``), so a device that cannot keep up lags visibly (its simulated time, recorded at every
 tick, falls behind the clock) and never silently runs slower.
 
+The ideal model measures how stiff each step is (``feeder_sim.mems.tolerances.STIFF_STEP_RATIO``): while
+the present program or drag has had steps beyond that margin, status and diagnostics warn with
+FAULT_TIME_STEP (not a stop; counter ``stiff_steps``), and a ``~/run_program`` goal whose parts come to
+rest ends FAULT with that code rather than SETTLED: a too-large step can stop a part off its equilibrium.
+
 Injected faults (``~/inject_fault`` or the ``inject_faults`` parameter) act through the force model
 (``feeder_sim.mems.faults``); this node only wires them.
 
@@ -84,7 +89,13 @@ from feeder_sim.mems.settling import (
     predict,
     settling_criterion,
 )
-from feeder_sim.mems.tolerances import DEFAULT_CELLS, DEFAULT_DAMPING, DEFAULT_FRICTION, DEFAULT_PITCH
+from feeder_sim.mems.tolerances import (
+    DEFAULT_CELLS,
+    DEFAULT_DAMPING,
+    DEFAULT_FRICTION,
+    DEFAULT_PITCH,
+    STIFF_STEP_RATIO,
+)
 
 __all__ = ["PARAMETERS", "FAULTS", "MemsFieldArray", "main"]
 
@@ -452,9 +463,28 @@ class MemsFieldArray(ManagedDevice):
         return not self.scene.on_last_step() or not all(self.scene.settled())
 
     def counters(self) -> dict[str, int]:
-        """Return steps simulated and dropped, programs set, placements, program goals, parts at rest."""
+        """Return steps simulated and dropped, programs set, placements, goals, parts at rest, stiff steps."""
         settled = sum(self.scene.settled()) if self.scene is not None else 0
-        return {**self.count, "parts_settled": settled}
+        stiff = self.scene.stiff_steps if self.scene is not None else 0
+        return {**self.count, "parts_settled": settled, "stiff_steps": stiff}
+
+    def warning_fault(self) -> tuple[int, str] | None:
+        """Return an injected non-stopping fault, else FAULT_TIME_STEP while the step is too stiff."""
+        return super().warning_fault() or self.time_step_warning()
+
+    def time_step_warning(self) -> tuple[int, str] | None:
+        """Return (FAULT_TIME_STEP, why) when the present program or drag has had stiff ideal steps."""
+        scene = self.scene
+        if scene is None or scene.stiff_since_mark == 0:
+            return None
+        dt = float(self.p["time_step"])
+        return DeviceStatus.FAULT_TIME_STEP, (
+            f"time_step {dt:g} s is beyond the ideal model's stability margin at damping {scene.damping:g}: "
+            f"{scene.stiff_since_mark} steps changed a part's velocity by up to {scene.peak_step_ratio:.2f} "
+            f"times itself (margin {STIFF_STEP_RATIO:g}; from 2 a part can stop off its equilibrium), so "
+            f"poses are not certified; a time_step of {scene.stable_step_estimate(dt):.2g} s or less, or "
+            "more damping, keeps the margin"
+        )
 
     def stop_device(self) -> None:
         """Switch every cell off: parts come to rest where they are; commands are refused until ~/reset."""
@@ -596,7 +626,7 @@ class MemsFieldArray(ManagedDevice):
         self.pose_pub.publish(poses)
         # What a controller sees change between heartbeats: busy, parts at rest, falling behind (the
         # counters alone go out with the 1 Hz heartbeat rather than at every tick).
-        activity = (self.busy(), sum(scene.settled()), self.rate_report().behind)
+        activity = (self.busy(), sum(scene.settled()), self.rate_report().behind, scene.stiff_since_mark > 0)
         if activity != self.last_activity:
             self.last_activity = activity
             self.publish_status()
@@ -794,6 +824,14 @@ class MemsFieldArray(ManagedDevice):
                 judging = scene.time - scene.program_start >= judging_from
                 flags = detector.update(elapsed, np.array([b.pose for b in scene.bodies]), judging)
                 settled = judging and detector.all_settled
+                if settled and (warning := self.time_step_warning()) is not None:
+                    # At rest, but possibly where an unstable step stopped them: not certified.
+                    settled = False
+                    return end(
+                        RunProgram.Result.FAULT,
+                        f"every part stopped moving {elapsed:.3g} s into the goal, but {warning[1]}",
+                        warning,
+                    )
                 if settled:
                     return end(RunProgram.Result.SETTLED, f"every part settled {elapsed:.3g} s into the goal")
                 if elapsed >= timeout:
