@@ -624,8 +624,8 @@ class MemsFieldArray(ManagedDevice):
         poses.header = states.header
         self.state_pub.publish(states)
         self.pose_pub.publish(poses)
-        # What a controller sees change between heartbeats: busy, parts at rest, falling behind (the
-        # counters alone go out with the 1 Hz heartbeat rather than at every tick).
+        # What a controller sees change between heartbeats: busy, parts at rest, falling behind, a step
+        # too stiff (the counters alone go out with the 1 Hz heartbeat rather than at every tick).
         activity = (self.busy(), sum(scene.settled()), self.rate_report().behind, scene.stiff_since_mark > 0)
         if activity != self.last_activity:
             self.last_activity = activity
