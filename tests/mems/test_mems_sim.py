@@ -5,16 +5,20 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 from shapes import bracket, washer
 
+from feeder_planner.mems import final_equilibrium
 from feeder_planner.mems.equilibria import find_equilibria
 from feeder_planner.mems.fields import CombinedField, ProgramStep
 from feeder_planner.mems.regions import clip_half_plane, moments
+from feeder_planner.parts import load_part
 from feeder_sim.mems.coverage import Grid
 from feeder_sim.mems.models import ArrayForces
-from feeder_sim.mems.scene import Body, Scene
+from feeder_sim.mems.scene import Body, Scene, random_poses
+from feeder_sim.mems.tolerances import STIFF_STEP_RATIO
 
 
 def test_cell_coverage_is_exact() -> None:
@@ -146,15 +150,7 @@ def test_the_ideal_step_monitor_flags_a_step_that_stops_a_part_off_its_equilibri
     The plus of examples/mems in the combined field at drag 1: stable below a step of about 5.2e-3 s
     (the monitor's peak ratio at 2.5e-3 s says so), frozen off its equilibrium at 5.5e-3 s.
     """
-    from pathlib import Path
-
-    from feeder_planner.mems import final_equilibrium
-    from feeder_planner.parts import load_part
-    from feeder_sim.mems.tolerances import STIFF_STEP_RATIO
-
     part = load_part(Path(__file__).resolve().parents[2] / "examples" / "mems" / "plus.yaml")
-    from feeder_sim.mems.scene import random_poses
-
     start = random_poses(1, 1e-3, 7)[0]  # the cell scene's part (seed 7)
     field = CombinedField(0.2)
     reached = final_equilibrium(find_equilibria(part, 0.2), start[2])

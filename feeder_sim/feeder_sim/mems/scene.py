@@ -76,10 +76,11 @@ class Scene:
         self.friction = float(friction)
         self.time = 0.0
         self.switched_on = True
-        # The ideal model's step monitor (STIFF_STEP_RATIO): stiff steps in all, and since mark_steps().
+        # The ideal model's step monitor (STIFF_STEP_RATIO): stiff steps in all, and the count and peak
+        # ratio |k2 - k1| / |k1| at the last mark_steps().
         self.stiff_steps = 0
-        self.stiff_since_mark = 0
-        self.peak_step_ratio = 0.0  # the largest |k2 - k1| / |k1| since mark_steps()
+        self._stiff_at_mark = 0
+        self.peak_step_ratio = 0.0
         self.set_program(program)
         self.forces: ForceModel = (
             ArrayForces(*array, directions=directions) if self.fidelity == "array" else IdealForces()
@@ -126,8 +127,13 @@ class Scene:
 
     def mark_steps(self) -> None:
         """Judge the ideal model's steps afresh (a new program or drag): stiff_since_mark, peak ratio."""
-        self.stiff_since_mark = 0
+        self._stiff_at_mark = self.stiff_steps
         self.peak_step_ratio = 0.0
+
+    @property
+    def stiff_since_mark(self) -> int:
+        """Return the stiff steps since the last mark_steps()."""
+        return self.stiff_steps - self._stiff_at_mark
 
     def _monitor_step(self, k1: np.ndarray, k2: np.ndarray) -> None:
         """Count a Heun step whose velocity changed by more than STIFF_STEP_RATIO times itself within it."""
@@ -138,7 +144,6 @@ class Scene:
         self.peak_step_ratio = max(self.peak_step_ratio, ratio)
         if ratio > STIFF_STEP_RATIO:
             self.stiff_steps += 1
-            self.stiff_since_mark += 1
 
     def stable_step_estimate(self, dt: float) -> float:
         """Return the step (s) that would have kept the peak ratio since mark_steps() at STIFF_STEP_RATIO.
