@@ -2,7 +2,8 @@
 
 ``config`` (parameters, security rules, the PackML mapping), ``layout`` (the address space as data),
 ``arguments`` (method arguments checked, naming the argument) and ``users`` (salted password hashes) are
-ROS-free; ``server`` wires asyncua; ``bridge`` is the ROS side. The node: ``feeder_cell.nodes.opcua_gateway``.
+ROS-free; ``server`` wires asyncua; ``ros_link`` is the ROS (DDS) side. The node:
+``feeder_cell.nodes.opcua_gateway``.
 """
 
 # Import the submodules themselves (the ROS-free ones need neither rclpy nor asyncua).

@@ -7,7 +7,7 @@ ROS-free. It runs on an asyncio loop (the main thread of the node process). Two 
   every pending value with its source timestamp. A value equal to the last one written is not written
   again: its SourceTimestamp stays that of the sample that changed it, and no notification is sent.
 - **Calls out.** A method call is a coroutine on the loop: the arguments are checked here (``arguments``),
-  then handed to a ``Handler`` (the ROS bridge), whose answer is a status code name and a message.
+  then handed to a ``Handler`` (the ROS link), whose answer is a status code name and a message.
 
 A Bad call returns its status code, the bad argument's own status in InputArgumentResults with the
 message in that argument's InputArgumentDiagnosticInfos (AdditionalInfo), the message as the Message
@@ -49,7 +49,7 @@ _OWN_PREFIXES = ("Kind", "NodeName", "Command.", "Status.Online", "Status.PackML
 
 
 class Handler(Protocol):
-    """What executes a checked method call (the ROS bridge)."""
+    """What executes a checked method call (the ROS link, ``ros_link.RosLink``)."""
 
     async def call(self, device: DeviceEntry, method: str, goal: Any) -> tuple[str, str]:
         """Run ``method`` on ``device`` with a checked goal; return (status code name, message)."""

@@ -1,9 +1,9 @@
 """ROS 2 node: the OPC UA gateway for PLC cell controllers (asyncua server, devices over DDS).
 
 A thin adapter: parameters are read and checked here (``feeder_cell.gateway.config``), the address space
-and method calls live in ``feeder_cell.gateway.server`` and the ROS side in ``feeder_cell.gateway.bridge``.
+and method calls live in ``feeder_cell.gateway.server`` and the ROS side in ``feeder_cell.gateway.ros_link``.
 The asyncua server runs on an asyncio loop in the main thread; rclpy spins in a background thread (see
-the bridge's docstring for the hand-offs). A bad parameter is one FATAL line naming it and exit code 2;
+the ROS link's docstring for the hand-offs). A bad parameter is one FATAL line naming it and exit code 2;
 an endpoint that cannot be bound, exit code 2 naming the endpoint. SIGINT or SIGTERM stops it cleanly.
 """
 
@@ -20,8 +20,8 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
-from feeder_cell.gateway.bridge import RosBridge
 from feeder_cell.gateway.config import check_security, is_loopback, parse_devices, parse_endpoint
+from feeder_cell.gateway.ros_link import RosLink
 from feeder_cell.gateway.server import GatewayServer
 from feeder_cell.gateway.users import load_users
 from feeder_planner.errors import InputError
@@ -104,8 +104,8 @@ PARAMETERS = (
 )
 
 
-def _build(node: Node, executor: SingleThreadedExecutor) -> tuple[GatewayServer, RosBridge]:
-    """Check every parameter and build the server and the bridge; InputError names the parameter."""
+def _build(node: Node, executor: SingleThreadedExecutor) -> tuple[GatewayServer, RosLink]:
+    """Check every parameter and build the server and the ROS link; InputError names the parameter."""
     p = declare_parameters(node, PARAMETERS)
     endpoint = parse_endpoint(p["endpoint"])
     devices = parse_devices(p["devices"])
@@ -121,16 +121,16 @@ def _build(node: Node, executor: SingleThreadedExecutor) -> tuple[GatewayServer,
     )
     users = load_users(security.users_file) if security.users_file else None
     logger = logging.getLogger(NODE_NAME)
-    holder: dict[str, RosBridge] = {}
+    holder: dict[str, RosLink] = {}
 
     class _Handler:
         async def call(self, device: Any, method: str, goal: Any) -> tuple[str, str]:
-            return await holder["bridge"].call(device, method, goal)
+            return await holder["ros"].call(device, method, goal)
 
     server = GatewayServer(endpoint, security, users, devices, _Handler(), p["program_dir"], logger)
-    bridge = RosBridge(node, executor, server, float(p["call_timeout"]))
-    holder["bridge"] = bridge
-    return server, bridge
+    ros = RosLink(node, executor, server, float(p["call_timeout"]))
+    holder["ros"] = ros
+    return server, ros
 
 
 async def _serve(node: Node, server: GatewayServer) -> int:
@@ -190,7 +190,7 @@ def main(args: list[str] | None = None) -> None:
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
-        server, _bridge = _build(node, executor)
+        server, _ros = _build(node, executor)
     except InputError as error:
         node.get_logger().fatal(f"bad configuration: {error}")
         node.destroy_node()

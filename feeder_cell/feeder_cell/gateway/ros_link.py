@@ -39,7 +39,7 @@ from feeder_planner.node_kit import LATCHED, STREAM_DEPTH
 from feeder_planner.node_kit.action_client import ActionClient
 from feeder_planner.node_kit.msg_fields import fill_field_spec
 
-__all__ = ["STATUS_TIMEOUT", "REJECTION_WAIT", "DeviceLink", "RosBridge"]
+__all__ = ["STATUS_TIMEOUT", "REJECTION_WAIT", "DeviceLink", "RosLink"]
 
 # A device whose ~/status (1 Hz heartbeat) is not heard for this long is offline (Online false, PackML
 # Undefined); five missed heartbeats, so that a starved process on a loaded host does not flap it. A goal
@@ -82,7 +82,7 @@ class DeviceLink:
     lock: threading.Lock = field(default_factory=threading.Lock)
 
 
-class RosBridge:
+class RosLink:
     """Subscriptions, clients and the method handler of the gateway, on one rclpy node."""
 
     def __init__(self, node: Node, executor: Executor, server: GatewayServer, call_timeout: float) -> None:
