@@ -35,6 +35,7 @@ __all__ = [
     "MAX_STARTS_PER_EDGE",
     "MAX_THROWS",
     "MAX_LIMIT_SET_THROWS",
+    "MAX_QUEUED_THROWS",
     "quote",
     "describe",
     "check_count",
@@ -102,6 +103,10 @@ MAX_FLIGHT_TURNS: Final = 100_000
 MAX_STARTS_PER_EDGE: Final = 10_000
 MAX_THROWS: Final = 100_000
 MAX_LIMIT_SET_THROWS: Final = 1_000_000
+
+
+# Throws an arm keeps queued (ArmCommand count and its uint32 pending reply): refused past it, never wrapped.
+MAX_QUEUED_THROWS = 100_000
 
 
 def quote(value: Any, limit: int = QUOTE_CHARS) -> str:

@@ -32,7 +32,7 @@ from feeder_msgs.srv import InjectFault
 from feeder_planner.errors import FeederError, InputError
 from feeder_planner.node_kit.parameters import ParameterSpec, check_value, declare_parameters, positive
 from feeder_planner.node_kit.qos import LATCHED
-from feeder_planner.node_kit.rate import RateMonitor, RateReport
+from feeder_device.rate import RateMonitor, RateReport
 from feeder_planner.node_kit.services import REQUEST_QUEUE_PARAMETER, serve
 from feeder_planner.node_kit.tf import namespaced_frame
 

@@ -23,6 +23,7 @@ from feeder_planner.limits import (
     MAX_GRAVITY,
     MAX_LENGTH_M,
     MAX_NAME_CHARS,
+    MAX_QUEUED_THROWS,
     MAX_RELEASE_SPEED,
     MAX_YAML_DEPTH,
     MIN_LENGTH_M,
@@ -80,7 +81,6 @@ MAX_YAML_NODES = 100_000  # YAML nodes after alias expansion (a billion-laughs d
 MAX_WAYPOINTS = 100  # FixtureMove / FollowPath waypoints (a device is single-threaded: ~0.3 s)
 MAX_PROGRAM_STEPS = 1000  # steps of one field program
 MAX_NAMES = 10_000  # entries of a list of part names
-MAX_QUEUED_THROWS = 100_000  # throws an arm keeps queued (ArmCommand count and pending)
 # The models' stated ranges are the files' and the command's (feeder_planner.limits): one definition.
 LENGTH_RANGE_M = (MIN_LENGTH_M, MAX_LENGTH_M)
 MAX_SPEED = MAX_RELEASE_SPEED  # rad/s, |release speed|

@@ -1,0 +1,135 @@
+"""Documented node parameters as data, ROS-free: what each parameter is and the checks that refuse values.
+
+A spec holds the name, the default (whose type is the parameter's), the meaning, the check and the
+mutability; each check names the value it refuses.
+
+The node kit declares them to rclpy (``node_kit.parameters.declare_parameters``); the scene validation and
+the generated parameter tables read the same specs without ROS.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Callable, Sequence
+
+from feeder_planner.errors import InputError
+
+__all__ = [
+    "Check",
+    "ParameterSpec",
+    "check_value",
+    "finite",
+    "positive",
+    "non_negative",
+    "negative",
+    "integer",
+    "integer_at_least",
+    "one_of",
+    "in_range",
+    "non_empty_string",
+]
+
+Check = Callable[[Any], "str | None"]  # returns a problem description, or None if the value is fine
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """A node parameter: name, default (whose type is the parameter's), meaning, check, mutability."""
+
+    name: str
+    default: Any
+    description: str
+    check: Check | None = None
+    read_only: bool = False
+
+
+def check_value(spec: ParameterSpec, value: Any) -> None:
+    """Raise InputError naming the parameter when ``value`` fails the spec's check."""
+    problem = spec.check(value) if spec.check else None
+    if problem:
+        raise InputError(f"parameter {spec.name}", problem)
+
+
+def _is_number(value: Any) -> bool:
+    # bool is an int subclass, but a parameter given as true is not a number.
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def finite(value: Any) -> str | None:
+    """Accept any finite number."""
+    return None if _is_number(value) else f"must be a finite number, got {value!r}"
+
+
+def positive(value: Any) -> str | None:
+    """Accept a finite number > 0."""
+    return None if _is_number(value) and value > 0 else f"must be a finite number > 0, got {value!r}"
+
+
+def non_negative(value: Any) -> str | None:
+    """Accept a finite number >= 0."""
+    return None if _is_number(value) and value >= 0 else f"must be a finite number >= 0, got {value!r}"
+
+
+def negative(value: Any) -> str | None:
+    """Accept a finite number < 0."""
+    return None if _is_number(value) and value < 0 else f"must be a finite number < 0, got {value!r}"
+
+
+def integer(value: Any) -> str | None:
+    """Accept any integer (not a bool)."""
+    return (
+        None
+        if isinstance(value, int) and not isinstance(value, bool)
+        else f"must be an integer, got {value!r}"
+    )
+
+
+def integer_at_least(low: int) -> Check:
+    """Return a check for an integer >= ``low``."""
+
+    def check(value: Any) -> str | None:
+        ok = isinstance(value, int) and not isinstance(value, bool) and value >= low
+        return None if ok else f"must be an integer >= {low}, got {value!r}"
+
+    return check
+
+
+def one_of(choices: Sequence[str]) -> Check:
+    """Return a check for one of a closed set of words."""
+
+    def check(value: Any) -> str | None:
+        return None if value in choices else f"must be one of {', '.join(choices)}, got {value!r}"
+
+    return check
+
+
+def in_range(
+    low: float, high: float, *, include_low: bool = True, include_high: bool = True, unit: str = ""
+) -> Check:
+    """Return a check for a finite number in an interval; the message states which bounds are open."""
+    left, right = "[" if include_low else "(", "]" if include_high else ")"
+    suffix = f" {unit}" if unit else ""
+
+    def check(value: Any) -> str | None:
+        ok = (
+            _is_number(value)
+            and (value >= low if include_low else value > low)
+            and (value <= high if include_high else value < high)
+        )
+        return (
+            None
+            if ok
+            else f"must be a finite number in {left}{low:.6g}, {high:.6g}{right}{suffix}, got {value!r}"
+        )
+
+    return check
+
+
+def non_empty_string(what: str) -> Check:
+    """Return a check for a non-empty string; ``what`` says what it must name."""
+
+    def check(value: Any) -> str | None:
+        return None if isinstance(value, str) and value else f"must name {what}"
+
+    return check
