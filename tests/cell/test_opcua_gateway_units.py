@@ -8,13 +8,7 @@ from pathlib import Path
 import pytest
 
 from feeder_cell.gateway import layout
-from feeder_cell.gateway.arguments import (
-    Argument,
-    ArgumentError,
-    check_feed_part,
-    check_follow_path,
-    check_run_program,
-)
+from feeder_cell.gateway.arguments import Argument, ArgumentError
 from feeder_cell.gateway.config import (
     check_security,
     is_loopback,
@@ -23,6 +17,9 @@ from feeder_cell.gateway.config import (
     parse_devices,
     parse_endpoint,
 )
+from feeder_cell.gateway.kinds.assembly_fixture import check_follow_path
+from feeder_cell.gateway.kinds.mems_field_array import check_run_program
+from feeder_cell.gateway.kinds.throwing_arm import check_feed_part
 from feeder_cell.gateway.users import Users, hash_password, load_users, verify_password
 from feeder_planner.errors import InputError
 

@@ -1,49 +1,35 @@
 """Method arguments from OPC UA clients, checked before anything reaches a device; errors name the argument.
 
-ROS-free: an argument arrives as its value and OPC UA built-in type name; a check returns a plain goal
-(``FeedPartGoal``, ``RunProgramGoal``, ``FollowPathGoal``) or raises ``ArgumentError`` with the OPC UA status
-code a PLC sees (``BadArgumentsMissing``, ``BadTooManyArguments``, ``BadTypeMismatch``,
-``BadInvalidArgument``), the argument's index and a message naming it.
+ROS-free: an argument arrives as its value and OPC UA built-in type name (``Argument``). This module holds
+what every check shares: the count of arguments and the readers of one argument by its expected type.
+Each kind's own check (``kinds.<kind>``, its profile's ``action.check``) reads its arguments with them and
+returns the kind's goal, or raises ``ArgumentError`` with the OPC UA status code a PLC sees
+(``BadArgumentsMissing``, ``BadTooManyArguments``, ``BadTypeMismatch``, ``BadInvalidArgument``), the
+argument's index and a message naming it.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
-from feeder_cell.gateway.layout import MethodSpec
-from feeder_planner.errors import FeederError, InputError
-from feeder_planner.fields_io import load_yaml_mapping, yaml_mapping_from_text
-from feeder_planner.mems import ProgramStep, program_from_mapping
-from feeder_planner.node_kit.request_limits import MAX_YAML_CHARS
+from feeder_cell.gateway.spec import Argument, MethodSpec
+from feeder_planner.errors import FeederError
 
 __all__ = [
     "Argument",
     "ArgumentError",
-    "FeedPartGoal",
-    "RunProgramGoal",
-    "FollowPathGoal",
+    "UINT32_MAX",
     "check_count",
-    "check_feed_part",
-    "check_run_program",
-    "check_follow_path",
-    "resolve_program",
+    "read_integer",
+    "read_number",
+    "read_numbers",
+    "read_string",
 ]
 
 INTEGER_TYPES = ("SByte", "Byte", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64")
 FLOAT_TYPES = ("Float", "Double")
 UINT32_MAX = 2**32 - 1
-
-
-@dataclass(frozen=True)
-class Argument:
-    """One input argument as the client sent it: the value (a list for an array) and its built-in type."""
-
-    value: Any
-    type: str  # VariantType name, e.g. Double, UInt32, String; "Null" for an empty variant
-    array: bool = False
 
 
 class ArgumentError(FeederError):
@@ -54,33 +40,6 @@ class ArgumentError(FeederError):
         self.index = index
         self.message = message
         super().__init__(message)
-
-
-@dataclass(frozen=True)
-class FeedPartGoal:
-    """A checked FeedPart call."""
-
-    max_throws: int
-    timeout: float
-
-
-@dataclass(frozen=True)
-class RunProgramGoal:
-    """A checked RunProgram call: the program's steps (validated by the mechanics) and the limits."""
-
-    name: str
-    steps: tuple[ProgramStep, ...]
-    timeout: float
-    tolerance: float
-    dwell: float
-
-
-@dataclass(frozen=True)
-class FollowPathGoal:
-    """A checked FollowPath call: exactly one of the waypoint lists is non-empty."""
-
-    tilt: tuple[float, ...]  # flattened pairs
-    gravity: tuple[tuple[float, float, float], ...]
 
 
 def check_count(spec: MethodSpec, args: list[Argument]) -> None:
@@ -105,7 +64,8 @@ def _scalar(arg: Argument, index: int, name: str) -> Any:
     return arg.value
 
 
-def _integer(arg: Argument, index: int, name: str) -> int:
+def read_integer(arg: Argument, index: int, name: str) -> int:
+    """Read an integer argument (any integer built-in type); ``name`` and ``index`` go into the error."""
     value = _scalar(arg, index, name)
     if arg.type not in INTEGER_TYPES or isinstance(value, bool):
         raise ArgumentError(
@@ -114,7 +74,8 @@ def _integer(arg: Argument, index: int, name: str) -> int:
     return int(value)
 
 
-def _number(arg: Argument, index: int, name: str) -> float:
+def read_number(arg: Argument, index: int, name: str) -> float:
+    """Read a finite number (a float or integer built-in type) as a float."""
     value = _scalar(arg, index, name)
     if arg.type not in (*FLOAT_TYPES, *INTEGER_TYPES) or isinstance(value, bool):
         raise ArgumentError(
@@ -126,7 +87,8 @@ def _number(arg: Argument, index: int, name: str) -> float:
     return number
 
 
-def _numbers(arg: Argument, index: int, name: str) -> tuple[float, ...]:
+def read_numbers(arg: Argument, index: int, name: str) -> tuple[float, ...]:
+    """Read an array of finite numbers; an empty variant (Null) is the empty array."""
     if arg.type == "Null" or arg.value is None:
         return ()
     if not isinstance(arg.value, list) or arg.type not in (*FLOAT_TYPES, *INTEGER_TYPES):
@@ -142,113 +104,9 @@ def _numbers(arg: Argument, index: int, name: str) -> tuple[float, ...]:
     return tuple(out)
 
 
-def _string(arg: Argument, index: int, name: str) -> str:
+def read_string(arg: Argument, index: int, name: str) -> str:
+    """Read a String argument."""
     value = _scalar(arg, index, name)
     if arg.type != "String" or not isinstance(value, str):
         raise ArgumentError("BadTypeMismatch", index, f"{name}: expected a String, got {arg.type} {value!r}")
     return value
-
-
-def check_feed_part(spec: MethodSpec, args: list[Argument]) -> FeedPartGoal:
-    """Check FeedPart(MaxThrows, Timeout)."""
-    check_count(spec, args)
-    max_throws = _integer(args[0], 0, "MaxThrows")
-    if not 1 <= max_throws <= UINT32_MAX:
-        raise ArgumentError("BadInvalidArgument", 0, f"MaxThrows: must be >= 1 (a UInt32), got {max_throws}")
-    timeout = _number(args[1], 1, "Timeout")
-    if timeout < 0:
-        raise ArgumentError(
-            "BadInvalidArgument", 1, f"Timeout: must be >= 0 s (0: no limit), got {timeout!r}"
-        )
-    return FeedPartGoal(max_throws, timeout)
-
-
-def resolve_program(text: str, program_dir: str) -> tuple[str, tuple[ProgramStep, ...]]:
-    """Return (name, steps) of a Program argument: an inline YAML program or a file of ``program_dir``.
-
-    A file name may not leave ``program_dir`` (no absolute paths, no ``..``): a PLC names programs, it
-    does not read the gateway's file system.
-    """
-    field = "Program"
-    stripped = text.strip()
-    if not stripped:
-        raise InputError(
-            field, "is empty: name a program file of program_dir or give an inline '{steps: [...]}'"
-        )
-    if stripped.startswith("{"):
-        # A PLC string is unbounded: the request layer's size, alias and depth bounds apply to it too.
-        if len(stripped) > MAX_YAML_CHARS:
-            raise InputError(field, f"inline program: {len(stripped)} characters, at most {MAX_YAML_CHARS}")
-        try:
-            document = yaml_mapping_from_text(stripped, "inline program", field)
-        except InputError as error:
-            raise InputError(field, f"inline program: {error.problem}") from None
-        return "inline", program_from_mapping(document, field)
-    if not program_dir:
-        raise InputError(field, f"names a file ({stripped!r}), but the gateway's program_dir is empty")
-    relative = Path(stripped)
-    if relative.is_absolute() or ".." in relative.parts:
-        raise InputError(field, f"must be a file name inside program_dir, got {stripped!r}")
-    path = Path(program_dir) / relative
-    if not path.suffix:
-        path = path.with_suffix(".yaml")
-    if not path.is_file():
-        raise InputError(field, f"no program {relative.as_posix()!r} in program_dir {program_dir}")
-    try:
-        steps = program_from_mapping(load_yaml_mapping(path), field)
-    except InputError as error:
-        raise InputError(field, str(error.with_source(relative.as_posix()))) from None
-    return relative.as_posix(), steps
-
-
-def check_run_program(spec: MethodSpec, args: list[Argument], program_dir: str) -> RunProgramGoal:
-    """Check RunProgram(Program, Timeout, Tolerance, Dwell); the program is parsed and validated here."""
-    check_count(spec, args)
-    text = _string(args[0], 0, "Program")
-    try:
-        name, steps = resolve_program(text, program_dir)
-    except InputError as error:
-        raise ArgumentError("BadInvalidArgument", 0, str(error)) from None
-    timeout = _number(args[1], 1, "Timeout")
-    if timeout <= 0:
-        raise ArgumentError("BadInvalidArgument", 1, f"Timeout: must be > 0 s, got {timeout!r}")
-    tolerance = _number(args[2], 2, "Tolerance")
-    if tolerance < 0:
-        raise ArgumentError(
-            "BadInvalidArgument", 2, f"Tolerance: must be >= 0 (0: device default), got {tolerance!r}"
-        )
-    dwell = _number(args[3], 3, "Dwell")
-    if dwell < 0:
-        raise ArgumentError(
-            "BadInvalidArgument", 3, f"Dwell: must be >= 0 s (0: device default), got {dwell!r}"
-        )
-    return RunProgramGoal(name, steps, timeout, tolerance, dwell)
-
-
-def check_follow_path(spec: MethodSpec, args: list[Argument]) -> FollowPathGoal:
-    """Check FollowPath(TiltWaypoints, GravityWaypoints): one kind of waypoint, whole pairs or triples."""
-    check_count(spec, args)
-    tilt = _numbers(args[0], 0, "TiltWaypoints")
-    flat = _numbers(args[1], 1, "GravityWaypoints")
-    if bool(tilt) == bool(flat):
-        which = "both are given" if tilt else "both are empty"
-        raise ArgumentError(
-            "BadInvalidArgument",
-            0 if tilt else 1,
-            f"TiltWaypoints, GravityWaypoints: give exactly one ({which})",
-        )
-    if tilt and len(tilt) % 2:
-        raise ArgumentError(
-            "BadInvalidArgument", 0, f"TiltWaypoints: must be (tilt_x, tilt_y) pairs, got {len(tilt)} numbers"
-        )
-    if flat and len(flat) % 3:
-        raise ArgumentError(
-            "BadInvalidArgument", 1, f"GravityWaypoints: must be (x, y, z) triples, got {len(flat)} numbers"
-        )
-    gravity = tuple((flat[i], flat[i + 1], flat[i + 2]) for i in range(0, len(flat), 3))
-    for i, g in enumerate(gravity):
-        if math.hypot(*g) == 0.0:
-            raise ArgumentError(
-                "BadInvalidArgument", 1, f"GravityWaypoints[{i}]: a zero vector has no direction"
-            )
-    return FollowPathGoal(tilt, gravity)

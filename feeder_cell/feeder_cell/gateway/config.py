@@ -1,6 +1,6 @@
 """The gateway's configuration, checked before anything starts: devices, endpoint, security, PackML states.
 
-ROS-free: the node reads its parameters and hands them here; every error names the parameter (and the
+Needs no node: the node reads its parameters and hands them here; every error names the parameter (and the
 entry) so that a bad start-up is one FATAL line, never a traceback or a silently weaker server.
 """
 
@@ -12,10 +12,10 @@ import re
 from dataclasses import dataclass
 from urllib.parse import urlparse
 
+from feeder_cell.gateway.kinds import KINDS
 from feeder_planner.errors import InputError
 
 __all__ = [
-    "KINDS",
     "POLICIES",
     "PACKML",
     "PACKML_UNDEFINED",
@@ -29,9 +29,6 @@ __all__ = [
     "check_security",
     "packml_state",
 ]
-
-# Device kinds the gateway knows, by the executable (and default node name) of each simulator.
-KINDS = ("throwing_arm", "mems_field_array", "assembly_fixture")
 
 # Security policies a client may use, as the parameter security_policies names them.
 POLICIES = ("None", "Basic256Sha256_Sign", "Basic256Sha256_SignAndEncrypt")

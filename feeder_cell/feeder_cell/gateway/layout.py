@@ -1,6 +1,9 @@
 """The gateway's OPC UA address space, as data: what every device object holds and what its methods take.
 
-ROS-free and asyncua-free, so that the layout, the documentation and the tests read one definition.
+asyncua-free, so that the server, the documentation and the tests read one definition. What every device
+object holds is here; what one kind adds (its signals, its action's method, feedback and result, its
+counters) is its profile in ``kinds``, and ``variables`` and ``methods`` put the two together.
+
 Every node has a string NodeId in the gateway's namespace (``NAMESPACE_URI``): a device object is its key
 (``cell.throwing_arm`` for ``/cell/throwing_arm``), a variable ``KEY.PATH`` (``cell.throwing_arm.Status.
 PackMLState``) and a method ``KEY.NAME`` (``cell.throwing_arm.FeedPart``). Browse names are the path's
@@ -11,17 +14,23 @@ last part, under folders named by the path (``Status``, ``Signals``, ``Command``
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+
+from feeder_cell.gateway.kinds import KINDS
+from feeder_cell.gateway.spec import MethodSpec, VariableSpec
 
 __all__ = [
     "NAMESPACE_URI",
     "APPLICATION_URI",
     "CELL",
     "DEVICES_FOLDER",
-    "VariableSpec",
-    "ArgumentSpec",
-    "MethodSpec",
+    "STATUS",
+    "COMMAND",
+    "STOP",
+    "RESET",
+    "ACTIONS",
     "COUNTERS",
+    "counter_path",
     "variables",
     "methods",
     "variable_id",
@@ -34,38 +43,19 @@ CELL = "Cell"
 DEVICES_FOLDER = "Cell.Devices"
 
 
-@dataclass(frozen=True)
-class VariableSpec:
-    """A read-only variable of a device object: path under the object, OPC UA built-in type, meaning."""
-
-    path: str  # e.g. Status.FaultCode
-    type: str  # asyncua VariantType name: Boolean, Byte, Int32, UInt32, UInt64, Double, String
-    description: str
-    array: bool = False
-
-
-@dataclass(frozen=True)
-class ArgumentSpec:
-    """An input argument of a method."""
-
-    name: str
-    type: str
-    description: str
-    array: bool = False
-
-
-@dataclass(frozen=True)
-class MethodSpec:
-    """A method of a device object; every method has one output argument, Message (String)."""
-
-    name: str
-    description: str
-    inputs: tuple[ArgumentSpec, ...] = ()
-
-
 def _v(path: str, type_: str, description: str, array: bool = False) -> VariableSpec:
     return VariableSpec(path, type_, description, array)
 
+
+def _one_of(names: list[str]) -> str:
+    """Return names as prose: "a, b or c"."""
+    return f"{', '.join(names[:-1])} or {names[-1]}" if len(names) > 1 else "".join(names)
+
+
+IDENTITY = (
+    _v("Kind", "String", f"device kind: {_one_of(list(KINDS))}"),
+    _v("NodeName", "String", "the device's fully qualified ROS node name"),
+)
 
 STATUS = (
     _v("Status.Online", "Boolean", "a ~/status heard within the last 5 s (the device's heartbeat is 1 Hz)"),
@@ -91,37 +81,13 @@ STATUS = (
     _v("Status.AchievedRealTimeFactor", "Double", "simulated seconds per wall second achieved"),
 )
 
-# The counters each kind reports, one UInt64 variable each under Status.Counters (BadWaitingForInitialData
-# until the device reports it); every counter, a new one too, is in CounterNames/CounterValues.
-COUNTERS: dict[str, tuple[str, ...]] = {
-    "throwing_arm": ("throws", "faults", "parts_presented", "feed_goals", "feeds_presented"),
-    "mems_field_array": (
-        "steps",
-        "steps_dropped",
-        "programs",
-        "placements",
-        "parts_settled",
-        "program_goals",
-        "stiff_steps",
-    ),
-    "assembly_fixture": (
-        "moves",
-        "refused_moves",
-        "moves_completed",
-        "stalls",
-        "capped_ticks",
-        "path_goals",
-        "path_goals_reached",
-        "path_goals_refused",
-    ),
-}
-
 COMMAND = (
     _v("Command.Busy", "Boolean", "a goal this gateway sent is executing"),
     _v(
         "Command.Action",
         "String",
-        "the action of the executing or last goal: FeedPart, RunProgram, FollowPath",
+        "the action of the executing or last goal: "
+        + ", ".join(profile.action.method.name for profile in KINDS.values()),
     ),
     _v("Command.GoalCount", "UInt32", "goals accepted by the device since the gateway started"),
     _v("Command.ResultCount", "UInt32", "goal results received; equal to GoalCount when none is executing"),
@@ -132,120 +98,42 @@ COMMAND = (
     _v("Command.Result.FaultCode", "UInt32", "fault_code of the last result (0 unless its outcome is FAULT)"),
 )
 
-SIGNALS: dict[str, tuple[VariableSpec, ...]] = {
-    "throwing_arm": (
-        _v("Signals.Sensor", "Boolean", "the one-bit proximity sensor (~/sensor) as the device delivers it"),
-    ),
-    "mems_field_array": (
-        _v("Signals.PartNames", "String", "parts on the array (~/part_states)", True),
-        _v("Signals.PartOrientations", "Double", "orientation theta of each part, rad in [0, 2 pi)", True),
-        _v("Signals.PartPositions", "Double", "centroid (x, y) of each part, m, flattened pairs", True),
-    ),
-    "assembly_fixture": (
-        _v("Signals.TiltX", "Double", "tilt_x joint angle as the encoders read it (~/joint_states), rad"),
-        _v("Signals.TiltY", "Double", "tilt_y joint angle as the encoders read it, rad"),
-        _v("Signals.Gravity", "Double", "unit gravity direction, assembly frame (~/stability)", True),
-        _v("Signals.Stable", "Boolean", "the assembly is potentially stable at this gravity"),
-        _v("Signals.StabilityMargin", "Double", "rad to the stable region's boundary (> 0 inside)"),
-        _v("Signals.Moving", "Boolean", "a commanded path is being executed"),
-    ),
-}
-
-FEEDBACK_AND_RESULT: dict[str, tuple[VariableSpec, ...]] = {
-    "throwing_arm": (
-        _v("Command.Feedback.Throws", "UInt32", "throws so far in the executing goal"),
-        _v("Command.Feedback.SensorAtRest", "Boolean", "the bit read at rest after the last throw"),
-        _v("Command.Result.Throws", "UInt32", "throws the last goal used"),
-        _v("Command.Result.SensorAtRest", "Boolean", "the last bit read with the part at rest"),
-        _v(
-            "Command.Result.Edge",
-            "Int32",
-            "ground-truth edge after the last throw (logging only; -1 unknown)",
-        ),
-    ),
-    "mems_field_array": (
-        _v("Command.Feedback.Time", "Double", "s of node clock since the program started"),
-        _v("Command.Feedback.Settled", "Boolean", "per part: settled", True),
-        _v(
-            "Command.Feedback.EquilibriumDistance",
-            "Double",
-            "per part: rad to the nearest predicted equilibrium",
-            True,
-        ),
-        _v("Command.Result.Settled", "Boolean", "every part settled"),
-        _v("Command.Result.Equilibrium", "Int32", "per part: predicted equilibrium reached (-1 none)", True),
-        _v("Command.Result.EquilibriumDistance", "Double", "per part: rad to that equilibrium", True),
-    ),
-    "assembly_fixture": (
-        _v("Command.Feedback.Progress", "Double", "0..1 of the planned path's duration"),
-        _v("Command.Feedback.Stable", "Boolean", "stable now"),
-        _v("Command.Feedback.Margin", "Double", "rad, stability margin now"),
-        _v("Command.Result.Tilt", "Double", "(tilt_x, tilt_y) where the fixture stopped, rad", True),
-        _v(
-            "Command.Result.FirstUnstableSample", "Int32", "REFUSED: first path sample not certified, else -1"
-        ),
-        _v("Command.Result.UnbalancedBodies", "String", "REFUSED: bodies that lose equilibrium there", True),
-    ),
-}
-
 STOP = MethodSpec("Stop", "halt the device at once (~/stop): STOPPED; an executing goal ends")
 RESET = MethodSpec("Reset", "clear faults and a stop (~/reset): back to IDLE")
-ACTIONS: dict[str, MethodSpec] = {
-    "throwing_arm": MethodSpec(
-        "FeedPart",
-        "start ~/feed_part: throw until the sensor presents the part, MaxThrows or Timeout",
-        (
-            ArgumentSpec("MaxThrows", "UInt32", "maximum throws, >= 1"),
-            ArgumentSpec("Timeout", "Double", "s of the device's clock, >= 0 (0: no limit beyond MaxThrows)"),
-        ),
-    ),
-    "mems_field_array": MethodSpec(
-        "RunProgram",
-        "start ~/run_program: run a field program until every part settled or Timeout",
-        (
-            ArgumentSpec(
-                "Program",
-                "String",
-                "a program file name in the gateway's program_dir, or an inline YAML program "
-                "starting with '{' (e.g. {steps: [{field: {type: radial, center: [0, 0]}}]})",
-            ),
-            ArgumentSpec("Timeout", "Double", "s of the device's clock, > 0"),
-            ArgumentSpec(
-                "Tolerance", "Double", "settled below this change (m and rad), >= 0 (0: device default)"
-            ),
-            ArgumentSpec(
-                "Dwell", "Double", "s the change must stay below Tolerance, >= 0 (0: device default)"
-            ),
-        ),
-    ),
-    "assembly_fixture": MethodSpec(
-        "FollowPath",
-        "start ~/follow_path through waypoints: give TiltWaypoints or GravityWaypoints, the other empty",
-        (
-            ArgumentSpec("TiltWaypoints", "Double", "flattened (tilt_x, tilt_y) pairs, rad", True),
-            ArgumentSpec("GravityWaypoints", "Double", "flattened (x, y, z) gravity directions", True),
-        ),
-    ),
-}
+
+# One facet of every kind, by kind, for the readers that want it across kinds (the tests, the docs); the
+# profiles in kinds.KINDS are the one definition.
+ACTIONS: Mapping[str, MethodSpec] = {kind: profile.action.method for kind, profile in KINDS.items()}
+COUNTERS: Mapping[str, tuple[str, ...]] = {kind: profile.counter_names for kind, profile in KINDS.items()}
+
+
+def counter_path(name: str) -> str:
+    """Return the variable path of a counter a kind shows: one UInt64 variable each under Status.Counters.
+
+    BadWaitingForInitialData until the device reports it; every counter the device reports, one outside
+    its declaration too, is in CounterNames/CounterValues.
+    """
+    return f"Status.Counters.{name}"
 
 
 def variables(kind: str) -> tuple[VariableSpec, ...]:
     """Return every variable of a device object of ``kind``, in browse order."""
-    counters = tuple(_v(f"Status.Counters.{name}", "UInt64", f"counter {name}") for name in COUNTERS[kind])
+    profile = KINDS[kind]
+    counters = tuple(_v(counter_path(c.name), "UInt64", c.description) for c in profile.counters)
     return (
-        _v("Kind", "String", "device kind: throwing_arm, mems_field_array or assembly_fixture"),
-        _v("NodeName", "String", "the device's fully qualified ROS node name"),
+        *IDENTITY,
         *STATUS,
         *counters,
-        *SIGNALS[kind],
+        *profile.signals,
         *COMMAND,
-        *FEEDBACK_AND_RESULT[kind],
+        *profile.action.feedback,
+        *profile.action.result,
     )
 
 
 def methods(kind: str) -> tuple[MethodSpec, ...]:
-    """Return the methods of a device object of ``kind``."""
-    return (ACTIONS[kind], STOP, RESET)
+    """Return the methods of a device object of ``kind``: its action's, then Stop and Reset."""
+    return (KINDS[kind].action.method, STOP, RESET)
 
 
 def variable_id(key: str, path: str) -> str:

@@ -6,6 +6,9 @@ thread-safe). A method call, a coroutine on the loop, never touches rclpy object
 coroutine to the executor (``Executor.create_task`` is thread-safe), which sends the service request or
 the goal in the executor's own thread (rclpy's action client is not safe to call from a second thread), and
 the result comes back to the loop by ``call_soon_threadsafe``. Every wait is bounded by ``call_timeout``.
+
+What a device kind has of its own (its topics, its action, the variables its feedback and result set) is
+read from its profile (``kinds.KINDS``); this module only runs them.
 """
 
 from __future__ import annotations
@@ -18,26 +21,22 @@ from dataclasses import dataclass, field
 from typing import Any, Coroutine
 
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import Vector3
 from rcl_interfaces.msg import Log
 from rclpy.action.client import ClientGoalHandle
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import Executor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
 
-from feeder_cell.gateway.arguments import FeedPartGoal, FollowPathGoal, RunProgramGoal
 from feeder_cell.gateway.config import DeviceEntry, packml_state
-from feeder_cell.gateway.layout import COUNTERS
+from feeder_cell.gateway.kinds import KINDS
+from feeder_cell.gateway.layout import RESET, STOP, counter_path
 from feeder_cell.gateway.server import GatewayServer
-from feeder_msgs.action import FeedPart, FollowPath, RunProgram
-from feeder_msgs.msg import DeviceStatus, FieldProgram, FieldSpec, MemsPartStates, StabilityStatus
+from feeder_cell.gateway.spec import Goal, KindProfile, StreamLink, Value, Values
+from feeder_msgs.msg import DeviceStatus
 from feeder_planner.node_kit import LATCHED, STREAM_DEPTH
 from feeder_planner.node_kit.action_client import ActionClient
-from feeder_planner.node_kit.msg_fields import fill_field_spec
 
 __all__ = ["STATUS_TIMEOUT", "REJECTION_WAIT", "DeviceLink", "RosLink"]
 
@@ -49,12 +48,6 @@ STATUS_TIMEOUT = 5.0
 # How long a rejected goal waits for the device's reason on /rosout (logged just before it answers).
 REJECTION_WAIT = 2.0
 
-ACTIONS = {
-    "throwing_arm": ("FeedPart", FeedPart, "feed_part"),
-    "mems_field_array": ("RunProgram", RunProgram, "run_program"),
-    "assembly_fixture": ("FollowPath", FollowPath, "follow_path"),
-}
-
 
 def _ns(stamp: Any) -> int:
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
@@ -65,6 +58,7 @@ class DeviceLink:
     """One device's ROS endpoints and what the gateway knows of it."""
 
     entry: DeviceEntry
+    profile: KindProfile
     stop: Any = None
     reset: Any = None
     action: Any = None
@@ -101,31 +95,36 @@ class RosLink:
     # --- subscriptions ---------------------------------------------------------------------------
     def _link(self, entry: DeviceEntry) -> DeviceLink:
         node, name = self.node, entry.node
-        link = DeviceLink(entry)
+        link = DeviceLink(entry, KINDS[entry.kind])
         link.stop = node.create_client(Trigger, f"{name}/stop")
         link.reset = node.create_client(Trigger, f"{name}/reset")
-        _, action_type, action_name = ACTIONS[entry.kind]
-        link.action = ActionClient(node, action_type, f"{name}/{action_name}")
+        action = link.profile.action
+        link.action = ActionClient(node, action.action_type, f"{name}/{action.action_name}")
         node.create_subscription(DeviceStatus, f"{name}/status", lambda m: self._on_status(link, m), LATCHED)
-        if entry.kind == "throwing_arm":
-            node.create_subscription(
-                Bool, f"{name}/sensor", lambda m, i: self._on_sensor(link, m, i), STREAM_DEPTH
-            )
-        elif entry.kind == "assembly_fixture":
-            node.create_subscription(
-                JointState, f"{name}/joint_states", lambda m: self._on_joints(link, m), STREAM_DEPTH
-            )
-            node.create_subscription(
-                StabilityStatus, f"{name}/stability", lambda m: self._on_stability(link, m), STREAM_DEPTH
-            )
-        else:
-            node.create_subscription(
-                MemsPartStates, f"{name}/part_states", lambda m: self._on_parts(link, m), STREAM_DEPTH
-            )
+        for stream in link.profile.streams:
+            self._subscribe(link, stream)
         return link
 
-    def _post(self, link: DeviceLink, path: str, value: Any, stamp_ns: int = 0) -> None:
+    def _subscribe(self, link: DeviceLink, stream: StreamLink) -> None:
+        """Mirror one of the device's topics into the variables its profile maps it to."""
+        topic = f"{link.entry.node}/{stream.topic}"
+
+        def on_stamped(msg: Any) -> None:
+            self._post_all(link, stream.values(msg), _ns(msg.header.stamp))
+
+        # rclpy hands the message info (the DDS source timestamp) to a callback taking two arguments.
+        def on_headerless(msg: Any, info: Any) -> None:
+            self._post_all(link, stream.values(msg), self._arrival_stamp(info))
+
+        callback = on_stamped if stream.stamped else on_headerless
+        self.node.create_subscription(stream.message_type, topic, callback, STREAM_DEPTH)
+
+    def _post(self, link: DeviceLink, path: str, value: Value, stamp_ns: int = 0) -> None:
         self.server.post(link.entry.key, path, value, stamp_ns)
+
+    def _post_all(self, link: DeviceLink, values: Values, stamp_ns: int = 0) -> None:
+        for path, value in values.items():
+            self._post(link, path, value, stamp_ns)
 
     def _on_status(self, link: DeviceLink, msg: DeviceStatus) -> None:
         stamp = _ns(msg.header.stamp)
@@ -138,7 +137,7 @@ class RosLink:
         if back:
             self.node.get_logger().info(f"{link.entry.node}: reporting again ({msg.state_name})")
         packml, code = packml_state(int(msg.state))
-        values: dict[str, Any] = {
+        values: Values = {
             "Status.Online": True,
             "Status.State": int(msg.state),
             "Status.StateName": msg.state_name,
@@ -157,45 +156,21 @@ class RosLink:
             "Status.ConfiguredRealTimeFactor": float(msg.configured_real_time_factor),
             "Status.AchievedRealTimeFactor": float(msg.achieved_real_time_factor),
         }
-        known = COUNTERS[link.entry.kind]
+        known = link.profile.counter_names
         for name, value in zip(msg.counter_names, msg.counter_values, strict=False):
             if name in known:
-                values[f"Status.Counters.{name}"] = int(value)
-        for path, value in values.items():
-            self._post(link, path, value, stamp)
+                values[counter_path(name)] = int(value)
+        self._post_all(link, values, stamp)
 
-    def _on_sensor(self, link: DeviceLink, msg: Bool, info: Any) -> None:
-        # std_msgs/Bool has no header: the DDS sample's source timestamp (wall clock) is its stamp; on a
-        # cell clock (use_sim_time) that is another timeline than the headers', so the gateway's node
-        # clock at arrival stamps it instead.
+    def _arrival_stamp(self, info: Any) -> int:
+        """Stamp a headerless sample (std_msgs/Bool): the DDS sample's source timestamp (wall clock).
+
+        On a cell clock (use_sim_time) that is another timeline than the headers', so the gateway's node
+        clock at arrival stamps it instead.
+        """
         if self.sim_time:
-            stamp = self.node.get_clock().now().nanoseconds
-        else:
-            stamp = int(info.get("source_timestamp", 0)) if isinstance(info, dict) else 0
-        self._post(link, "Signals.Sensor", bool(msg.data), stamp)
-
-    def _on_joints(self, link: DeviceLink, msg: JointState) -> None:
-        stamp = _ns(msg.header.stamp)
-        names = list(msg.name)
-        for joint, path, default in (("tilt_x", "Signals.TiltX", 0), ("tilt_y", "Signals.TiltY", 1)):
-            index = names.index(joint) if joint in names else default
-            if index < len(msg.position):
-                self._post(link, path, float(msg.position[index]), stamp)
-
-    def _on_stability(self, link: DeviceLink, msg: StabilityStatus) -> None:
-        stamp = _ns(msg.header.stamp)
-        g = msg.gravity
-        self._post(link, "Signals.Gravity", [float(g.x), float(g.y), float(g.z)], stamp)
-        self._post(link, "Signals.Stable", bool(msg.stable), stamp)
-        self._post(link, "Signals.StabilityMargin", float(msg.margin), stamp)
-        self._post(link, "Signals.Moving", bool(msg.moving), stamp)
-
-    def _on_parts(self, link: DeviceLink, msg: MemsPartStates) -> None:
-        stamp = _ns(msg.header.stamp)
-        self._post(link, "Signals.PartNames", [p.name for p in msg.parts], stamp)
-        self._post(link, "Signals.PartOrientations", [float(p.theta) for p in msg.parts], stamp)
-        positions = [float(c) for p in msg.parts for c in (p.pose.position.x, p.pose.position.y)]
-        self._post(link, "Signals.PartPositions", positions, stamp)
+            return int(self.node.get_clock().now().nanoseconds)
+        return int(info.get("source_timestamp", 0)) if isinstance(info, dict) else 0
 
     def _on_rosout(self, msg: Log) -> None:
         if "goal rejected:" not in msg.msg:
@@ -239,10 +214,10 @@ class RosLink:
                 )
 
     # --- method calls (on the asyncio loop) ------------------------------------------------------
-    async def call(self, device: DeviceEntry, method: str, goal: Any) -> tuple[str, str]:
+    async def call(self, device: DeviceEntry, method: str, goal: Goal | None) -> tuple[str, str]:
         """Run a checked method call on the device; return (status code name, message)."""
         link = self.links[device.key]
-        if method in ("Stop", "Reset"):
+        if method in (STOP.name, RESET.name):
             return await self._in_ros(self._trigger(link, method))
         with link.lock:
             state, ready, online, name, text = (
@@ -292,14 +267,14 @@ class RosLink:
             return "BadTimeout", f"the device did not answer within {self.call_timeout:g} s"
 
     async def _trigger(self, link: DeviceLink, method: str) -> tuple[str, str]:
-        client = link.stop if method == "Stop" else link.reset
+        client = link.stop if method == STOP.name else link.reset
         if not client.service_is_ready():
             return (
                 "BadCommunicationError",
                 f"{method}: {client.srv_name} is not available (is the device running?)",
             )
         response = await client.call_async(Trigger.Request())
-        if method == "Stop":
+        if method == STOP.name:
             with link.lock:
                 goal = link.goal
             if goal is not None:  # the device halted; do not leave the goal running behind it
@@ -308,14 +283,16 @@ class RosLink:
             return "BadInvalidState", f"{method}: {response.message}"
         return "Good", f"{method}: {response.message}"
 
-    async def _send_goal(self, link: DeviceLink, method: str, goal: Any) -> tuple[str, str]:
+    async def _send_goal(self, link: DeviceLink, method: str, goal: Goal | None) -> tuple[str, str]:
         client: ActionClient = link.action
         if not client.server_is_ready():
             return "BadCommunicationError", f"{method}: the device's action server is not available"
         with link.lock:
             link.rejections.clear()
+        if goal is None:
+            raise TypeError(f"{method}: not a goal")
         handle = await client.send_goal_async(
-            _goal_msg(goal), feedback_callback=lambda m: self._feedback(link, m)
+            goal.message(), feedback_callback=lambda m: self._feedback(link, m)
         )
         if not handle.accepted:
             return "BadInvalidState", "rejected"
@@ -355,21 +332,7 @@ class RosLink:
 
     # --- goal progress (executor thread) ---------------------------------------------------------
     def _feedback(self, link: DeviceLink, message: Any) -> None:
-        fb = message.feedback
-        kind = link.entry.kind
-        if kind == "throwing_arm":
-            self._post(link, "Command.Feedback.Throws", int(fb.throws))
-            self._post(link, "Command.Feedback.SensorAtRest", bool(fb.sensor_at_rest))
-        elif kind == "mems_field_array":
-            self._post(link, "Command.Feedback.Time", float(fb.time))
-            self._post(link, "Command.Feedback.Settled", [bool(s) for s in fb.settled])
-            self._post(
-                link, "Command.Feedback.EquilibriumDistance", [float(d) for d in fb.equilibrium_distance]
-            )
-        else:
-            self._post(link, "Command.Feedback.Progress", float(fb.progress))
-            self._post(link, "Command.Feedback.Stable", bool(fb.stable))
-            self._post(link, "Command.Feedback.Margin", float(fb.margin))
+        self._post_all(link, link.profile.action.feedback_values(message.feedback))
 
     def _on_result(self, link: DeviceLink, handle: ClientGoalHandle, future: Any) -> None:
         with link.lock:
@@ -381,21 +344,7 @@ class RosLink:
         except Exception as error:  # noqa: BLE001 - reported in the variables, the gateway keeps serving
             self._finish(link, "LOST", 0, f"no result: {type(error).__name__}: {error}")
             return
-        kind = link.entry.kind
-        if kind == "throwing_arm":
-            self._post(link, "Command.Result.Throws", int(result.throws))
-            self._post(link, "Command.Result.SensorAtRest", bool(result.sensor_at_rest))
-            self._post(link, "Command.Result.Edge", int(result.edge))
-        elif kind == "mems_field_array":
-            self._post(link, "Command.Result.Settled", bool(result.settled))
-            self._post(link, "Command.Result.Equilibrium", [int(e) for e in result.equilibrium])
-            self._post(
-                link, "Command.Result.EquilibriumDistance", [float(d) for d in result.equilibrium_distance]
-            )
-        else:
-            self._post(link, "Command.Result.Tilt", [float(t) for t in result.tilt])
-            self._post(link, "Command.Result.FirstUnstableSample", int(result.first_unstable_sample))
-            self._post(link, "Command.Result.UnbalancedBodies", list(result.unbalanced_bodies))
+        self._post_all(link, link.profile.action.result_values(result))
         self._post(link, "Command.Result.FaultCode", int(result.fault_code))
         self._finish(link, result.outcome_name, int(result.outcome), result.message)
 
@@ -417,20 +366,3 @@ def _remedy(state: int, fault_text: str) -> str:
     if state == DeviceStatus.STOPPED:
         return " (Reset returns it to IDLE)"
     return " (not active: its lifecycle must configure and activate it)"
-
-
-def _goal_msg(goal: Any) -> Any:
-    """Return the action goal message of a checked method call."""
-    if isinstance(goal, FeedPartGoal):
-        return FeedPart.Goal(max_throws=goal.max_throws, timeout=goal.timeout)
-    if isinstance(goal, RunProgramGoal):
-        program = FieldProgram(name=goal.name, steps=[fill_field_spec(FieldSpec(), s) for s in goal.steps])
-        return RunProgram.Goal(
-            program=program, timeout=goal.timeout, tolerance=goal.tolerance, dwell=goal.dwell
-        )
-    if isinstance(goal, FollowPathGoal):
-        return FollowPath.Goal(
-            tilt_waypoints=list(goal.tilt),
-            gravity_waypoints=[Vector3(x=g[0], y=g[1], z=g[2]) for g in goal.gravity],
-        )
-    raise TypeError(f"not a goal: {goal!r}")

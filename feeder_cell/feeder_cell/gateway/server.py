@@ -6,8 +6,9 @@ ROS-free. It runs on an asyncio loop (the main thread of the node process). Two 
   per variable under a lock and schedules one flush on the loop (``call_soon_threadsafe``), which writes
   every pending value with its source timestamp. A value equal to the last one written is not written
   again: its SourceTimestamp stays that of the sample that changed it, and no notification is sent.
-- **Calls out.** A method call is a coroutine on the loop: the arguments are checked here (``arguments``),
-  then handed to a ``Handler`` (the ROS link), whose answer is a status code name and a message.
+- **Calls out.** A method call is a coroutine on the loop: the arguments are checked here (the device
+  kind's check, ``kinds.KINDS[kind].action.check``, or only counted for Stop and Reset), then handed to a
+  ``Handler`` (the ROS link), whose answer is a status code name and a message.
 
 A Bad call returns its status code, the bad argument's own status in InputArgumentResults with the
 message in that argument's InputArgumentDiagnosticInfos (AdditionalInfo), the message as the Message
@@ -23,7 +24,7 @@ import threading
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 from asyncua import Server, ua
 from asyncua.crypto.permission_rules import User, UserRole
@@ -33,6 +34,8 @@ from asyncua.server.user_managers import UserManager
 
 from feeder_cell.gateway import arguments, layout
 from feeder_cell.gateway.config import DeviceEntry, Endpoint, SecurityConfig
+from feeder_cell.gateway.kinds import KINDS
+from feeder_cell.gateway.spec import ArgumentSpec, CallContext, Goal, MethodSpec
 from feeder_cell.gateway.users import Users
 
 __all__ = ["Handler", "GatewayServer", "GatewayUsers", "POLICY_TYPES"]
@@ -51,8 +54,8 @@ _OWN_PREFIXES = ("Kind", "NodeName", "Command.", "Status.Online", "Status.PackML
 class Handler(Protocol):
     """What executes a checked method call (the ROS link, ``ros_link.RosLink``)."""
 
-    async def call(self, device: DeviceEntry, method: str, goal: Any) -> tuple[str, str]:
-        """Run ``method`` on ``device`` with a checked goal; return (status code name, message)."""
+    async def call(self, device: DeviceEntry, method: str, goal: Goal | None) -> tuple[str, str]:
+        """Run ``method`` on ``device`` with a checked goal (None: Stop, Reset); return (status, message)."""
         ...
 
 
@@ -80,8 +83,20 @@ class _Pending:
     stamp_ns: int
 
 
-def _stamp(ns: int) -> datetime:
-    return datetime.fromtimestamp(ns / 1e9, tz=timezone.utc) if ns > 0 else datetime.now(timezone.utc)
+def _stamp(ns: int) -> ua.DateTime:
+    stamp = datetime.fromtimestamp(ns / 1e9, tz=timezone.utc) if ns > 0 else datetime.now(timezone.utc)
+    return cast(ua.DateTime, stamp)
+
+
+# asyncua annotates its constructors with its marker subclasses of the built-in types (ua.UInt32,
+# ua.String, ua.Int16, ua.DateTime) yet takes the built-in values themselves: these casts say so to mypy
+# and change nothing at run time.
+def _node_id(identifier: str | int, namespace: int = 0) -> ua.NodeId:
+    return ua.NodeId(cast("ua.String | ua.Int32", identifier), cast(ua.Int16, namespace))
+
+
+def _status_code(code: int) -> ua.StatusCode:
+    return ua.StatusCode(cast(ua.UInt32, code))
 
 
 class GatewayServer:
@@ -99,6 +114,7 @@ class GatewayServer:
     ) -> None:
         self.endpoint, self.security, self.users = endpoint, security, users
         self.devices, self.handler, self.program_dir = devices, handler, program_dir
+        self.context = CallContext(program_dir=program_dir)
         self.log = logger or logging.getLogger("opcua_gateway")
         self.server: Server | None = None
         self.idx = 0
@@ -149,7 +165,7 @@ class GatewayServer:
 
     # --- address space ---------------------------------------------------------------------------
     def _id(self, identifier: str) -> ua.NodeId:
-        return ua.NodeId(identifier, self.idx)
+        return _node_id(identifier, self.idx)
 
     def _name(self, name: str) -> ua.QualifiedName:
         return ua.QualifiedName(name, self.idx)
@@ -182,7 +198,7 @@ class GatewayServer:
             if not spec.path.startswith(_OWN_PREFIXES):
                 await server.write_attribute_value(
                     node.nodeid,
-                    ua.DataValue(StatusCode=ua.StatusCode(ua.StatusCodes.BadWaitingForInitialData)),
+                    ua.DataValue(StatusCode=_status_code(ua.StatusCodes.BadWaitingForInitialData)),
                 )
         self.post(key, "Kind", device.kind)
         self.post(key, "NodeName", device.node)
@@ -192,7 +208,7 @@ class GatewayServer:
                 self._name(spec_m.name),
                 self._method(device, spec_m),
                 [_argument(a) for a in spec_m.inputs],
-                [_argument(layout.ArgumentSpec("Message", "String", "what the gateway or the device says"))],
+                [_argument(ArgumentSpec("Message", "String", "what the gateway or the device says"))],
             )
 
     async def _folder(self, parents: dict[str, Any], key: str, folders: list[str]) -> Any:
@@ -245,11 +261,11 @@ class GatewayServer:
                 pending, self._pending = self._pending, {}
                 for vid, item in pending.items():
                     self._written[vid] = item.value
-            now = datetime.now(timezone.utc)
+            now = cast(ua.DateTime, datetime.now(timezone.utc))
             for vid, item in pending.items():
                 dv = ua.DataValue(
                     ua.Variant(item.value, self._types[vid]),
-                    StatusCode=ua.StatusCode(ua.StatusCodes.Good),
+                    StatusCode=_status_code(ua.StatusCodes.Good),
                     SourceTimestamp=_stamp(item.stamp_ns),
                     ServerTimestamp=now,
                 )
@@ -264,7 +280,7 @@ class GatewayServer:
             return self._written.get(vid)
 
     # --- methods ---------------------------------------------------------------------------------
-    def _method(self, device: DeviceEntry, spec: layout.MethodSpec) -> Any:
+    def _method(self, device: DeviceEntry, spec: MethodSpec) -> Any:
         async def call(parent: ua.NodeId, *variants: ua.Variant) -> ua.CallMethodResult:
             count = len(variants)
             try:
@@ -283,26 +299,23 @@ class GatewayServer:
 
         return call
 
-    def _check(self, device: DeviceEntry, spec: layout.MethodSpec, args: list[arguments.Argument]) -> Any:
-        if spec.name == "FeedPart":
-            return arguments.check_feed_part(spec, args)
-        if spec.name == "RunProgram":
-            return arguments.check_run_program(spec, args, self.program_dir)
-        if spec.name == "FollowPath":
-            return arguments.check_follow_path(spec, args)
-        arguments.check_count(spec, args)
+    def _check(self, device: DeviceEntry, spec: MethodSpec, args: list[arguments.Argument]) -> Goal | None:
+        action = KINDS[device.kind].action
+        if spec.name == action.method.name:
+            return action.check(spec, args, self.context)
+        arguments.check_count(spec, args)  # Stop, Reset: no arguments, no goal
         return None
 
     def _result(
-        self, device: DeviceEntry, spec: layout.MethodSpec, count: int, status: str, message: str, index: int
+        self, device: DeviceEntry, spec: MethodSpec, count: int, status: str, message: str, index: int
     ) -> ua.CallMethodResult:
         self.post(device.key, "Command.LastStatus", status)
         self.post(device.key, "Command.LastMessage", message)
-        code = ua.StatusCode(getattr(ua.StatusCodes, status, ua.StatusCodes.BadInternalError))
+        code = _status_code(getattr(ua.StatusCodes, status, ua.StatusCodes.BadInternalError))
         result = ua.CallMethodResult()
         result.StatusCode = code
         result.OutputArguments = [ua.Variant(message, ua.VariantType.String)]
-        result.InputArgumentResults = [ua.StatusCode(ua.StatusCodes.Good) for _ in range(count)]
+        result.InputArgumentResults = [_status_code(ua.StatusCodes.Good) for _ in range(count)]
         if code.is_bad():
             self.log.warning("%s.%s: %s: %s", device.key, spec.name, status, message)
             result.InputArgumentDiagnosticInfos = [ua.DiagnosticInfo() for _ in range(count)]
@@ -310,7 +323,9 @@ class GatewayServer:
             for i in targets:
                 if index >= 0:
                     result.InputArgumentResults[i] = code
-                result.InputArgumentDiagnosticInfos[i] = ua.DiagnosticInfo(AdditionalInfo=message)
+                result.InputArgumentDiagnosticInfos[i] = ua.DiagnosticInfo(
+                    AdditionalInfo=cast(ua.String, message)
+                )
         return result
 
 
@@ -329,10 +344,10 @@ def _default(vtype: ua.VariantType) -> Any:
     return 0
 
 
-def _argument(spec: layout.ArgumentSpec) -> ua.Argument:
+def _argument(spec: ArgumentSpec) -> ua.Argument:
     arg = ua.Argument()
     arg.Name = spec.name
-    arg.DataType = ua.NodeId(ua.VariantType[spec.type].value)
+    arg.DataType = _node_id(ua.VariantType[spec.type].value)
     arg.ValueRank = ua.ValueRank.OneDimension if spec.array else ua.ValueRank.Scalar
     arg.ArrayDimensions = [0] if spec.array else []
     arg.Description = ua.LocalizedText(spec.description)

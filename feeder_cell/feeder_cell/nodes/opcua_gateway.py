@@ -20,9 +20,17 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
-from feeder_cell.gateway.config import check_security, is_loopback, parse_devices, parse_endpoint
+from feeder_cell.gateway.config import (
+    DeviceEntry,
+    check_security,
+    is_loopback,
+    parse_devices,
+    parse_endpoint,
+)
+from feeder_cell.gateway.kinds import KINDS
 from feeder_cell.gateway.ros_link import RosLink
 from feeder_cell.gateway.server import GatewayServer
+from feeder_cell.gateway.spec import Goal
 from feeder_cell.gateway.users import load_users
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit import ParameterSpec, declare_parameters, positive
@@ -48,8 +56,8 @@ PARAMETERS = (
     ParameterSpec(
         "devices",
         [""],
-        "device nodes exposed, each [KIND:]NODE (e.g. /cell/throwing_arm; KIND, one of throwing_arm, "
-        "mems_field_array, assembly_fixture, when the node's name is not its kind)",
+        "device nodes exposed, each [KIND:]NODE (e.g. /cell/throwing_arm; KIND, one of "
+        f"{', '.join(KINDS)}, when the node's name is not its kind)",
         _strings,
         read_only=True,
     ),
@@ -124,7 +132,7 @@ def _build(node: Node, executor: SingleThreadedExecutor) -> tuple[GatewayServer,
     holder: dict[str, RosLink] = {}
 
     class _Handler:
-        async def call(self, device: Any, method: str, goal: Any) -> tuple[str, str]:
+        async def call(self, device: DeviceEntry, method: str, goal: Goal | None) -> tuple[str, str]:
             return await holder["ros"].call(device, method, goal)
 
     server = GatewayServer(endpoint, security, users, devices, _Handler(), p["program_dir"], logger)

@@ -1,0 +1,148 @@
+"""The types a device kind's gateway profile is written in: variables, methods, arguments, ROS links.
+
+The bottom of the gateway's imports: nothing here imports the rest of the gateway, so the profiles
+(``kinds``), the address space (``layout``), the argument checks (``arguments``), the server and the ROS
+link all read these types without a cycle. Neither asyncua nor rclpy is imported: ROS message classes and
+messages are plain objects here, typed ``Any`` because the generated message modules carry no types.
+
+A ``KindProfile`` is everything the gateway knows of one device kind:
+
+- ``counters``: the device's own counter declaration (``feeder_sim.<model>.counters.COUNTERS``), one
+  ``Status/Counters/<name>`` variable each, described by the declaration;
+- ``signals`` and ``streams``: the ``Signals/...`` variables and the device topics that set them;
+- ``action``: the long action behind the kind's method (its OPC UA method and arguments, the argument
+  check, the ROS action, and the ``Command/Feedback/...`` and ``Command/Result/...`` variables it sets).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Protocol, TypeAlias
+
+from feeder_device.declarations import CounterSpec
+
+__all__ = [
+    "Value",
+    "Values",
+    "VariableSpec",
+    "ArgumentSpec",
+    "MethodSpec",
+    "Argument",
+    "CallContext",
+    "Goal",
+    "Check",
+    "Convert",
+    "StreamLink",
+    "ActionLink",
+    "KindProfile",
+]
+
+# A variable's value as the gateway posts it: one of the OPC UA built-in types it uses, or an array of one.
+Value: TypeAlias = bool | int | float | str | list[bool] | list[int] | list[float] | list[str]
+# Variable path -> value, in the order they are posted (a message's values in its fields' order).
+Values: TypeAlias = dict[str, Value]
+
+
+@dataclass(frozen=True)
+class VariableSpec:
+    """A read-only variable of a device object: path under the object, OPC UA built-in type, meaning."""
+
+    path: str  # e.g. Status.FaultCode
+    type: str  # asyncua VariantType name: Boolean, Byte, Int32, UInt32, UInt64, Double, String
+    description: str
+    array: bool = False
+
+
+@dataclass(frozen=True)
+class ArgumentSpec:
+    """An input argument of a method."""
+
+    name: str
+    type: str
+    description: str
+    array: bool = False
+
+
+@dataclass(frozen=True)
+class MethodSpec:
+    """A method of a device object; every method has one output argument, Message (String)."""
+
+    name: str
+    description: str
+    inputs: tuple[ArgumentSpec, ...] = ()
+
+
+@dataclass(frozen=True)
+class Argument:
+    """One input argument as the client sent it: the value (a list for an array) and its built-in type."""
+
+    value: Any  # whatever the client's variant held: checked by the kind's argument check
+    type: str  # VariantType name, e.g. Double, UInt32, String; "Null" for an empty variant
+    array: bool = False
+
+
+@dataclass(frozen=True)
+class CallContext:
+    """What an argument check may need of the gateway's configuration.
+
+    One object, so that a new need is a field here, not a new parameter of every check.
+    """
+
+    program_dir: str = ""  # where RunProgram's program file names are looked up
+
+
+class Goal(Protocol):
+    """A checked call of a kind's action method: the kind's own dataclass, which builds its goal message."""
+
+    def message(self) -> Any:
+        """Return the ROS action's Goal message (untyped: a generated message class)."""
+        ...
+
+
+# The kind's argument check: the method, the client's arguments, the gateway's context -> a checked goal;
+# it raises arguments.ArgumentError naming the argument.
+Check: TypeAlias = Callable[[MethodSpec, list[Argument], CallContext], Goal]
+# A ROS message (untyped) -> the variables it sets.
+Convert: TypeAlias = Callable[[Any], Values]
+
+
+@dataclass(frozen=True)
+class StreamLink:
+    """A device topic mirrored into ``Signals/...`` variables."""
+
+    topic: str  # under the device's node: sensor is /cell/throwing_arm/sensor
+    message_type: Any  # the ROS message class
+    values: Convert
+    # The message has a header, whose stamp is the variables' SourceTimestamp; False: no header, so the
+    # DDS source timestamp (or the gateway's clock under use_sim_time) stamps it.
+    stamped: bool = True
+
+
+@dataclass(frozen=True)
+class ActionLink:
+    """The long action behind a kind's method: the OPC UA side and the ROS side of one goal."""
+
+    method: MethodSpec  # the OPC UA method and its input arguments
+    check: Check
+    action_type: Any  # the ROS action class (feeder_msgs.action.*)
+    action_name: str  # under the device's node: feed_part is /cell/throwing_arm/feed_part
+    feedback: tuple[VariableSpec, ...]  # Command.Feedback.* variables
+    result: tuple[VariableSpec, ...]  # Command.Result.* variables of this kind (FaultCode is every kind's)
+    feedback_values: Convert  # the action's Feedback message -> the feedback variables
+    result_values: Convert  # the action's Result message -> the result variables
+
+
+@dataclass(frozen=True)
+class KindProfile:
+    """Everything the gateway knows of one device kind; ``kinds.KINDS`` maps the kind's name to it."""
+
+    counters: tuple[CounterSpec, ...]  # the device's own declaration, in its order
+    signals: tuple[VariableSpec, ...]  # Signals.* variables, in browse order
+    streams: tuple[StreamLink, ...]  # the topics that set them
+    action: ActionLink
+
+    @property
+    def counter_names(self) -> tuple[str, ...]:
+        """The names of the counters this kind shows as variables of their own."""
+        return tuple(counter.name for counter in self.counters)
