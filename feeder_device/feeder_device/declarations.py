@@ -23,6 +23,7 @@ __all__ = [
     "FaultEntry",
     "DeviceError",
     "parse_fault_parameter",
+    "deadline_ns",
 ]
 
 
@@ -177,3 +178,12 @@ def parse_fault_parameter(entry: str, index: int) -> FaultEntry:
 def unknown_fault(name: str, faults: Mapping[str, FaultSpec]) -> str:
     """Say that ``name`` is no fault of this device, listing the ones it knows."""
     return f"unknown fault {name!r} (this device knows: {', '.join(faults) or 'none'})"
+
+
+def deadline_ns(start_ns: int, timeout_s: float) -> int | None:
+    """Return the node-clock instant (ns) a goal started at ``start_ns`` times out (None: no timeout).
+
+    The one timeout rule of every device's goals: node-clock time from acceptance, 0 s meaning none, so a
+    goal's outcome is the same at any speed of the cell clock.
+    """
+    return start_ns + round(timeout_s * 1e9) if timeout_s > 0 else None

@@ -44,8 +44,8 @@ from std_srvs.srv import Trigger
 
 from feeder_device.declarations import (
     ActiveFault,
-    CounterSpec,
     Counters,
+    CounterSpec,
     DeviceError,
     FaultSpec,
     parse_fault_parameter,
@@ -377,6 +377,11 @@ class ManagedDevice(LifecycleNode):
             self.tick_waiters.append(waiter)
         return waiter
 
+    def wake_goals(self) -> None:
+        """Wake every executing goal's coroutine now (a goal that ended outside a tick sends its result)."""
+        for goal in self.goals:
+            goal.poke()
+
     def _wake_tick_waiters(self) -> None:
         waiters, self.tick_waiters = self.tick_waiters, []
         for waiter in waiters:
@@ -467,7 +472,7 @@ class ManagedDevice(LifecycleNode):
         return TransitionCallbackReturn.SUCCESS
 
     def _release(self) -> None:
-        """The device releases its model, then the kit its streams and counts: one path for every exit."""
+        """Release the device's model, then the kit's streams and counts: one path for every exit."""
         try:
             self.cleanup_device()
         finally:

@@ -22,7 +22,7 @@ this runner drives it. The conventions every device keeps, in one place:
   the goal ends where the device can safely stop (after the throw in flight, at a certified sample), and
   is advanced once at once so that a goal already at such a point ends without waiting for a tick.
 - **One timeout rule.** A goal's timeout is node-clock time from acceptance, judged by the goal's machine
-  at the ticks (``deadline_ns``), never by wall time: the same run at any speed.
+  at the ticks (``declarations.deadline_ns``), never by wall time: the same run at any speed.
 - **The device leaves active** (deactivate, shutdown): the runner calls ``interrupt`` so no goal outlives
   the device's activity.
 - **One guard.** An exception inside a goal (its start, ``advance``, feedback or result) ends it ABORTED
@@ -47,15 +47,10 @@ from feeder_planner.node_kit.services import request_queue_depth
 if TYPE_CHECKING:
     from feeder_device.device import ManagedDevice
 
-__all__ = ["CANCEL_POLL", "DeviceGoal", "RunningGoal", "deadline_ns", "serve_goal"]
+__all__ = ["CANCEL_POLL", "DeviceGoal", "RunningGoal", "serve_goal"]
 
 # Steady-clock period (s) at which a goal notices a cancel while the node clock is held (no ticks).
 CANCEL_POLL = 0.05
-
-
-def deadline_ns(start_ns: int, timeout_s: float) -> int:
-    """Return the node-clock instant (ns) a goal started at ``start_ns`` times out, 0 for no timeout."""
-    return start_ns + int(round(timeout_s * 1e9)) if timeout_s > 0 else 0
 
 
 class DeviceGoal(Protocol):
@@ -133,7 +128,7 @@ class RunningGoal:
 
 
 Validate = Callable[[Any], None]
-Start = Callable[[Any], DeviceGoal]
+Start = Callable[[ServerGoalHandle], DeviceGoal]
 
 
 def serve_goal(
@@ -141,8 +136,9 @@ def serve_goal(
 ) -> ActionServer:
     """Create the device's action server ``name`` (a private name such as ``~/feed_part``).
 
-    ``validate(goal)`` raises a ``FeederError`` naming the bad field; ``start(goal)`` returns the
-    ``DeviceGoal`` of an accepted goal, its machine started at the node clock's now. The action's result
+    ``validate(goal)`` raises a ``FeederError`` naming the bad field; ``start(handle)`` returns the
+    ``DeviceGoal`` of an accepted goal (its request is ``handle.request``), its machine started at the
+    node clock's now. The action's result
     must have the fields ``outcome``, ``outcome_name``, ``message`` and a ``FAULT`` outcome (the guard's).
     """
     # Counted from acceptance, not from execution: two goals sent together must not both be accepted.
@@ -164,7 +160,7 @@ def serve_goal(
         running: RunningGoal | None = None
         poll = None
         try:
-            running = RunningGoal(device, name, start(handle.request), handle)
+            running = RunningGoal(device, name, start(handle), handle)
             device.goals.append(running)
             device.publish_status()
             poll = device.create_timer(
@@ -253,7 +249,7 @@ class _Failed:
         return ()
 
     def result(self) -> tuple[str, Any]:
-        """The guard's result stands."""
+        """Return nothing: the guard's result stands."""
         return "abort", None
 
 

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Generic, TypeVar
 
+from feeder_device.declarations import deadline_ns
 from feeder_planner.errors import InputError
 
 __all__ = [
@@ -148,7 +149,7 @@ class FeedGoal(Generic[Event]):
     ) -> None:
         self.request = request
         self.start_ns = start_ns
-        self.deadline_ns = start_ns + round(request.timeout * 1e9) if request.timeout > 0 else None
+        self.deadline_ns = deadline_ns(start_ns, request.timeout)
         self.throws = 0
         self.reports: list[ThrowReport[Event]] = []
         self.outcome: FeedOutcome | None = None
