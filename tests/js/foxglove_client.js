@@ -159,6 +159,18 @@ const commands = {
     return await until(`answer to call ${callId} of ${name}`, () => state.responses.get(callId), timeout);
   },
 
+  // A service call by id, as a client that guesses ids would send it (to see the refusal).
+  async callById({ serviceId, request, timeout }) {
+    const callId = state.nextCallId++;
+    state.client.sendServiceCallRequest({
+      serviceId,
+      callId,
+      encoding: "cdr",
+      data: new Uint8Array(Buffer.from(request, "base64")),
+    });
+    return await until(`answer to call ${callId} of service ${serviceId}`, () => state.responses.get(callId), timeout);
+  },
+
   async getParameters({ names, requestId, timeout }) {
     state.client.getParameters(names, requestId);
     const values = await until(

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from feeder_cell.bag import types
 
-__all__ = ["SCHEMA_ALIASES", "schema_of"]
+__all__ = ["SCHEMA_ALIASES", "schema_of", "service_schemas"]
 
 # Types advertised under another name with the same fields and bytes: our stand-in for tf2_msgs (see
 # feeder_planner.node_kit.tf) is the standard TFMessage to Foxglove, whose 3D panel then uses the frames.
@@ -24,3 +24,16 @@ def schema_of(type_name: str) -> tuple[str, str] | None:
         return name, types.connection_definition(source)[0]  # also service event and action feedback types
     except Exception:  # noqa: BLE001 -- rosbags raises several unrelated errors for a type it cannot describe
         return None
+
+
+def service_schemas(service_type: str) -> tuple[str, str] | None:
+    """Return the ros2msg definitions of a service type's request and response, or None.
+
+    A ``pkg/srv/Name`` service is described as the ROS foxglove_bridge describes it: its two halves
+    ``pkg/srv/Name_Request`` and ``pkg/srv/Name_Response``, each a message definition with its nested types.
+    """
+    request = schema_of(f"{service_type}_Request")
+    response = schema_of(f"{service_type}_Response")
+    if request is None or response is None:
+        return None
+    return request[1], response[1]

@@ -3,10 +3,17 @@
 from __future__ import annotations
 
 import argparse
+import math
+import re
 import sys
 from typing import Any
 
-from feeder_cell.bridge.defaults import DEFAULT_ADDRESS, DEFAULT_PORT
+from feeder_cell.bridge.defaults import (
+    DEFAULT_ADDRESS,
+    DEFAULT_CLIENT_TOPICS,
+    DEFAULT_PORT,
+    DEFAULT_SERVICE_TIMEOUT,
+)
 from feeder_cell.ros_session import with_node
 from feeder_planner.errors import FeederError, InputError
 
@@ -22,6 +29,26 @@ def _port(text: str) -> int:
     return value
 
 
+def _pattern(text: str) -> str:
+    """Argparse type: a regular expression a whole topic name must match."""
+    try:
+        re.compile(text)
+    except re.error as error:
+        raise argparse.ArgumentTypeError(f"not a regular expression: {error}") from None
+    return text
+
+
+def _seconds(text: str) -> float:
+    """Argparse type: a positive, finite number of seconds."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, got {text}")
+    return value
+
+
 def _run(args: argparse.Namespace) -> int:
     from feeder_cell.bridge.server import GraphBridge
 
@@ -30,11 +57,19 @@ def _run(args: argparse.Namespace) -> int:
 
     def work(node: Any, executor: Any, keep_going: Any) -> int:
         try:
-            bridge = GraphBridge(node, args.address, args.port)
-        except RuntimeError as error:  # foxglove-sdk: the address cannot be bound
+            bridge = GraphBridge(
+                node,
+                args.address,
+                args.port,
+                read_only=args.read_only,
+                client_topics=tuple(args.client_topic or DEFAULT_CLIENT_TOPICS),
+                service_timeout=args.service_timeout,
+            )
+        except OSError as error:  # the address cannot be bound (in use, not this machine's)
             raise FeederError(f"cannot serve ws://{args.address}:{args.port}: {error}") from None
         # The line a user (and a test) waits for: where to point Foxglove.
-        sys.stdout.write(f"feeder bridge: serving ws://{args.address}:{bridge.port} (Ctrl-C stops)\n")
+        mode = " read-only" if args.read_only else ""
+        sys.stdout.write(f"feeder bridge: serving ws://{args.address}:{bridge.port}{mode} (Ctrl-C stops)\n")
         sys.stdout.flush()
         try:
             while keep_going():
@@ -51,9 +86,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "bridge",
         help="serve the live ROS graph to Foxglove (Foxglove WebSocket protocol)",
-        description="Serve every topic of the ROS graph (this ROS_DOMAIN_ID) as a Foxglove WebSocket channel "
-        "with its ros2msg schema and raw CDR messages; topics appear as they are discovered (checked every "
-        "second) and vanish with their publishers. In Foxglove: Open connection, Foxglove WebSocket, "
+        description="Serve the ROS graph (this ROS_DOMAIN_ID) over the Foxglove WebSocket protocol, under "
+        "both subprotocol names (foxglove.websocket.v1 and foxglove.sdk.v1) on one port: every topic a "
+        "channel with its ros2msg schema and raw CDR messages (checked every second; topics vanish with "
+        "their publishers); "
+        "every service callable (capability services); node parameters read, set and followed (parameters, "
+        "parametersSubscribe, names /node.parameter); publishing from the app on allowed topics "
+        "(clientPublish); the connection graph (connectionGraph); and, for a client that connects while a "
+        "cell clock publishes /clock, cell time (time). In Foxglove: Open connection, Foxglove WebSocket, "
         "ws://ADDRESS:PORT. Runs until Ctrl-C; exit 1 when the address cannot be served.",
     )
     parser.add_argument(
@@ -64,5 +104,27 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         type=_port,
         default=DEFAULT_PORT,
         help=f"TCP port (default {DEFAULT_PORT}; 0: any free port)",
+    )
+    parser.add_argument(
+        "--read-only",
+        action="store_true",
+        help="refuse clients everything that acts: service calls, parameter sets and publishing (topics, "
+        "parameters and the graph stay readable)",
+    )
+    parser.add_argument(
+        "--client-topic",
+        action="append",
+        type=_pattern,
+        metavar="REGEX",
+        help="a topic clients may publish on, as a regular expression the whole name matches; repeat for "
+        "more; replaces the default, the command topics (last name segment command, commands or cmd, alone "
+        f"or joined with underscores, e.g. /cell/station/command, /cmd_vel): {DEFAULT_CLIENT_TOPICS[0]}",
+    )
+    parser.add_argument(
+        "--service-timeout",
+        type=_seconds,
+        default=DEFAULT_SERVICE_TIMEOUT,
+        metavar="SECONDS",
+        help=f"a service call without a response after this fails (default {DEFAULT_SERVICE_TIMEOUT:g} s)",
     )
     parser.set_defaults(handler=_run)

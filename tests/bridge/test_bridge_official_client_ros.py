@@ -1,0 +1,510 @@
+"""Over DDS: `feeder bridge` driven by the official Foxglove client, under both subprotocol names.
+
+The client is @foxglove/ws-protocol (the Foxglove WebSocket protocol's own TypeScript client, pinned in
+tests/js/package-lock.json and installed there by `make setup` with npm ci) on Node.js, with the `ws`
+package as its WebSocket. tests/js/foxglove_client.js drives it one JSON line at a time; the payloads come
+back as base64 and are decoded here with rclpy. Every test runs once offering ``foxglove.websocket.v1``
+(the published specification's name, which ws-protocol, Lichtblick and the ROS foxglove_bridge's clients
+offer) and once offering ``foxglove.sdk.v1`` (the Foxglove SDK's name for the same messages).
+
+One throwing arm for the module, under /fox, active and at rest with its sensor under the part (the bit
+reads true), and one bridge process; the read-only bridge has a module of its own below.
+"""
+
+from __future__ import annotations
+
+import base64
+import itertools
+import json
+import os
+import queue
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Any, Iterator
+
+import pytest
+
+pytestmark = pytest.mark.ros
+
+ROOT = Path(__file__).resolve().parents[2]
+JS = ROOT / "tests" / "js"
+EXAMPLES = ROOT / "examples"
+TRIANGLE = EXAMPLES / "throwing" / "triangle.yaml"
+EDGE, RADIUS = 1, 0.12  # at rest there, a sensor at x = R reads true
+NS = "/fox"
+ARM = f"{NS}/throwing_arm"
+STATION_COMMAND = f"{NS}/station/command"  # a command topic: in the default client-publish allow-list
+SUBPROTOCOLS = ("foxglove.websocket.v1", "foxglove.sdk.v1")
+TIMEOUT = 30.0  # s: generous, for a loaded two-core CI machine
+FAULT_MOTOR, IDLE, FAULT = 101, 1, 4
+
+
+# --- the official client ------------------------------------------------------------------------------
+def require_official_client() -> None:
+    """Fail, naming the cause, unless Node.js and the pinned @foxglove/ws-protocol are installed."""
+    pinned = json.loads((JS / "package.json").read_text())["dependencies"]["@foxglove/ws-protocol"]
+    if shutil.which("node") is None:
+        raise AssertionError("Node.js (node) is not on PATH: the official Foxglove client runs on it")
+    installed = JS / "node_modules" / "@foxglove" / "ws-protocol" / "package.json"
+    if installed.is_file() and json.loads(installed.read_text())["version"] == pinned:
+        return
+    log = JS / "npm-ci.log"
+    said = log.read_text().strip().splitlines()[-3:] if log.is_file() else ["(no tests/js/npm-ci.log)"]
+    registry = subprocess.run(
+        ["npm", "config", "get", "registry"], capture_output=True, text=True, timeout=60, check=False
+    ).stdout.strip()
+    ping = subprocess.run(["npm", "ping"], capture_output=True, text=True, timeout=120, check=False, cwd=JS)
+    reach = (
+        "reachable"
+        if ping.returncode == 0
+        else f"NOT reachable: {(ping.stderr or ping.stdout).strip().splitlines()[-1:]}"
+    )
+    raise AssertionError(
+        f"@foxglove/ws-protocol {pinned} is not installed in tests/js (make setup installs it with npm ci "
+        f"from the npm registry): npm registry {registry} is {reach}; npm ci said: {' | '.join(said)}"
+    )
+
+
+class OfficialClient:
+    """tests/js/foxglove_client.js in a Node.js process: one request line, one answer line."""
+
+    def __init__(self, url: str, subprotocol: str) -> None:
+        self.log = tempfile.NamedTemporaryFile("w+", prefix="foxglove-client-", suffix=".log")  # noqa: SIM115
+        self.process = subprocess.Popen(
+            ["node", str(JS / "foxglove_client.js")],
+            cwd=JS,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=self.log,
+            text=True,
+        )
+        self.answers: queue.Queue[dict[str, Any]] = queue.Queue()
+        threading.Thread(target=self._read, daemon=True).start()
+        self.ids = itertools.count(1)
+        connected = self.request("connect", url=url, subprotocol=subprotocol)
+        self.server_info, self.protocol = connected["serverInfo"], connected["protocol"]
+
+    def _read(self) -> None:
+        for line in self.process.stdout or []:
+            self.answers.put(json.loads(line))
+
+    def request(self, cmd: str, timeout: float = TIMEOUT, **fields: Any) -> dict[str, Any]:
+        """Send one command; return its answer, or fail with what the client said."""
+        request_id = next(self.ids)
+        assert self.process.stdin is not None
+        self.process.stdin.write(
+            json.dumps({"id": request_id, "cmd": cmd, "timeout": timeout, **fields}) + "\n"
+        )
+        self.process.stdin.flush()
+        try:
+            answer = self.answers.get(timeout=timeout + 10.0)
+        except queue.Empty:
+            self.log.seek(0)
+            raise AssertionError(
+                f"the client did not answer {cmd}; its log: {self.log.read()[-2000:]}"
+            ) from None
+        assert answer["id"] == request_id, answer
+        if not answer["ok"]:
+            raise AssertionError(f"{cmd}: {answer['error']}")
+        return answer
+
+    def close(self) -> None:
+        if self.process.poll() is None:
+            assert self.process.stdin is not None
+            self.process.stdin.close()  # the driver closes the connection and exits
+            try:
+                self.process.wait(timeout=10.0)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait(timeout=10.0)
+
+    # Conveniences over request().
+    def subscribe(self, topic: str) -> int:
+        return int(self.request("subscribe", topic=topic)["subscription"])
+
+    def messages(self, subscription: int, count: int, since: int = 0) -> list[bytes]:
+        answer = self.request("messages", subscription=subscription, count=count, since=since)
+        return [base64.b64decode(m["data"]) for m in answer["messages"]]
+
+    def stamps(self, subscription: int, count: int, since: int = 0) -> list[int]:
+        answer = self.request("messages", subscription=subscription, count=count, since=since)
+        return [int(m["timestamp"]) for m in answer["messages"]]
+
+    def statuses(self, since: int, contains: str) -> list[str]:
+        return [s["message"] for s in self.request("statuses", since=since, contains=contains)["statuses"]]
+
+    def mark(self) -> dict[str, int]:
+        return self.request("mark")
+
+
+def cdr(message: Any) -> str:
+    from rclpy.serialization import serialize_message
+
+    return base64.b64encode(serialize_message(message)).decode()
+
+
+def decoded(data: bytes | str, msg_type: Any) -> Any:
+    from rclpy.serialization import deserialize_message
+
+    return deserialize_message(base64.b64decode(data) if isinstance(data, str) else data, msg_type)
+
+
+class BridgeProcess:
+    """`feeder bridge --port 0 ARGS` as a child process; its first stdout line says where it serves."""
+
+    def __init__(self, *args: str) -> None:
+        command = [sys.executable, "-m", "feeder_cell.cli.main", "bridge", "--port", "0", *args]
+        self.log = tempfile.NamedTemporaryFile("w+", prefix="feeder-bridge-", suffix=".log")  # noqa: SIM115
+        self.process = subprocess.Popen(
+            command, stdout=subprocess.PIPE, stderr=self.log, text=True, env=dict(os.environ)
+        )
+        lines: queue.Queue[str] = queue.Queue()
+        threading.Thread(
+            target=lambda: [lines.put(x) for x in self.process.stdout or []], daemon=True
+        ).start()
+        try:
+            line = lines.get(timeout=TIMEOUT)
+        except queue.Empty:
+            self.stop()
+            raise AssertionError(f"feeder bridge printed nothing in {TIMEOUT} s: {self.output()}") from None
+        assert line.startswith("feeder bridge: serving ws://127.0.0.1:"), line  # loopback unless told
+        self.url = line.split()[3]
+
+    def output(self) -> str:
+        self.log.seek(0)
+        return self.log.read()[-4000:]
+
+    def stop(self) -> int:
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGINT)
+            try:
+                return self.process.wait(timeout=10.0)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+        return self.process.wait(timeout=10.0)
+
+
+@pytest.fixture(scope="module")
+def arm(launch_module_node: Any) -> None:
+    launch_module_node(
+        "feeder_sim",
+        "throwing_arm",
+        {
+            "part_file": str(TRIANGLE),
+            "offset": -0.005,
+            "release_speed": 5.585,
+            "gravity": -9.66,
+            "mu": 0.5,
+            "initial_edge": EDGE,
+            "initial_radius": RADIUS,
+            "sensor_radius": RADIUS,
+            "sensing_height": 0.001,
+            "marker_rate": 10.0,
+        },
+        namespace=NS,
+        wait_topics=(f"{ARM}/markers", f"{ARM}/sensor", f"{ARM}/status"),
+        wait_services=(f"{ARM}/inject_fault", f"{ARM}/set_parameters"),
+    )
+
+
+@pytest.fixture(scope="module")
+def bridge(arm: None) -> Iterator[BridgeProcess]:
+    require_official_client()
+    process = BridgeProcess()
+    yield process
+    assert process.stop() == 0, process.output()  # Ctrl-C ends it cleanly
+
+
+@pytest.fixture(params=SUBPROTOCOLS)
+def client(request: pytest.FixtureRequest, bridge: BridgeProcess) -> Iterator[OfficialClient]:
+    official = OfficialClient(bridge.url, request.param)
+    try:
+        assert official.protocol == request.param  # the bridge accepted the name the client offered
+        yield official
+    finally:
+        errors = official.request("errors")
+        official.close()
+        assert bridge.process.poll() is None, f"the bridge ended: {bridge.output()}"
+        assert errors["errors"] == [], errors  # the client could parse everything the bridge sent
+
+
+# --- topics ---------------------------------------------------------------------------------------------
+def test_client_decodes_the_arm_markers_and_the_sensor_bit(client: OfficialClient) -> None:
+    from std_msgs.msg import Bool
+    from visualization_msgs.msg import MarkerArray
+
+    from feeder_planner.node_kit.msg_markers import STYLES
+
+    info = client.server_info
+    assert set(info["capabilities"]) == {
+        "parameters",
+        "parametersSubscribe",
+        "connectionGraph",
+        "services",
+        "clientPublish",
+    }  # no time: no cell clock runs
+    assert info["supportedEncodings"] == ["cdr"] and info["metadata"]["ROS_DISTRO"] == "jazzy"
+    markers = client.request("subscribe", topic=f"{ARM}/markers")
+    assert markers["channel"]["schemaName"] == "visualization_msgs/msg/MarkerArray"
+    assert (markers["channel"]["encoding"], markers["channel"]["schemaEncoding"]) == ("cdr", "ros2msg")
+    sensor = client.subscribe(f"{ARM}/sensor")
+    bits = [decoded(m, Bool).data for m in client.messages(sensor, 3)]
+    assert bits and all(bits)
+    arrays = [decoded(m, MarkerArray) for m in client.messages(markers["subscription"], 2)]
+    drawn = [m for a in arrays for m in a.markers if m.ns == "sensor" and m.action == m.ADD]
+    assert drawn and all(m.header.frame_id == "fox/arm_pivot" for m in drawn)
+    color = drawn[0].color
+    assert (color.r, color.g, color.b, color.a) == pytest.approx(STYLES["sensor_on"])
+    # Wall-clock receive stamps (no cell clock): within this test's lifetime.
+    stamps = client.stamps(sensor, 3)
+    assert all(abs(s - time.time_ns()) < 60 * 10**9 for s in stamps)
+
+
+# --- services -------------------------------------------------------------------------------------------
+def test_client_injects_a_fault_and_sees_it_in_the_status(client: OfficialClient) -> None:
+    from feeder_msgs.srv import InjectFault
+
+    services = client.request("services", names=[f"{ARM}/inject_fault", f"{ARM}/reset"])["services"]
+    inject = services[f"{ARM}/inject_fault"]
+    assert inject["type"] == "feeder_msgs/srv/InjectFault"
+    assert inject["request"]["schemaName"] == "feeder_msgs/srv/InjectFault_Request"
+    assert (
+        inject["request"]["schemaEncoding"] == "ros2msg" and "string fault\n" in inject["request"]["schema"]
+    )
+    assert "string[] active_faults" in inject["response"]["schema"]
+    status = client.subscribe(f"{ARM}/status")
+    seen = len(client.messages(status, 1))  # the latched status first
+    answer = client.request(
+        "call", name=f"{ARM}/inject_fault", request=cdr(InjectFault.Request(fault="motor_fault"))
+    )
+    response = decoded(answer["response"], InjectFault.Response)
+    try:
+        assert response.ok and "motor_fault" in " ".join(response.active_faults), response
+        faulted = wait_status(client, status, seen, lambda s: s.state == FAULT)
+        assert faulted.fault_code == FAULT_MOTOR and "motor_fault" in faulted.fault_text
+    finally:
+        cleared = client.request(
+            "call",
+            name=f"{ARM}/inject_fault",
+            request=cdr(InjectFault.Request(fault="motor_fault", clear=True)),
+        )
+        assert decoded(cleared["response"], InjectFault.Response).ok
+    wait_status(client, status, seen, lambda s: s.state == IDLE and s.fault_code == 0)
+    # A request that is not the service's CDR is answered with a failure naming the payload.
+    failure = client.request(
+        "call", name=f"{ARM}/inject_fault", request=base64.b64encode(b"\x00\x01").decode()
+    )
+    assert "payload: not a CDR feeder_msgs/srv/InjectFault_Request" in failure["failure"], failure
+
+
+def wait_status(client: OfficialClient, subscription: int, since: int, accept: Any) -> Any:
+    """Return the first DeviceStatus from message ``since`` on that ``accept`` takes, waiting for it."""
+    from feeder_msgs.msg import DeviceStatus
+
+    deadline = time.monotonic() + TIMEOUT
+    index = since
+    while time.monotonic() < deadline:
+        for data in client.messages(subscription, 1, since=index):
+            index += 1
+            status = decoded(data, DeviceStatus)
+            if accept(status):
+                return status
+    raise AssertionError(f"no accepted status within {TIMEOUT} s")
+
+
+def test_service_call_answers_the_nodes_own_refusal(client: OfficialClient) -> None:
+    from lifecycle_msgs.srv import GetState
+
+    from feeder_msgs.srv import ArmCommand
+
+    # A command the arm refuses: the node's response, ok false and its reason, travels back unchanged.
+    answer = client.request("call", name=f"{ARM}/command", request=cdr(ArmCommand.Request(command="juggle")))
+    response = decoded(answer["response"], ArmCommand.Response)
+    assert not response.ok and "juggle" in response.error, response
+    # Lifecycle and parameter services are services of the cell too.
+    state = client.request("call", name=f"{ARM}/get_state", request=cdr(GetState.Request()))
+    assert decoded(state["response"], GetState.Response).current_state.label == "active"
+
+
+# --- parameters -----------------------------------------------------------------------------------------
+def test_client_sets_a_runtime_parameter_and_reads_it_back(client: OfficialClient) -> None:
+    name = f"{ARM}.marker_rate"
+    before = client.request("getParameters", names=[name], requestId="before")["parameters"]
+    assert before == [{"name": name, "value": 10.0, "type": "float64"}]
+    client.request("subscribeParameterUpdates", names=[name])
+    mark = client.mark()
+    try:
+        # A JSON 7 (what a JavaScript client sends for 7.0) is set as the double the node declared.
+        after = client.request("setParameters", parameters=[{"name": name, "value": 7}], requestId="set")
+        assert after["parameters"] == [{"name": name, "value": 7.0, "type": "float64"}]
+        again = client.request("getParameters", names=[name], requestId="again")["parameters"]
+        assert again == [{"name": name, "value": 7.0, "type": "float64"}]
+        updates = client.request("parameterUpdates", since=mark["parameterValues"], name=name)["parameters"]
+        assert {"name": name, "value": 7.0, "type": "float64"} in updates
+        # Refusals in the node's own words, one line each; the values stay.
+        refused = client.request(
+            "setParameters",
+            parameters=[{"name": f"{ARM}.gravity", "value": -1.0}, {"name": name, "value": -3.0}],
+            requestId="refused",
+        )["parameters"]
+        assert {p["name"]: p["value"] for p in refused} == {f"{ARM}.gravity": -9.66, name: 7.0}
+        lines = client.statuses(mark["statuses"], "Trying to set a read-only parameter: gravity")
+        assert any(line.startswith(f"setParameters: {ARM}.marker_rate: ") for line in lines), lines
+        assert all("\n" not in line for line in lines)
+        # A value of the wrong type names the field, the parameter and its declared type.
+        client.request("setParameters", parameters=[{"name": name, "value": "fast"}], requestId="typed")
+        lines = client.statuses(mark["statuses"], "parameters[0].value")
+        assert any(f"{name} is a double: must be a number" in line for line in lines), lines
+    finally:
+        restored = client.request(
+            "setParameters", parameters=[{"name": name, "value": 10.0}], requestId="restore"
+        )
+        assert restored["parameters"] == [{"name": name, "value": 10.0, "type": "float64"}]
+
+
+def test_all_parameters_of_every_node_are_listed(client: OfficialClient) -> None:
+    everything = client.request("getParameters", names=[], requestId="all")["parameters"]
+    names = {p["name"] for p in everything}
+    assert {f"{ARM}.part_file", f"{ARM}.fidelity", f"{ARM}.marker_rate", f"{ARM}.use_sim_time"} <= names
+    assert not any(n.startswith("/feeder_bridge.") for n in names)  # the bridge's own are not the cell's
+    by_name = {p["name"]: p for p in everything}
+    assert by_name[f"{ARM}.part_file"]["value"] == str(TRIANGLE)
+    assert by_name[f"{ARM}.use_sim_time"]["value"] is False
+
+
+# --- publishing -----------------------------------------------------------------------------------------
+def test_client_publishes_on_a_command_topic_and_is_refused_a_sensor(
+    client: OfficialClient, ros_client: Any, listen: Any
+) -> None:
+    from std_msgs.msg import Bool, String
+
+    commands = listen(String, STATION_COMMAND)
+    text = f"hello over {client.protocol}"
+    channel = client.request("advertise", topic=STATION_COMMAND, schemaName="std_msgs/msg/String")[
+        "channelId"
+    ]
+    client.request("publish", channelId=channel, data=cdr(String(data=text)))
+    assert commands.wait(lambda m: m.data == text, TIMEOUT).data == text
+    client.request("unadvertise", channelId=channel)
+    # The arm's sensor bit is no command: a viewer may not forge it.
+    mark = client.mark()
+    forged = client.request("advertise", topic=f"{ARM}/sensor", schemaName="std_msgs/msg/Bool")["channelId"]
+    lines = client.statuses(mark["statuses"], "allow-list")
+    assert any(
+        line.startswith("advertise: channels[0].topic: /fox/throwing_arm/sensor is not in the client-publish")
+        for line in lines
+    ), lines
+    client.request("publish", channelId=forged, data=cdr(Bool(data=False)))
+    lines = client.statuses(mark["statuses"], f"channel {forged}")
+    assert any("it was not advertised, or was refused" in line for line in lines), lines
+    writers = {i.node_name for i in ros_client.get_publishers_info_by_topic(f"{ARM}/sensor")}
+    assert writers == {"throwing_arm"}
+
+
+# --- the graph and the clock ----------------------------------------------------------------------------
+def test_connection_graph_names_the_arm(client: OfficialClient) -> None:
+    client.request("subscribeConnectionGraph")
+    update = client.request("graph")["updates"][0]
+    published = {t["name"]: t["publisherIds"] for t in update["publishedTopics"]}
+    assert published[f"{ARM}/sensor"] == [ARM]
+    services = {s["name"]: s["providerIds"] for s in update["advertisedServices"]}
+    assert services[f"{ARM}/inject_fault"] == [ARM]
+    assert update["removedTopics"] == [] and update["removedServices"] == []
+
+
+def test_a_client_that_connects_while_a_cell_clock_runs_follows_it(
+    bridge: BridgeProcess, ros_client: Any
+) -> None:
+    from rosgraph_msgs.msg import Clock
+
+    base = 1000 * 10**9
+    publisher = ros_client.create_publisher(Clock, "/clock", 10)
+    ticking = threading.Event()
+    sent: list[int] = []
+
+    def tick() -> None:
+        step = 0
+        while not ticking.is_set():
+            stamp = base + step * 10**7  # 10 ms of cell time per 20 ms of wall time
+            publisher.publish(Clock(clock=_time_msg(stamp)))
+            sent.append(stamp)
+            step += 1
+            time.sleep(0.02)
+
+    thread = threading.Thread(target=tick, daemon=True)
+    thread.start()
+    try:
+        for subprotocol in SUBPROTOCOLS:
+            official = connect_when(bridge.url, subprotocol, lambda info: "time" in info["capabilities"])
+            try:
+                times = [int(t) for t in official.request("times", count=5)["times"]]
+                assert all(base <= t <= sent[-1] for t in times) and times == sorted(times)
+                sensor = official.subscribe(f"{ARM}/sensor")
+                stamps = official.stamps(sensor, 3)
+                assert all(base <= s <= sent[-1] for s in stamps), stamps  # cell time, not wall time
+            finally:
+                official.close()
+    finally:
+        ticking.set()
+        thread.join()
+        ros_client.destroy_publisher(publisher)
+    # Once the clock is gone, a new client keeps wall time again.
+    official = connect_when(bridge.url, SUBPROTOCOLS[0], lambda info: "time" not in info["capabilities"])
+    official.close()
+
+
+def _time_msg(stamp_ns: int) -> Any:
+    from builtin_interfaces.msg import Time
+
+    return Time(sec=stamp_ns // 10**9, nanosec=stamp_ns % 10**9)
+
+
+def connect_when(url: str, subprotocol: str, accept: Any) -> OfficialClient:
+    """Connect until the server info is what ``accept`` wants (the bridge looks at the graph each second)."""
+    deadline = time.monotonic() + TIMEOUT
+    while True:
+        official = OfficialClient(url, subprotocol)
+        if accept(official.server_info):
+            return official
+        official.close()
+        assert time.monotonic() < deadline, f"server info never accepted: {official.server_info}"
+        time.sleep(0.5)
+
+
+# --- read-only ------------------------------------------------------------------------------------------
+def test_a_read_only_bridge_refuses_everything_that_acts(arm: None, ros_client: Any) -> None:
+    from feeder_msgs.srv import InjectFault
+
+    require_official_client()
+    read_only = BridgeProcess("--read-only")
+    try:
+        for subprotocol in SUBPROTOCOLS:
+            official = OfficialClient(read_only.url, subprotocol)
+            try:
+                capabilities = set(official.server_info["capabilities"])
+                assert capabilities == {"parameters", "parametersSubscribe", "connectionGraph"}
+                sensor = official.subscribe(f"{ARM}/sensor")  # reading still works
+                assert len(official.messages(sensor, 1)) == 1
+                mark = official.mark()
+                name = f"{ARM}.marker_rate"
+                values = official.request(
+                    "setParameters", parameters=[{"name": name, "value": 3.0}], requestId="ro"
+                )["parameters"]
+                assert values == [{"name": name, "value": 10.0, "type": "float64"}]
+                official.statuses(mark["statuses"], "setParameters: refused: the bridge is read-only")
+                official.request("advertise", topic=STATION_COMMAND, schemaName="std_msgs/msg/String")
+                official.statuses(mark["statuses"], "advertise: refused: the bridge is read-only")
+                failure = official.request(
+                    "callById", serviceId=1, request=cdr(InjectFault.Request(fault="motor_fault"))
+                )
+                assert failure["failure"] == "service call: refused: the bridge is read-only (--read-only)"
+            finally:
+                official.close()
+    finally:
+        assert read_only.stop() == 0, read_only.output()
