@@ -490,7 +490,7 @@ def test_a_read_only_bridge_refuses_everything_that_acts(arm: None, ros_client: 
                 capabilities = set(official.server_info["capabilities"])
                 assert capabilities == {"parameters", "parametersSubscribe", "connectionGraph"}
                 sensor = official.subscribe(f"{ARM}/sensor")  # reading still works
-                assert len(official.messages(sensor, 1)) == 1
+                assert official.messages(sensor, 1)  # at least one sample arrives
                 mark = official.mark()
                 name = f"{ARM}.marker_rate"
                 values = official.request(
