@@ -508,3 +508,200 @@ def test_a_read_only_bridge_refuses_everything_that_acts(arm: None, ros_client: 
                 official.close()
     finally:
         assert read_only.stop() == 0, read_only.output()
+
+
+# --- bad frames -----------------------------------------------------------------------------------------
+# Each bad frame is answered with one error line naming the operation and the field; the connection and
+# the bridge keep serving. (frame, what the one line must contain)
+BAD_FRAMES: list[tuple[str | bytes, str]] = [
+    ("not json", "text message: not JSON"),
+    ("[1, 2]", "text message: must be a JSON object with an op, got list"),
+    ("[" * 100_000, "text message: not JSON"),
+    ('{"foo": 1}', "op: missing"),
+    ('{"op": "launch"}', "op: unknown operation 'launch' (known: subscribe, unsubscribe,"),
+    ('{"op": "subscribe"}', "subscribe: subscriptions: missing"),
+    ('{"op": "subscribe", "subscriptions": {}}', "subscribe: subscriptions: must be an array, got {}"),
+    (
+        '{"op": "subscribe", "subscriptions": [{"id": "a", "channelId": 1}]}',
+        "subscribe: subscriptions[0].id: must be a whole number in [0, 4294967295], got 'a'",
+    ),
+    (
+        '{"op": "subscribe", "subscriptions": [{"id": 1, "channelId": -1}]}',
+        "subscribe: subscriptions[0].channelId: must be a whole number in [0, 4294967295], got -1",
+    ),
+    (
+        '{"op": "subscribe", "subscriptions": [{"id": 1, "channelId": 999999}]}',
+        "subscribe: subscriptions[0].channelId: no channel 999999 is advertised",
+    ),
+    ('{"op": "unsubscribe", "subscriptionIds": [42]}', "unsubscribe: subscriptionIds[0]: no subscription 42"),
+    ('{"op": "unadvertise", "channelIds": [7]}', "unadvertise: channelIds[0]: channel 7 is not advertised"),
+    (
+        '{"op": "getParameters", "parameterNames": ["/nobody.x"], "id": "g"}',
+        "getParameters: parameterNames[0]: no node /nobody takes parameter requests",
+    ),
+    (
+        '{"op": "getParameters", "parameterNames": ["/fox/throwing_arm.no_such"], "id": "g"}',
+        "getParameters: /fox/throwing_arm.no_such: the node has no such parameter",
+    ),
+    (
+        '{"op": "setParameters", "parameters": [{"name": "nodot", "value": 1}], "id": "s"}',
+        "setParameters: parameters[0].name: 'nodot' is not a parameter name (/node.name)",
+    ),
+    (
+        '{"op": "setParameters", "parameters": [{"name": "/a.b", "value": 1, "type": "int8"}]}',
+        "setParameters: parameters[0].type: must be one of byte_array, float64, float64_array, got 'int8'",
+    ),
+    (
+        '{"op": "advertise", "channels": [{"id": 1, "topic": "/a/command", "encoding": "json",'
+        ' "schemaName": "std_msgs/msg/String"}]}',
+        "advertise: channels[0].encoding: 'json' is not supported (only cdr)",
+    ),
+    (
+        '{"op": "advertise", "channels": [{"id": 2, "topic": "/a/command", "encoding": "cdr",'
+        ' "schemaName": "no_pkg/msg/Nope"}]}',
+        "advertise: channels[0].schemaName: 'no_pkg/msg/Nope' is not a ROS message type the bridge has",
+    ),
+    (
+        '{"op": "advertise", "channels": [{"id": 3, "topic": "/9a/command", "encoding": "cdr",'
+        ' "schemaName": "std_msgs/msg/String"}]}',
+        "advertise: channels[0].topic: ",
+    ),
+    ('{"op": "advertise", "channels": [{"id": 4}]}', "advertise: channels[0].topic: missing"),
+    (
+        '{"op": "fetchAsset", "uri": "package://x/y.stl", "requestId": 1}',
+        "fetchAsset: the bridge serves no assets",
+    ),
+    (b"", "binary message: empty"),
+    (b"\x07abc", "binary message: opcode: unknown opcode 0x07"),
+    (b"\x01\x00", "client message data: 2 byte(s), the header alone is 5"),
+    (
+        b"\x02" + bytes(8) + b"\xff\xff\x00\x00",
+        "service call request: encoding length: 65535 runs past the end",
+    ),
+    (b"\x01\x63\x00\x00\x00abc", "client message data: channel 99: it was not advertised, or was refused"),
+]
+
+
+async def bad_frames_session(url: str) -> list[tuple[str, list[dict[str, Any]]]]:
+    """Send each bad frame; return the statuses and failures each drew, then whether data still flows."""
+    import asyncio
+
+    import websockets
+
+    answers = []
+    async with websockets.connect(url, subprotocols=["foxglove.websocket.v1"], max_size=None) as ws:
+        channels: dict[str, int] = {}
+
+        async def drain(first: float, quiet: float) -> list[dict[str, Any]]:
+            """Return statuses and failures: the first within ``first`` s, then any until ``quiet`` s pass."""
+            got: list[dict[str, Any]] = []
+            deadline = time.monotonic() + first
+            while (remaining := deadline - time.monotonic()) > 0:
+                try:
+                    frame = await asyncio.wait_for(ws.recv(), remaining)
+                except TimeoutError:
+                    break
+                if isinstance(frame, bytes):
+                    continue
+                message = json.loads(frame)
+                if message["op"] == "advertise":
+                    channels.update({c["topic"]: c["id"] for c in message["channels"]})
+                elif message["op"] in ("status", "serviceCallFailure"):
+                    got.append(message)
+                    deadline = time.monotonic() + quiet  # a second line would follow at once
+            return got
+
+        await drain(1.0, 1.0)  # the greeting: server info and advertisements
+        for frame, _ in BAD_FRAMES:
+            await ws.send(frame)
+            answers.append((repr(frame)[:60], await drain(TIMEOUT, 0.3)))
+        # The same connection still serves: a subscription to the sensor delivers.
+        await ws.send(
+            json.dumps(
+                {"op": "subscribe", "subscriptions": [{"id": 5, "channelId": channels[f"{ARM}/sensor"]}]}
+            )
+        )
+        while not isinstance(frame := await asyncio.wait_for(ws.recv(), TIMEOUT), bytes):
+            pass
+        answers.append(("data after the bad frames", [{"opcode": frame[0], "subscription": frame[1]}]))
+    return answers
+
+
+def test_bad_frames_get_one_line_each_and_the_bridge_keeps_serving(bridge: BridgeProcess) -> None:
+    import asyncio
+
+    answers = asyncio.run(bad_frames_session(bridge.url))
+    for (frame, expected), (_, got) in zip(BAD_FRAMES, answers, strict=False):
+        lines = [m["message"] for m in got if m["op"] == "status" and m["level"] == 2]
+        assert len(lines) == 1 and expected in lines[0] and "\n" not in lines[0], (frame, lines)
+    assert answers[-1][1] == [{"opcode": 1, "subscription": 5}]
+    assert bridge.process.poll() is None, bridge.output()
+
+
+def test_bad_service_calls_are_answered_with_a_failure(bridge: BridgeProcess) -> None:
+    import asyncio
+
+    import websockets
+
+    async def session() -> list[str]:
+        async with websockets.connect(bridge.url, subprotocols=["foxglove.sdk.v1"]) as ws:
+            services: dict[str, int] = {}
+            while f"{ARM}/reset" not in services:
+                frame = await asyncio.wait_for(ws.recv(), TIMEOUT)
+                if isinstance(frame, str) and json.loads(frame)["op"] == "advertiseServices":
+                    services.update({s["name"]: s["id"] for s in json.loads(frame)["services"]})
+            calls = [
+                struct_call(99999, 1, "cdr", b""),
+                struct_call(services[f"{ARM}/reset"], 2, "json", b"{}"),
+            ]
+            failures = []
+            for call in calls:
+                await ws.send(call)
+                while True:
+                    frame = await asyncio.wait_for(ws.recv(), TIMEOUT)
+                    if isinstance(frame, str) and json.loads(frame)["op"] == "serviceCallFailure":
+                        failures.append(json.loads(frame))
+                        break
+            return [f"{f['callId']} {f['message']}" for f in failures]
+
+    assert asyncio.run(session()) == [
+        "1 service call request: serviceId: no service 99999 is advertised",
+        "2 service call request: encoding: 'json' is not supported (only cdr)",
+    ]
+
+
+def struct_call(service: int, call: int, encoding: str, payload: bytes) -> bytes:
+    """Return a Service Call Request frame."""
+    import struct
+
+    name = encoding.encode()
+    return struct.pack("<BIII", 2, service, call, len(name)) + name + payload
+
+
+@pytest.mark.parametrize(
+    ("offered", "said"),
+    [
+        (None, "missing subprotocol"),
+        (
+            ["foxglove.websocket.v2"],
+            "invalid subprotocol; expected one of foxglove.sdk.v1, foxglove.websocket.v1",
+        ),
+    ],
+)
+def test_a_client_without_either_subprotocol_is_told_which(
+    bridge: BridgeProcess, offered: list[str] | None, said: str
+) -> None:
+    import asyncio
+
+    import websockets
+    from websockets.exceptions import InvalidStatus
+
+    async def attempt() -> tuple[int, str]:
+        try:
+            async with websockets.connect(bridge.url, subprotocols=offered):  # type: ignore[arg-type]
+                return 101, ""
+        except InvalidStatus as refused:
+            return refused.response.status_code, refused.response.body.decode()
+
+    status, body = asyncio.run(attempt())
+    assert status == 400 and said in body, (status, body)
