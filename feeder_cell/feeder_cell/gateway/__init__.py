@@ -1,10 +1,13 @@
 """The OPC UA gateway for PLC cell controllers: devices over DDS exposed as OPC UA objects (asyncua).
 
-``config`` (parameters, security rules, the PackML mapping), ``layout`` (the address space as data),
-``arguments`` (method arguments checked, naming the argument) and ``users`` (salted password hashes) are
-ROS-free; ``server`` wires asyncua; ``ros_link`` is the ROS (DDS) side. The node:
+``spec`` (the types a device kind is described in) is the bottom; ``kinds`` holds one profile per device
+kind (``kinds.KINDS``: its signals and topics, its action method, arguments and goal, its counters from
+the device's own declaration); ``arguments`` (the shared argument readers, naming the argument),
+``layout`` (the address space as data: what every device has, plus its kind's profile), ``config``
+(parameters, security rules, the PackML mapping) and ``users`` (salted password hashes) need neither a
+node nor asyncua; ``server`` wires asyncua; ``ros_link`` is the ROS (DDS) side. The node:
 ``feeder_cell.nodes.opcua_gateway``.
 """
 
-# Import the submodules themselves (the ROS-free ones need neither rclpy nor asyncua).
+# Import the submodules themselves: the package alone loads neither asyncua nor rclpy.
 __all__: list[str] = []
