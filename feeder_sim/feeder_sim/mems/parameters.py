@@ -1,0 +1,170 @@
+"""The MEMS field array device's parameters, ROS-free: one declaration for the node, the scene and the docs.
+
+Each entry is a ``ParameterSpec`` (type by its default, meaning, check, read-only or runtime). The node
+declares them to rclpy with the display parameters of the node kit; the launcher's scene validation and
+the docs' parameter table read them from here without ROS.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from feeder_planner.mems import DELTA_MAX, DELTA_MIN
+from feeder_planner.parameter_specs import (
+    ParameterSpec,
+    in_range,
+    integer,
+    integer_at_least,
+    non_negative,
+    one_of,
+    positive,
+)
+from feeder_sim.mems.bodies import FIDELITIES
+from feeder_sim.mems.tolerances import DEFAULT_CELLS, DEFAULT_DAMPING, DEFAULT_FRICTION, DEFAULT_PITCH
+
+__all__ = ["MEMS_PARAMETERS", "BASE_FRAME", "AUTO_CATCH_UP_TICKS", "NANOSECONDS"]
+
+BASE_FRAME = "mems_array"
+NANOSECONDS = 1_000_000_000
+
+# max_steps_per_tick 0 means the steps of this many periods of the node clock, times the configured
+# real-time factor when it is above 1 (a fast cell clock advances in jumps of several periods): a tick
+# that comes late by up to three periods (a loaded 2-core machine) still catches up in full; anything
+# later is dropped and shows as steps_dropped and a lagging real-time factor.
+AUTO_CATCH_UP_TICKS = 4
+
+
+def _array_size(value: Sequence[object]) -> str | None:
+    """Check the array_size parameter: two integers > 0."""
+    ok = len(value) == 2 and all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in value)
+    return None if ok else f"must be two integers > 0 [nx, ny], got {list(value)!r}"
+
+
+def _time_step(value: Any) -> str | None:
+    """Check the time_step parameter: > 0 and at least one nanosecond (steps are counted in ns)."""
+    problem = positive(value)
+    if problem is None and round(value * NANOSECONDS) < 1:
+        problem = f"must be at least 1e-9 s, got {value!r}"
+    return problem
+
+
+MEMS_PARAMETERS = (
+    ParameterSpec(
+        "array_size",
+        list(DEFAULT_CELLS),
+        "number of actuator cells [nx, ny] of the array",
+        _array_size,
+        read_only=True,
+    ),
+    ParameterSpec(
+        "pitch",
+        DEFAULT_PITCH,
+        "side of one square actuator cell (m); the array is centred on the plane origin",
+        positive,
+        read_only=True,
+    ),
+    ParameterSpec(
+        "fidelity",
+        "ideal",
+        "force model: ideal (exact field integrals, quasi-static), array (cells at "
+        "the pitch, exact covered areas), dynamic (inertia, friction, collisions)",
+        one_of(FIDELITIES),
+        read_only=True,
+    ),
+    ParameterSpec(
+        "directions",
+        0,
+        "quantise cell forces to this many actuator directions (0: exact directions)",
+        integer_at_least(0),
+        read_only=True,
+    ),
+    ParameterSpec(
+        "part_files",
+        [""],
+        "part files (YAML, contract section 2); empty entries are ignored",
+        read_only=True,
+    ),
+    ParameterSpec(
+        "initial_poses",
+        [0.0],
+        "x, y, theta (m, m, rad) per part, flattened; [] or [0.0]: random poses "
+        "within placement_radius drawn with the seed",
+        read_only=True,
+    ),
+    ParameterSpec(
+        "placement_radius",
+        1e-3,
+        "radius (m) of the disc random initial positions are drawn in",
+        positive,
+        read_only=True,
+    ),
+    ParameterSpec(
+        "program_file",
+        "",
+        "field program YAML ({steps: [{field: {...}, duration: s}]}, metres); "
+        "empty: combined field delta = default_delta forever",
+        read_only=True,
+    ),
+    ParameterSpec(
+        "default_delta",
+        0.2,
+        "delta of the default combined field (0 <= delta < 1)",
+        in_range(DELTA_MIN, DELTA_MAX, include_high=False),
+        read_only=True,
+    ),
+    ParameterSpec(
+        "publish_rate",
+        20.0,
+        "rate (Hz of the node clock) of the physics ticks and the part state messages",
+        positive,
+        read_only=True,
+    ),
+    ParameterSpec(
+        "time_step",
+        2e-4,
+        "integration step (s of simulated time); a tick runs the whole steps of the node-clock time elapsed",
+        _time_step,
+        read_only=True,
+    ),
+    ParameterSpec(
+        "max_steps_per_tick",
+        0,
+        "most integration steps one tick runs (runtime); the rest of a late tick's time is dropped and "
+        f"counted as steps_dropped. 0: the steps of {AUTO_CATCH_UP_TICKS} periods times "
+        "max(1, real_time_factor)",
+        integer_at_least(0),
+    ),
+    ParameterSpec(
+        "damping",
+        DEFAULT_DAMPING,
+        "viscous surface drag per unit area (N s/m^3): v = F/(damping A); runtime: applied to the scene",
+        positive,
+    ),
+    ParameterSpec(
+        "friction",
+        DEFAULT_FRICTION,
+        "Coulomb friction coefficient with the surface, dynamic fidelity only (refused for the others); "
+        "runtime: applied to the running scene",
+        non_negative,
+    ),
+    ParameterSpec(
+        "seed",
+        0,
+        "seed of the random initial poses (the simulation itself is deterministic)",
+        integer,
+        read_only=True,
+    ),
+    ParameterSpec(
+        "frame_id",
+        "",
+        f"frame of the published poses (the plane frame); empty: {BASE_FRAME} under the node's namespace",
+        read_only=True,
+    ),
+    ParameterSpec(
+        "marker_force_stride",
+        0,
+        "~/markers draws the force of every k-th cell in each direction (0: no force vectors); runtime",
+        integer_at_least(0),
+    ),
+)
