@@ -44,11 +44,47 @@ def _reindex_hint(path: Path) -> str:
     return f"`feeder bag-reindex {path}` recovers it up to its last complete chunk"
 
 
+def _one_line(text: str) -> str:
+    """Collapse a multi-line library message (a YAML parser's caret drawing) into one line."""
+    return " ".join(text.split())
+
+
+def check_metadata_yaml(path: Path) -> None:
+    """Parse the bag's ``metadata.yaml``; a damaged one is refused in one line naming its line and column.
+
+    rosbags' own error repeats the YAML parser's multi-line message with a caret drawing; here the file,
+    the line and column (1-based) and the parser's problem come on one line, with the fix.
+    """
+    from ruamel.yaml import YAML
+    from ruamel.yaml.error import MarkedYAMLError, YAMLError
+
+    metapath = path / "metadata.yaml"
+    fix = f"`feeder bag-reindex {path}` writes it again from the MCAP files"
+    try:
+        text = metapath.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError("bag", f"{metapath}: not UTF-8 text (byte {exc.start}); {fix}") from None
+    except OSError as exc:
+        raise InputError("bag", f"{metapath} cannot be read: {exc.strerror}") from None
+    try:
+        document = YAML(typ="safe").load(text)
+    except MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        where = f"line {mark.line + 1} column {mark.column + 1}" if mark is not None else "somewhere"
+        problem = _one_line(" ".join(p for p in (exc.context, exc.problem) if p)) or "not valid YAML"
+        raise InputError("bag", f"{metapath}: {where}: {problem}; {fix}") from None
+    except YAMLError as exc:
+        raise InputError("bag", f"{metapath}: {_one_line(str(exc))}; {fix}") from None
+    if not isinstance(document, dict) or not isinstance(document.get("rosbag2_bagfile_information"), dict):
+        raise InputError("bag", f"{metapath}: line 1 column 1: no rosbag2_bagfile_information mapping; {fix}")
+
+
 def open_bag(path: Path) -> Reader:
     """Open a rosbag2 MCAP bag for reading; errors name the bag, and bag-reindex where it helps.
 
     A bag whose recording was killed has no ``metadata.yaml``, and an MCAP file cut short (killed,
-    truncated copy) has no summary: both are refused with what is wrong, never read half-way.
+    truncated copy) has no summary: both are refused with what is wrong, never read half-way. A damaged
+    ``metadata.yaml`` is refused in one line naming the YAML line and column.
     """
     if path.is_dir() and not (path / "metadata.yaml").exists() and any(path.glob("*.mcap")):
         raise InputError(
@@ -62,12 +98,16 @@ def open_bag(path: Path) -> Reader:
             f"{path}: {', '.join(incomplete)} ends without its MCAP summary (cut short while recording "
             f"or copying); {_reindex_hint(path)}",
         )
+    if path.is_dir() and (path / "metadata.yaml").is_file():
+        check_metadata_yaml(path)
     try:
         reader = Reader(path)
         reader.open()
     except Exception as exc:  # rosbags raises several error types for unreadable bags
         hint = f"; {_reindex_hint(path)}" if path.is_dir() and any(path.glob("*.mcap")) else ""
-        raise InputError("bag", f"{path} is not a readable rosbag2 bag: {exc}{hint}") from None
+        raise InputError(
+            "bag", f"{path} is not a readable rosbag2 bag: {_one_line(str(exc))}{hint}"
+        ) from None
     return reader
 
 

@@ -17,6 +17,15 @@ feedback and status (``<action>/_action/feedback``, ``<action>/_action/status``)
 (``max_bag_size``, ``max_bag_duration``) closes the current MCAP file with its summary and goes on in
 ``<bag>_<n>.mcap``; ``metadata.yaml`` lists every file. Compression is MCAP chunk compression (zstd or
 lz4): each chunk is compressed, so any MCAP reader decodes the files and crash safety is unchanged.
+The files are written as rosbag2 writes them (:mod:`feeder_cell.bag.writer`).
+
+Clock: log times are receive times on ``clock`` (wall time by default). With a node clock on sim time
+(``feeder record --use-sim-time``) they are cell times from ``/clock``, and nothing is subscribed, so
+nothing written, before the first ``/clock`` message, as rosbag2 does.
+
+Snapshot mode (``snapshot``): nothing is written as it arrives; messages go to a bounded cache and are
+written as a bag of their own under ``path`` on :meth:`Recorder.snapshot` or, with ``snapshot_on_fault``,
+when a device's ``~/status`` enters FAULT (:mod:`feeder_cell.bag.snapshot`).
 """
 
 from __future__ import annotations
@@ -33,11 +42,20 @@ from typing import Any, Callable, Iterable
 
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
-from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
-from rosbags.rosbag2.storage_mcap import McapWriter
 
 from feeder_cell.bag.qos import matching_qos, offered_qos, to_bag_qos
+from feeder_cell.bag.snapshot import (
+    MAX_PENDING,
+    Capture,
+    Entry,
+    FaultEdge,
+    SnapshotCache,
+    SnapshotWriter,
+    TopicInfo,
+    capture_name,
+)
 from feeder_cell.bag.types import connection_definition, is_known, message_class
+from feeder_cell.bag.writer import CHUNK_COMPRESSIONS, BagWriter, FileStats
 from feeder_planner.errors import InputError
 
 # Infrastructure topics every node has; recording them by default only adds noise.
@@ -53,7 +71,9 @@ SERVICE_EVENT_SUFFIX = "/_service_event"
 ACTION_TOPIC_SUFFIXES = ("/_action/feedback", "/_action/status")
 
 # MCAP chunk compressions the recorder writes (the names MCAP readers know).
-COMPRESSIONS = ("none", "zstd", "lz4")
+COMPRESSIONS = CHUNK_COMPRESSIONS
+
+DEVICE_STATUS_TYPE = "feeder_msgs/msg/DeviceStatus"
 
 
 def service_of(topic: str) -> str | None:
@@ -147,31 +167,6 @@ class Selection:
         return self.all_topics and topic not in DEFAULT_EXCLUDED
 
 
-class _SplitFile(McapWriter):
-    """rosbags' MCAP storage writing ``<bag>/<file_name>.mcap`` (McapWriter names it after its directory)."""
-
-    def __init__(self, bag: Path, compression: CompressionMode, file_name: str) -> None:
-        # Created in a directory of the wanted name and moved next to the bag's other files while open
-        # (a rename within the directory: the open descriptor follows it).
-        scratch = bag / file_name
-        scratch.mkdir()
-        super().__init__(scratch, compression)
-        target = bag / f"{file_name}.mcap"
-        os.replace(scratch / f"{file_name}.mcap", target)
-        scratch.rmdir()
-        self.path = target
-
-
-@dataclass
-class FileStats:
-    """One MCAP file of the bag: name, first and last receive time (ns) and message count."""
-
-    name: str
-    start: int = 0
-    end: int = 0
-    count: int = 0
-
-
 @dataclass
 class TopicStats:
     """Messages recorded on one topic."""
@@ -197,7 +192,8 @@ class Recorder:
     node
         The node to subscribe with; the caller spins it (the flusher does not need it spun).
     path
-        Bag directory to create; an existing path is refused.
+        Bag directory to create (in snapshot mode: the directory of the snapshot bags); an existing bag
+        is refused.
     topics
         Topics to record when no ``selection`` is given; empty: every topic except ``DEFAULT_EXCLUDED``
         and hidden ones (action internals, service events).
@@ -215,6 +211,16 @@ class Recorder:
         Per topic the subscription profile to use instead of the one learned from the publishers.
     paused
         Start paused: messages are received and dropped until :meth:`resume`.
+    clock
+        Log time source (ns); default wall time.
+    wait_for_clock
+        Subscribe only once ``clock`` reads more than 0: on sim time, after the first ``/clock`` message.
+    snapshot
+        Snapshot mode: cache messages (bounded by ``max_cache_size`` bytes and ``max_cache_duration``
+        seconds, 0 = that bound off) and write them as bags under ``path`` on :meth:`snapshot_now`.
+    snapshot_on_fault
+        Snapshot mode, and also write a bag when a device's ``~/status`` enters FAULT, with the messages
+        of the next ``post_fault`` seconds (on ``clock``).
     """
 
     node: Node
@@ -228,6 +234,13 @@ class Recorder:
     max_bag_duration: float = 0.0
     qos_overrides: dict[str, QoSProfile] = field(default_factory=dict)
     paused: bool = False
+    clock: Callable[[], int] = time.time_ns
+    wait_for_clock: bool = False
+    snapshot: bool = False
+    max_cache_size: int = 0
+    max_cache_duration: float = 0.0
+    snapshot_on_fault: bool = False
+    post_fault: float = 5.0
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.flush_interval) and self.flush_interval > 0):
@@ -246,44 +259,53 @@ class Recorder:
             raise InputError(
                 "max_bag_duration", f"must be a finite number of seconds >= 0, got {self.max_bag_duration}"
             )
+        if not (math.isfinite(self.post_fault) and self.post_fault >= 0):
+            raise InputError("post_fault", f"must be a finite number of seconds >= 0, got {self.post_fault}")
         if self.selection is None:
             self.selection = Selection(topics=self.topics, all_topics=not self.topics)
-        if self.path.exists():
-            raise InputError("output", f"{self.path} already exists; bags are never overwritten")
-        self._writer: Writer | None = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
-        if self.compression != "none":
-            # STORAGE is rosbags' MCAP chunk compression (zstd); lz4 swaps the chunk compressor below.
-            self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
-        self._writer.open()
-        # The chunk boundary is forced through the storage's own close_chunk (rosbags 0.11): fail here,
-        # not after a crash, if a rosbags version no longer has it.
-        storage = self._writer.storage
-        if not (hasattr(storage, "close_chunk") and hasattr(storage, "chunk") and hasattr(storage, "bio")):
-            self._writer.close()
-            raise RuntimeError("this rosbags version's MCAP writer cannot be flushed chunk by chunk")
-        self._set_compressor(storage)
-        # The header on disk at once: a recorder killed before its first flush leaves an MCAP file.
-        storage.bio.flush()
         self._lock = threading.Lock()
         self._sync_lock = threading.Lock()
         self._synced = 0  # file position the last fsync covered
         self._connections: dict[str, Any] = {}
+        self._topic_info: dict[str, TopicInfo] = {}
         self._offers: dict[str, _Offer] = {}
         self._subscriptions: dict[str, Any] = {}
         # Per topic the keys of the last SUBSCRIPTION_DEPTH samples written (oldest first, and as a set).
         self._seen: dict[str, tuple[deque[tuple[int, int]], set[tuple[int, int]]]] = {}
-        self.files: list[FileStats] = [FileStats(storage.path.name)]
         self.dropped_paused = 0  # messages received while paused (not written)
+        self.dropped_clock = 0  # messages received while the clock read 0 (a sim clock restarted)
+        self._writer: BagWriter | None = None
+        self._cache: SnapshotCache | None = None
+        self._snapshots: SnapshotWriter | None = None
+        self._captures: list[Capture] = []  # fault captures still collecting their post-fault seconds
+        self._fault_edge = FaultEdge()
+        self._status_subscriptions: dict[str, Any] = {}
+        self.skipped_faults = 0  # faults not captured: MAX_PENDING captures were pending already
+        self._snapshot_count = 0
+        self.files: list[FileStats] = []
+        if self.snapshot or self.snapshot_on_fault:
+            self.snapshot = True
+            self._cache = SnapshotCache(self.max_cache_size, self.max_cache_duration)
+            if self.path.exists() and not self.path.is_dir():
+                raise InputError("output", f"{self.path} exists and is not a directory")
+            self.path.mkdir(parents=True, exist_ok=True)
+            self._snapshots = SnapshotWriter(
+                self.path,
+                lambda: dict(self._topic_info),
+                self.compression,
+                lambda line: self.node.get_logger().error(line),
+            )
+        else:
+            if self.path.exists():
+                raise InputError("output", f"{self.path} already exists; bags are never overwritten")
+            self._writer = BagWriter(self.path, self.compression)
+            self._writer.open()
+            # The header on disk at once: a recorder killed before its first flush leaves an MCAP file.
+            self._writer.file.bio.flush()
+            self.files = self._writer.files
         self._stop = threading.Event()
         self._flusher = threading.Thread(target=self._flush_loop, name="bag-flusher", daemon=True)
         self._flusher.start()
-
-    def _set_compressor(self, storage: Any) -> None:
-        if self.compression == "lz4":
-            import lz4.frame  # type: ignore[import-untyped]
-
-            storage.compression = "lz4"
-            storage.compressor = lz4.frame.compress
 
     def pause(self) -> None:
         """Stop writing: messages received from now on are dropped (subscriptions stay, as rosbag2)."""
@@ -297,6 +319,10 @@ class Recorder:
         """Pause when writing, resume when paused."""
         self.paused = not self.paused
 
+    def clock_started(self) -> bool:
+        """Return whether the log-time clock runs (always, unless waiting for the first /clock)."""
+        return not self.wait_for_clock or self.clock() > 0
+
     def discover(self) -> list[str]:
         """Subscribe to matching topics that have publishers now; re-check those already subscribed.
 
@@ -305,12 +331,18 @@ class Recorder:
         list[str]
             The topics newly subscribed or subscribed again with another profile.
         """
-        changed = []
+        changed: list[str] = []
         assert self.selection is not None
+        if not self.clock_started():
+            return changed  # as rosbag2 on sim time: nothing is subscribed before the first /clock
         for name, types in self.node.get_topic_names_and_types():
-            if len(types) != 1 or not self.selection.wants(name, types[0]):
+            if len(types) != 1:
                 continue
             type_name = types[0]
+            if self.snapshot_on_fault and type_name == DEVICE_STATUS_TYPE and name.endswith("/status"):
+                self._watch_status(name)
+            if not self.selection.wants(name, type_name):
+                continue
             if not is_known(type_name):
                 continue  # a type we cannot describe in the bag's schema is not silently half-recorded
             offer = self._offer(name)
@@ -337,20 +369,25 @@ class Recorder:
         qos = self.qos_overrides.get(name) or matching_qos(offer.reliable, offer.latched, SUBSCRIPTION_DEPTH)
         profile = to_bag_qos(offer.reliable, offer.latched)
         with self._lock:
-            if self._writer is None:
-                return
-            if name not in self._connections:
+            if self._writer is None and self._cache is None:
+                return  # closed
+            info = self._topic_info.get(name)
+            if info is None:
                 msgdef, rihs01 = connection_definition(type_name)
-                self._connections[name] = self._writer.add_connection(
-                    name, type_name, msgdef=msgdef, rihs01=rihs01, offered_qos_profiles=[profile]
-                )
+                self._topic_info[name] = TopicInfo(type_name, msgdef, rihs01, (profile,))
+                if self._writer is not None:
+                    self._connections[name] = self._writer.add_connection(
+                        name, type_name, msgdef=msgdef, rihs01=rihs01, offered_qos_profiles=[profile]
+                    )
                 self.stats[name] = TopicStats(type_name)
-            else:
+            elif profile not in info.profiles:
                 # The MCAP channel keeps the profile it was created with; metadata.yaml, written at
                 # close, lists every profile the topic's publishers offered, as rosbag2 does.
-                profiles = self._connections[name].ext.offered_qos_profiles
-                if profile not in profiles:
-                    profiles.append(profile)
+                self._topic_info[name] = TopicInfo(
+                    info.type_name, info.msgdef, info.rihs01, (*info.profiles, profile)
+                )
+                if name in self._connections:
+                    self._connections[name].ext.offered_qos_profiles.append(profile)
             self._offers[name] = offer
         old = self._subscriptions.pop(name, None)
         if old is not None and name in self.qos_overrides:
@@ -373,9 +410,10 @@ class Recorder:
     def _write(self, topic: str, data: bytes, info: dict[str, int]) -> None:
         # A sample is known by its writer's timestamp and sequence number: a replacement reader's
         # transient-local history repeats samples the reader it replaced may have received live.
-        key = (info.get("source_timestamp", 0), info.get("publication_sequence_number", 0))
+        source = info.get("source_timestamp", 0)
+        key = (source, info.get("publication_sequence_number", 0))
         with self._lock:
-            if self._writer is None:
+            if self._writer is None and self._cache is None:
                 return
             if self.paused:
                 self.dropped_paused += 1
@@ -389,61 +427,142 @@ class Recorder:
                     keys.discard(recent[0])
                 recent.append(key)
                 keys.add(key)
-            now = time.time_ns()
-            if self._split_due(now):
-                self._split()
-            self._writer.write(self._connections[topic], now, data)
+            now = self.clock()
+            if now <= 0:
+                # A sim clock that went back to its start: no cell time to stamp the message with.
+                self.dropped_clock += 1
+                return
             self.stats[topic].count += 1
-            current = self.files[-1]
-            current.start = current.start or now
-            current.end = now
-            current.count += 1
+            # The publish time is the writer's source timestamp, as rosbag2's send_timestamp.
+            publish = source or now
+            if self._cache is not None:
+                entry = Entry(topic, now, publish, bytes(data))
+                self._cache.add(entry)
+                for capture in self._captures:
+                    if capture.deadline is not None and now <= capture.deadline:
+                        capture.post.append(entry)
+                if self._captures:
+                    self._close_due_captures(now)
+                return
+            assert self._writer is not None
+            if self._split_due(now):
+                self._writer.split()
+                self._synced = 0
+            self._writer.write(self._connections[topic], now, data, publish)
 
     def _split_due(self, now: int) -> bool:
         current = self.files[-1]
         if not current.count:
             return False  # a file holds at least one message, whatever the limits
         assert self._writer is not None
-        storage = self._writer.storage
-        if self.max_bag_size and storage.bio.tell() + storage.chunk.bio.tell() >= self.max_bag_size:
+        if self.max_bag_size and self._writer.file.size() >= self.max_bag_size:
             return True
         # As rosbag2: a file's duration runs from its first message.
         return bool(self.max_bag_duration) and now - current.start >= self.max_bag_duration * 1e9
 
-    def _split(self) -> None:
-        """Close the current file with its summary and continue in ``<bag>_<n>.mcap`` (lock held)."""
-        assert self._writer is not None
-        writer = self._writer
-        old = writer.storage
-        index = len(self.files)
-        if index == 1:
-            # A split bag's files are numbered from 0, as rosbag2 names them; the open file is renamed.
-            first = self.path / f"{self.path.name}_0.mcap"
-            os.replace(old.path, first)
-            old.path = first
-            self.files[0].name = first.name
-        old.close(writer.version, "")
-        _sync_path(old.path)
-        new = _SplitFile(self.path, writer.compression_mode, f"{self.path.name}_{index}")
-        self._set_compressor(new)
-        added: set[str] = set()
-        for connection in writer.connections:
-            if connection.msgtype not in added:
-                new.add_msgtype(connection)
-                added.add(connection.msgtype)
-            new.add_connection(connection, _dumped_qos(connection.ext.offered_qos_profiles))
-        new.bio.flush()
-        writer.storage = new
-        self._synced = 0
-        self.files.append(FileStats(new.path.name))
+    # --- snapshot mode -------------------------------------------------------------------------------
+
+    def snapshot_now(self) -> bool:
+        """Write the whole cache as a bag and empty it (``~/snapshot``); False if there is nothing to write.
+
+        The bag is written on the snapshot writer's thread; :attr:`written` lists it once complete.
+        """
+        if self._cache is None or self._snapshots is None:
+            return False
+        with self._lock:
+            if self._pending() >= MAX_PENDING:
+                self.node.get_logger().warning(f"snapshot refused: {MAX_PENDING} snapshots are pending")
+                return False
+            entries = self._cache.take()
+            if not entries:
+                return False
+            self._snapshot_count += 1
+            name = capture_name("service", self.clock(), index=self._snapshot_count)
+            self._snapshots.submit(Capture(self._snapshots.unique(name), "service", entries))
+        return True
+
+    def _pending(self) -> int:
+        assert self._snapshots is not None
+        return len(self._captures) + self._snapshots.pending
+
+    def _watch_status(self, topic: str) -> None:
+        if topic in self._status_subscriptions:
+            return
+        offer = self._offer(topic)
+        if offer is None:
+            return
+        from feeder_msgs.msg import DeviceStatus
+
+        device = topic[: -len("/status")]
+        self._status_subscriptions[topic] = self.node.create_subscription(
+            DeviceStatus,
+            topic,
+            lambda msg: self._on_status(device, msg),
+            matching_qos(offer.reliable, offer.latched, 10),
+        )
+
+    def _on_status(self, device: str, status: Any) -> None:
+        if not self._fault_edge.entered_fault(device, int(status.state)):
+            return
+        if self._cache is None or self._snapshots is None:
+            return  # closed
+        code, text = int(status.fault_code), str(status.fault_text)
+        stamp = status.header.stamp.sec * 1_000_000_000 + status.header.stamp.nanosec
+        with self._lock:
+            if self._pending() >= MAX_PENDING:
+                self.skipped_faults += 1
+                self.node.get_logger().warning(
+                    f"{device} entered FAULT {code}: not captured, {MAX_PENDING} snapshots are pending"
+                )
+                return
+            name = capture_name("fault", stamp, device=device, fault_code=code)
+            self._captures.append(
+                Capture(
+                    self._snapshots.unique(name),
+                    "fault",
+                    self._cache.copy(),
+                    deadline=self.clock() + round(self.post_fault * 1e9),
+                    device=device,
+                    fault_code=code,
+                    fault_text=text,
+                    stamp_ns=stamp,
+                )
+            )
+        self.node.get_logger().info(
+            f"{device} entered FAULT {code} ({text}): keeping {self.post_fault:g} s more for its snapshot"
+        )
+
+    def _close_due_captures(self, now: int | None) -> None:
+        """Queue captures whose post-fault time has passed (every one if ``now`` is None); lock held."""
+        assert self._snapshots is not None
+        keep = []
+        for capture in self._captures:
+            if now is None or capture.deadline is None or now > capture.deadline:
+                capture.deadline = None
+                self._snapshots.submit(capture)
+            else:
+                keep.append(capture)
+        self._captures = keep
+
+    @property
+    def written(self) -> list[Any]:
+        """Return the snapshot bags written so far (snapshot mode)."""
+        return list(self._snapshots.written) if self._snapshots is not None else []
+
+    @property
+    def cache(self) -> SnapshotCache | None:
+        """Return the snapshot cache (snapshot mode), else None."""
+        return self._cache
+
+    # --- disk -----------------------------------------------------------------------------------------
 
     def flush(self) -> None:
         """Close the pending chunk (if it holds a message) and push the file to disk."""
         with self._sync_lock:
             with self._lock:
-                if self._writer is None:
+                if self._writer is None or self._writer.storage is None:
                     return
-                storage = self._writer.storage
+                storage = self._writer.file
                 if storage.chunk.msgs:
                     storage.close_chunk()
                 written = storage.bio.tell()
@@ -463,76 +582,44 @@ class Recorder:
                     self._synced = written
 
     def _flush_loop(self) -> None:
-        # Half the interval between flushes: a message waits at most that plus one flush's duration.
-        while not self._stop.wait(self.flush_interval / 2):
+        # Half the interval between flushes: a message waits at most that plus one flush's duration. In
+        # snapshot mode the loop closes fault captures whose post-fault time passed with no new message.
+        period = 0.1 if self.snapshot else self.flush_interval / 2
+        while not self._stop.wait(period):
             try:
-                self.flush()
+                if self.snapshot:
+                    with self._lock:
+                        if self._captures:
+                            self._close_due_captures(self.clock())
+                else:
+                    self.flush()
             except OSError as exc:
                 # A full or failing disk: logged at each failed turn, and the next one tries again (the data
                 # stays in the writer's buffer), rather than the thread dying with a traceback.
                 self.node.get_logger().error(f"bag {self.path}: writing to disk failed: {exc}")
 
     def close(self) -> dict[str, TopicStats]:
-        """Stop recording, finish the bag (summary and metadata.yaml) and return what was recorded."""
+        """Stop recording, finish the bag (summary and metadata.yaml) and return what was recorded.
+
+        In snapshot mode, fault captures still collecting are written with what they hold, and the cache
+        itself is dropped, as rosbag2 drops its snapshot buffer at the end.
+        """
         self._stop.set()
         self._flusher.join(timeout=10.0)
-        for subscription in self._subscriptions.values():
+        for subscription in [*self._subscriptions.values(), *self._status_subscriptions.values()]:
             self.node.destroy_subscription(subscription)
         self._subscriptions.clear()
+        self._status_subscriptions.clear()
+        if self._snapshots is not None:
+            with self._lock:
+                self._close_due_captures(None)
+                self._cache = None
+            self._snapshots.close()
         with self._sync_lock, self._lock:
             if self._writer is not None:
                 self._writer.close()
                 self._writer = None
-                if len(self.files) > 1:
-                    self._write_file_list()
         return self.stats
-
-    def _write_file_list(self) -> None:
-        """Make metadata.yaml list every file of a split bag (rosbags' writer knows only the last)."""
-        from ruamel.yaml import YAML
-
-        yaml = YAML(typ="safe")
-        yaml.default_flow_style = False
-        metapath = self.path / "metadata.yaml"
-        with metapath.open() as stream:
-            metadata = yaml.load(stream)
-        info = metadata["rosbag2_bagfile_information"]
-        info["relative_file_paths"] = [f.name for f in self.files]
-        info["files"] = [
-            {
-                "path": f.name,
-                "starting_time": {"nanoseconds_since_epoch": f.start},
-                "duration": {"nanoseconds": max(0, f.end - f.start)},
-                "message_count": f.count,
-            }
-            for f in self.files
-        ]
-        temporary = metapath.with_suffix(".yaml.tmp")
-        with temporary.open("w") as stream:
-            yaml.dump(metadata, stream)
-        os.replace(temporary, metapath)
-
-
-def _dumped_qos(profiles: list[Any]) -> str:
-    """QoS profiles as rosbags stores them in an MCAP channel's metadata."""
-    from io import StringIO
-
-    from rosbags.rosbag2.metadata import dump_qos_v9
-    from ruamel.yaml import YAML
-
-    stream = StringIO()
-    yaml = YAML(typ="safe")
-    yaml.default_flow_style = False
-    yaml.dump(dump_qos_v9(list(profiles)), stream)
-    return stream.getvalue().strip()
-
-
-def _sync_path(path: Path) -> None:
-    descriptor = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(descriptor)
-    finally:
-        os.close(descriptor)
 
 
 def missing_topics(stats: dict[str, TopicStats], wanted: Iterable[str]) -> list[str]:

@@ -4,7 +4,8 @@ A killed recorder leaves the MCAP file without its summary (schemas, channels, c
 statistics, footer) and the bag without ``metadata.yaml``; a truncated copy cuts a chunk in two. The
 records before the damage are intact: this module scans each file record by record, keeps every complete
 chunk (and any top-level schema, channel and message records) up to the first incomplete or unreadable
-one, and writes them again as a complete bag, summary and ``metadata.yaml`` included. A split bag
+one, and writes them again as a complete bag, summary and ``metadata.yaml`` included, with what
+rosbag2 writes into its files (:mod:`feeder_cell.bag.writer`). A split bag
 (``<bag>_0.mcap``, ``<bag>_1.mcap``...) keeps its files: each is recovered on its own.
 """
 
@@ -23,11 +24,10 @@ from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import Channel, Chunk, Message, Schema
 from mcap.stream_reader import get_chunk_data_stream
-from rosbags.rosbag2 import CompressionMode, StoragePlugin, Writer
 from rosbags.rosbag2.metadata import parse_qos
-from rosbags.rosbag2.storage_mcap import McapWriter
 
 from feeder_cell.bag.types import type_hash
+from feeder_cell.bag.writer import BagWriter
 from feeder_planner.errors import InputError
 
 MAGIC = b"\x89MCAP0\r\n"
@@ -182,47 +182,6 @@ def _file_order(path: Path) -> tuple[Any, ...]:
     return tuple(int(part) if part.isdigit() else part for part in re.split(r"(\d+)", path.name))
 
 
-class _NamedFile(McapWriter):
-    """rosbags' MCAP storage writing ``<directory>/<name>`` (McapWriter names it after its directory)."""
-
-    def __init__(self, directory: Path, name: str) -> None:
-        scratch = directory / Path(name).stem
-        scratch.mkdir()
-        super().__init__(scratch, CompressionMode.NONE)
-        target = directory / name
-        # A rename within the file system: the open descriptor follows it.
-        os.replace(scratch / f"{scratch.name}.mcap", target)
-        scratch.rmdir()
-        self.path = target
-        self.types: set[str] = set()  # message types whose schema this file holds
-        self.channels_added: set[int] = set()  # connection ids whose channel this file holds
-
-    def use_compression(self, compression: str) -> None:
-        """Compress this file's chunks as its original's were (``zstd``, ``lz4`` or none)."""
-        if compression == "zstd":
-            self.compression, self.compressor = "zstd", _zstd_compress
-        elif compression == "lz4":
-            import lz4.frame  # type: ignore[import-untyped]
-
-            self.compression, self.compressor = "lz4", lz4.frame.compress
-
-
-def _zstd_compress(data: bytes) -> bytes:
-    try:  # the zstd module rosbags itself uses (the standard library's from Python 3.14)
-        from compression import zstd  # type: ignore[import-not-found]
-    except ImportError:
-        from backports import zstd  # type: ignore[no-redef,unused-ignore]
-    return zstd.compress(data)
-
-
-@dataclass
-class _Span:
-    """First and last log time (ns) of the messages kept from one file."""
-
-    start: int = 2**63 - 1
-    end: int = 0
-
-
 def _all_read(file_report: FileReport) -> bool:
     """Whether the scan read the whole file (to its summary, or every byte as complete records)."""
     return file_report.complete or file_report.recovered_bytes == file_report.size
@@ -278,10 +237,7 @@ def reindex(bag: Path) -> ReindexReport:
     work.mkdir()
     rebuilt = work / bag.name
     report = ReindexReport(bag)
-    writer = Writer(rebuilt, version=9, storage_plugin=StoragePlugin.MCAP)
-    # The writer's own storage would be named after the bag: each file gets its storage below instead.
-    rebuilt.mkdir()
-    spans: dict[str, _Span] = {}
+    writer = BagWriter(rebuilt)
     written: list[FileReport] = []  # files rewritten into the work directory, in order
     try:
         connections: dict[tuple[str, str, str], Any] = {}
@@ -289,12 +245,13 @@ def reindex(bag: Path) -> ReindexReport:
             size = path.stat().st_size
             file_report = FileReport(path.name, size, 0)
             report.files.append(file_report)
-            storage = _NamedFile(rebuilt, path.name)
-            if writer.storage is not None:
-                writer.storage.close(writer.version, "")
-            writer.storage = storage
+            # Each file under its own name; a topic is declared in a file where it has a message there.
+            if written:
+                writer.start_file(path.name, declare_all=False)
+            else:
+                writer.open(first_file=path.name)
+            storage = writer.file
             written.append(file_report)
-            span = spans[path.name] = _Span()
             # Schema and channel ids are per file: map them to this bag's connections by topic, type, QoS.
             schemas: dict[int, Schema] = {}
             channel_map: dict[int, Any] = {}
@@ -306,26 +263,25 @@ def reindex(bag: Path) -> ReindexReport:
                         schema = schemas.get(record.schema_id)
                         if schema is None:
                             continue  # a channel without its schema cannot be described in the bag
-                        channel_map[record.id] = _connect(writer, storage, connections, record, schema)
+                        channel_map[record.id] = _connect(writer, connections, record, schema)
                     elif isinstance(record, Message) and record.channel_id in channel_map:
                         if not file_report.messages:
-                            storage.use_compression(file_report.compression)
+                            storage.use_compression(file_report.compression or "none")
                         connection = channel_map[record.channel_id]
-                        writer.write(connection, record.log_time, record.data)
+                        writer.write(connection, record.log_time, record.data, record.publish_time)
                         file_report.messages += 1
-                        span.start = min(span.start, record.log_time)
-                        span.end = max(span.end, record.log_time)
                         topic = report.topics.setdefault(
                             connection.topic, {"type": connection.msgtype, "count": 0}
                         )
                         topic["count"] += 1
-        writer.close()
+        listed = [f for f in written if f.messages] or written[:1]
+        # metadata.yaml lists the kept files only, in order, each with its own count and times.
+        names = {f.name for f in listed}
+        writer.close(files=[f for f in writer.files if f.name in names])
     except BaseException:
-        if writer.storage is not None:
-            writer.storage.bio.close()
+        writer.abort()
         shutil.rmtree(work, ignore_errors=True)
         raise
-    listed = [f for f in written if f.messages] or written[:1]
     for file_report in written:
         path = bag / file_report.name
         if file_report not in listed:
@@ -338,64 +294,29 @@ def reindex(bag: Path) -> ReindexReport:
             file_report.kept_as = kept.name
         # Replace, never delete first: a crash in between leaves either the old file or the new one.
         os.replace(rebuilt / file_report.name, path)
-    _write_metadata(rebuilt / "metadata.yaml", listed, spans)
     os.replace(rebuilt / "metadata.yaml", bag / "metadata.yaml")
     shutil.rmtree(work)
     return report
 
 
 def _connect(
-    writer: Writer,
-    storage: _NamedFile,
+    writer: BagWriter,
     connections: dict[tuple[str, str, str], Any],
     channel: Channel,
     schema: Schema,
 ) -> Any:
-    """Return the bag's connection for a file's channel, declaring it (and its type) in this file."""
+    """Return the bag's connection for a file's channel (the writer declares it in each file it is used)."""
     qos = channel.metadata.get("offered_qos_profiles", "")
     key = (channel.topic, schema.name, qos)
     connection = connections.get(key)
-    if schema.name in writer.added_types and schema.name not in storage.types:
-        # The type is known from an earlier file; rosbags' writer declares a type once per bag.
-        storage.add_msgtype(next(c for c in writer.connections if c.msgtype == schema.name))
-    storage.types.add(schema.name)
     if connection is None:
         connection = connections[key] = writer.add_connection(
             channel.topic,
             schema.name,
             msgdef=schema.data.decode(),
-            rihs01=_type_hash(schema.name),
+            # The recorded hash when the channel has one (a bag from another machine's types).
+            rihs01=channel.metadata.get("topic_type_hash") or _type_hash(schema.name),
             serialization_format=channel.message_encoding,
             offered_qos_profiles=parse_qos(qos),
         )
-    elif connection.id not in storage.channels_added:
-        storage.add_connection(connection, qos)
-    storage.channels_added.add(connection.id)
     return connection
-
-
-def _write_metadata(metapath: Path, listed: list[FileReport], spans: dict[str, _Span]) -> None:
-    """Make the writer's metadata.yaml list every kept file in order (it knows only the last one)."""
-    from ruamel.yaml import YAML
-
-    yaml = YAML(typ="safe")
-    yaml.default_flow_style = False
-    with metapath.open() as stream:
-        metadata = yaml.load(stream)
-    info = metadata["rosbag2_bagfile_information"]
-    info["relative_file_paths"] = [f.name for f in listed]
-    entries = []
-    for file_report in listed:
-        span = spans[file_report.name]
-        start = span.start if file_report.messages else info["starting_time"]["nanoseconds_since_epoch"]
-        entries.append(
-            {
-                "path": file_report.name,
-                "starting_time": {"nanoseconds_since_epoch": start},
-                "duration": {"nanoseconds": max(0, span.end - span.start) if file_report.messages else 0},
-                "message_count": file_report.messages,
-            }
-        )
-    info["files"] = entries
-    with metapath.open("w") as stream:
-        yaml.dump(metadata, stream)

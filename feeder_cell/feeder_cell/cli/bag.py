@@ -6,7 +6,7 @@ import argparse
 import re
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from feeder_cell.cli.common import add_json_flag, emit, finite_float, output_directory
 from feeder_cell.ros_session import with_node
@@ -64,6 +64,7 @@ def _record(args: argparse.Namespace) -> int:
         raise InputError(
             "--max-bag-duration", f"must be >= 0 seconds (0: no splitting), got {args.max_bag_duration}"
         )
+    snapshot = _snapshot_options(args)
     if not _NODE_NAME.fullmatch(args.node_name):
         raise InputError(
             "--node-name", f"must be a ROS node name (letters, digits, _), got {args.node_name!r}"
@@ -73,10 +74,19 @@ def _record(args: argparse.Namespace) -> int:
     overrides = (
         load_qos_overrides(Path(args.qos_profile_overrides_path)) if args.qos_profile_overrides_path else {}
     )
-    # Before any node starts: an existing bag, or a parent that is a file, is refused by name.
-    output = output_directory(args.output, "output", must_be_new=True)
+    # Before any node starts: an existing bag, or a parent that is a file, is refused by name. Snapshot
+    # bags go into OUTPUT as a directory of bags, which may exist already (each bag's name is new).
+    output = output_directory(args.output, "output", must_be_new=not snapshot)
 
     def work(node: Any, executor: Any, keep_going: Any) -> dict[str, Any]:
+        clock: Callable[[], int] = time.time_ns
+        if args.use_sim_time:
+            from rclpy.parameter import Parameter
+
+            # The node's clock follows /clock from here; it reads 0 until the first message.
+            node.set_parameters([Parameter("use_sim_time", Parameter.Type.BOOL, True)])
+            clock = lambda: node.get_clock().now().nanoseconds  # noqa: E731
+            node.get_logger().info("use_sim_time: waiting for /clock before recording")
         recorder = Recorder(
             node,
             output,
@@ -87,11 +97,20 @@ def _record(args: argparse.Namespace) -> int:
             max_bag_duration=args.max_bag_duration,
             qos_overrides=overrides,
             paused=args.start_paused,
+            clock=clock,
+            wait_for_clock=args.use_sim_time,
+            snapshot=snapshot,
+            max_cache_size=args.max_cache_size or 0,
+            max_cache_duration=args.max_cache_duration or 0.0,
+            snapshot_on_fault=args.snapshot_on_fault,
+            post_fault=DEFAULT_POST_FAULT if args.post_fault is None else args.post_fault,
         )
         # ~/pause, ~/resume, ~/toggle_paused and ~/is_paused on the recorder node, as rosbag2 serves them.
         services = serve_pause_controls(
             node, recorder.pause, recorder.resume, recorder.toggle_paused, lambda: recorder.paused
         )
+        if snapshot:
+            services.append(_serve_snapshot(node, recorder))
         started = time.monotonic()
         next_discovery = 0.0
         try:
@@ -104,15 +123,20 @@ def _record(args: argparse.Namespace) -> int:
             stats = recorder.close()
             for service in services:
                 node.destroy_service(service)
-        return {
+        result = {
             "path": str(output.resolve()),
             "duration": time.monotonic() - started,
             "files": [f.name for f in recorder.files],
             "compression": compression,
+            "use_sim_time": args.use_sim_time,
             "dropped_while_paused": recorder.dropped_paused,
             "topics": {name: {"type": s.type_name, "count": s.count} for name, s in sorted(stats.items())},
             "missing": missing_topics(stats, args.topics or ()),
         }
+        if snapshot:
+            result["snapshots"] = [bag.to_json() for bag in recorder.written]
+            result["skipped_faults"] = recorder.skipped_faults
+        return result
 
     result = with_node(args.node_name, work)
     emit(args, result, _summary)
@@ -120,6 +144,56 @@ def _record(args: argparse.Namespace) -> int:
 
 
 _NODE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
+def _snapshot_options(args: argparse.Namespace) -> bool:
+    """Check the snapshot flags; return whether the recording is in snapshot mode."""
+    from feeder_cell.bag.snapshot import DEFAULT_MAX_CACHE_SIZE, check_cache_limits
+
+    snapshot = bool(args.snapshot_mode or args.snapshot_on_fault)
+    if not snapshot:
+        for flag, value in (
+            ("--max-cache-size", args.max_cache_size),
+            ("--max-cache-duration", args.max_cache_duration),
+            ("--post-fault", args.post_fault),
+        ):
+            if value is not None:
+                raise InputError(
+                    flag, "needs --snapshot-mode or --snapshot-on-fault (writes go to disk as they come)"
+                )
+        return False
+    for flag, value in (("--max-bag-size", args.max_bag_size), ("--max-bag-duration", args.max_bag_duration)):
+        if value:
+            raise InputError(flag, "cannot split in snapshot mode: each snapshot is a bag of one file")
+    if args.start_paused:
+        raise InputError(
+            "--start-paused", "has no meaning in snapshot mode: nothing is written until a snapshot"
+        )
+    if args.max_cache_size is None:
+        args.max_cache_size = DEFAULT_MAX_CACHE_SIZE
+    if args.max_cache_duration is None:
+        args.max_cache_duration = 0.0
+    if args.post_fault is None:
+        args.post_fault = DEFAULT_POST_FAULT
+    check_cache_limits(args.max_cache_size, args.max_cache_duration)
+    if args.post_fault < 0:
+        raise InputError("--post-fault", f"must be >= 0 seconds, got {args.post_fault}")
+    return True
+
+
+DEFAULT_POST_FAULT = 5.0
+
+
+def _serve_snapshot(node: Any, recorder: Any) -> Any:
+    """Serve ``~/snapshot`` (rosbag2_interfaces' Snapshot shape) on the recorder node."""
+    from feeder_msgs.srv import Snapshot
+    from feeder_planner.node_kit.qos import request_qos
+
+    def callback(_request: Any, response: Any) -> Any:
+        response.success = recorder.snapshot_now()
+        return response
+
+    return node.create_service(Snapshot, "~/snapshot", callback, qos_profile=request_qos())
 
 
 def _summary(result: dict[str, Any]) -> str:
@@ -130,6 +204,9 @@ def _summary(result: dict[str, Any]) -> str:
     lines += [f"  {name}  {t['type']}  {t['count']}" for name, t in result["topics"].items()]
     if result.get("missing"):
         lines.append(f"  never seen: {', '.join(result['missing'])}")
+    for bag in result.get("snapshots", []):
+        why = f"{bag['device']} fault {bag['fault_code']}" if bag["reason"] == "fault" else "~/snapshot"
+        lines.append(f"  snapshot ({why}): {bag['path']}  {bag['messages']} messages")
     return "\n".join(lines)
 
 
@@ -295,6 +372,49 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="subscribe to these topics with these QoS profiles instead of the publishers' (rosbag2's "
         "format: {topic: {history, depth, reliability, durability, deadline, lifespan, liveliness, "
         "liveliness_lease_duration, avoid_ros_namespace_conventions}})",
+    )
+    record.add_argument(
+        "--use-sim-time",
+        action="store_true",
+        help="stamp messages with the time on /clock (cell time, as `feeder launch --real-time-factor` "
+        "publishes it) instead of wall time; nothing is recorded before the first /clock message "
+        "(rosbag2's --use-sim-time)",
+    )
+    record.add_argument(
+        "--snapshot-mode",
+        action="store_true",
+        help="keep messages in a memory cache bounded by --max-cache-size and --max-cache-duration instead "
+        "of writing them; the recorder's ~/snapshot service (rosbag2_interfaces' Snapshot shape, "
+        "feeder_msgs/srv/Snapshot) writes the cache as a complete bag OUTPUT/snapshot_N_tSEC.MSEC and "
+        "empties it. OUTPUT is then a directory of bags",
+    )
+    record.add_argument(
+        "--max-cache-size",
+        type=int,
+        metavar="BYTES",
+        help="snapshot cache bound: messages' bytes plus 200 bytes each of bookkeeping, so the bound holds "
+        "for memory (default 104857600, rosbag2's; 0: no size bound)",
+    )
+    record.add_argument(
+        "--max-cache-duration",
+        type=finite_float,
+        metavar="SECONDS",
+        help="snapshot cache bound: keep only messages this much older than the newest, in log time (cell "
+        "time with --use-sim-time; default 0: no time bound)",
+    )
+    record.add_argument(
+        "--snapshot-on-fault",
+        action="store_true",
+        help="flight recorder (implies --snapshot-mode): when any device's ~/status "
+        "(feeder_msgs/DeviceStatus) enters FAULT, write the cache before the fault and the --post-fault "
+        "seconds after it as one bag, OUTPUT/<device>_fault<CODE>_t<SEC.MSEC> (the fault's cell time)",
+    )
+    record.add_argument(
+        "--post-fault",
+        type=finite_float,
+        metavar="SECONDS",
+        help="with --snapshot-on-fault: seconds after the fault (on the recorder's clock) kept in its bag "
+        f"(default {DEFAULT_POST_FAULT:g})",
     )
     record.add_argument(
         "--node-name",
