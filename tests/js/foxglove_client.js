@@ -114,6 +114,18 @@ const commands = {
     return { channels: found };
   },
 
+  // Every channel advertised so far.
+  channelList() {
+    return { channels: [...state.channels.values()] };
+  },
+
+  // How many messages each subscription has received so far.
+  counts() {
+    const counts = {};
+    for (const [id, entry] of state.subscriptions) counts[entry.topic] = entry.messages.length;
+    return { counts };
+  },
+
   async subscribe({ topic, timeout }) {
     const channel = await channelOf(topic, timeout);
     const subscription = state.client.subscribe(channel.id);
