@@ -19,15 +19,16 @@ this runner drives it. The conventions every device keeps, in one place:
   ``execute`` coroutine only wakes after each tick to send feedback and the result.
 - **One cancel rule.** Cancel is always accepted. The runner tells the goal (``cancel``) at its next wake:
   a tick, or a steady-clock poll every ``CANCEL_POLL`` s, so a cancel is heard under a held clock too;
-  the goal ends where the device can safely stop (after the throw in flight, at a certified sample), and
-  is advanced once at once so that a goal already at such a point ends without waiting for a tick.
+  the goal ends where the device can safely stop: at once when it stands at such a point, else after
+  what is in flight (the throw, the move to the next certified sample), at a later tick.
 - **One timeout rule.** A goal's timeout is node-clock time from acceptance, judged by the goal's machine
   at the ticks (``declarations.deadline_ns``), never by wall time: the same run at any speed.
 - **The device leaves active** (deactivate, shutdown): the runner calls ``interrupt`` so no goal outlives
   the device's activity.
 - **One guard.** An exception inside a goal (its start, ``advance``, feedback or result) ends it ABORTED
   with the action's FAULT outcome and the reason in ``message``, logged at ERROR with its traceback; the
-  node keeps serving, and the next goal is accepted.
+  goal's ``halt`` leaves the device safe (motion stopped), the node keeps serving, and the next goal is
+  accepted.
 """
 
 from __future__ import annotations
@@ -69,7 +70,7 @@ class DeviceGoal(Protocol):
         ...
 
     def cancel(self, reason: str) -> None:
-        """End where the device can safely stop (now, or after what is in flight)."""
+        """End where the device can safely stop: now if it stands at such a point, else after what flies."""
         ...
 
     def interrupt(self, reason: str) -> None:
@@ -82,6 +83,10 @@ class DeviceGoal(Protocol):
 
     def result(self) -> tuple[str, Any]:
         """Return (terminal, result message) of the ended goal."""
+        ...
+
+    def halt(self) -> None:
+        """Leave the device safe after the guard aborted the goal (stop what the goal set moving)."""
         ...
 
 
@@ -112,7 +117,10 @@ class RunningGoal:
         self.device.get_logger().error(
             f"{self.error} (the goal is aborted; the device keeps serving)\n{trace}"
         )
-        self.poke()
+        try:
+            self.goal.halt()
+        finally:
+            self.poke()
 
     def poke(self) -> None:
         """Wake the coroutine now (a cancel under a held clock, an error)."""
@@ -224,8 +232,10 @@ async def _drive(device: ManagedDevice, running: RunningGoal) -> None:
             continue
         if handle.is_cancel_requested and not canceled:
             canceled = True
-            goal.cancel("canceled by its client")
-            running.advance_guarded(device.get_clock().now().nanoseconds)
+            try:
+                goal.cancel("canceled by its client")
+            except Exception as error:  # noqa: BLE001 - the guard
+                running.fail(error)
             continue
         await running.wait()
 
@@ -251,6 +261,9 @@ class _Failed:
     def result(self) -> tuple[str, Any]:
         """Return nothing: the guard's result stands."""
         return "abort", None
+
+    def halt(self) -> None:
+        """Nothing moves."""
 
 
 def _error_result(action_type: Any, message: str) -> Any:

@@ -499,8 +499,12 @@ class RunProgramGoal:
         self._result()
 
     def cancel(self, reason: str) -> None:
-        """End at the next decision, where the parts are."""
+        """End now, where the parts are (the program stays on)."""
         self.machine.cancel(reason)
+        self.advance(self.node.get_clock().now().nanoseconds)
+
+    def halt(self) -> None:
+        """Nothing to stop: the program stays on, as a cancel leaves it."""
 
     def interrupt(self, reason: str) -> None:
         """End now: the device left active."""

@@ -213,7 +213,7 @@ class ThrowingArmNode(ManagedDevice):
                     f"command {command} refused: a ~/feed_part goal is executing "
                     "(cancel it, or ~/command stop, first)"
                 )
-            self.goals[0].goal.cancel("stopped by ~/command stop")
+            self.feed.cancel("stopped by ~/command stop")
             self.goals[0].advance_guarded(self.get_clock().now().nanoseconds)
             self.wake_goals()
         if command == "throw":
@@ -416,9 +416,15 @@ class FeedPartGoal:
         self.feed.tick(now_ns, self.node.stopping_fault(), cycle is not None and cycle.motion is not None)
 
     def cancel(self, reason: str) -> None:
-        """End after the throw in flight (unless a ~/command stop already asked it to)."""
+        """End after the throw in flight, at once at rest (unless a ~/command stop already asked it to)."""
         if not self.feed.cancel_reason:
             self.feed.cancel(reason)
+            self.advance(self.node.get_clock().now().nanoseconds)
+
+    def halt(self) -> None:
+        """Forget the throws the goal asked for (a throw in flight still lands)."""
+        if self.node.cycle is not None:
+            self.node.cycle.cancel_commands()
 
     def interrupt(self, reason: str) -> None:
         """End now: the device left active, so no throw can land."""
