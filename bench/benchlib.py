@@ -44,10 +44,10 @@ def row(benchmark: str, measure: str, value: float, unit: str, target: str, base
 def holds_rate(figures: dict[str, float]) -> bool:
     """Whether a device's /diagnostics figures hold its configured rate and real-time factor.
 
-    Within the devices' own tolerance (``node_kit.rate.BEHIND_TOLERANCE``), the one ``behind_real_time``
+    Within the devices' own tolerance (``feeder_device.rate.BEHIND_TOLERANCE``), the one ``behind_real_time``
     is judged by, so a bench and the device agree on what "holds" means.
     """
-    from feeder_planner.node_kit.rate import BEHIND_TOLERANCE
+    from feeder_device.rate import BEHIND_TOLERANCE
 
     floor = 1.0 - BEHIND_TOLERANCE
     return (

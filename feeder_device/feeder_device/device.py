@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import time
 from enum import IntEnum
-from typing import TYPE_CHECKING, Any, Mapping, Sequence
+from typing import Any, Mapping, Protocol, Sequence
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
@@ -60,10 +60,22 @@ from feeder_planner.node_kit.qos import LATCHED
 from feeder_planner.node_kit.services import REQUEST_QUEUE_PARAMETER, serve
 from feeder_planner.node_kit.tf import namespaced_frame
 
-if TYPE_CHECKING:
-    from feeder_device.goals import RunningGoal
-
 __all__ = ["DeviceState", "ManagedDevice", "DEVICE_PARAMETERS"]
+
+
+class TickedGoal(Protocol):
+    """What the tick needs of an executing goal (``goals.RunningGoal``); ``goal`` is the device's adapter."""
+
+    goal: object
+
+    def advance_guarded(self, now_ns: int) -> None:
+        """Take in the tick at ``now_ns``; a bug inside the goal ends the goal, not the tick."""
+        ...
+
+    def poke(self) -> None:
+        """Wake the goal's coroutine now."""
+        ...
+
 
 # Heartbeat of ~/status and /diagnostics (Hz), on the steady clock so that a paused sim clock does not
 # silence a device: a controller must still see that the device is there and why it is not moving.
@@ -131,7 +143,7 @@ class ManagedDevice(LifecycleNode):
         self.tick_rate = rate
         self._tick_timer: Timer | None = None
         self._streams: list[tuple[Publisher, bool]] = []
-        self.goals: list[RunningGoal] = []  # the goals executing (feeder_device.goals), advanced per tick
+        self.goals: list[TickedGoal] = []  # the goals executing (feeder_device.goals), advanced per tick
         self._last_status: tuple[Any, ...] | None = None
         self._status_pub = self.create_publisher(DeviceStatus, "~/status", LATCHED)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
@@ -367,7 +379,7 @@ class ManagedDevice(LifecycleNode):
     def next_tick(self) -> Future:
         """Return a future done after the device's next tick, or when it stops being active.
 
-        An action's ``execute`` coroutine awaits it (node_kit.actions): the goal advances with the node
+        The goal runner (``feeder_device.goals``) awaits it: the goal advances with the node
         clock and never blocks the executor. After waking, the goal must check ``self.active``.
         """
         waiter = Future()

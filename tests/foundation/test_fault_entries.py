@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
+from feeder_device.declarations import FaultEntry, parse_fault_parameter
 from feeder_planner.errors import InputError
-from feeder_planner.node_kit.device import FaultEntry, parse_fault_parameter
 
 
 @pytest.mark.parametrize(

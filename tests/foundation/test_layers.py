@@ -1,9 +1,11 @@
 """The layers and their one-way dependencies, checked by walking every import of the three packages.
 
-    feeder_msgs <- feeder_planner (core, node kit, planner nodes) <- feeder_sim (core, nodes) <- feeder_cell
+    feeder_msgs <- feeder_planner (core, node kit, planner nodes) <- feeder_device (device kit)
+                <- feeder_sim (core, nodes) <- feeder_cell
 
-The core (mechanics and fidelity models) never imports rclpy or a message package; only the node kit,
-the node modules and feeder_cell do. No node module imports another node module.
+The core (mechanics, fidelity models, the device kit's ROS-free declarations) never imports rclpy or a
+message package; only the node kit, the device kit's node side, the node modules and feeder_cell do. No
+node module imports another node module.
 """
 
 from __future__ import annotations
@@ -18,7 +20,9 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-PACKAGES = ("feeder_planner", "feeder_sim", "feeder_cell")
+PACKAGES = ("feeder_planner", "feeder_device", "feeder_sim", "feeder_cell")
+# The device kit's ROS-free modules: what a model package may import of it.
+DEVICE_KIT_CORE = ("feeder_device", "feeder_device.declarations", "feeder_device.rate")
 # ROS client library and interface packages: what the ROS-free core must never import.
 ROS_MODULES = ("rclpy", "rcl_interfaces", "builtin_interfaces", "rosgraph_msgs", "lifecycle_msgs")
 
@@ -79,7 +83,14 @@ def is_core(module: str) -> bool:
     top, _, rest = module.partition(".")
     if top == "feeder_cell":
         return False
+    if top == "feeder_device":
+        return module in DEVICE_KIT_CORE
     return not (rest.startswith("nodes") or rest.startswith("node_kit"))
+
+
+def in_device_kit_core(imported: str) -> bool:
+    # ``from feeder_device.declarations import CounterSpec`` records the name too: its module counts
+    return imported in DEVICE_KIT_CORE or imported.rpartition(".")[0] in DEVICE_KIT_CORE[1:]
 
 
 def is_ros(module: str) -> bool:
@@ -96,6 +107,8 @@ def test_the_walk_sees_every_layer() -> None:
     assert {
         "feeder_planner.parts",
         "feeder_planner.node_kit",
+        "feeder_device.device",
+        "feeder_device.declarations",
         "feeder_sim.nodes.throwing_arm",
         "feeder_cell.cli.main",
         "feeder_cell.launcher",
@@ -108,6 +121,18 @@ def test_planner_never_imports_sim_or_cell() -> None:
         violations(
             lambda i: (
                 i.importer.startswith("feeder_planner")
+                and i.imported.split(".")[0] in ("feeder_device", "feeder_sim", "feeder_cell")
+            )
+        )
+        == []
+    )
+
+
+def test_device_kit_never_imports_sim_or_cell() -> None:
+    assert (
+        violations(
+            lambda i: (
+                i.importer.startswith("feeder_device")
                 and i.imported.split(".")[0] in ("feeder_sim", "feeder_cell")
             )
         )
@@ -138,7 +163,12 @@ def test_core_imports_neither_ros_nor_the_node_kit() -> None:
         violations(
             lambda i: (
                 is_core(i.importer)
-                and (is_ros(i.imported) or ".node_kit" in i.imported or ".nodes" in i.imported)
+                and (
+                    is_ros(i.imported)
+                    or ".node_kit" in i.imported
+                    or ".nodes" in i.imported
+                    or (i.imported.startswith("feeder_device") and not in_device_kit_core(i.imported))
+                )
             )
         )
         == []

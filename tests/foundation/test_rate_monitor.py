@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from feeder_planner.node_kit.rate import BEHIND_TOLERANCE, RateMonitor
+from feeder_device.rate import BEHIND_TOLERANCE, RateMonitor
 
 
 def feed(

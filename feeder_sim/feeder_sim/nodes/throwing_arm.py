@@ -103,7 +103,8 @@ class ThrowingArmNode(ManagedDevice):
     @property
     def feed(self) -> FeedGoal[ThrowEvent] | None:
         """The ~/feed_part goal executing, if any (the arm has one action: at most one goal)."""
-        return self.goals[0].goal.feed if self.goals else None  # type: ignore[attr-defined,no-any-return]
+        goal = self.goals[0].goal if self.goals else None
+        return goal.feed if isinstance(goal, FeedPartGoal) else None
 
     # --- lifecycle hooks ---------------------------------------------------------------------------
     def configure_device(self, p: dict[str, Any]) -> None:
