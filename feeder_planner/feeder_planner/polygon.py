@@ -117,11 +117,6 @@ def point_in_polygon(point: np.ndarray, vertices: np.ndarray) -> bool:
     return bool(np.count_nonzero(straddle & (x < x_cross)) % 2)
 
 
-def polygons_intersect(a: np.ndarray, b: np.ndarray) -> bool:
-    """Return whether the boundaries of two polygons touch or cross."""
-    return bool(loop_contacts([a, b]).size)
-
-
 def loop_contacts(loops: Sequence[np.ndarray]) -> np.ndarray:
     """Return the pairs (k, l), k < l, of loops whose boundaries touch or cross, as a (m, 2) int array.
 

@@ -144,13 +144,6 @@ FIELDS = [
 
 
 @pytest.mark.parametrize("field", FIELDS, ids=lambda f: f.kind)
-def test_field_mapping_round_trip(field) -> None:
-    mapping = field.to_mapping()
-    assert mapping["type"] == field.kind
-    assert field_from_mapping(mapping) == field
-
-
-@pytest.mark.parametrize("field", FIELDS, ids=lambda f: f.kind)
 def test_field_message_round_trip_for_every_type(field) -> None:
     blank = dict.fromkeys(
         ("delta", "center_x", "center_y", "strength", "angle", "k1", "k2", "force_x", "force_y", "duration"),

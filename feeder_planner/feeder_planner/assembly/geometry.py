@@ -38,15 +38,10 @@ class Face:
     polygon: np.ndarray  # (k, 3), counter-clockwise seen from outside
 
 
-@dataclass(frozen=True)
-class ConvexPiece:
-    """A convex polyhedron in metres (assembly frame) with its faces, volume and centroid."""
+class BoundedByVertices:
+    """The axis-aligned bounding box of a shape's ``vertices`` (m): a convex piece's or a mesh's."""
 
     vertices: np.ndarray
-    faces: tuple[Face, ...]
-    volume: float
-    centroid: np.ndarray
-    is_box: bool = False
 
     @property
     def lower(self) -> np.ndarray:
@@ -60,8 +55,19 @@ class ConvexPiece:
 
     @property
     def size(self) -> float:
-        """Diagonal of the bounding box (m): the length scale of the piece's tolerances."""
+        """Diagonal of the bounding box (m): the length scale of the shape's tolerances."""
         return float(np.linalg.norm(self.upper - self.lower))
+
+
+@dataclass(frozen=True)
+class ConvexPiece(BoundedByVertices):
+    """A convex polyhedron in metres (assembly frame) with its faces, volume and centroid."""
+
+    vertices: np.ndarray
+    faces: tuple[Face, ...]
+    volume: float
+    centroid: np.ndarray
+    is_box: bool = False
 
     def edge_directions(self) -> np.ndarray:
         """Return the unit directions of the edges of all faces (duplicates allowed)."""

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from feeder_planner.assembly.geometry import BoundedByVertices
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import finite_number, optional, positive_number, required
 
@@ -50,7 +51,7 @@ ZERO_VOLUME = 1e-12
 
 
 @dataclass(frozen=True)
-class MeshPart:
+class MeshPart(BoundedByVertices):
     """One checked mesh of a body, in metres (assembly frame): triangles, volume and centroid."""
 
     field: str
@@ -59,21 +60,6 @@ class MeshPart:
     faces: np.ndarray  # (m, 3) vertex indices, counter-clockwise seen from outside
     volume: float
     centroid: np.ndarray
-
-    @property
-    def lower(self) -> np.ndarray:
-        """Lower corner of the axis-aligned bounding box (m)."""
-        return self.vertices.min(axis=0)
-
-    @property
-    def upper(self) -> np.ndarray:
-        """Upper corner of the axis-aligned bounding box (m)."""
-        return self.vertices.max(axis=0)
-
-    @property
-    def size(self) -> float:
-        """Diagonal of the bounding box (m): the length scale of the mesh's tolerances."""
-        return float(np.linalg.norm(self.upper - self.lower))
 
     @property
     def triangles(self) -> np.ndarray:

@@ -97,14 +97,6 @@ class Field(ABC):
     def lifted(self, loops: tuple[np.ndarray, ...]) -> float:
         """Return the lifted potential, the integral of u over the placed loops (Definition 1)."""
 
-    def to_mapping(self) -> dict[str, Any]:
-        """Return the mapping ``field_from_mapping`` reads back into this field (lengths in metres)."""
-        out: dict[str, Any] = {"type": self.kind}
-        for parameter in dataclasses.fields(self):
-            value = getattr(self, parameter.name)
-            out[parameter.name] = list(value) if isinstance(value, tuple) else value
-        return out
-
 
 @dataclass(frozen=True)
 class RadialField(Field):

@@ -32,13 +32,9 @@ from feeder_device.goals import serve_goal
 from feeder_msgs.action import FeedPart
 from feeder_msgs.msg import DeviceStatus, ThrowEvent
 from feeder_msgs.srv import ArmCommand, ArmPlacePart
-from feeder_planner.drawing import triangulate_loops
-from feeder_planner.errors import InputError
 from feeder_planner.node_kit import EVENT_DEPTH, STREAM_DEPTH, run_node, service_guard, yaw_quaternion
 from feeder_planner.node_kit.services import serve
 from feeder_planner.node_kit.viz import DeviceViz, Drawing, viz_parameters
-from feeder_planner.parts import load_part
-from feeder_planner.throwing import ArmPart, ThrowParams, arm_part, lowest_radius
 from feeder_sim.throwing import (
     FAULT_INFO,
     MAX_TICK_PERIODS,
@@ -49,9 +45,9 @@ from feeder_sim.throwing import (
 )
 from feeder_sim.throwing.counters import COUNTERS
 from feeder_sim.throwing.cycle import Pose, ThrowCycle, ns
-from feeder_sim.throwing.drawing import arm_shapes, display_length, part_on_arm_shapes, sensor_shapes
+from feeder_sim.throwing.drawing import ArmDrawing
 from feeder_sim.throwing.feeding import FeedGoal, check_feed_goal
-from feeder_sim.throwing.parameters import ARM_PARAMETERS, BASE_FRAME, DEFAULT_RADIUS_FACTOR
+from feeder_sim.throwing.parameters import ARM_PARAMETERS, BASE_FRAME, configure_arm
 
 __all__ = ["PARAMETERS", "FAULTS", "ThrowingArmNode", "main"]
 
@@ -98,7 +94,7 @@ class ThrowingArmNode(ManagedDevice):
         self.simulated = 0
         self.shown: tuple[Pose, float] | None = None  # the pose and joint angle last published, for ~/markers
         self.last_bit: bool | None = None  # the sensor bit last delivered
-        self.part_triangles: tuple[ArmPart | None, Any] = (None, None)
+        self.arm_drawing = ArmDrawing()
 
     @property
     def feed(self) -> FeedGoal[ThrowEvent] | None:
@@ -108,18 +104,8 @@ class ThrowingArmNode(ManagedDevice):
 
     # --- lifecycle hooks ---------------------------------------------------------------------------
     def configure_device(self, p: dict[str, Any]) -> None:
-        """Load the part, check the start and build the arm, its faults, the throw cycle and the streams."""
-        try:
-            part = arm_part(load_part(p["part_file"]))
-        except InputError as error:
-            raise InputError("parameter part_file", str(error)) from None
-        params = _throw_params(p)
-        edge = _initial_edge(part, p["initial_edge"])
-        radius = p["initial_radius"] or DEFAULT_RADIUS_FACTOR * lowest_radius(part, edge, params)
-        try:
-            arm = ThrowingArm(part, params, edge, radius, p["fidelity"], p["arm_length"], p["dynamic_step"])
-        except InputError as error:
-            raise InputError(f"parameter initial_{error.field}", error.problem) from None
+        """Build the arm, its faults and the throw cycle from the parameters, then the streams."""
+        arm = configure_arm(p)
         self.arm, self.cycle = arm, ThrowCycle(arm, ArmFaults(arm))
         self._forget_run()
         self.cycle.running = bool(p["autostart"])
@@ -217,12 +203,7 @@ class ThrowingArmNode(ManagedDevice):
             self.feed.cancel("stopped by ~/command stop")
             self.goals[0].advance_guarded(self.get_clock().now().nanoseconds)
             self.wake_goals()
-        if command == "throw":
-            cycle.queue(request.count)
-        elif command == "start":
-            cycle.running = True
-        else:  # stop
-            cycle.cancel_commands()
+        cycle.command(command, request.count)
         response.pending = cycle.pending
         self.publish_status()
         return response
@@ -234,19 +215,8 @@ class ThrowingArmNode(ManagedDevice):
         self._require_place_ready()
         if self.feed is not None:
             raise DeviceError("place_part refused: a ~/feed_part goal is executing (cancel it first)")
-        if not math.isfinite(request.radius):
-            raise InputError("radius", f"must be finite, got {request.radius!r}")
-        if abs(request.radius) > self.p["arm_length"]:
-            raise InputError(
-                "radius",
-                f"must be on the arm (|R| <= arm_length {self.p['arm_length']:g} m), got {request.radius:g}",
-            )
-        cycle = self._cycle()
-        cycle.arm.place(request.edge, request.radius)
-        cycle.motion = None
-        if "part_lost" in self.faults:
-            cycle.faults.clear("part_lost")
-            del self.faults["part_lost"]
+        self._cycle().place(request.edge, request.radius, self.p["arm_length"])
+        self.faults.pop("part_lost", None)
         self.model_fault = None
         self.publish_status()
         return response
@@ -345,20 +315,12 @@ class ThrowingArmNode(ManagedDevice):
 
     def drawing(self) -> Drawing | None:
         """Return what ~/markers shows: the arm at its joint angle, the part on it, the sensor by its bit."""
-        arm = self.arm
-        if arm is None:
+        if self.arm is None:
             return None
-        pose, joint = self.shown if self.shown is not None else (arm.rest_pose(), 0.0)
-        length = display_length(arm.arm_length, arm.radius, arm.part.radius, self.p["sensor_radius"])
-        width = 0.01 * length
-        offset = arm.params.offset
-        sensor = self.p["sensor_radius"], offset, self.p["sensing_height"], self.last_bit, width
-        shapes = arm_shapes(length, offset, joint, width) + sensor_shapes(*sensor)
-        if arm.on_arm:
-            if self.part_triangles[0] is not arm.part:
-                self.part_triangles = (arm.part, triangulate_loops(arm.part.part.loops()))
-            shapes += part_on_arm_shapes(arm.part.part, pose, self.part_triangles[1])
-        return Drawing(self.frame_id, self.frame_id, dynamic=shapes)
+        sensor = self.p["sensor_radius"], self.p["sensing_height"], self.last_bit
+        return Drawing(
+            self.frame_id, self.frame_id, dynamic=self.arm_drawing.shapes(self.arm, self.shown, sensor)
+        )
 
     # --- ~/feed_part ----------------------------------------------------------------------------------
     def _validate_feed(self, goal: FeedPart.Goal) -> None:
@@ -478,22 +440,6 @@ class FeedPartGoal:
         log.warning(f"~/feed_part: {outcome.name}: {outcome.message}")
         canceled = outcome.name == "CANCELED" and self.handle.is_cancel_requested
         return ("canceled" if canceled else "abort"), result
-
-
-def _initial_edge(part: ArmPart, initial_edge: int) -> int:
-    """Return the start edge (-1: the first stable edge), or raise InputError naming initial_edge."""
-    edge = initial_edge if initial_edge >= 0 else part.stable_edges[0]
-    if not (0 <= edge < part.n) or not part.stable[edge]:
-        raise InputError("parameter initial_edge", f"must be a stable edge {part.stable_edges}, got {edge}")
-    return edge
-
-
-def _throw_params(p: dict[str, Any]) -> ThrowParams:
-    """Return the design parameters; an InputError names the parameter."""
-    try:
-        return ThrowParams(p["offset"], p["release_speed"], p["gravity"], p["mu"])
-    except InputError as error:
-        raise InputError(f"parameter {error.field}", error.problem) from None
 
 
 def _stamp(nanoseconds: int) -> Any:

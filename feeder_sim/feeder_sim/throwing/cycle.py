@@ -17,6 +17,7 @@ The node publishes what this returns; the goal machine (``feeding``) decides fro
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from feeder_planner.errors import InputError
@@ -69,6 +70,27 @@ class ThrowCycle:
         if self.pending:
             return f"{self.pending} throw(s) queued"
         return "a throw in flight"
+
+    def command(self, command: str, count: int) -> None:
+        """Carry out a checked ~/command: queue ``count`` throws, start throwing every period, or stop."""
+        if command == "throw":
+            self.queue(count)
+        elif command == "start":
+            self.running = True
+        else:  # stop
+            self.cancel_commands()
+
+    def place(self, edge: int, radius: float, arm_length: float) -> None:
+        """Put the part at rest at (edge, R) on the arm, ending any throw being shown; fields are named."""
+        if not math.isfinite(radius):
+            raise InputError("radius", f"must be finite, got {radius!r}")
+        if abs(radius) > arm_length:
+            raise InputError(
+                "radius", f"must be on the arm (|R| <= arm_length {arm_length:g} m), got {radius:g}"
+            )
+        self.arm.place(edge, radius)
+        self.motion = None
+        self.faults.clear("part_lost")
 
     def queue(self, count: int) -> None:
         """Queue ``count`` more throws, or raise InputError naming ``count``."""

@@ -13,10 +13,11 @@ from typing import Sequence
 
 import numpy as np
 
-from feeder_planner.drawing import Shape, lift, part_shapes, rotation_z
+from feeder_planner.drawing import Shape, lift, part_shapes, rotation_z, triangulate_loops
 from feeder_planner.parts import Part
+from feeder_sim.throwing.arm import ThrowingArm
 
-__all__ = ["display_length", "arm_shapes", "sensor_shapes", "part_on_arm_shapes"]
+__all__ = ["display_length", "arm_shapes", "sensor_shapes", "part_on_arm_shapes", "ArmDrawing"]
 
 # An arm of unbounded length is drawn this much longer than what lies on it (the part, the sensor).
 DISPLAY_MARGIN = 1.25
@@ -53,3 +54,30 @@ def sensor_shapes(
 def part_on_arm_shapes(part: Part, pose: Sequence[float], triangles: np.ndarray | None = None) -> list[Shape]:
     """Return the part at pose (x, y, theta) in the arm frame (centre of mass at (x, y))."""
     return part_shapes(part, pose, "part", "part", triangles=triangles)
+
+
+class ArmDrawing:
+    """The arm's whole drawing at a pose shown; the part is triangulated once per part, not per update."""
+
+    def __init__(self) -> None:
+        self._triangles: tuple[object, np.ndarray | None] = (None, None)
+
+    def shapes(
+        self,
+        arm: ThrowingArm,
+        shown: tuple[Sequence[float], float] | None,
+        sensor: tuple[float, float, bool | None],
+    ) -> list[Shape]:
+        """Return the arm at its joint angle, the sensor (radius, sensing height, bit), the part if on it."""
+        pose, joint = shown if shown is not None else (arm.rest_pose(), 0.0)
+        sensor_radius, sensing_height, bit = sensor
+        length = display_length(arm.arm_length, arm.radius, arm.part.radius, sensor_radius)
+        width = 0.01 * length
+        offset = arm.params.offset
+        shapes = arm_shapes(length, offset, joint, width)
+        shapes += sensor_shapes(sensor_radius, offset, sensing_height, bit, width)
+        if arm.on_arm:
+            if self._triangles[0] is not arm.part:
+                self._triangles = (arm.part, triangulate_loops(arm.part.part.loops()))
+            shapes += part_on_arm_shapes(arm.part.part, pose, self._triangles[1])
+        return shapes

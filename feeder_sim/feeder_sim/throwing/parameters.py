@@ -2,13 +2,16 @@
 
 Each entry is a ``ParameterSpec`` (type by its default, meaning, check, read-only or runtime). The node
 declares them to rclpy with the display parameters of the node kit; the launcher's scene validation and
-the docs' parameter table read them from here without ROS.
+the docs' parameter table read them from here without ROS. ``configure_arm`` builds the model from
+validated values, every problem naming its parameter (a failed lifecycle configure says which).
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any, Mapping
 
+from feeder_planner.errors import InputError
 from feeder_planner.parameter_specs import (
     ParameterSpec,
     finite,
@@ -20,10 +23,12 @@ from feeder_planner.parameter_specs import (
     one_of,
     positive,
 )
-from feeder_sim.throwing.arm import FIDELITIES, FIDELITY_ALIASES
+from feeder_planner.parts import load_part
+from feeder_planner.throwing import ArmPart, ThrowParams, arm_part, lowest_radius
+from feeder_sim.throwing.arm import FIDELITIES, FIDELITY_ALIASES, ThrowingArm
 from feeder_sim.throwing.tolerances import DEFAULT_STEP
 
-__all__ = ["ARM_PARAMETERS", "BASE_FRAME", "DEFAULT_RADIUS_FACTOR"]
+__all__ = ["ARM_PARAMETERS", "BASE_FRAME", "DEFAULT_RADIUS_FACTOR", "configure_arm"]
 
 # A start-up R of 0 means this multiple of the edge's lowest throwable R: clear of the domain's edge,
 # where the left contact vertex barely lifts.
@@ -123,3 +128,29 @@ ARM_PARAMETERS = (
         read_only=True,
     ),
 )
+
+
+def configure_arm(p: Mapping[str, Any]) -> ThrowingArm:
+    """Load the part and build the arm at its start (edge, R) from validated parameter values ``p``."""
+    try:
+        part = arm_part(load_part(p["part_file"]))
+    except InputError as error:
+        raise InputError("parameter part_file", str(error)) from None
+    try:
+        params = ThrowParams(p["offset"], p["release_speed"], p["gravity"], p["mu"])
+    except InputError as error:
+        raise InputError(f"parameter {error.field}", error.problem) from None
+    edge = _initial_edge(part, p["initial_edge"])
+    radius = p["initial_radius"] or DEFAULT_RADIUS_FACTOR * lowest_radius(part, edge, params)
+    try:
+        return ThrowingArm(part, params, edge, radius, p["fidelity"], p["arm_length"], p["dynamic_step"])
+    except InputError as error:
+        raise InputError(f"parameter initial_{error.field}", error.problem) from None
+
+
+def _initial_edge(part: ArmPart, initial_edge: int) -> int:
+    """Return the start edge (-1: the first stable edge), or raise InputError naming initial_edge."""
+    edge = initial_edge if initial_edge >= 0 else part.stable_edges[0]
+    if not (0 <= edge < part.n) or not part.stable[edge]:
+        raise InputError("parameter initial_edge", f"must be a stable edge {part.stable_edges}, got {edge}")
+    return edge
