@@ -66,7 +66,10 @@ __all__ = ["DeviceState", "ManagedDevice", "DEVICE_PARAMETERS"]
 class TickedGoal(Protocol):
     """What the tick needs of an executing goal (``goals.RunningGoal``); ``goal`` is the device's adapter."""
 
-    goal: object
+    @property
+    def goal(self) -> object:
+        """The device's own adapter of the goal."""
+        ...
 
     def advance_guarded(self, now_ns: int) -> None:
         """Take in the tick at ``now_ns``; a bug inside the goal ends the goal, not the tick."""

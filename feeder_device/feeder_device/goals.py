@@ -173,7 +173,7 @@ def serve_goal(
             device.publish_status()
             poll = device.create_timer(
                 CANCEL_POLL,
-                lambda: handle.is_cancel_requested and running is not None and running.poke(),
+                lambda: _poke_if_canceled(handle, running),
                 clock=Clock(clock_type=ClockType.STEADY_TIME),
             )
             await _drive(device, running)
@@ -238,6 +238,12 @@ async def _drive(device: ManagedDevice, running: RunningGoal) -> None:
                 running.fail(error)
             continue
         await running.wait()
+
+
+def _poke_if_canceled(handle: ServerGoalHandle, running: RunningGoal | None) -> None:
+    """Wake a goal whose client asked to cancel: under a held clock no tick would."""
+    if handle.is_cancel_requested and running is not None:
+        running.poke()
 
 
 class _Failed:

@@ -83,7 +83,7 @@ def triangulate_loops(loops: Sequence[np.ndarray]) -> np.ndarray:
 
 def part_shapes(
     part: Part,
-    pose: Sequence[float],
+    pose: Sequence[float] | np.ndarray,
     namespace: str,
     style: str,
     *,

@@ -112,9 +112,8 @@ def check_dds_round_trip(timeout_s: float = 20.0) -> Check:
         started = time.monotonic()
         while time.monotonic() - started < timeout_s and token not in received:
             if echo.poll() is not None:
-                return Check(
-                    name, False, f"echo process exited early: {echo.stderr.read().strip()[-300:]}", FIX_SETUP
-                )
+                said = echo.stderr.read() if echo.stderr is not None else ""
+                return Check(name, False, f"echo process exited early: {said.strip()[-300:]}", FIX_SETUP)
             publisher.publish(String(data=token))
             executor.spin_once(timeout_sec=0.2)
         elapsed = time.monotonic() - started

@@ -156,7 +156,11 @@ def check_design(
 
 
 def check_arc_samples(
-    start: Sequence[float], waypoints: Sequence[Sequence[float]], step: float, field: str, limit: int
+    start: Sequence[float] | np.ndarray,
+    waypoints: Sequence[Sequence[float] | np.ndarray],
+    step: float,
+    field: str,
+    limit: int,
 ) -> int:
     """Return how many samples the great arcs from ``start`` through ``waypoints`` take at ``step``.
 

@@ -155,7 +155,7 @@ class StableRegionPlanner(Node):
             raise InputError("step", f"must be 0 (1 degree) or a positive angle in rad, got {request.step!r}")
         step = request.step or DEFAULT_PATH_STEP
         arc = math.acos(
-            max(-1.0, min(1.0, float(start @ goal) / (np.linalg.norm(start) * np.linalg.norm(goal))))
+            float(np.clip(float(start @ goal) / (np.linalg.norm(start) * np.linalg.norm(goal)), -1.0, 1.0))
         )
         samples = math.ceil(arc / step) + 1
         if samples > MAX_PATH_SAMPLES:

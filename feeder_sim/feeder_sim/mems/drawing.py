@@ -66,7 +66,7 @@ def force_shapes(grid: Grid, forces: np.ndarray, stride: int) -> list[Shape]:
 
 def parts_shapes(
     parts: Sequence[Part],
-    poses: Sequence[Sequence[float]],
+    poses: Sequence[Sequence[float] | np.ndarray],
     triangles: Sequence[np.ndarray] | None = None,
     namespace: str = "parts",
     style: str = "part",

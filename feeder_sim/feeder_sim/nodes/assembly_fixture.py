@@ -83,7 +83,7 @@ NANOSECONDS = 1_000_000_000
 FOLLOW_PATH = "~/follow_path"
 PARAMETERS = (*FIXTURE_PARAMETERS, *VIZ_PARAMETERS)
 
-FAULTS = {
+FAULTS: dict[str, FaultSpec] = {
     name: FaultSpec(
         name,
         f"{FAULT_INFO[name].description} ({FAULT_INFO[name].magnitude})",
@@ -151,7 +151,7 @@ class AssemblyFixture(ManagedDevice):
             raise InputError(f"parameter {error.field}", error.problem) from None
         assembly = load_assembly_parameter(p["assembly_file"])
         self.prepared = prepare(assembly, p["mu"] if p["override_mu"] else None, p["facets"])
-        self.table = Table([p["initial_tilt_x"], p["initial_tilt_y"]], limits)
+        self.table = Table(np.array([p["initial_tilt_x"], p["initial_tilt_y"]], float), limits)
         self.limits = limits
         self.frame_id = p["frame_id"] or self.frame(BASE_FRAME)
         self.expect_rate(p["publish_rate"])

@@ -56,7 +56,7 @@ PARAMETERS = (*ARM_PARAMETERS, *viz_parameters(cell_pose=(0.0, 0.0, 0.0, math.pi
 
 # The kit's specs of the model's faults (feeder_sim.throwing.faults), with their status codes.
 _CODES = {"motor_fault": DeviceStatus.FAULT_MOTOR, "part_lost": DeviceStatus.FAULT_PART_LOST}
-FAULTS = {
+FAULTS: dict[str, FaultSpec] = {
     name: FaultSpec(
         name,
         info.description,
