@@ -1,4 +1,4 @@
-"""``feeder record``, ``feeder bag-info`` and ``feeder bag-reindex`` (``feeder play`` is in cli.play)."""
+"""``feeder record``, ``bag-info``, ``bag-reindex`` and ``bag-convert`` (``feeder play`` is in cli.play)."""
 
 from __future__ import annotations
 
@@ -261,6 +261,36 @@ def _reindex_summary(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def _convert(args: argparse.Namespace) -> int:
+    from feeder_cell.bag.convert import convert, load_output_options
+
+    inputs = [Path(p) for p in args.inputs or ()]
+    for given in args.input or ():
+        if len(given) > 2 or (len(given) == 2 and given[1] != "mcap"):
+            raise InputError(
+                "--input", f"takes URI [mcap] (the only storage read here), got {' '.join(given)!r:.80}"
+            )
+        inputs.append(Path(given[0]))
+    outputs = load_output_options(Path(args.output_options))
+    result = convert(inputs, outputs)
+    emit(
+        args,
+        {"inputs": result.inputs, "outputs": result.outputs, "skipped_topics": result.skipped_topics},
+        _convert_summary,
+    )
+    return 0
+
+
+def _convert_summary(result: dict[str, Any]) -> str:
+    lines = [f"read {sum(result['inputs'].values())} messages from {len(result['inputs'])} input(s)"]
+    for output in result["outputs"]:
+        lines.append(f"{output['uri']}: {output['messages']} messages in {', '.join(output['files'])}")
+        lines += [f"  {name}  {t['type']}  {t['count']}" for name, t in output["topics"].items()]
+    for name, types in result["skipped_topics"].items():
+        lines.append(f"  left out {name}: more than one type among the inputs ({', '.join(types)})")
+    return "\n".join(lines)
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add this module's subcommands to the ``feeder`` parser."""
     record = subparsers.add_parser(
@@ -461,3 +491,40 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     reindex.add_argument("bag")
     add_json_flag(reindex)
     reindex.set_defaults(handler=_reindex)
+
+    bag_convert = subparsers.add_parser(
+        "bag-convert",
+        help="merge, split, filter, cut or recompress bags (as ros2 bag convert)",
+        description="Read the INPUT bags (bag directories, or single .mcap files) merged in log-time "
+        "order and write each output bag of OUTPUT_OPTIONS.yaml, rosbag2's convert options: a"
+        " top-level output_bags list, each with uri (required, relative to the current "
+        "directory), storage_id (mcap), topic selection (all, all_topics, all_services, "
+        "topics, topic_types, services, regex, exclude_topics, exclude_topic_types, "
+        "exclude_services, exclude_regex or its older name exclude, include_hidden_topics), "
+        "start_time_ns/end_time_ns (log time, inclusive), max_bagfile_size (bytes) and "
+        "max_bagfile_duration (s) to split, compression_mode/compression_format or "
+        "storage_preset_profile (MCAP chunk compression) and custom_data. Messages are copied"
+        " byte for byte with their log and publish times. An unknown or mistyped option is "
+        "refused naming it; outputs are never overwritten, and a failed conversion leaves "
+        "none of them.",
+    )
+    bag_convert.add_argument(
+        "inputs", nargs="*", metavar="INPUT", help="input bags (directories or .mcap files)"
+    )
+    bag_convert.add_argument(
+        "-i",
+        "--input",
+        action="append",
+        nargs="+",
+        metavar="URI",
+        help="an input as ros2 bag convert takes it (URI, then optionally its storage id mcap); repeatable",
+    )
+    bag_convert.add_argument(
+        "-o",
+        "--output-options",
+        required=True,
+        metavar="OUTPUT_OPTIONS.yaml",
+        help="rosbag2's convert YAML (output_bags: [...])",
+    )
+    add_json_flag(bag_convert)
+    bag_convert.set_defaults(handler=_convert)
