@@ -291,7 +291,10 @@ class FoxgloveServer:
         self._loop = loop
         try:
             loop.run_until_complete(self._main())
+        except BaseException as error:  # noqa: BLE001 -- handed to the constructor, which raises it
+            self._error = error
         finally:
+            self._ready.set()  # never leave the constructor waiting, whatever ended the loop
             loop.close()
 
     async def _main(self) -> None:

@@ -69,7 +69,8 @@ def _run(args: argparse.Namespace) -> int:
             raise FeederError(f"cannot serve ws://{args.address}:{args.port}: {error}") from None
         # The line a user (and a test) waits for: where to point Foxglove.
         mode = " read-only" if args.read_only else ""
-        sys.stdout.write(f"feeder bridge: serving ws://{args.address}:{bridge.port}{mode} (Ctrl-C stops)\n")
+        host = f"[{args.address}]" if ":" in args.address else args.address  # an IPv6 address in a URL
+        sys.stdout.write(f"feeder bridge: serving ws://{host}:{bridge.port}{mode} (Ctrl-C stops)\n")
         sys.stdout.flush()
         try:
             while keep_going():
