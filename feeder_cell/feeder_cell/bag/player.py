@@ -390,6 +390,9 @@ class Player:
             self.wait_for_subscribers(keep_going)
         # The start delay and the discovery wait are not part of the played time.
         self.playback.clock.jump(self.playback.window.start, self.options.delay)
+        # The start time on /clock before the first message: a sim-time node then never receives a
+        # replayed message while its clock still reads a time from before the jump (or none at all).
+        self.publish_clock()
         self.playback.run(keep_going)
         return dict(self.counts)
 

@@ -1,0 +1,110 @@
+"""Recording in cell time: ``feeder record --use-sim-time``, and ``feeder play --clock`` of that bag.
+
+A test cell clock publishes ``/cell_time`` from the start but ``/clock`` (cell time from 1000 s, five
+times faster than wall time) only after 3 s. The recorder on sim time subscribes to nothing before the
+first ``/clock`` (as rosbag2), so no message of the first seconds is in the bag; every message's log
+time is the cell time it was published at (within two clock ticks). Replaying the bag with ``--clock``
+publishes ``/clock`` from those log times: a sim-time node sees the cell times again, each replayed
+message arriving at the cell time it carries.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import bag_procs as bp
+import pytest
+import rosbag2_fields
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+START_S, FACTOR = 1000.0, 5.0
+# The recorder's clock is the last /clock it received: 20 ms of wall time between ticks is 0.1 s of
+# cell time, and the receive path adds a tick or two on a loaded machine.
+TOLERANCE_NS = 400_000_000
+
+
+@pytest.mark.ros
+def test_record_in_cell_time_and_replay_it_with_the_clock(ros_client: Any, tmp_path: Path) -> None:
+    from rosgraph_msgs.msg import Clock
+    from std_msgs.msg import String
+
+    bag = tmp_path / "cell"
+    cell = bp.start_script("bag_cell_clock.py", "3", str(START_S), str(FACTOR))
+    recorder = bp.start_recorder(bag, "--use-sim-time", "--topics", "/cell_time", "--node-name", "sim_rec")
+    try:
+        bp.wait_until(lambda: bp.in_graph(ros_client, "sim_rec"), 60, "the recorder node")
+        bp.wait_for_line(cell, "clock", 30)
+        # Before the first /clock the recorder had not subscribed: it subscribes once the clock runs.
+        bp.wait_until(lambda: bool(bp.subscribed(ros_client, "/cell_time", "sim_rec")), 30, "subscribed")
+        time.sleep(3.0)  # 15 s of cell time
+        result = bp.finish(recorder, signal.SIGINT)
+    finally:
+        bp.end(recorder)
+        bp.end(cell, signal.SIGINT)
+    assert result["use_sim_time"] is True
+    recorded = bp.read_messages(bag, "/cell_time")
+    assert len(recorded) >= 100, len(recorded)
+    assert all(bp.string_data(data) != "pre" for _, data in recorded), "nothing from before the first /clock"
+    offsets = [log_time - int(bp.string_data(data)) for log_time, data in recorded]
+    assert all(-TOLERANCE_NS <= d <= TOLERANCE_NS for d in offsets), (min(offsets), max(offsets))
+    first, last = recorded[0][0], recorded[-1][0]
+    assert START_S * 1e9 <= first < last < (START_S + 60) * 1e9, "cell times, not wall times"
+    rosbag2_fields.check_bag(bag)
+
+    # Replay at 2x with /clock at 100 Hz: the clock a sim-time node sees is the recorded cell time.
+    clocks: list[tuple[float, int]] = []
+    replayed: list[tuple[float, int]] = []
+    lock = threading.Lock()
+
+    def on_clock(msg: Any) -> None:
+        with lock:
+            clocks.append((time.monotonic(), msg.clock.sec * 1_000_000_000 + msg.clock.nanosec))
+
+    def on_data(msg: Any) -> None:
+        with lock:
+            replayed.append((time.monotonic(), int(msg.data)))
+
+    reliable = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+    subscriptions = [
+        ros_client.create_subscription(Clock, "/clock", on_clock, reliable),
+        ros_client.create_subscription(String, "/cell_time", on_data, reliable),
+    ]
+    try:
+        done = bp.run_feeder(
+            "play", str(bag), "--clock", "100", "--rate", "2", "--wait-for-subscribers", "10", timeout=120
+        )
+        assert done.returncode == 0, done.stderr
+        time.sleep(0.5)
+    finally:
+        for subscription in subscriptions:
+            ros_client.destroy_subscription(subscription)
+    with lock:
+        clocks_seen, data_seen = list(clocks), list(replayed)
+    assert len(data_seen) == len(recorded), (len(data_seen), len(recorded))
+    values = [c for _, c in clocks_seen]
+    assert values == sorted(values), "the replayed clock runs forward"
+    # While the bag plays, the clock reads the recorded cell times (after its end the player's clock runs
+    # on until it exits, as rosbag2's does).
+    playing = [c for t, c in clocks_seen if t <= data_seen[-1][0]]
+    assert first - TOLERANCE_NS <= playing[0] and playing[-1] <= last + TOLERANCE_NS, (
+        playing[0],
+        playing[-1],
+    )
+    assert playing[-1] - playing[0] >= 0.8 * (last - first), "the clock covers the recorded cell times"
+    # Each replayed message arrives when the replayed clock reads the cell time it was published at:
+    # 100 Hz of /clock at rate 2 is 20 ms of cell time between ticks and the recording's offset adds up
+    # to TOLERANCE_NS; this client's callbacks run up to a few hundred ms late on a loaded machine (the
+    # median and the 95th percentile hold the clock to the cell times, the maximum catches a replay off).
+    gaps = []
+    for arrived, cell_ns in data_seen:
+        before = [c for t, c in clocks_seen if t <= arrived]
+        assert before, "the clock runs from before the first message"
+        gaps.append(abs(before[-1] - cell_ns))
+    gaps.sort()
+    assert gaps[len(gaps) // 2] <= TOLERANCE_NS, gaps[len(gaps) // 2]
+    assert gaps[int(len(gaps) * 0.95)] <= 2 * TOLERANCE_NS, gaps[int(len(gaps) * 0.95)]
+    assert gaps[-1] <= 2_500_000_000, gaps[-1]
