@@ -9,7 +9,7 @@ numbers.
 from __future__ import annotations
 
 import math
-from typing import Any, Final
+from typing import Final
 
 from feeder_planner.errors import InputError
 
@@ -109,7 +109,7 @@ MAX_LIMIT_SET_THROWS: Final = 1_000_000
 MAX_QUEUED_THROWS = 100_000
 
 
-def quote(value: Any, limit: int = QUOTE_CHARS) -> str:
+def quote(value: object, limit: int = QUOTE_CHARS) -> str:
     """Return a short description of a user's value for an error message: never an unbounded repr.
 
     Parameters
@@ -139,7 +139,7 @@ def quote(value: Any, limit: int = QUOTE_CHARS) -> str:
     return text if len(text) <= limit else f"{text[:limit]}... ({type(value).__name__})"
 
 
-def describe(value: Any) -> str:
+def describe(value: object) -> str:
     """Return the type and a short quote of a value (``quote``), e.g. "str 'abc'" or "a list of 3 item(s)"."""
     if isinstance(value, (list, tuple, dict)):
         return quote(value)

@@ -72,8 +72,8 @@ class Part:
 
 
 def make_part(
-    vertices: Any,
-    holes: Any = (),
+    vertices: object,
+    holes: object = (),
     density: float = DEFAULT_DENSITY,
     name: str = "part",
     unit_scale: float = 1.0,

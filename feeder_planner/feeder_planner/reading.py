@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import os
 import stat
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -28,7 +29,7 @@ from feeder_planner.limits import MAX_FILE_BYTES, MAX_YAML_DEPTH, MAX_YAML_NODES
 __all__ = ["check_input_file", "read_bytes", "read_text", "parse_yaml", "load_yaml_file"]
 
 # libyaml when it is built (about ten times faster); the pure-Python parser gives the same events.
-_LOADER: Any = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+_LOADER: type[yaml.CSafeLoader] | type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 _KINDS = (
     (stat.S_ISDIR, "a directory"),
@@ -113,17 +114,25 @@ def read_text(path: str | Path, max_bytes: int = MAX_FILE_BYTES) -> str:
     return decode_utf8(read_bytes(path, max_bytes), str(path))
 
 
-def _line(event: Any) -> int:
+def _line(event: yaml.Event) -> int:
     """Return the 1-based line where a YAML event starts (0 when the parser gave no mark)."""
     mark = getattr(event, "start_mark", None)
     return int(mark.line) + 1 if mark is not None else 0
+
+
+@dataclass(slots=True)
+class _Open:
+    """A collection whose end event is still to come: its anchor and its expanded node count so far."""
+
+    anchor: str | None
+    count: int = 1
 
 
 def _check_events(text: str, source: str, field: str, max_nodes: int = MAX_YAML_NODES) -> None:
     """Walk the YAML events: refuse nesting past MAX_YAML_DEPTH and expanded size past ``max_nodes``."""
     total = 0
     sizes: dict[str, int] = {}  # expanded node count of each anchor seen so far
-    open_nodes: list[list[Any]] = []  # [anchor, expanded count] of each open collection
+    open_nodes: list[_Open] = []
     for event in yaml.parse(text, Loader=_LOADER):
         if isinstance(event, (yaml.SequenceStartEvent, yaml.MappingStartEvent)):
             if len(open_nodes) >= MAX_YAML_DEPTH:
@@ -132,15 +141,15 @@ def _check_events(text: str, source: str, field: str, max_nodes: int = MAX_YAML_
                     f"nested deeper than the limit of {MAX_YAML_DEPTH} levels at line {_line(event)}",
                     source,
                 )
-            open_nodes.append([event.anchor, 1])
+            open_nodes.append(_Open(event.anchor))
             total += 1
             continue
         if isinstance(event, (yaml.SequenceEndEvent, yaml.MappingEndEvent)):
-            anchor, count = open_nodes.pop()
-            if anchor is not None:
-                sizes[anchor] = count
+            closed = open_nodes.pop()
+            if closed.anchor is not None:
+                sizes[closed.anchor] = closed.count
             if open_nodes:
-                open_nodes[-1][1] += count
+                open_nodes[-1].count += closed.count
             continue
         if isinstance(event, yaml.ScalarEvent):
             count = 1
@@ -149,7 +158,7 @@ def _check_events(text: str, source: str, field: str, max_nodes: int = MAX_YAML_
         elif isinstance(event, yaml.AliasEvent):
             # An alias inside the collection it names makes a recursive value, which no field can be
             # and which would recurse forever in whatever walks it.
-            if any(anchor == event.anchor for anchor, _ in open_nodes):
+            if any(node.anchor == event.anchor for node in open_nodes):
                 raise InputError(
                     field,
                     f"an alias refers to its own ancestor at line {_line(event)} (a recursive value)",
@@ -160,7 +169,7 @@ def _check_events(text: str, source: str, field: str, max_nodes: int = MAX_YAML_
             continue
         total += count
         if open_nodes:
-            open_nodes[-1][1] += count
+            open_nodes[-1].count += count
         if total > max_nodes:
             raise InputError(
                 field,

@@ -183,7 +183,7 @@ def _cone_columns(assembly: Assembly, contacts: list[Contact]) -> _ConeColumns:
 
 def _socp_problem(
     columns: _ConeColumns, rhs: np.ndarray
-) -> tuple[sparse.csc_matrix, np.ndarray, list[Any], np.ndarray]:
+) -> tuple[sparse.csc_matrix, np.ndarray, list[object], np.ndarray]:
     """Return Clarabel's G x + s = h, s in K, and the cost: least total normal force under eqs. (2), (8).
 
     Rows: the equilibrium equations (zero cone), f_n >= 0 of frictionless contacts, then per frictional
@@ -202,7 +202,7 @@ def _socp_problem(
     )
     G = sparse.vstack([system.A, cone_block], format="csc")
     h = np.concatenate([rhs, np.zeros(len(selected))])
-    cones: list[Any] = [_clarabel.ZeroConeT(rows)]
+    cones: list[object] = [_clarabel.ZeroConeT(rows)]  # Clarabel's cone objects, handed to its solver
     if len(nonneg):
         cones.append(_clarabel.NonnegativeConeT(len(nonneg)))
     cones += [_clarabel.SecondOrderConeT(3) for _ in cone_first]

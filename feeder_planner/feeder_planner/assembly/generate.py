@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -188,7 +188,8 @@ def write_mesh(path: str | Path, vertices: np.ndarray, faces: np.ndarray) -> Non
     path = Path(path)
     file_type = {".stl": "stl", ".obj": "obj", ".ply": "ply"}[path.suffix.lower()]
     mesh = trimesh.Trimesh(vertices, faces, process=False)
-    data: Any = mesh.export(file_type=file_type)
+    # stl, obj and ply export as bytes or text (trimesh returns a dict only for its dict formats)
+    data = cast("bytes | str", mesh.export(file_type=file_type))
     path.write_bytes(data if isinstance(data, bytes) else data.encode())
 
 

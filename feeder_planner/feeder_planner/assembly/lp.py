@@ -25,7 +25,7 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Any, Literal, get_args
+from typing import Literal, get_args
 
 import highspy
 import numpy as np
@@ -164,7 +164,7 @@ class WarmLP:
         """Solve from the last basis (or cold); with ``pivot_limit``, status 'limit' after so many pivots."""
         return self._solve_with({}, pivot_limit)
 
-    def _solve_with(self, options: dict[str, Any], pivot_limit: int | None) -> LPResult:
+    def _solve_with(self, options: dict[str, int | float | str], pivot_limit: int | None) -> LPResult:
         """Run with ``options`` set for this solve only (the model's own values are restored afterwards)."""
         if pivot_limit is not None:
             options = {**options, "simplex_iteration_limit": int(pivot_limit)}
@@ -444,7 +444,7 @@ class _DualInteriorPoint:
         # points). One thread: on a shared 2-core machine more threads only wait for each other (15 s).
         self.settings.direct_solve_method = INTERIOR_LINEAR_SOLVER
         self.settings.max_threads = 1
-        self._solver: Any = None
+        self._solver: _clarabel.DefaultSolver | None = None  # made at the first solve
 
     def _rhs(self, cost: np.ndarray) -> np.ndarray:
         """Return Clarabel's h for costs c: the dual constraints' right-hand side (c, then 0 for v, w)."""

@@ -14,14 +14,14 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import shapely  # type: ignore[import-untyped]
 from shapely.geometry import MultiPolygon, Polygon  # type: ignore[import-untyped]
+from shapely.geometry.base import BaseGeometry  # type: ignore[import-untyped]
 
 from feeder_planner.assembly.geometry import ConvexPiece, tangent_basis
-from feeder_planner.assembly.meshes import MeshPart
+from feeder_planner.assembly.meshes import BodyParts, MeshPart
 from feeder_planner.assembly.tolerances import ANGLE_TOLERANCE, AREA_TOLERANCE, NORMAL_KEY_SCALE
 
 __all__ = ["PlanarRegion", "check_mesh_overlaps", "part_regions", "penetration_depth", "region_contacts"]
@@ -37,7 +37,7 @@ class PlanarRegion:
     level: float
     side: float
     normal: np.ndarray  # outward unit normal (side * axis)
-    region: Any  # shapely Polygon or MultiPolygon in the axis's tangent basis
+    region: Polygon | MultiPolygon  # in the axis's tangent basis
     u: np.ndarray
     v: np.ndarray
 
@@ -120,7 +120,7 @@ def region_contacts(
     return found
 
 
-def _polygons(geometry: Any) -> list[Polygon]:
+def _polygons(geometry: BaseGeometry) -> list[Polygon]:
     """Return the polygons of a shapely intersection (lines and points of mere edge contact dropped)."""
     if isinstance(geometry, Polygon):
         return [geometry]
@@ -129,7 +129,7 @@ def _polygons(geometry: Any) -> list[Polygon]:
     return [g for g in getattr(geometry, "geoms", []) if isinstance(g, Polygon)]
 
 
-def _diameter(geometry: Any) -> float:
+def _diameter(geometry: BaseGeometry) -> float:
     """Largest side of a region's bounding rectangle: the length scale of its area tolerance."""
     x0, y0, x1, y1 = geometry.bounds
     return float(max(x1 - x0, y1 - y0))
@@ -178,7 +178,7 @@ def penetration_depth(p: Part, q: Part) -> float:
     return max(_depth_inside(q, _samples(p)), _depth_inside(p, _samples(q)))
 
 
-def check_mesh_overlaps(bodies: Sequence[Any], tolerance: float) -> None:
+def check_mesh_overlaps(bodies: Sequence[BodyParts], tolerance: float) -> None:
     """Refuse a mesh overlapping another part deeper than ``tolerance`` (m), naming the pair and the depth.
 
     Parts of different bodies must not interpenetrate; within a body a mesh must not overlap another part

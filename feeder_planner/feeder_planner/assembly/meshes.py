@@ -15,15 +15,16 @@ import struct
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
-from feeder_planner.assembly.geometry import BoundedByVertices
+from feeder_planner.assembly.geometry import BoundedByVertices, ConvexPiece
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import finite_number, optional, positive_number, required
 
 __all__ = [
+    "BodyParts",
     "MAX_MESH_BYTES",
     "MAX_MESH_FACES",
     "MESH_SUFFIXES",
@@ -342,12 +343,31 @@ def _face_count_hint(path: Path) -> int | None:
     return None
 
 
-def part_bounds(parts: Sequence[Any]) -> tuple[np.ndarray, np.ndarray]:
+class BodyParts(Protocol):
+    """The parts of a body (``model.Body``, which imports this module): its convex pieces and its meshes."""
+
+    @property
+    def pieces(self) -> Sequence[ConvexPiece]:
+        """The body's convex pieces."""
+        ...
+
+    @property
+    def piece_fields(self) -> Sequence[str]:
+        """The file field of each piece, in the pieces' order."""
+        ...
+
+    @property
+    def meshes(self) -> Sequence[MeshPart]:
+        """The body's meshes."""
+        ...
+
+
+def part_bounds(parts: Sequence[BoundedByVertices]) -> tuple[np.ndarray, np.ndarray]:
     """Return the lower and upper corners of the bounding box of parts (convex pieces or meshes)."""
     return np.min([p.lower for p in parts], axis=0), np.max([p.upper for p in parts], axis=0)
 
 
-def body_surface(body: Any) -> list[np.ndarray]:
+def body_surface(body: BodyParts) -> list[np.ndarray]:
     """Return a body's surface as 3-D polygons (m): its pieces' faces, then its meshes' triangles.
 
     For drawings and markers, which until meshes knew only ``body.pieces``: one list covers both.

@@ -106,7 +106,7 @@ class StableRegion:
     def to_json(self) -> dict[str, Any]:
         """Return the contract's region object (unit vectors with rounding noise printed as 0)."""
 
-        def clean(a: np.ndarray) -> Any:
+        def clean(a: np.ndarray) -> object:
             return np.where(np.abs(a) < ZERO_COMPONENT, 0.0, a).tolist()
 
         return {

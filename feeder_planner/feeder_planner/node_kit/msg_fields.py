@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import Any, Protocol, TypeVar
+from typing import Any, Protocol, TypeAlias, TypeVar, cast
 
 from feeder_planner.errors import InputError
 from feeder_planner.mems.fields import ProgramStep, check_field_type, field_from_mapping, field_parameters
@@ -52,13 +52,23 @@ class FieldProgramLike(Protocol):
 Spec = TypeVar("Spec", bound=FieldSpecLike)
 
 
-def _pair(value: Any) -> tuple[float, float]:
-    """Return a two-element parameter as two floats."""
-    return float(value[0]), float(value[1])
+# A field parameter's value: a number, or a pair ([x, y] in a mapping, a tuple in a Field).
+FieldValue: TypeAlias = float | Sequence[float]
+
+
+def _pair(value: FieldValue) -> tuple[float, float]:
+    """Return a two-element parameter (center, force, k: the name says which) as two floats."""
+    pair = cast(Sequence[float], value)
+    return float(pair[0]), float(pair[1])
+
+
+def _number(value: FieldValue) -> float:
+    """Return a one-number parameter (strength, delta, angle: the name says which) as a float."""
+    return float(cast(float, value))
 
 
 # Parameter name (as in the field mapping) -> its value read from a message.
-_READ: dict[str, Callable[[FieldSpecLike], Any]] = {
+_READ: dict[str, Callable[[FieldSpecLike], FieldValue]] = {
     "center": lambda s: [s.center_x, s.center_y],
     # a message leaves strength 0 when it does not set it: the default strength 1
     "strength": lambda s: s.strength if s.strength != 0.0 else 1.0,
@@ -69,7 +79,7 @@ _READ: dict[str, Callable[[FieldSpecLike], Any]] = {
 }
 
 
-def _write(spec: FieldSpecLike, name: str, value: Any) -> None:
+def _write(spec: FieldSpecLike, name: str, value: FieldValue) -> None:
     """Write one field parameter into its message fields."""
     if name == "center":
         spec.center_x, spec.center_y = _pair(value)
@@ -78,11 +88,11 @@ def _write(spec: FieldSpecLike, name: str, value: Any) -> None:
     elif name == "k":
         spec.k1, spec.k2 = _pair(value)
     elif name == "strength":
-        spec.strength = float(value)
+        spec.strength = _number(value)
     elif name == "delta":
-        spec.delta = float(value)
+        spec.delta = _number(value)
     elif name == "angle":
-        spec.angle = float(value)
+        spec.angle = _number(value)
     else:  # pragma: no cover - a field parameter without message fields is a programming error
         raise KeyError(name)
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence, Sized
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -120,12 +120,26 @@ def check_text(text: str, limit: int, field: str) -> str:
     return text
 
 
+class _Loop(Protocol):
+    """A feeder_msgs/Polygon2D as far as the size check reads it."""
+
+    @property
+    def x(self) -> Sized:
+        """The x coordinates."""
+        ...
+
+    @property
+    def y(self) -> Sized:
+        """The y coordinates."""
+        ...
+
+
 def check_part_size(msg: Any, field: str = "part") -> None:
     """Refuse a feeder_msgs/Part whose loops exceed the vertex and hole limits, before reading them."""
     check_text(msg.name, MAX_NAME_CHARS, f"{field}.name")
     check_text(msg.length_unit, MAX_NAME_CHARS, f"{field}.length_unit")
     check_count(len(msg.holes), MAX_HOLES, f"{field}.holes", "holes")
-    loops: list[tuple[str, Any]] = [(f"{field}.outer", msg.outer)]
+    loops: list[tuple[str, _Loop]] = [(f"{field}.outer", msg.outer)]
     loops += [(f"{field}.holes[{i}]", hole) for i, hole in enumerate(msg.holes)]
     total = 0
     for where, loop in loops:

@@ -39,7 +39,7 @@ __all__ = [
 MAX_ERROR_CHARS = 1000
 
 
-def check_queue_depth(value: Any) -> str | None:
+def check_queue_depth(value: object) -> str | None:
     """Check ``request_queue_depth``: an integer in [1, MAX_REQUEST_QUEUE_DEPTH]."""
     ok = isinstance(value, int) and not isinstance(value, bool) and 1 <= value <= MAX_REQUEST_QUEUE_DEPTH
     return None if ok else f"must be an integer in [1, {MAX_REQUEST_QUEUE_DEPTH}], got {value!r}"

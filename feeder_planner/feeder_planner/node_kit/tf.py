@@ -73,7 +73,7 @@ TF_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durabilit
 CELL_FRAME = "cell"
 
 
-def check_cell_pose(value: Any) -> str | None:
+def check_cell_pose(value: object) -> str | None:
     """Check a cell_pose parameter: six finite numbers [x, y, z, roll, pitch, yaw] (m, rad)."""
     values = list(value) if isinstance(value, (list, tuple)) else None
     ok = (

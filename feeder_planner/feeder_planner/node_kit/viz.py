@@ -92,7 +92,7 @@ class Drawing:
     moving: list[MovingFrame] = field(default_factory=list)
 
 
-def _shapes_key(shapes: Sequence[Shape], frame_id: str) -> tuple[Any, ...]:
+def _shapes_key(shapes: Sequence[Shape], frame_id: str) -> tuple[object, ...]:
     return (frame_id, *((s.kind, s.namespace, s.style, s.size, s.text, s.points.tobytes()) for s in shapes))
 
 
@@ -107,7 +107,7 @@ class DeviceViz:
         self.static_pub = node.create_publisher(MarkerArray, "~/markers", LATCHED)
         self.update_pub = node.create_publisher(MarkerArray, "~/markers", LATCHED)
         self.static_book, self.update_book = MarkerBook(), MarkerBook()
-        self.static_key: tuple[Any, ...] | None = None
+        self.static_key: tuple[object, ...] | None = None
         self.frames = StaticFrames(node)
         self.moving: FramePublisher | None = None  # made for the first moving frame: no idle /tf writer
         self.steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -118,9 +118,11 @@ class DeviceViz:
         node.add_post_set_parameters_callback(self._apply_parameters)
 
     @staticmethod
-    def _valid_rate(value: Any) -> float:
+    def _valid_rate(value: object) -> float:
         # A bad start value fails the device's configure (the kit checks every spec); until then, off.
-        return float(value) if MARKER_RATE.check and MARKER_RATE.check(value) is None else 0.0
+        # (The check passes finite numbers only: the isinstance says so to mypy.)
+        valid = MARKER_RATE.check and MARKER_RATE.check(value) is None
+        return float(value) if valid and isinstance(value, (int, float)) else 0.0
 
     def _schedule(self) -> None:
         if self.timer is not None:

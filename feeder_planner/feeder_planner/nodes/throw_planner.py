@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 from rclpy.node import Node
 
 from feeder_msgs.msg import DesignCandidate, LimitAttractor, LimitEdgeRange
+from feeder_msgs.msg import Part as PartMsg
 from feeder_msgs.srv import DesignSearch, GraspRadii, LimitSetCompute, SensorTriggerRadii, ThrowCompute
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit import (
@@ -95,7 +96,7 @@ class _ThrowRequest(Protocol):
 class _LimitRequest(_ThrowRequest, Protocol):
     """The fields of a limit-set or trigger-radii request besides the design."""
 
-    part: Any  # feeder_msgs/Part
+    part: PartMsg
     sensing_height: float
 
 
