@@ -26,9 +26,10 @@ The sequence a controller follows is in docs/cell.md; adding a device is docs/de
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from enum import IntEnum
-from typing import Any, Mapping, Protocol, Sequence
+from typing import Any, Generic, Mapping, Protocol, Sequence, TypeVar
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
@@ -51,16 +52,18 @@ from feeder_device.declarations import (
     parse_fault_parameter,
     unknown_fault,
 )
+from feeder_device.parameters import DeviceParameters
 from feeder_device.rate import RateMonitor, RateReport
 from feeder_msgs.msg import DeviceStatus
 from feeder_msgs.srv import InjectFault
 from feeder_planner.errors import FeederError, InputError
-from feeder_planner.node_kit.parameters import ParameterSpec, check_value, declare_parameters, positive
+from feeder_planner.node_kit.parameters import ParameterSpec, check_value, declare_parameters
 from feeder_planner.node_kit.qos import LATCHED
 from feeder_planner.node_kit.services import REQUEST_QUEUE_PARAMETER, serve
 from feeder_planner.node_kit.tf import namespaced_frame
+from feeder_planner.parameter_specs import from_values, specs_of
 
-__all__ = ["DeviceState", "ManagedDevice", "DEVICE_PARAMETERS"]
+__all__ = ["DeviceState", "ManagedDevice", "device_parameter_specs"]
 
 
 class TickedGoal(Protocol):
@@ -96,33 +99,21 @@ class DeviceState(IntEnum):
     STOPPED = DeviceStatus.STOPPED
 
 
-DEVICE_PARAMETERS = (
-    ParameterSpec(
-        "inject_faults",
-        [""],
-        "faults injected at configure, each NAME or NAME=VALUE (docs/cell.md lists each device's faults)",
-        read_only=True,
-    ),
-    ParameterSpec("fault_seed", 0, "seed of the injected faults' random draws", read_only=True),
-    ParameterSpec(
-        "real_time_factor",
-        1.0,
-        "real-time factor of the cell clock this device must keep up with (feeder launch --real-time-factor "
-        "sets it with use_sim_time); the configured figure in status and diagnostics",
-        positive,
-        read_only=True,
-    ),
-    ParameterSpec(
-        "hardware_id",
-        "",
-        "hardware_id in /diagnostics (empty: sim:<fully qualified node name>)",
-        read_only=True,
-    ),
-    REQUEST_QUEUE_PARAMETER,
-)
+P = TypeVar("P", bound=DeviceParameters)
 
 
-class ManagedDevice(LifecycleNode):
+def device_parameter_specs(
+    parameters: type[DeviceParameters], extra: Sequence[ParameterSpec] = ()
+) -> tuple[ParameterSpec, ...]:
+    """Return every parameter a device declares: its dataclass's, ``extra`` (the display's), the queue depth.
+
+    The node module's ``PARAMETERS`` is this tuple, so the launcher validates a scene against exactly what
+    the node declares.
+    """
+    return (*specs_of(parameters), *extra, REQUEST_QUEUE_PARAMETER)
+
+
+class ManagedDevice(LifecycleNode, Generic[P]):
     """Lifecycle, tick, streams, status, diagnostics, stop/reset and fault plumbing of every device.
 
     See the module docstring for what a subclass declares and implements.
@@ -131,11 +122,16 @@ class ManagedDevice(LifecycleNode):
     FAULTS: Mapping[str, FaultSpec] = {}
     COUNTERS: Sequence[CounterSpec] = ()
 
-    def __init__(self, node_name: str, parameters: Sequence[ParameterSpec], *, rate: float = 1.0) -> None:
+    def __init__(
+        self, node_name: str, parameters: type[P], extra: Sequence[ParameterSpec] = (), *, rate: float = 1.0
+    ) -> None:
         super().__init__(node_name)
-        self.specs = {spec.name: spec for spec in (*parameters, *DEVICE_PARAMETERS)}
+        self.parameters = parameters
+        self.specs = {spec.name: spec for spec in device_parameter_specs(parameters, extra)}
         # Declared now, validated at configure: a bad value fails the transition, not the process.
-        self.p: dict[str, Any] = declare_parameters(self, list(self.specs.values()), validate=False)
+        self.p: P = from_values(
+            parameters, declare_parameters(self, list(self.specs.values()), validate=False)
+        )
         self.lifecycle = "unconfigured"
         self.stopped = False
         self.faults: dict[str, ActiveFault] = {}
@@ -171,7 +167,7 @@ class ManagedDevice(LifecycleNode):
         self.publish_status(force=True)
 
     # --- hooks for the device -------------------------------------------------------------------
-    def configure_device(self, p: dict[str, Any]) -> None:
+    def configure_device(self, p: P) -> None:
         """Load files, build the model and its streams from validated parameters; InputError names a field."""
 
     def activate_device(self) -> None:
@@ -364,7 +360,7 @@ class ManagedDevice(LifecycleNode):
         keeps pace with that clock; under a cell clock at factor F that is F * rate ticks per wall second.
         """
         self.tick_rate = rate
-        self.monitor.configure(rate, float(self.p.get("real_time_factor", 1.0)))
+        self.monitor.configure(rate, float(self.p.real_time_factor))
 
     def frame(self, base: str) -> str:
         """Return a per-instance frame id: ``base`` under the node's namespace (``cell/feeder_a/base``)."""
@@ -470,10 +466,10 @@ class ManagedDevice(LifecycleNode):
             values = {name: self.get_parameter(name).value for name in self.specs}
             for name, spec in self.specs.items():
                 check_value(spec, values[name])
-            self.p = values
+            self.p = from_values(self.parameters, values)
             self.count.reset()
-            self.configure_device(values)
-            self._inject_configured_faults(values)
+            self.configure_device(self.p)
+            self._inject_configured_faults()
         except FeederError as error:
             self.configuration_error = f"configure failed: {error}"
             self.get_logger().error(self.configuration_error)
@@ -608,14 +604,14 @@ class ManagedDevice(LifecycleNode):
             bool(request.state),
             tuple(int(i) for i in request.indices),
             float(request.angle),
-            int(request.seed) or int(self.p.get("fault_seed", 0)),
+            int(request.seed) or int(self.p.fault_seed),
         )
         self.apply_fault(fault)  # validates the magnitudes (InputError naming value/indices/angle)
         self.faults[name] = fault
 
-    def _inject_configured_faults(self, values: dict[str, Any]) -> None:
+    def _inject_configured_faults(self) -> None:
         self.faults.clear()
-        for index, entry in enumerate(e for e in values.get("inject_faults", []) if e):
+        for index, entry in enumerate(e for e in self.p.inject_faults if e):
             parsed = parse_fault_parameter(entry, index)
             if parsed.name not in self.FAULTS:
                 raise InputError(f"parameter inject_faults[{index}]", unknown_fault(parsed.name, self.FAULTS))
@@ -627,7 +623,7 @@ class ManagedDevice(LifecycleNode):
                 parsed.state,
                 parsed.indices,
                 parsed.angle,
-                int(values.get("fault_seed", 0)),
+                int(self.p.fault_seed),
             )
             try:
                 self.apply_fault(fault)
@@ -654,7 +650,8 @@ class ManagedDevice(LifecycleNode):
                         self.apply_parameter(change.name, change.value)
                     except FeederError as error:
                         return SetParametersResult(successful=False, reason=str(error))
-                    self.p[change.name] = change.value
+                    if change.name in self.p.__dataclass_fields__:
+                        self.p = dataclasses.replace(self.p, **{change.name: change.value})
         return SetParametersResult(successful=True)
 
     # --- heartbeat -------------------------------------------------------------------------------
@@ -697,7 +694,7 @@ class ManagedDevice(LifecycleNode):
             },
         }
         name = self.get_fully_qualified_name()
-        hardware_id = str(self.p.get("hardware_id") or f"sim:{name}")
+        hardware_id = str(self.p.hardware_id or f"sim:{name}")
         status = DiagnosticStatus(
             level=level,
             name=name,

@@ -1,7 +1,10 @@
 """Documented node parameters as data, ROS-free: what each parameter is and the checks that refuse values.
 
 A spec holds the name, the default (whose type is the parameter's), the meaning, the check and the
-mutability; each check names the value it refuses.
+mutability; each check names the value it refuses. A node's parameters are declared once, as a frozen
+dataclass whose fields are ``param(...)``: the field's name and annotation are the parameter's name and
+type, its metadata the rest; ``specs_of`` reads the specs off the class (for rclpy's declarations, the
+scene validation and the docs' tables) and ``from_values`` builds the typed values the node reads.
 
 The node kit declares them to rclpy (``node_kit.parameters.declare_parameters``); the scene validation and
 the generated parameter tables read the same specs without ROS.
@@ -9,9 +12,10 @@ the generated parameter tables read the same specs without ROS.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Mapping, Sequence, TypeVar
 
 from feeder_planner.errors import InputError
 
@@ -19,6 +23,9 @@ __all__ = [
     "Check",
     "ParameterSpec",
     "check_value",
+    "param",
+    "specs_of",
+    "from_values",
     "finite",
     "positive",
     "non_negative",
@@ -49,6 +56,34 @@ def check_value(spec: ParameterSpec, value: Any) -> None:
     problem = spec.check(value) if spec.check else None
     if problem:
         raise InputError(f"parameter {spec.name}", problem)
+
+
+Parameters = TypeVar("Parameters")
+
+
+def param(default: Any, description: str, check: Check | None = None, *, read_only: bool = False) -> Any:
+    """Return a dataclass field that is a node parameter: its default, meaning, check and mutability."""
+    metadata = {"description": description, "check": check, "read_only": read_only}
+    if isinstance(default, list):
+        return dataclasses.field(default_factory=lambda: list(default), metadata=metadata)
+    return dataclasses.field(default=default, metadata=metadata)
+
+
+def specs_of(cls: type) -> tuple[ParameterSpec, ...]:
+    """Return the ParameterSpecs of a parameters dataclass, in field order (base classes first)."""
+    specs = []
+    for f in dataclasses.fields(cls):
+        factory = f.default_factory
+        default = f.default if factory is dataclasses.MISSING else factory()
+        meta = f.metadata
+        specs.append(ParameterSpec(f.name, default, meta["description"], meta["check"], meta["read_only"]))
+    return tuple(specs)
+
+
+def from_values(cls: type[Parameters], values: Mapping[str, Any]) -> Parameters:
+    """Return the typed parameters from declared values by name (a name the class lacks is ignored)."""
+    names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    return cls(**{name: value for name, value in values.items() if name in names})
 
 
 def _is_number(value: Any) -> bool:

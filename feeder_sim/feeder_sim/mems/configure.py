@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -17,6 +17,7 @@ from feeder_planner.fields_io import load_yaml_mapping
 from feeder_planner.mems import CombinedField, ProgramStep, program_from_mapping
 from feeder_planner.parts import Part, load_part
 from feeder_sim.mems.bodies import Body
+from feeder_sim.mems.parameters import MemsParameters
 from feeder_sim.mems.scene import Scene, random_poses
 
 __all__ = ["ConfiguredScene", "configure_scene"]
@@ -32,14 +33,14 @@ class ConfiguredScene:
     initial: np.ndarray
 
 
-def configure_scene(p: Mapping[str, Any]) -> ConfiguredScene:
+def configure_scene(p: MemsParameters) -> ConfiguredScene:
     """Load the parts and the program named by the parameters ``p`` and build the scene.
 
     Raises InputError naming the parameter (part_files[i], initial_poses, program_file, friction).
     """
     parts: list[Part] = []
     documents: list[dict[str, Any]] = []
-    for index, path in enumerate(p["part_files"]):
+    for index, path in enumerate(p.part_files):
         if not path:
             continue
         try:
@@ -47,9 +48,9 @@ def configure_scene(p: Mapping[str, Any]) -> ConfiguredScene:
             documents.append(load_yaml_mapping(path))
         except InputError as error:
             raise InputError(f"parameter part_files[{index}]", str(error)) from None
-    poses = list(p["initial_poses"])
+    poses = list(p.initial_poses)
     if poses in ([], [0.0]):
-        poses = random_poses(len(parts), p["placement_radius"], p["seed"]).ravel().tolist()
+        poses = random_poses(len(parts), p.placement_radius, p.seed).ravel().tolist()
     if len(poses) != 3 * len(parts) or not all(
         isinstance(v, (int, float)) and math.isfinite(v) for v in poses
     ):
@@ -58,29 +59,29 @@ def configure_scene(p: Mapping[str, Any]) -> ConfiguredScene:
             f"needs 3 finite numbers per part ({3 * len(parts)}), got {len(poses)}",
         )
     program: tuple[ProgramStep, ...]
-    if p["program_file"]:
+    if p.program_file:
         try:
-            program = program_from_mapping(load_yaml_mapping(p["program_file"]))
+            program = program_from_mapping(load_yaml_mapping(p.program_file))
         except InputError as error:
-            raise InputError("parameter program_file", str(error.with_source(p["program_file"]))) from None
+            raise InputError("parameter program_file", str(error.with_source(p.program_file))) from None
     else:
-        program = (ProgramStep(CombinedField(p["default_delta"]), math.inf),)
-    if p["friction"] != 0.0 and p["fidelity"] != "dynamic":
+        program = (ProgramStep(CombinedField(p.default_delta), math.inf),)
+    if p.friction != 0.0 and p.fidelity != "dynamic":
         raise InputError(
             "parameter friction",
-            f"Coulomb friction acts only in the dynamic fidelity; fidelity is {p['fidelity']!r} "
+            f"Coulomb friction acts only in the dynamic fidelity; fidelity is {p.fidelity!r} "
             "(leave friction 0 or choose dynamic)",
         )
     initial = np.array(poses, float).reshape(-1, 3)
-    nx, ny = p["array_size"]
+    nx, ny = p.array_size
     scene = Scene(
         [Body(part, pose.copy()) for part, pose in zip(parts, initial, strict=True)],
         program,
-        p["fidelity"],
-        array=(nx, ny, p["pitch"]),
-        directions=p["directions"],
-        damping=p["damping"],
-        friction=p["friction"],
+        p.fidelity,
+        array=(nx, ny, p.pitch),
+        directions=p.directions,
+        damping=p.damping,
+        friction=p.friction,
     )
     names = [
         doc["name"] if isinstance(doc.get("name"), str) else f"part{i}" for i, doc in enumerate(documents)

@@ -8,22 +8,24 @@ the docs' parameter table read them from here without ROS.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
+from feeder_device.parameters import DeviceParameters
 from feeder_planner.mems import DELTA_MAX, DELTA_MIN
 from feeder_planner.parameter_specs import (
-    ParameterSpec,
     in_range,
     integer,
     integer_at_least,
     non_negative,
     one_of,
+    param,
     positive,
 )
 from feeder_sim.mems.bodies import FIDELITIES
 from feeder_sim.mems.tolerances import DEFAULT_CELLS, DEFAULT_DAMPING, DEFAULT_FRICTION, DEFAULT_PITCH
 
-__all__ = ["MEMS_PARAMETERS", "BASE_FRAME", "AUTO_CATCH_UP_TICKS", "NANOSECONDS"]
+__all__ = ["MemsParameters", "BASE_FRAME", "AUTO_CATCH_UP_TICKS", "NANOSECONDS"]
 
 BASE_FRAME = "mems_array"
 NANOSECONDS = 1_000_000_000
@@ -49,122 +51,99 @@ def _time_step(value: Any) -> str | None:
     return problem
 
 
-MEMS_PARAMETERS = (
-    ParameterSpec(
-        "array_size",
-        list(DEFAULT_CELLS),
-        "number of actuator cells [nx, ny] of the array",
-        _array_size,
-        read_only=True,
-    ),
-    ParameterSpec(
-        "pitch",
+@dataclass(frozen=True)
+class MemsParameters(DeviceParameters):
+    """The MEMS field array's parameters (the device kit's come with ``DeviceParameters``)."""
+
+    array_size: list[int] = param(
+        list(DEFAULT_CELLS), "number of actuator cells [nx, ny] of the array", _array_size, read_only=True
+    )
+    pitch: float = param(
         DEFAULT_PITCH,
         "side of one square actuator cell (m); the array is centred on the plane origin",
         positive,
         read_only=True,
-    ),
-    ParameterSpec(
-        "fidelity",
+    )
+    fidelity: str = param(
         "ideal",
         "force model: ideal (exact field integrals, quasi-static), array (cells at "
         "the pitch, exact covered areas), dynamic (inertia, friction, collisions)",
         one_of(FIDELITIES),
         read_only=True,
-    ),
-    ParameterSpec(
-        "directions",
+    )
+    directions: int = param(
         0,
         "quantise cell forces to this many actuator directions (0: exact directions)",
         integer_at_least(0),
         read_only=True,
-    ),
-    ParameterSpec(
-        "part_files",
-        [""],
-        "part files (YAML, contract section 2); empty entries are ignored",
-        read_only=True,
-    ),
-    ParameterSpec(
-        "initial_poses",
+    )
+    part_files: list[str] = param(
+        [""], "part files (YAML, contract section 2); empty entries are ignored", read_only=True
+    )
+    initial_poses: list[float] = param(
         [0.0],
         "x, y, theta (m, m, rad) per part, flattened; [] or [0.0]: random poses "
         "within placement_radius drawn with the seed",
         read_only=True,
-    ),
-    ParameterSpec(
-        "placement_radius",
-        1e-3,
-        "radius (m) of the disc random initial positions are drawn in",
-        positive,
-        read_only=True,
-    ),
-    ParameterSpec(
-        "program_file",
+    )
+    placement_radius: float = param(
+        1e-3, "radius (m) of the disc random initial positions are drawn in", positive, read_only=True
+    )
+    program_file: str = param(
         "",
         "field program YAML ({steps: [{field: {...}, duration: s}]}, metres); "
         "empty: combined field delta = default_delta forever",
         read_only=True,
-    ),
-    ParameterSpec(
-        "default_delta",
+    )
+    default_delta: float = param(
         0.2,
         "delta of the default combined field (0 <= delta < 1)",
         in_range(DELTA_MIN, DELTA_MAX, include_high=False),
         read_only=True,
-    ),
-    ParameterSpec(
-        "publish_rate",
+    )
+    publish_rate: float = param(
         20.0,
         "rate (Hz of the node clock) of the physics ticks and the part state messages",
         positive,
         read_only=True,
-    ),
-    ParameterSpec(
-        "time_step",
+    )
+    time_step: float = param(
         2e-4,
         "integration step (s of simulated time); a tick runs the whole steps of the node-clock time elapsed",
         _time_step,
         read_only=True,
-    ),
-    ParameterSpec(
-        "max_steps_per_tick",
+    )
+    max_steps_per_tick: int = param(
         0,
         "most integration steps one tick runs (runtime); the rest of a late tick's time is dropped and "
         f"counted as steps_dropped. 0: the steps of {AUTO_CATCH_UP_TICKS} periods times "
         "max(1, real_time_factor)",
         integer_at_least(0),
-    ),
-    ParameterSpec(
-        "damping",
+    )
+    damping: float = param(
         DEFAULT_DAMPING,
         "viscous surface drag per unit area (N s/m^3): v = F/(damping A); runtime: applied to the scene",
         positive,
-    ),
-    ParameterSpec(
-        "friction",
+    )
+    friction: float = param(
         DEFAULT_FRICTION,
         "Coulomb friction coefficient with the surface, dynamic fidelity only (refused for the others); "
         "runtime: applied to the running scene",
         non_negative,
-    ),
-    ParameterSpec(
-        "seed",
+    )
+    seed: int = param(
         0,
         "seed of the random initial poses (the simulation itself is deterministic)",
         integer,
         read_only=True,
-    ),
-    ParameterSpec(
-        "frame_id",
+    )
+    frame_id: str = param(
         "",
         f"frame of the published poses (the plane frame); empty: {BASE_FRAME} under the node's namespace",
         read_only=True,
-    ),
-    ParameterSpec(
-        "marker_force_stride",
+    )
+    marker_force_stride: int = param(
         0,
         "~/markers draws the force of every k-th cell in each direction (0: no force vectors); runtime",
         integer_at_least(0),
-    ),
-)
+    )

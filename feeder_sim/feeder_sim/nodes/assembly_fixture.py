@@ -36,7 +36,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 
 from feeder_device.declarations import ActiveFault, DeviceError, FaultSpec
-from feeder_device.device import ManagedDevice
+from feeder_device.device import ManagedDevice, device_parameter_specs
 from feeder_device.goals import serve_goal
 from feeder_msgs.action import FollowPath
 from feeder_msgs.msg import DeviceStatus, StabilityStatus
@@ -73,7 +73,7 @@ from feeder_sim.fixture import (
 )
 from feeder_sim.fixture.counters import COUNTERS
 from feeder_sim.fixture.drawing import body_shapes, gravity_shape, table_rotation, table_shapes
-from feeder_sim.fixture.parameters import BASE_FRAME, FIXTURE_PARAMETERS, TABLE_BASE_FRAME
+from feeder_sim.fixture.parameters import BASE_FRAME, TABLE_BASE_FRAME, FixtureParameters
 from feeder_sim.fixture.path_goal import PathGoal, PathOutcome
 
 __all__ = ["PARAMETERS", "FAULTS", "AssemblyFixture", "InterlockRefusedError", "main"]
@@ -81,7 +81,7 @@ __all__ = ["PARAMETERS", "FAULTS", "AssemblyFixture", "InterlockRefusedError", "
 NODE_NAME = "assembly_fixture"
 NANOSECONDS = 1_000_000_000
 FOLLOW_PATH = "~/follow_path"
-PARAMETERS = (*FIXTURE_PARAMETERS, *VIZ_PARAMETERS)
+PARAMETERS = device_parameter_specs(FixtureParameters, VIZ_PARAMETERS)
 
 FAULTS: dict[str, FaultSpec] = {
     name: FaultSpec(
@@ -104,7 +104,7 @@ class InterlockRefusedError(FeederError):
     """The interlock refused a commanded path."""
 
 
-class AssemblyFixture(ManagedDevice):
+class AssemblyFixture(ManagedDevice[FixtureParameters]):
     """Publishes ~/joint_states, ~/gravity and ~/stability at publish_rate; serves ~/move and ~/follow_path.
 
     ~/move is refused unless the device is ready; the device services of ``ManagedDevice`` (~/stop, ~/reset,
@@ -115,7 +115,7 @@ class AssemblyFixture(ManagedDevice):
     COUNTERS = COUNTERS
 
     def __init__(self) -> None:
-        super().__init__(NODE_NAME, PARAMETERS, rate=20.0)
+        super().__init__(NODE_NAME, FixtureParameters, VIZ_PARAMETERS, rate=20.0)
         self._forget()
         serve(self, FixtureMove, "~/move", service_guard(self)(self.on_move))
         serve_goal(self, FollowPath, FOLLOW_PATH, self._validate_follow, self._start_follow)
@@ -134,33 +134,33 @@ class AssemblyFixture(ManagedDevice):
         self.last_unbalanced: list[str] = []
 
     # --- configure / cleanup --------------------------------------------------------------------------
-    def configure_device(self, p: dict[str, Any]) -> None:
+    def configure_device(self, p: FixtureParameters) -> None:
         """Load the assembly, prepare its LP and region, build the table; InputError names a bad field."""
         self._forget()
         limits = TableLimits(
-            p["tilt_x_min"],
-            p["tilt_x_max"],
-            p["tilt_y_min"],
-            p["tilt_y_max"],
-            p["max_rate_x"],
-            p["max_rate_y"],
+            p.tilt_x_min,
+            p.tilt_x_max,
+            p.tilt_y_min,
+            p.tilt_y_max,
+            p.max_rate_x,
+            p.max_rate_y,
         )
         try:
             limits.validate()
         except InputError as error:
             raise InputError(f"parameter {error.field}", error.problem) from None
-        assembly = load_assembly_parameter(p["assembly_file"])
-        self.prepared = prepare(assembly, p["mu"] if p["override_mu"] else None, p["facets"])
-        self.table = Table(np.array([p["initial_tilt_x"], p["initial_tilt_y"]], float), limits)
+        assembly = load_assembly_parameter(p.assembly_file)
+        self.prepared = prepare(assembly, p.mu if p.override_mu else None, p.facets)
+        self.table = Table(np.array([p.initial_tilt_x, p.initial_tilt_y], float), limits)
         self.limits = limits
-        self.frame_id = p["frame_id"] or self.frame(BASE_FRAME)
-        self.expect_rate(p["publish_rate"])
+        self.frame_id = p.frame_id or self.frame(BASE_FRAME)
+        self.expect_rate(p.publish_rate)
         self.joint_pub = self.stream(JointState, "~/joint_states", STREAM_DEPTH)
         self.gravity_pub = self.stream(Vector3Stamped, "~/gravity", STREAM_DEPTH)
         self.stability_pub = self.stream(StabilityStatus, "~/stability", STREAM_DEPTH)
         self.get_logger().info(
             f"holding {assembly.name}: stable region {self.prepared.region.kind}, "
-            f"interlock {'on' if p['interlock'] else 'OFF'}"
+            f"interlock {'on' if p.interlock else 'OFF'}"
         )
 
     def cleanup_device(self) -> None:
@@ -256,9 +256,9 @@ class AssemblyFixture(ManagedDevice):
         self._advance_to(self.get_clock().now().nanoseconds)
         self.require_ready("move")  # the table may have stalled on its way here
         # Counted before sampling: every sample is an LP on this single-threaded device (request_limits).
-        check_arc_samples(table.gravity(), waypoints, self.p["path_step"], "waypoints", MAX_MOVE_SAMPLES)
+        check_arc_samples(table.gravity(), waypoints, self.p.path_step, "waypoints", MAX_MOVE_SAMPLES)
         # Joint limits are checked before anything moves; the timing is at the rates the axes reach now.
-        planned = plan_path(table, waypoints, self.p["path_step"])
+        planned = plan_path(table, waypoints, self.p.path_step)
         verdict = certify(prepared, planned.samples)
         response.samples = len(planned.samples)
         response.first_unstable_sample = verdict.first_unstable
@@ -266,7 +266,7 @@ class AssemblyFixture(ManagedDevice):
         response.duration = planned.path.duration
         if not verdict.stable:
             what = verdict.problem()
-            if self.p["interlock"]:
+            if self.p.interlock:
                 raise InterlockRefusedError(f"refused by the interlock: {what}")
             response.warning = f"interlock off, moving anyway: {what}"
             self.get_logger().warning(response.warning)
@@ -284,7 +284,7 @@ class AssemblyFixture(ManagedDevice):
         waypoints = goal_waypoints(
             [(v.x, v.y, v.z) for v in goal.gravity_waypoints], list(goal.tilt_waypoints), self.limits
         )
-        step = self.p["path_step"]
+        step = self.p.path_step
         check_arc_samples(table.gravity(), waypoints.gravity, step, waypoints.field, MAX_MOVE_SAMPLES)
         return waypoints, plan_goal(table, waypoints, step)
 
@@ -314,7 +314,7 @@ class AssemblyFixture(ManagedDevice):
             goal.answer.first_unstable_sample = verdict.first_unstable
             goal.answer.first_unstable_gravity = vec(planned.samples[verdict.first_unstable])
             goal.answer.unbalanced_bodies = list(verdict.unbalanced_bodies)
-            if self.p["interlock"]:
+            if self.p.interlock:
                 self.count.add("path_goals_refused")
                 refused = f"refused by the interlock: {verdict.problem()}; nothing moved"
                 return goal.ended_early(PathOutcome("REFUSED", refused))
@@ -351,10 +351,10 @@ class AssemblyFixture(ManagedDevice):
     # --- time and the streams ------------------------------------------------------------------------
     def _max_advance(self) -> float:
         """Return the most simulated time (s) one tick may advance."""
-        cap = float(self.p["max_advance_per_tick"])
+        cap = float(self.p.max_advance_per_tick)
         if cap > 0:
             return cap
-        return CATCH_UP_PERIODS * max(1.0, float(self.p["real_time_factor"])) / float(self.p["publish_rate"])
+        return CATCH_UP_PERIODS * max(1.0, float(self.p.real_time_factor)) / float(self.p.publish_rate)
 
     def _advance_to(self, now_ns: int) -> None:
         """Advance the table by the node-clock time since the last advance (capped); report a stall."""
@@ -465,7 +465,7 @@ class FollowPathGoal:
         node, machine = self.node, self.machine
         if machine is None or machine.done:
             return
-        every = max(1, math.ceil(float(node.p["publish_rate"]) / float(node.p["feedback_rate"]) - 1e-9))
+        every = max(1, math.ceil(float(node.p.publish_rate) / float(node.p.feedback_rate) - 1e-9))
         try:
             machine.advance(node.stopping_fault(), node.stopped, node.count["stalls"], every, ticked)
         except FeederError as error:  # an LP that cannot certify the cancel's stop ends the goal

@@ -38,7 +38,7 @@ from rclpy.action.server import ServerGoalHandle
 from rclpy.time import Time as RclTime
 
 from feeder_device.declarations import ActiveFault, DeviceError, FaultSpec
-from feeder_device.device import ManagedDevice
+from feeder_device.device import ManagedDevice, device_parameter_specs
 from feeder_device.goals import serve_goal
 from feeder_msgs.action import RunProgram
 from feeder_msgs.msg import (
@@ -64,7 +64,7 @@ from feeder_sim.mems import Grid, Scene
 from feeder_sim.mems.configure import configure_scene
 from feeder_sim.mems.counters import COUNTERS
 from feeder_sim.mems.drawing import array_shapes, force_shapes, parts_shapes
-from feeder_sim.mems.parameters import AUTO_CATCH_UP_TICKS, BASE_FRAME, MEMS_PARAMETERS, NANOSECONDS
+from feeder_sim.mems.parameters import AUTO_CATCH_UP_TICKS, BASE_FRAME, NANOSECONDS, MemsParameters
 from feeder_sim.mems.placing import place_parts, placement_reach, reset_parts
 from feeder_sim.mems.program_goal import ProgramGoal
 from feeder_sim.mems.settling import (
@@ -82,7 +82,7 @@ from feeder_sim.mems.tolerances import STIFF_STEP_RATIO
 __all__ = ["PARAMETERS", "FAULTS", "MemsFieldArray", "main"]
 
 NODE_NAME = "mems_field_array"
-PARAMETERS = (*MEMS_PARAMETERS, *VIZ_PARAMETERS)
+PARAMETERS = device_parameter_specs(MemsParameters, VIZ_PARAMETERS)
 
 FAULTS = {
     "dead_cells": FaultSpec(
@@ -116,7 +116,7 @@ def _stamp(nanoseconds: int) -> Time:
     return RclTime(nanoseconds=nanoseconds).to_msg()
 
 
-class MemsFieldArray(ManagedDevice):
+class MemsFieldArray(ManagedDevice[MemsParameters]):
     """Publishes ~/part_states, ~/part_poses at publish_rate and ~/field_program, ~/cell_forces, ~/parts.
 
     Serves ~/set_program and ~/place_parts (refused unless the device is ready), the action
@@ -128,7 +128,7 @@ class MemsFieldArray(ManagedDevice):
     COUNTERS = COUNTERS
 
     def __init__(self) -> None:
-        super().__init__(NODE_NAME, PARAMETERS, rate=20.0)
+        super().__init__(NODE_NAME, MemsParameters, VIZ_PARAMETERS, rate=20.0)
         self._forget()
         serve(self, FieldSetProgram, "~/set_program", service_guard(self)(self.on_set_program))
         serve(self, MemsPlaceParts, "~/place_parts", service_guard(self)(self.on_place_parts))
@@ -153,14 +153,14 @@ class MemsFieldArray(ManagedDevice):
         self.predictions: dict[tuple[int, Field], Prediction] = {}
 
     # --- configure / activate / cleanup -----------------------------------------------------------
-    def configure_device(self, p: dict[str, Any]) -> None:
+    def configure_device(self, p: MemsParameters) -> None:
         """Build the scene from the parameters (InputError names the field), then its streams."""
         self._forget()
         configured = configure_scene(p)
         self.scene, self.names, self.initial = configured.scene, configured.names, configured.initial
-        self.frame_id = p["frame_id"] or self.frame(BASE_FRAME)
-        self.step_ns = int(round(p["time_step"] * NANOSECONDS))
-        self.expect_rate(p["publish_rate"])
+        self.frame_id = p.frame_id or self.frame(BASE_FRAME)
+        self.step_ns = int(round(p.time_step * NANOSECONDS))
+        self.expect_rate(p.publish_rate)
         self.program_pub = self.stream(FieldProgram, "~/field_program", LATCHED, lifecycle=False)
         self.cells_pub = self.stream(MemsCellForces, "~/cell_forces", LATCHED, lifecycle=False)
         self.parts_pub = self.stream(MemsParts, "~/parts", LATCHED, lifecycle=False)
@@ -222,7 +222,7 @@ class MemsFieldArray(ManagedDevice):
         scene = self.scene
         if scene is None or scene.stiff_since_mark == 0:
             return None
-        dt = float(self.p["time_step"])
+        dt = float(self.p.time_step)
         return DeviceStatus.FAULT_TIME_STEP, (
             f"time_step {dt:g} s is beyond the ideal model's stability margin at damping {scene.damping:g}: "
             f"{scene.stiff_since_mark} steps changed a part's velocity by up to {scene.peak_step_ratio:.2f} "
@@ -250,7 +250,7 @@ class MemsFieldArray(ManagedDevice):
         """Put an injected fault into the force model (validated there: InputError naming the field)."""
         if self.scene is None:
             return
-        nx, ny = self.p["array_size"]
+        nx, ny = self.p.array_size
         faults = self.scene.faults.with_fault(
             fault.spec.name,
             value=fault.value,
@@ -291,8 +291,8 @@ class MemsFieldArray(ManagedDevice):
         if key == self.last_cells:
             return
         self.last_cells = key
-        nx, ny = self.p["array_size"]
-        pitch = self.p["pitch"]
+        nx, ny = self.p.array_size
+        pitch = self.p.pitch
         grid_forces = scene.forces.cell_forces(field)
         if grid_forces is None:  # ideal / dynamic: the ideal field sampled at the cell centres
             grid_forces = scene.faults.apply_to_cells(field.force_density(Grid(nx, ny, pitch).centers()))
@@ -315,8 +315,8 @@ class MemsFieldArray(ManagedDevice):
             return None
         if self.part_triangles[0] is not scene:  # triangulated once per scene, placed at every update
             self.part_triangles = (scene, [triangulate_loops(b.part.loops()) for b in scene.bodies])
-        nx, ny = self.p["array_size"]
-        layout = (nx, ny, self.p["pitch"], int(self.p["marker_force_stride"]))
+        nx, ny = self.p.array_size
+        layout = (nx, ny, self.p.pitch, int(self.p.marker_force_stride))
         # The array and its force arrows change only with the cells' forces (a new array from publish_cells)
         # or the layout: built then, not at every update (thousands of arrows on a large array).
         forces, (drawn, drawn_layout, static) = self.last_grid_forces, self.array_drawing
@@ -331,11 +331,11 @@ class MemsFieldArray(ManagedDevice):
 
     def _max_steps(self) -> int:
         """Return the cap on steps per tick (max_steps_per_tick, or the automatic one for 0)."""
-        cap = int(self.p["max_steps_per_tick"])
+        cap = int(self.p.max_steps_per_tick)
         if cap > 0:
             return cap
-        factor = max(1.0, float(self.p["real_time_factor"]))
-        period_ns = NANOSECONDS * factor / float(self.p["publish_rate"])
+        factor = max(1.0, float(self.p.real_time_factor))
+        period_ns = NANOSECONDS * factor / float(self.p.publish_rate)
         return max(1, math.ceil(AUTO_CATCH_UP_TICKS * period_ns / self.step_ns))
 
     def tick(self, now_ns: int) -> float:
@@ -348,7 +348,7 @@ class MemsFieldArray(ManagedDevice):
         if steps > cap:
             self.count.add("steps_dropped", steps - cap)
             steps = cap
-        dt = float(self.p["time_step"])
+        dt = float(self.p.time_step)
         for _ in range(steps):
             scene.step(dt)
         self.count.add("steps", steps)
@@ -423,7 +423,7 @@ class MemsFieldArray(ManagedDevice):
             reset_parts(self.scene, self.initial)
         else:
             check_count(len(request.names), MAX_NAMES, "names", "names")
-            reach = placement_reach(self.p["array_size"], float(self.p["pitch"]))
+            reach = placement_reach(self.p.array_size, float(self.p.pitch))
             coordinates = (list(request.x), list(request.y), list(request.theta))
             place_parts(self.scene, self.names, (list(request.names), *coordinates), reach)
         self.count.add("placements")

@@ -27,7 +27,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool
 
 from feeder_device.declarations import ActiveFault, DeviceError, FaultSpec
-from feeder_device.device import DeviceState, ManagedDevice
+from feeder_device.device import DeviceState, ManagedDevice, device_parameter_specs
 from feeder_device.goals import serve_goal
 from feeder_msgs.action import FeedPart
 from feeder_msgs.msg import DeviceStatus, ThrowEvent
@@ -47,12 +47,13 @@ from feeder_sim.throwing.counters import COUNTERS
 from feeder_sim.throwing.cycle import Pose, ThrowCycle, ns
 from feeder_sim.throwing.drawing import ArmDrawing
 from feeder_sim.throwing.feeding import FeedGoal, check_feed_goal
-from feeder_sim.throwing.parameters import ARM_PARAMETERS, BASE_FRAME, configure_arm
+from feeder_sim.throwing.parameters import BASE_FRAME, ArmParameters, configure_arm
 
 __all__ = ["PARAMETERS", "FAULTS", "ThrowingArmNode", "main"]
 
 # The arm frame has gravity along -y: by default the cell (z up) sees it rolled a quarter turn.
-PARAMETERS = (*ARM_PARAMETERS, *viz_parameters(cell_pose=(0.0, 0.0, 0.0, math.pi / 2, 0.0, 0.0)))
+DISPLAY = viz_parameters(cell_pose=(0.0, 0.0, 0.0, math.pi / 2, 0.0, 0.0))
+PARAMETERS = device_parameter_specs(ArmParameters, DISPLAY)
 
 # The kit's specs of the model's faults (feeder_sim.throwing.faults), with their status codes.
 _CODES = {"motor_fault": DeviceStatus.FAULT_MOTOR, "part_lost": DeviceStatus.FAULT_PART_LOST}
@@ -69,14 +70,14 @@ FAULTS: dict[str, FaultSpec] = {
 }
 
 
-class ThrowingArmNode(ManagedDevice):
+class ThrowingArmNode(ManagedDevice[ArmParameters]):
     """Throw-catch cycles at a period; publishes joint state, part pose, throw events and the sensor bit."""
 
     FAULTS = FAULTS
     COUNTERS = COUNTERS
 
     def __init__(self) -> None:
-        super().__init__("throwing_arm", PARAMETERS)
+        super().__init__("throwing_arm", ArmParameters, DISPLAY)
         self.arm: ThrowingArm | None = None
         self.cycle: ThrowCycle | None = None
         self._forget_run()
@@ -103,18 +104,18 @@ class ThrowingArmNode(ManagedDevice):
         return goal.feed if isinstance(goal, FeedPartGoal) else None
 
     # --- lifecycle hooks ---------------------------------------------------------------------------
-    def configure_device(self, p: dict[str, Any]) -> None:
+    def configure_device(self, p: ArmParameters) -> None:
         """Build the arm, its faults and the throw cycle from the parameters, then the streams."""
         arm = configure_arm(p)
         self.arm, self.cycle = arm, ThrowCycle(arm, ArmFaults(arm))
         self._forget_run()
-        self.cycle.running = bool(p["autostart"])
-        self.frame_id = p["frame_id"] or self.frame(BASE_FRAME)
+        self.cycle.running = bool(p.autostart)
+        self.frame_id = p.frame_id or self.frame(BASE_FRAME)
         self.pub_joint = self.stream(JointState, "~/joint_states", STREAM_DEPTH)
         self.pub_pose = self.stream(PoseStamped, "~/part_pose", STREAM_DEPTH)
         self.pub_event = self.stream(ThrowEvent, "~/throw_events", EVENT_DEPTH)
         self.pub_sensor = self.stream(Bool, "~/sensor", EVENT_DEPTH)
-        self.expect_rate(p["sensor_rate"])
+        self.expect_rate(p.sensor_rate)
 
     def activate_device(self) -> None:
         """Resume the simulated time (first activation: start it at the node clock's)."""
@@ -215,7 +216,7 @@ class ThrowingArmNode(ManagedDevice):
         self._require_place_ready()
         if self.feed is not None:
             raise DeviceError("place_part refused: a ~/feed_part goal is executing (cancel it first)")
-        self._cycle().place(request.edge, request.radius, self.p["arm_length"])
+        self._cycle().place(request.edge, request.radius, self.p.arm_length)
         self.faults.pop("part_lost", None)
         self.model_fault = None
         self.publish_status()
@@ -233,16 +234,16 @@ class ThrowingArmNode(ManagedDevice):
     def tick(self, now_ns: int) -> float:
         """Advance the simulated time, the shown throw or the next one; publish sensor, joint, part pose."""
         cycle = self._cycle()
-        self.simulated += min(self.elapsed_ns(now_ns), ns(MAX_TICK_PERIODS / self.p["sensor_rate"]))
+        self.simulated += min(self.elapsed_ns(now_ns), ns(MAX_TICK_PERIODS / self.p.sensor_rate))
         t = self.simulated
         in_flight = cycle.motion is not None
-        pose, velocity, landed = cycle.show(t, ns(self.p["period"] * self.p["motion_fraction"]))
+        pose, velocity, landed = cycle.show(t, ns(self.p.period * self.p.motion_fraction))
         if landed is not None:
             self._publish_event(now_ns, landed)
         elif not in_flight:
             feed_wants = self.feed is not None and self.feed.wants_throw(now_ns)
             ready = self.state() in (DeviceState.IDLE, DeviceState.RUNNING)
-            if cycle.throw_due(t, ns(self.p["period"]), feed_wants, ready):
+            if cycle.throw_due(t, ns(self.p.period), feed_wants, ready):
                 self._throw(now_ns, t)
         self._publish_sensor(None if cycle.motion is None else pose)
         self._publish_joint_and_pose(now_ns, pose, velocity)
@@ -267,7 +268,7 @@ class ThrowingArmNode(ManagedDevice):
     def _publish_sensor(self, pose: Pose | None) -> None:
         """Publish the sensor bit (at rest, or for the pose shown in flight) as the faults deliver it."""
         cycle = self._cycle()
-        reading = cycle.arm.sensor(self.p["sensor_radius"], self.p["sensing_height"], pose)
+        reading = cycle.arm.sensor(self.p.sensor_radius, self.p.sensing_height, pose)
         delivered = cycle.faults.sensor(reading)
         if delivered is not None:
             self.last_bit = delivered
@@ -301,8 +302,8 @@ class ThrowingArmNode(ManagedDevice):
         ev.edge_after, ev.radius_after = outcome.edge_after, outcome.radius_after
         ev.kind, ev.turns, ev.rotation = outcome.kind, outcome.turns, outcome.rotation
         ev.fault, ev.fault_reason = outcome.kind == "fault", outcome.fault
-        ev.sensor_at_rest = bool(arm.sensor(self.p["sensor_radius"], self.p["sensing_height"]))
-        ev.fidelity = self.p["fidelity"]
+        ev.sensor_at_rest = bool(arm.sensor(self.p.sensor_radius, self.p.sensing_height))
+        ev.fidelity = self.p.fidelity
         # The paper model's assumptions this throw broke (issue 14); off_arm made it a part lost above.
         ev.lift_off, ev.slip = "lift_off" in outcome.flags, "slip" in outcome.flags
         ev.off_arm, ev.toe_stub = "off_arm" in outcome.flags, "toe_stub" in outcome.flags
@@ -317,7 +318,7 @@ class ThrowingArmNode(ManagedDevice):
         """Return what ~/markers shows: the arm at its joint angle, the part on it, the sensor by its bit."""
         if self.arm is None:
             return None
-        sensor = self.p["sensor_radius"], self.p["sensing_height"], self.last_bit
+        sensor = self.p.sensor_radius, self.p.sensing_height, self.last_bit
         return Drawing(
             self.frame_id, self.frame_id, dynamic=self.arm_drawing.shapes(self.arm, self.shown, sensor)
         )
@@ -351,7 +352,7 @@ class ThrowingArmNode(ManagedDevice):
         The rest time between throws less one sample: an unread bit then asks for the next throw in
         time for it to start a period after the last one, as if the bit had been read.
         """
-        rest = self.p["period"] * (1.0 - self.p["motion_fraction"]) - 1.0 / self.p["sensor_rate"]
+        rest = self.p.period * (1.0 - self.p.motion_fraction) - 1.0 / self.p.sensor_rate
         return ns(max(rest, 0.0))
 
     def _ground_truth(self) -> tuple[int, float]:

@@ -9,11 +9,11 @@ validated values, every problem naming its parameter (a failed lifecycle configu
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping
+from dataclasses import dataclass
 
+from feeder_device.parameters import DeviceParameters
 from feeder_planner.errors import InputError
 from feeder_planner.parameter_specs import (
-    ParameterSpec,
     finite,
     in_range,
     integer,
@@ -21,6 +21,7 @@ from feeder_planner.parameter_specs import (
     non_empty_string,
     non_negative,
     one_of,
+    param,
     positive,
 )
 from feeder_planner.parts import load_part
@@ -28,122 +29,101 @@ from feeder_planner.throwing import ArmPart, ThrowParams, arm_part, lowest_radiu
 from feeder_sim.throwing.arm import FIDELITIES, FIDELITY_ALIASES, ThrowingArm
 from feeder_sim.throwing.tolerances import DEFAULT_STEP
 
-__all__ = ["ARM_PARAMETERS", "BASE_FRAME", "DEFAULT_RADIUS_FACTOR", "configure_arm"]
+__all__ = ["ArmParameters", "BASE_FRAME", "DEFAULT_RADIUS_FACTOR", "configure_arm"]
 
 # A start-up R of 0 means this multiple of the edge's lowest throwable R: clear of the domain's edge,
 # where the left contact vertex barely lifts.
 DEFAULT_RADIUS_FACTOR = 1.5
 BASE_FRAME = "arm_pivot"
 
-ARM_PARAMETERS = (
-    ParameterSpec(
-        "part_file",
-        "",
-        "part file (YAML, contract section 2); required",
-        non_empty_string("a part file"),
-        read_only=True,
-    ),
-    ParameterSpec(
-        "offset", -0.005, "h: height of the arm surface above the pivot (m)", finite, read_only=True
-    ),
-    ParameterSpec(
-        "release_speed",
+
+@dataclass(frozen=True)
+class ArmParameters(DeviceParameters):
+    """The throwing arm's parameters (the device kit's come with ``DeviceParameters``)."""
+
+    part_file: str = param(
+        "", "part file (YAML, contract section 2); required", non_empty_string("a part file"), read_only=True
+    )
+    offset: float = param(-0.005, "h: height of the arm surface above the pivot (m)", finite, read_only=True)
+    release_speed: float = param(
         math.radians(320),
         "W: release angular speed (rad/s, > 0); applied from the next throw when set at run time",
         positive,
-    ),
-    ParameterSpec("gravity", -9.66, "g: gravity along y (m/s^2, < 0)", negative, read_only=True),
-    ParameterSpec("mu", 0.5, "friction coefficient between arm and part (> 0)", positive, read_only=True),
-    ParameterSpec(
-        "fidelity",
+    )
+    gravity: float = param(-9.66, "g: gravity along y (m/s^2, < 0)", negative, read_only=True)
+    mu: float = param(0.5, "friction coefficient between arm and part (> 0)", positive, read_only=True)
+    fidelity: str = param(
         "paper",
         "paper (the paper's model; analytic is accepted for it), contact (paper plus lift-off and "
         "Coulomb impacts) or dynamic (pymunk, restitution and friction)",
         one_of((*FIDELITIES, *FIDELITY_ALIASES)),
         read_only=True,
-    ),
-    ParameterSpec(
-        "dynamic_step",
+    )
+    dynamic_step: float = param(
         DEFAULT_STEP,
         "pymunk step (s) of the dynamic fidelity; applied from the next throw when set at run time",
         positive,
-    ),
-    ParameterSpec(
-        "period", 0.5, "time between throws (s, node clock); applied at once when set at run time", positive
-    ),
-    ParameterSpec(
-        "motion_fraction",
+    )
+    period: float = param(
+        0.5, "time between throws (s, node clock); applied at once when set at run time", positive
+    )
+    motion_fraction: float = param(
         0.3,
         "fraction of the period spent showing the throw (the rest is at rest); applied from the next throw",
         in_range(0.0, 1.0, include_low=False, include_high=False),
-    ),
-    ParameterSpec(
-        "sensor_radius", 0.2, "x of the proximity sensor on the arm (m); applied at once at run time", finite
-    ),
-    ParameterSpec(
-        "sensing_height",
-        0.001,
-        "sensing height above the arm surface (m, >= 0); applied at once at run time",
-        non_negative,
-    ),
-    ParameterSpec(
-        "sensor_rate",
+    )
+    sensor_radius: float = param(
+        0.2, "x of the proximity sensor on the arm (m); applied at once at run time", finite
+    )
+    sensing_height: float = param(
+        0.001, "sensing height above the arm surface (m, >= 0); applied at once at run time", non_negative
+    )
+    sensor_rate: float = param(
         100.0,
         "rate of the sensor, joint state and part pose topics (Hz of the node clock): the main stream",
         positive,
         read_only=True,
-    ),
-    ParameterSpec(
-        "initial_edge",
-        -1,
-        "stable hull edge the part starts on (-1: the first stable edge)",
-        integer,
-        read_only=True,
-    ),
-    ParameterSpec(
-        "initial_radius",
+    )
+    initial_edge: int = param(
+        -1, "stable hull edge the part starts on (-1: the first stable edge)", integer, read_only=True
+    )
+    initial_radius: float = param(
         0.0,
         f"R at start (m); 0: {DEFAULT_RADIUS_FACTOR:g} x the lowest throwable radius of the edge",
         non_negative,
         read_only=True,
-    ),
-    ParameterSpec(
-        "arm_length",
+    )
+    arm_length: float = param(
         0.4,
         "length of the arm from the pivot (m); a part beyond it has left the arm",
         positive,
         read_only=True,
-    ),
-    ParameterSpec(
-        "autostart",
-        False,
-        "throw every period once active (else wait for a start/throw command)",
-        read_only=True,
-    ),
-    ParameterSpec(
-        "frame_id",
+    )
+    autostart: bool = param(
+        False, "throw every period once active (else wait for a start/throw command)", read_only=True
+    )
+    frame_id: str = param(
         "",
         f"frame of the part pose and throw events (at the arm pivot, gravity along -y); "
         f"empty: {BASE_FRAME} under the node's namespace",
         read_only=True,
-    ),
-)
+    )
 
 
-def configure_arm(p: Mapping[str, Any]) -> ThrowingArm:
+def configure_arm(p: ArmParameters) -> ThrowingArm:
     """Load the part and build the arm at its start (edge, R) from validated parameter values ``p``."""
     try:
-        part = arm_part(load_part(p["part_file"]))
+        part = arm_part(load_part(p.part_file))
     except InputError as error:
         raise InputError("parameter part_file", str(error)) from None
     try:
-        params = ThrowParams(p["offset"], p["release_speed"], p["gravity"], p["mu"])
+        params = ThrowParams(p.offset, p.release_speed, p.gravity, p.mu)
     except InputError as error:
         raise InputError(f"parameter {error.field}", error.problem) from None
-    edge = _initial_edge(part, p["initial_edge"])
-    radius = p["initial_radius"] or DEFAULT_RADIUS_FACTOR * lowest_radius(part, edge, params)
+    edge = _initial_edge(part, p.initial_edge)
+    radius = p.initial_radius or DEFAULT_RADIUS_FACTOR * lowest_radius(part, edge, params)
     try:
-        return ThrowingArm(part, params, edge, radius, p["fidelity"], p["arm_length"], p["dynamic_step"])
+        return ThrowingArm(part, params, edge, radius, p.fidelity, p.arm_length, p.dynamic_step)
     except InputError as error:
         raise InputError(f"parameter initial_{error.field}", error.problem) from None
 
