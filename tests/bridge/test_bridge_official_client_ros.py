@@ -55,20 +55,30 @@ def require_official_client() -> None:
     if installed.is_file() and json.loads(installed.read_text())["version"] == pinned:
         return
     log = JS / "npm-ci.log"
-    said = log.read_text().strip().splitlines()[-3:] if log.is_file() else ["(no tests/js/npm-ci.log)"]
+    said = (
+        npm_reason(log.read_text()) if log.is_file() else "(no tests/js/npm-ci.log: make setup did not run)"
+    )
     registry = subprocess.run(
         ["npm", "config", "get", "registry"], capture_output=True, text=True, timeout=60, check=False
     ).stdout.strip()
     ping = subprocess.run(["npm", "ping"], capture_output=True, text=True, timeout=120, check=False, cwd=JS)
     reach = (
-        "reachable"
-        if ping.returncode == 0
-        else f"NOT reachable: {(ping.stderr or ping.stdout).strip().splitlines()[-1:]}"
+        "reachable" if ping.returncode == 0 else f"NOT reachable ({npm_reason(ping.stderr + ping.stdout)})"
     )
     raise AssertionError(
-        f"@foxglove/ws-protocol {pinned} is not installed in tests/js (make setup installs it with npm ci "
-        f"from the npm registry): npm registry {registry} is {reach}; npm ci said: {' | '.join(said)}"
+        f"@foxglove/ws-protocol {pinned} is not installed in tests/js (make setup installs it with npm ci): "
+        f"the npm registry {registry} is {reach}; npm ci said: {said}"
     )
+
+
+def npm_reason(text: str) -> str:
+    """Return the line of npm's error output that says why (the failed request, else the error code)."""
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    for marker in ("FetchError", "request to", "error code", "ERR!"):
+        found = [line for line in lines if marker in line]
+        if found:
+            return found[0]
+    return lines[-1] if lines else "(nothing)"
 
 
 class OfficialClient:
