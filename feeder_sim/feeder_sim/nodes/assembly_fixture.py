@@ -76,7 +76,7 @@ from feeder_sim.fixture.drawing import body_shapes, gravity_shape, table_rotatio
 from feeder_sim.fixture.parameters import BASE_FRAME, TABLE_BASE_FRAME, FixtureParameters
 from feeder_sim.fixture.path_goal import PathGoal, PathOutcome
 
-__all__ = ["PARAMETERS", "FAULTS", "AssemblyFixture", "InterlockRefusedError", "main"]
+__all__ = ["PARAMETERS", "FAULTS", "AssemblyFixtureNode", "InterlockRefusedError", "main"]
 
 NODE_NAME = "assembly_fixture"
 NANOSECONDS = 1_000_000_000
@@ -104,7 +104,7 @@ class InterlockRefusedError(FeederError):
     """The interlock refused a commanded path."""
 
 
-class AssemblyFixture(ManagedDevice[FixtureParameters]):
+class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
     """Publishes ~/joint_states, ~/gravity and ~/stability at publish_rate; serves ~/move and ~/follow_path.
 
     ~/move is refused unless the device is ready; the device services of ``ManagedDevice`` (~/stop, ~/reset,
@@ -117,8 +117,8 @@ class AssemblyFixture(ManagedDevice[FixtureParameters]):
     def __init__(self) -> None:
         super().__init__(NODE_NAME, FixtureParameters, VIZ_PARAMETERS, rate=20.0)
         self._forget()
-        serve(self, FixtureMove, "~/move", service_guard(self)(self.on_move))
-        serve_goal(self, FollowPath, FOLLOW_PATH, self._validate_follow, self._start_follow)
+        serve(self, FixtureMove, "~/move", service_guard(self)(self._on_move))
+        serve_goal(self, FollowPath, FOLLOW_PATH, self._validate_follow_path, self._start_follow_path)
         self.viz = DeviceViz(self, self.drawing)
 
     def _forget(self) -> None:
@@ -230,7 +230,7 @@ class AssemblyFixture(ManagedDevice[FixtureParameters]):
         return None
 
     # --- the move service ----------------------------------------------------------------------------
-    def on_move(self, request: FixtureMove.Request, response: FixtureMove.Response) -> FixtureMove.Response:
+    def _on_move(self, request: FixtureMove.Request, response: FixtureMove.Response) -> FixtureMove.Response:
         """Serve ~/move: plan and time the great arcs through the waypoints; the interlock may refuse them."""
         try:
             self.require_ready("move")
@@ -273,7 +273,7 @@ class AssemblyFixture(ManagedDevice[FixtureParameters]):
         table.start(planned.path)
 
     # --- the follow_path action ----------------------------------------------------------------------
-    def _plan_follow(self, goal: FollowPath.Goal) -> tuple[GoalWaypoints, PlannedPath]:
+    def _plan_follow_path(self, goal: FollowPath.Goal) -> tuple[GoalWaypoints, PlannedPath]:
         """Check a goal's waypoints and plan its path from where the table is (InputError names the field)."""
         table = self.table
         assert table is not None  # require_ready: configured
@@ -288,11 +288,11 @@ class AssemblyFixture(ManagedDevice[FixtureParameters]):
         check_arc_samples(table.gravity(), waypoints.gravity, step, waypoints.field, MAX_MOVE_SAMPLES)
         return waypoints, plan_goal(table, waypoints, step)
 
-    def _validate_follow(self, goal: FollowPath.Goal) -> None:
+    def _validate_follow_path(self, goal: FollowPath.Goal) -> None:
         """Goal-time check: the waypoints and the joint ranges along the path (not the interlock)."""
-        self._plan_follow(goal)
+        self._plan_follow_path(goal)
 
-    def _start_follow(self, handle: ServerGoalHandle) -> FollowPathGoal:
+    def _start_follow_path(self, handle: ServerGoalHandle) -> FollowPathGoal:
         """Plan and certify the goal's path (REFUSED by the interlock, or started), then follow it."""
         self.count.add("path_goals")
         goal = FollowPathGoal(self, FollowPath.Result(first_unstable_sample=-1))
@@ -300,7 +300,7 @@ class AssemblyFixture(ManagedDevice[FixtureParameters]):
             self.require_ready(f"{FOLLOW_PATH} goal")  # the device may have changed since acceptance
             self._advance_to(self.get_clock().now().nanoseconds)
             self.require_ready(f"{FOLLOW_PATH} goal")  # the table may have stalled on its way here
-            waypoints, planned = self._plan_follow(handle.request)
+            waypoints, planned = self._plan_follow_path(handle.request)
         except FeederError as error:
             return goal.ended_early(PathOutcome("FAULT", f"not started: {error}"))
         table, prepared = self.table, self.prepared
@@ -431,7 +431,7 @@ class AssemblyFixture(ManagedDevice[FixtureParameters]):
 class FollowPathGoal:
     """The runner's view of a ``PathGoal``: feedback and result as FollowPath messages, built at the tick."""
 
-    def __init__(self, node: AssemblyFixture, result: FollowPath.Result) -> None:
+    def __init__(self, node: AssemblyFixtureNode, result: FollowPath.Result) -> None:
         self.node, self.answer = node, result
         self.machine: PathGoal | None = None
         self.early: PathOutcome | None = None  # a goal that ended before the table moved
@@ -538,7 +538,7 @@ class FollowPathGoal:
 
 def main(args: list[str] | None = None) -> None:
     """Run the node until shutdown."""
-    run_node(AssemblyFixture, NODE_NAME, args)
+    run_node(AssemblyFixtureNode, NODE_NAME, args)
 
 
 if __name__ == "__main__":

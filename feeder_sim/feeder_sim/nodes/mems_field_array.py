@@ -79,7 +79,7 @@ from feeder_sim.mems.settling import (
 )
 from feeder_sim.mems.tolerances import STIFF_STEP_RATIO
 
-__all__ = ["PARAMETERS", "FAULTS", "MemsFieldArray", "main"]
+__all__ = ["PARAMETERS", "FAULTS", "MemsFieldArrayNode", "main"]
 
 NODE_NAME = "mems_field_array"
 PARAMETERS = device_parameter_specs(MemsParameters, VIZ_PARAMETERS)
@@ -116,7 +116,7 @@ def _stamp(nanoseconds: int) -> Time:
     return RclTime(nanoseconds=nanoseconds).to_msg()
 
 
-class MemsFieldArray(ManagedDevice[MemsParameters]):
+class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
     """Publishes ~/part_states, ~/part_poses at publish_rate and ~/field_program, ~/cell_forces, ~/parts.
 
     Serves ~/set_program and ~/place_parts (refused unless the device is ready), the action
@@ -130,9 +130,9 @@ class MemsFieldArray(ManagedDevice[MemsParameters]):
     def __init__(self) -> None:
         super().__init__(NODE_NAME, MemsParameters, VIZ_PARAMETERS, rate=20.0)
         self._forget()
-        serve(self, FieldSetProgram, "~/set_program", service_guard(self)(self.on_set_program))
-        serve(self, MemsPlaceParts, "~/place_parts", service_guard(self)(self.on_place_parts))
-        serve_goal(self, RunProgram, "~/run_program", self.validate_run_program, self.start_run_program)
+        serve(self, FieldSetProgram, "~/set_program", service_guard(self)(self._on_set_program))
+        serve(self, MemsPlaceParts, "~/place_parts", service_guard(self)(self._on_place_parts))
+        serve_goal(self, RunProgram, "~/run_program", self._validate_run_program, self._start_run_program)
         self.viz = DeviceViz(self, self.drawing)
 
     def _forget(self) -> None:
@@ -392,7 +392,7 @@ class MemsFieldArray(ManagedDevice[MemsParameters]):
         return planar_pose(pose[0], pose[1], pose[2])
 
     # --- device services ----------------------------------------------------------------------------
-    def on_set_program(
+    def _on_set_program(
         self, request: FieldSetProgram.Request, response: FieldSetProgram.Response
     ) -> FieldSetProgram.Response:
         """Start the requested field program now (refused while a ~/run_program goal executes)."""
@@ -413,7 +413,7 @@ class MemsFieldArray(ManagedDevice[MemsParameters]):
         self.publish_program()
         self.publish_cells()
 
-    def on_place_parts(
+    def _on_place_parts(
         self, request: MemsPlaceParts.Request, response: MemsPlaceParts.Response
     ) -> MemsPlaceParts.Response:
         """Put named parts at requested poses at rest, or every part back at its initial pose."""
@@ -431,7 +431,7 @@ class MemsFieldArray(ManagedDevice[MemsParameters]):
         return response
 
     # --- ~/run_program --------------------------------------------------------------------------------
-    def validate_run_program(self, goal: RunProgram.Goal) -> None:
+    def _validate_run_program(self, goal: RunProgram.Goal) -> None:
         """Check a goal's fields (the kit has checked that the device is ready and free).
 
         The program is checked by the one validation ``~/set_program`` uses, so both refuse the same
@@ -441,7 +441,7 @@ class MemsFieldArray(ManagedDevice[MemsParameters]):
         check_timeout(goal.timeout)
         settling_criterion(goal.tolerance, goal.dwell)
 
-    def start_run_program(self, handle: ServerGoalHandle) -> RunProgramGoal:
+    def _start_run_program(self, handle: ServerGoalHandle) -> RunProgramGoal:
         """Install the goal's program and start following it (see RunProgram.action)."""
         goal = handle.request
         program = program_from_msg(goal.program)
@@ -470,7 +470,7 @@ class MemsFieldArray(ManagedDevice[MemsParameters]):
 class RunProgramGoal:
     """The runner's view of a ``ProgramGoal``: feedback and result as RunProgram messages."""
 
-    def __init__(self, node: MemsFieldArray, machine: ProgramGoal, predictions: list[Prediction]) -> None:
+    def __init__(self, node: MemsFieldArrayNode, machine: ProgramGoal, predictions: list[Prediction]) -> None:
         self.node, self.machine, self.predictions = node, machine, predictions
         self.pending: list[RunProgram.Feedback] = []
         self.ended: RunProgram.Result | None = None
@@ -567,7 +567,7 @@ def _equilibrium_summary(name: str, prediction: Prediction, found: Match) -> str
 
 def main(args: list[str] | None = None) -> None:
     """Run the node until shut down."""
-    run_node(MemsFieldArray, NODE_NAME, args)
+    run_node(MemsFieldArrayNode, NODE_NAME, args)
 
 
 if __name__ == "__main__":

@@ -85,7 +85,7 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         # Served from the start; refused unless the device is ready (require_ready names the state).
         serve(self, ArmCommand, "~/command", guard(self._on_command))
         serve(self, ArmPlacePart, "~/place_part", guard(self._on_place_part))
-        serve_goal(self, FeedPart, "~/feed_part", self._validate_feed, self._start_feed)
+        serve_goal(self, FeedPart, "~/feed_part", self._validate_feed_part, self._start_feed_part)
         self.viz = DeviceViz(self, self.drawing)
 
     def _forget_run(self) -> None:
@@ -324,7 +324,7 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         )
 
     # --- ~/feed_part ----------------------------------------------------------------------------------
-    def _validate_feed(self, goal: FeedPart.Goal) -> None:
+    def _validate_feed_part(self, goal: FeedPart.Goal) -> None:
         """Refuse a bad goal naming the field, or a goal while ~/command keeps the arm busy."""
         check_feed_goal(int(goal.max_throws), float(goal.timeout))
         cycle = self._cycle()
@@ -334,7 +334,7 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
                 "~/command stop, or wait for IDLE"
             )
 
-    def _start_feed(self, handle: ServerGoalHandle) -> FeedPartGoal:
+    def _start_feed_part(self, handle: ServerGoalHandle) -> FeedPartGoal:
         """Start an accepted goal's machine at the node clock's now."""
         request = check_feed_goal(int(handle.request.max_throws), float(handle.request.timeout))
         feed: FeedGoal[ThrowEvent] = FeedGoal(
