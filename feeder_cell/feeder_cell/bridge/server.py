@@ -380,12 +380,15 @@ class GraphBridge:
         def forward(data: bytes) -> None:
             self.server.message(channel_id, client, data, time.time_ns())
 
+        try:
+            msg_class = message_class(topic.type_name)
+        except Exception as error:  # noqa: BLE001 -- described (schema) but its Python class is missing
+            self.server.status(
+                client, LEVEL_ERROR, f"subscribe: {topic.name}: no {topic.type_name} here: {error}"
+            )
+            return
         topic.subscriptions[client] = self.node.create_subscription(
-            message_class(topic.type_name),
-            topic.name,
-            forward,
-            matching_qos(*topic.offer, SUBSCRIPTION_DEPTH),
-            raw=True,
+            msg_class, topic.name, forward, matching_qos(*topic.offer, SUBSCRIPTION_DEPTH), raw=True
         )
 
     def _unsubscribe(self, client: int, channel: int) -> None:
