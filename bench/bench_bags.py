@@ -11,6 +11,15 @@ Memory: ``feeder record --all`` of the demo scene (feeder_cell/scenes/demo.yaml,
 own), its RSS sampled every second with psutil: peak, and the median of the last tenth against the
 first after start-up (flat: the recorder keeps no per-message state beyond its bounded dedup window).
 Quick mode: 60 s; full: 10 minutes.
+
+Flight recorder: the cell scene (feeder_cell/scenes/cell.yaml, its controller cycling without end) with
+``feeder record --all --snapshot-on-fault`` (cache 32 MiB and 30 s, 3 s after each fault); every 30 s a
+fault is injected into the throwing arm (motor_fault) or the MEMS array (power_loss), cleared and the
+device reset 5 s later. The recorder's RSS is sampled every second: peak, the median of the last tenth
+against the median once the cache is full (after the first 40 s: flat), and the rise over its RSS at 10 s
+(start-up done, the cache still small) against twice the cache bound (a fault's copy shares the cache's
+messages; the post-fault seconds and the bag being written come on top); every fault must give one bag.
+Quick mode: 120 s; full: 10 minutes.
 """
 
 from __future__ import annotations
@@ -211,6 +220,155 @@ def _memory(env: dict[str, str], work: Path, seconds: float) -> dict[str, Any]:
     }
 
 
+INJECTOR = r"""
+import json, signal, sys, time
+import rclpy
+from rclpy.signals import SignalHandlerOptions
+from std_srvs.srv import Trigger
+from feeder_msgs.srv import InjectFault
+period, hold = float(sys.argv[1]), float(sys.argv[2])
+stop = []
+rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+for sig in (signal.SIGINT, signal.SIGTERM):
+    signal.signal(sig, lambda *_: stop.append(True))
+node = rclpy.create_node("bench_fault_injector")
+faults = [("/cell/throwing_arm", "motor_fault"), ("/cell/mems_field_array", "power_loss")]
+def call(kind, name, request):
+    client = node.create_client(kind, name)
+    try:
+        if not client.wait_for_service(timeout_sec=10.0):
+            return None
+        future = client.call_async(request)
+        rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
+        return future.result()
+    finally:
+        node.destroy_client(client)
+injected = []
+start = time.monotonic()
+turn = 0
+def wait(seconds):
+    end = time.monotonic() + seconds
+    while not stop and time.monotonic() < end:
+        time.sleep(0.1)
+wait(period)
+while not stop:
+    device, fault = faults[turn % len(faults)]
+    reply = call(InjectFault, f"{device}/inject_fault", InjectFault.Request(fault=fault))
+    if reply is not None and reply.ok:
+        injected.append({"device": device, "fault": fault, "at": time.monotonic() - start})
+    wait(hold)
+    call(InjectFault, f"{device}/inject_fault", InjectFault.Request(fault=fault, clear=True))
+    call(Trigger, f"{device}/reset", Trigger.Request())
+    turn += 1
+    wait(period - hold)
+print(json.dumps(injected), flush=True)
+node.destroy_node()
+rclpy.try_shutdown()
+"""
+
+CACHE_BYTES = 32 * 2**20
+CACHE_SECONDS = 30.0
+
+
+def _endless_cell_scene(work: Path) -> Path:
+    """The cell scene with its controller cycling without end (and the launch not ending with it)."""
+    from ruamel.yaml import YAML
+
+    source = ROOT / "feeder_cell" / "scenes" / "cell.yaml"
+    yaml = YAML(typ="safe")
+    scene = yaml.load(source.read_text())
+    for node in scene["nodes"]:
+        parameters = node.get("parameters", {})
+        for key, value in list(parameters.items()):
+            # The copy lives elsewhere: file parameters made absolute (they are relative to the scene).
+            if key.endswith("_file"):
+                parameters[key] = str((source.parent / value).resolve())
+            elif key.endswith("_files"):
+                parameters[key] = [str((source.parent / v).resolve()) for v in value]
+        if node["executable"] == "cell_controller":
+            node.pop("on_exit", None)
+            parameters.update(cycles=100000, exit_when_done=False)
+    path = work / "cell_endless.yaml"
+    with path.open("w") as stream:
+        yaml.dump(scene, stream)
+    return path
+
+
+def _flight_memory(env: dict[str, str], work: Path, seconds: float) -> dict[str, Any]:
+    import psutil
+
+    launch = subprocess.Popen(
+        [*FEEDER, "launch", str(_endless_cell_scene(work)), "--log-dir", str(work / "cell_logs")],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    out = work / "flight"
+    recorder = injector = None
+    samples: list[tuple[float, int]] = []
+    try:
+        time.sleep(15.0)  # the scene's nodes up and active
+        recorder = subprocess.Popen(
+            [
+                *FEEDER,
+                "record",
+                str(out),
+                "--all",
+                "--snapshot-on-fault",
+                "--max-cache-size",
+                str(CACHE_BYTES),
+                "--max-cache-duration",
+                str(CACHE_SECONDS),
+                "--post-fault",
+                "3",
+                "--json",
+            ],
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+        )
+        injector = subprocess.Popen(
+            [sys.executable, "-c", INJECTOR, "30", "5"],
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+        )
+        process = psutil.Process(recorder.pid)
+        start = time.monotonic()
+        while time.monotonic() - start < seconds and recorder.poll() is None:
+            samples.append((time.monotonic() - start, process.memory_info().rss))
+            time.sleep(1.0)
+        injected = json.loads(_stop(injector) or "[]")
+        time.sleep(5.0)  # the last fault's post-fault seconds
+        summary = json.loads(_stop(recorder) or "{}")
+    finally:
+        for process_ in (injector, recorder):
+            if process_ is not None and process_.poll() is None:
+                _stop(process_)
+        _stop(launch)
+    rss = [r for _, r in samples]
+    tenth = max(1, len(rss) // 10)
+    full = [r for t, r in samples if t >= CACHE_SECONDS + 10] or rss
+    # After start-up (imports, discovery) and before the cache holds much: what the cache adds is above it.
+    settled = [r for t, r in samples if t >= 10.0] or rss
+    messages = sum(t["count"] for t in summary.get("topics", {}).values())
+    return {
+        "seconds": seconds,
+        "samples": samples,
+        "peak_mb": max(rss) / 2**20,
+        "start_mb": settled[0] / 2**20,
+        "full_mb": statistics.median(full[:tenth]) / 2**20,
+        "late_mb": statistics.median(rss[-tenth:]) / 2**20,
+        "messages": messages,
+        "faults": len(injected),
+        "bags": len(summary.get("snapshots", [])),
+        "bag_messages": [b["messages"] for b in summary.get("snapshots", [])],
+        "cache_peak_mb": summary.get("cache", {}).get("peak_bytes", 0) / 2**20,
+    }
+
+
 def _plot(out: Path, runs: dict[str, list[dict]], memory: dict[str, Any]) -> None:
     import matplotlib.pyplot as plt
 
@@ -246,6 +404,7 @@ def run(out: Path, quick: bool) -> list[dict]:
     rates = [1000, 2000, 4000, 8000] if quick else [500, 1000, 2000, 4000, 6000, 8000, 12000, 16000]
     step_s = 2.0 if quick else 5.0
     seconds = 60.0 if quick else 600.0
+    flight_seconds = 120.0 if quick else 600.0
     domain, handle = lease_domain("bag")
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
     rows = []
@@ -254,8 +413,9 @@ def run(out: Path, quick: bool) -> list[dict]:
             work = Path(scratch)
             runs = {c: _throughput(env, work, c, rates, step_s) for c in ("none", "zstd")}
             memory = _memory(env, work, seconds)
+            flight = _flight_memory(env, work, flight_seconds)
             (out / "bags_record.json").write_text(
-                json.dumps({"throughput": runs, "memory": memory}, indent=1)
+                json.dumps({"throughput": runs, "memory": memory, "flight": flight}, indent=1)
             )
             _plot(out, runs, memory)
     finally:
@@ -295,6 +455,25 @@ def run(out: Path, quick: bool) -> list[dict]:
             "flat: last tenth <= 1.1 x first",
             f"first {memory['early_mb']:.1f} MiB, last {memory['late_mb']:.1f} MiB",
             ratio <= 1.1,
+        )
+    )
+    flat = flight["late_mb"] / flight["full_mb"] if flight["full_mb"] else float("nan")
+    rise = flight["peak_mb"] - flight["start_mb"]
+    bound = 2 * CACHE_BYTES / 2**20
+    rows.append(
+        row(
+            "bags",
+            "flight recorder peak RSS, cell scene --all --snapshot-on-fault "
+            f"(cache {CACHE_BYTES // 2**20} MiB, {CACHE_SECONDS:.0f} s), {flight['seconds']:.0f} s, "
+            f"{flight['faults']} faults "
+            f"({flight['messages']} msgs)",
+            flight["peak_mb"],
+            "MiB",
+            f"flat once full (last tenth <= 1.1 x), rise <= {bound:.0f} MiB, a bag per fault",
+            f"at 10 s {flight['start_mb']:.1f}, cache full {flight['full_mb']:.1f}, "
+            f"last {flight['late_mb']:.1f} MiB; cache peak {flight['cache_peak_mb']:.1f} MiB; "
+            f"{flight['bags']} bags",
+            flat <= 1.1 and rise <= bound and flight["bags"] == flight["faults"] > 0,
         )
     )
     return rows

@@ -231,7 +231,7 @@ def _output(where: str, options: Any) -> OutputBag:
         for name in options.get("exclude_services", ())
     )
     # exclude_regex wins over the older name exclude when both are given (rosbag2 reads exclude first).
-    exclude = options.get("exclude_regex", options.get("exclude", ""))
+    exclude = str(options.get("exclude_regex", options.get("exclude", "")))
     output = OutputBag(
         uri=Path(uri),
         compression=_compression(where, options),
@@ -439,14 +439,14 @@ def convert(inputs: list[Path], outputs: list[OutputBag]) -> ConvertResult:
         for writer, names in zip(writers, taken, strict=True):
             made = {}
             for name in sorted(names):
-                topic = topics[name]
+                declared = topics[name]
                 made[name] = writer.add_connection(
                     name,
-                    topic.type_name,
-                    msgdef=topic.msgdef,
-                    rihs01=topic.type_hash,
-                    serialization_format=topic.encoding,
-                    offered_qos_profiles=topic.profiles,
+                    declared.type_name,
+                    msgdef=declared.msgdef,
+                    rihs01=declared.type_hash,
+                    serialization_format=declared.encoding,
+                    offered_qos_profiles=declared.profiles,
                 )
             connections.append(made)
         streams = [_messages(i, f) for i, f in enumerate(files)]

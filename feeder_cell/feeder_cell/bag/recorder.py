@@ -282,6 +282,7 @@ class Recorder:
         self._status_subscriptions: dict[str, Any] = {}
         self.skipped_faults = 0  # faults not captured: MAX_PENDING captures were pending already
         self._snapshot_count = 0
+        self.cache_stats: dict[str, float] = {}  # the snapshot cache's bounds and peak, once closed
         self.files: list[FileStats] = []
         if self.snapshot or self.snapshot_on_fault:
             self.snapshot = True
@@ -613,6 +614,13 @@ class Recorder:
         if self._snapshots is not None:
             with self._lock:
                 self._close_due_captures(None)
+                if self._cache is not None:
+                    self.cache_stats = {
+                        "max_bytes": self._cache.max_bytes,
+                        "max_duration": self._cache.max_duration_ns / 1e9,
+                        "peak_bytes": self._cache.peak_bytes,
+                        "evicted": self._cache.evicted,
+                    }
                 self._cache = None
             self._snapshots.close()
         with self._sync_lock, self._lock:

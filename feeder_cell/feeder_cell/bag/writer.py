@@ -101,6 +101,10 @@ class McapFile(McapWriter):
     open descriptor follows it).
     """
 
+    # Set by rosbags' storage; typed here for the checker.
+    message_start_time: int
+    message_end_time: int
+
     def __init__(self, directory: Path, name: str, compression: str = "none") -> None:
         scratch = directory / Path(name).stem
         scratch.mkdir()
@@ -208,6 +212,11 @@ class BagWriter(Writer):
         rosbag2's ``custom_data`` (string keys and values) stored in the metadata.
     """
 
+    # Set by rosbags' writer; typed here for the checker (the storage is always one of ours).
+    storage: McapFile | None
+    min_timestamp: int
+    max_timestamp: int
+
     def __init__(
         self, path: Path, compression: str = "none", custom_data: dict[str, str] | None = None
     ) -> None:
@@ -235,7 +244,7 @@ class BagWriter(Writer):
             raise WriterError(f"bag {self.path} is not open")
         return self.storage
 
-    def add_connection(  # type: ignore[override]
+    def add_connection(
         self,
         topic: str,
         msgtype: str,
@@ -268,7 +277,7 @@ class BagWriter(Writer):
             storage.add_msgtype(connection)
         storage.add_connection(connection, qos_yaml(getattr(connection.ext, "offered_qos_profiles", [])))
 
-    def write(  # type: ignore[override]
+    def write(
         self,
         connection: Connection,
         timestamp: int,
@@ -370,7 +379,7 @@ class BagWriter(Writer):
             "ros_distro": ROS_DISTRO,
         }
 
-    def close(self, files: Sequence[FileStats] | None = None) -> None:  # type: ignore[override]
+    def close(self, files: Sequence[FileStats] | None = None) -> None:
         """Close the last file and write ``metadata.yaml`` (listing ``files``, by default every file)."""
         if self.storage is not None:
             self.finish_file()

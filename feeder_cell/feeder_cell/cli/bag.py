@@ -136,6 +136,7 @@ def _record(args: argparse.Namespace) -> int:
         if snapshot:
             result["snapshots"] = [bag.to_json() for bag in recorder.written]
             result["skipped_faults"] = recorder.skipped_faults
+            result["cache"] = recorder.cache_stats
         return result
 
     result = with_node(args.node_name, work)
