@@ -292,7 +292,7 @@ class Recorder:
             self.path.mkdir(parents=True, exist_ok=True)
             self._snapshots = SnapshotWriter(
                 self.path,
-                lambda: dict(self._topic_info),
+                self._known_topics,
                 self.compression,
                 lambda line: self.node.get_logger().error(line),
             )
@@ -481,6 +481,11 @@ class Recorder:
             name = capture_name("service", self.clock(), index=self._snapshot_count)
             self._snapshots.submit(Capture(self._snapshots.unique(name), "service", entries))
         return True
+
+    def _known_topics(self) -> dict[str, TopicInfo]:
+        """Every subscribed topic's declaration (for the snapshot writer's thread)."""
+        with self._lock:
+            return dict(self._topic_info)
 
     def _pending(self) -> int:
         assert self._snapshots is not None
