@@ -11,13 +11,14 @@ import subprocess
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal, cast
+from typing import Any, Literal, TypeAlias, cast
 
 import yaml
 
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import load_yaml_mapping, optional, required, short_string
 from feeder_planner.limits import MAX_NAME_CHARS, describe, quote
+from feeder_planner.parameter_specs import ParameterSpec
 
 STOP_GRACE_S = 5.0
 # prctl(2) option: the signal a child gets when its parent dies (linux/prctl.h).
@@ -31,6 +32,11 @@ LIFECYCLE_TARGETS: tuple[str, ...] = ("active", "inactive", "unconfigured")
 OnExit = Literal["", "shutdown"]
 ON_EXIT_ACTIONS: tuple[str, ...] = ("shutdown",)
 
+# A node parameter's value as a scene gives it (``_parameter`` checks it): a bool, integer, double or
+# string, or a list of them (of one type).
+ParameterScalar: TypeAlias = bool | int | float | str
+ParameterValue: TypeAlias = ParameterScalar | list[ParameterScalar]
+
 
 @dataclass(frozen=True)
 class NodeSpec:
@@ -38,7 +44,7 @@ class NodeSpec:
 
     package: str
     executable: str
-    parameters: dict[str, Any] = field(default_factory=dict)
+    parameters: dict[str, ParameterValue] = field(default_factory=dict)
     name: str = ""  # node name remap; empty keeps the executable's own name
     namespace: str = ""  # e.g. /cell/feeder_a; empty: the root namespace
     remappings: tuple[tuple[str, str], ...] = ()  # (from, to) name remappings, as -r from:=to
@@ -213,7 +219,7 @@ def _check_type(value: Any, default: Any, field: str) -> None:
         raise InputError(field, f"is declared {want}, got {got} {quote(value)}{hint}")
 
 
-def _declared_parameters(package: str, executable: str) -> dict[str, Any]:
+def _declared_parameters(package: str, executable: str) -> dict[str, ParameterSpec]:
     """Return the ParameterSpecs declared by an executable's node module, by name ({} when unknown)."""
     from importlib import import_module
     from importlib.metadata import entry_points
@@ -281,8 +287,8 @@ def _on_exit(value: Any, field: str) -> OnExit:
     return cast(OnExit, value)
 
 
-def _resolve_path(key: str, value: Any, base_dir: Path) -> Any:
-    def resolve(item: Any) -> Any:
+def _resolve_path(key: str, value: ParameterValue, base_dir: Path) -> ParameterValue:
+    def resolve(item: ParameterScalar) -> ParameterScalar:
         return (
             str((base_dir / item).resolve())
             if isinstance(item, str) and item and not os.path.isabs(item)
@@ -290,7 +296,7 @@ def _resolve_path(key: str, value: Any, base_dir: Path) -> Any:
         )
 
     if key.endswith("_file"):
-        return resolve(value)
+        return value if isinstance(value, list) else resolve(value)
     if key.endswith("_files") and isinstance(value, list):
         return [resolve(item) for item in value]
     return value
@@ -395,7 +401,7 @@ def start_node(
     spec: NodeSpec,
     log_dir: Path,
     extra_args: tuple[str, ...] = (),
-    extra_parameters: dict[str, Any] | None = None,
+    extra_parameters: dict[str, ParameterValue] | None = None,
 ) -> NodeProcess:
     """Start one node with its parameters passed through a params file (types survive, unlike -p)."""
     path = resolve_executable(spec.package, spec.executable)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from typing import Any
+from typing import Any, Callable
 
 from feeder_cell.cli.common import add_json_flag, emit, finite_float
 from feeder_cell.ros_session import with_node
@@ -41,7 +41,7 @@ def _run(args: argparse.Namespace) -> int:
         if args.duration is None or not args.duration > 0 or not math.isfinite(args.duration):
             raise InputError("DURATION", f"step needs a duration > 0 s, got {args.duration}")
 
-    def work(node: Any, executor: Any, keep_going: Any) -> dict[str, Any]:
+    def work(node: Any, executor: Any, keep_going: Callable[[], bool]) -> dict[str, Any]:
         if args.action in ("pause", "resume"):
             response = _call(node, executor, Trigger, f"{clock}/{args.action}", Trigger.Request())
             if not response.success:

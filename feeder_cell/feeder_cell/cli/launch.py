@@ -39,7 +39,9 @@ def _graph_names(node: Any) -> set[str]:
     return {f"{ns.rstrip('/')}/{name}" for name, ns in node.get_node_names_and_namespaces()}
 
 
-def _wait_until_in_graph(node: Any, executor: Any, processes: list[NodeProcess], keep_going: Any) -> None:
+def _wait_until_in_graph(
+    node: Any, executor: Any, processes: list[NodeProcess], keep_going: Callable[[], bool]
+) -> None:
     deadline = time.monotonic() + STARTUP_TIMEOUT_S
     wanted = {p.spec.fully_qualified_name for p in processes}
     while keep_going():
@@ -63,7 +65,7 @@ def _configuration_error(node: Any, executor: Any, target: str) -> str:
     from feeder_msgs.msg import DeviceStatus
     from feeder_planner.node_kit import LATCHED
 
-    seen: list[Any] = []
+    seen: list[DeviceStatus] = []
     subscription = node.create_subscription(DeviceStatus, f"{target}/status", seen.append, LATCHED)
     deadline = time.monotonic() + 2.0
     while not seen and time.monotonic() < deadline:
@@ -73,7 +75,7 @@ def _configuration_error(node: Any, executor: Any, target: str) -> str:
 
 
 def bring_up(
-    node: Any, executor: Any, processes: list[NodeProcess], between: Callable[[], Any] | None = None
+    node: Any, executor: Any, processes: list[NodeProcess], between: Callable[[], object] | None = None
 ) -> dict[str, str]:
     """Bring every managed node to its scene's lifecycle target, in scene order; return the states.
 
@@ -127,7 +129,7 @@ def _launch(args: argparse.Namespace) -> int:
         )
         specs.insert(0, clock)
 
-    def work(node: Any, executor: Any, keep_going: Any) -> dict[str, Any]:
+    def work(node: Any, executor: Any, keep_going: Callable[[], bool]) -> dict[str, Any]:
         from feeder_cell.bag.recorder import Recorder
 
         processes: list[NodeProcess] = []

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import Any, Callable
 
 from feeder_cell.cli.common import add_json_flag, emit
 from feeder_cell.lifecycle_client import TRANSITIONS, LifecycleClient, LifecycleError
@@ -24,7 +24,7 @@ def _node_name(text: str) -> str:
 def _run(args: argparse.Namespace) -> int:
     target = _node_name(args.node)
 
-    def work(node: Any, executor: Any, keep_going: Any) -> dict[str, Any]:
+    def work(node: Any, executor: Any, keep_going: Callable[[], bool]) -> dict[str, Any]:
         client = LifecycleClient(node, executor, target)
         if not client.is_managed(DISCOVERY_TIMEOUT_S):
             raise LifecycleError(

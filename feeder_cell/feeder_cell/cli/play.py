@@ -6,11 +6,14 @@ import argparse
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, Callable
 
 from feeder_cell.cli.common import add_json_flag, emit, finite_float
 from feeder_cell.ros_session import with_node
 from feeder_planner.errors import InputError
+
+if TYPE_CHECKING:
+    from feeder_cell.bag.player import PlayOptions
 
 DEFAULT_NODE_NAME = "rosbag2_player"  # as ros2 bag play names its node
 DEFAULT_CLOCK_HZ = 40.0  # ros2 bag play's default --clock rate
@@ -28,7 +31,7 @@ def _summary(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def _options(args: argparse.Namespace) -> Any:
+def _options(args: argparse.Namespace) -> PlayOptions:
     from feeder_cell.bag.player import PlayOptions, parse_remap
 
     remaps: dict[str, str] = {}
@@ -75,7 +78,7 @@ def _play(args: argparse.Namespace) -> int:
     options.check()
     check_integrity(path)  # before any node starts: a damaged bag is one line, nothing played
 
-    def work(node: Any, executor: Any, keep_going: Any) -> dict[str, Any]:
+    def work(node: Any, executor: Any, keep_going: Callable[[], bool]) -> dict[str, Any]:
         player = Player(node, path, options, verify=False)  # verified above
         spinning: BackgroundSpin | None = None
         try:

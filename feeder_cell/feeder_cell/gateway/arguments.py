@@ -11,7 +11,7 @@ argument's index and a message naming it.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import cast
 
 from feeder_cell.gateway.spec import Argument, MethodSpec
 from feeder_planner.errors import FeederError
@@ -56,7 +56,7 @@ def check_count(spec: MethodSpec, args: list[Argument]) -> None:
         )
 
 
-def _scalar(arg: Argument, index: int, name: str) -> Any:
+def _scalar(arg: Argument, index: int, name: str) -> object:
     if arg.array or isinstance(arg.value, list):
         raise ArgumentError(
             "BadTypeMismatch", index, f"{name}: expected a scalar, got an array of {arg.type}"
@@ -71,7 +71,7 @@ def read_integer(arg: Argument, index: int, name: str) -> int:
         raise ArgumentError(
             "BadTypeMismatch", index, f"{name}: expected an integer (UInt32), got {arg.type} {value!r}"
         )
-    return int(value)
+    return int(cast(int, value))  # an integer built-in type's variant holds an int
 
 
 def read_number(arg: Argument, index: int, name: str) -> float:
@@ -81,7 +81,7 @@ def read_number(arg: Argument, index: int, name: str) -> float:
         raise ArgumentError(
             "BadTypeMismatch", index, f"{name}: expected a number (Double), got {arg.type} {value!r}"
         )
-    number = float(value)
+    number = float(cast(float, value))  # a number built-in type's variant holds a float or an int
     if not math.isfinite(number):
         raise ArgumentError("BadInvalidArgument", index, f"{name}: must be finite, got {value!r}")
     return number

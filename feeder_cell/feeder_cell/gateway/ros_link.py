@@ -23,10 +23,12 @@ from typing import Any, Coroutine
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import Log
 from rclpy.action.client import ClientGoalHandle
+from rclpy.client import Client
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import Executor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.task import Task
 from std_srvs.srv import Trigger
 
 from feeder_cell.gateway.config import DeviceEntry, packml_state
@@ -59,9 +61,9 @@ class DeviceLink:
 
     entry: DeviceEntry
     profile: KindProfile
-    stop: Any = None
-    reset: Any = None
-    action: Any = None
+    stop: Client  # ~/stop (std_srvs/Trigger)
+    reset: Client  # ~/reset (std_srvs/Trigger)
+    action: ActionClient  # the kind's long action
     state: int | None = None  # last DeviceStatus state
     ready: bool = False
     state_name: str = ""
@@ -95,11 +97,15 @@ class RosLink:
     # --- subscriptions ---------------------------------------------------------------------------
     def _link(self, entry: DeviceEntry) -> DeviceLink:
         node, name = self.node, entry.node
-        link = DeviceLink(entry, KINDS[entry.kind])
-        link.stop = node.create_client(Trigger, f"{name}/stop")
-        link.reset = node.create_client(Trigger, f"{name}/reset")
-        action = link.profile.action
-        link.action = ActionClient(node, action.action_type, f"{name}/{action.action_name}")
+        profile = KINDS[entry.kind]
+        action = profile.action
+        link = DeviceLink(
+            entry,
+            profile,
+            stop=node.create_client(Trigger, f"{name}/stop"),
+            reset=node.create_client(Trigger, f"{name}/reset"),
+            action=ActionClient(node, action.action_type, f"{name}/{action.action_name}"),
+        )
         node.create_subscription(DeviceStatus, f"{name}/status", lambda m: self._on_status(link, m), LATCHED)
         for stream in link.profile.streams:
             self._subscribe(link, stream)
@@ -242,12 +248,12 @@ class RosLink:
             return await self._rejection(link, method)
         return status, message
 
-    async def _in_ros(self, work: Coroutine[Any, Any, tuple[str, str]]) -> tuple[str, str]:
+    async def _in_ros(self, work: Coroutine[object, None, tuple[str, str]]) -> tuple[str, str]:
         """Run a coroutine in the rclpy executor's thread; its result, or BadTimeout after call_timeout."""
         loop = asyncio.get_running_loop()
         done: asyncio.Future[tuple[str, str]] = loop.create_future()
 
-        def finished(task: Any) -> None:
+        def finished(task: Task) -> None:
             def settle() -> None:
                 if done.done():
                     return

@@ -21,21 +21,23 @@ from __future__ import annotations
 import asyncio
 import logging
 import threading
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Protocol, cast
+from typing import Protocol, cast
 
-from asyncua import Server, ua
+from asyncua import Node, Server, ua
 from asyncua.crypto.permission_rules import User, UserRole
 from asyncua.crypto.truststore import TrustStore
 from asyncua.crypto.validator import CertificateValidator, CertificateValidatorOptions
+from asyncua.server.internal_server import InternalServer
 from asyncua.server.user_managers import UserManager
 
 from feeder_cell.gateway import arguments, layout
 from feeder_cell.gateway.config import DeviceEntry, Endpoint, SecurityConfig
 from feeder_cell.gateway.kinds import KINDS
-from feeder_cell.gateway.spec import ArgumentSpec, CallContext, Goal, MethodSpec
+from feeder_cell.gateway.spec import ArgumentSpec, CallContext, Goal, MethodSpec, Value
 from feeder_cell.gateway.users import Users
 
 __all__ = ["Handler", "GatewayServer", "GatewayUsers", "POLICY_TYPES"]
@@ -67,7 +69,11 @@ class GatewayUsers(UserManager):
         self.allow_anonymous = allow_anonymous
 
     def get_user(
-        self, iserver: Any, username: str | None = None, password: str | None = None, certificate: Any = None
+        self,
+        iserver: InternalServer,
+        username: str | None = None,
+        password: str | None = None,
+        certificate: object = None,
     ) -> User | None:
         """Return the session's user, or None (BadUserAccessDenied)."""
         if username is None and password is None:
@@ -79,7 +85,7 @@ class GatewayUsers(UserManager):
 
 @dataclass
 class _Pending:
-    value: Any
+    value: Value
     stamp_ns: int
 
 
@@ -121,7 +127,7 @@ class GatewayServer:
         self._types: dict[str, ua.VariantType] = {}
         self._lock = threading.Lock()
         self._pending: dict[str, _Pending] = {}
-        self._written: dict[str, Any] = {}
+        self._written: dict[str, Value] = {}
         self._scheduled = False
         self._loop: asyncio.AbstractEventLoop | None = None
         self._flushing: asyncio.Task[None] | None = None
@@ -176,11 +182,11 @@ class GatewayServer:
         for device in self.devices:
             await self._build_device(server, folder, device)
 
-    async def _build_device(self, server: Server, folder: Any, device: DeviceEntry) -> None:
+    async def _build_device(self, server: Server, folder: Node, device: DeviceEntry) -> None:
         key = device.key
         obj = await folder.add_object(self._id(key), self._name(key))
         await self._describe(obj, f"{device.kind} {device.node}")
-        parents: dict[str, Any] = {"": obj}
+        parents: dict[str, Node] = {"": obj}
         for spec in layout.variables(device.kind):
             *folders, name = spec.path.split(".")
             parent = await self._folder(parents, key, folders)
@@ -211,7 +217,7 @@ class GatewayServer:
                 [_argument(ArgumentSpec("Message", "String", "what the gateway or the device says"))],
             )
 
-    async def _folder(self, parents: dict[str, Any], key: str, folders: list[str]) -> Any:
+    async def _folder(self, parents: dict[str, Node], key: str, folders: list[str]) -> Node:
         path = ""
         for name in folders:
             child = f"{path}.{name}" if path else name
@@ -221,14 +227,14 @@ class GatewayServer:
         return parents[path]
 
     @staticmethod
-    async def _describe(node: Any, text: str) -> None:
+    async def _describe(node: Node, text: str) -> None:
         await node.write_attribute(
             ua.AttributeIds.Description,
             ua.DataValue(ua.Variant(ua.LocalizedText(text), ua.VariantType.LocalizedText)),
         )
 
     # --- values ----------------------------------------------------------------------------------
-    def post(self, key: str, path: str, value: Any, stamp_ns: int = 0) -> None:
+    def post(self, key: str, path: str, value: Value, stamp_ns: int = 0) -> None:
         """Set a device variable (any thread); written on the loop's next turn unless unchanged."""
         vid = layout.variable_id(key, path)
         with self._lock:
@@ -271,7 +277,7 @@ class GatewayServer:
                 )
                 await self.server.write_attribute_value(self._id(vid), dv)
 
-    def read(self, key: str, path: str) -> Any:
+    def read(self, key: str, path: str) -> Value | None:
         """Return the last value set of a variable (for the handler's own bookkeeping)."""
         vid = layout.variable_id(key, path)
         with self._lock:
@@ -280,7 +286,7 @@ class GatewayServer:
             return self._written.get(vid)
 
     # --- methods ---------------------------------------------------------------------------------
-    def _method(self, device: DeviceEntry, spec: MethodSpec) -> Any:
+    def _method(self, device: DeviceEntry, spec: MethodSpec) -> Callable[..., Awaitable[ua.CallMethodResult]]:
         async def call(parent: ua.NodeId, *variants: ua.Variant) -> ua.CallMethodResult:
             count = len(variants)
             try:
@@ -331,10 +337,10 @@ class GatewayServer:
 
 _UNSET = object()
 # Initial values other than the type's zero: no status heard yet is PackML Undefined (code 0).
-_INITIAL: dict[str, Any] = {"Status.PackMLState": "Undefined"}
+_INITIAL: dict[str, Value] = {"Status.PackMLState": "Undefined"}
 
 
-def _default(vtype: ua.VariantType) -> Any:
+def _default(vtype: ua.VariantType) -> Value:
     if vtype == ua.VariantType.Boolean:
         return False
     if vtype == ua.VariantType.String:
@@ -354,7 +360,7 @@ def _argument(spec: ArgumentSpec) -> ua.Argument:
     return arg
 
 
-def _from_variant(variant: Any) -> arguments.Argument:
+def _from_variant(variant: object) -> arguments.Argument:
     if not isinstance(variant, ua.Variant):  # a client library that passed a bare value
         variant = ua.Variant(variant)
     value = variant.Value

@@ -77,7 +77,7 @@ class MethodSpec:
 class Argument:
     """One input argument as the client sent it: the value (a list for an array) and its built-in type."""
 
-    value: Any  # whatever the client's variant held: checked by the kind's argument check
+    value: object  # whatever the client's variant held: checked by the kind's argument check
     type: str  # VariantType name, e.g. Double, UInt32, String; "Null" for an empty variant
     array: bool = False
 

@@ -67,7 +67,7 @@ EXIT_FINISHED, EXIT_STOPPED = 0, 1  # a bad parameter exits 2 (node_kit.runner.b
 EXIT_SHUT_DOWN = 0  # Ctrl-C or SIGTERM: a clean end for a ROS node, whatever state the cell was in
 
 
-def _directions(value: Any) -> str | None:
+def _directions(value: object) -> str | None:
     """Check a flattened list of gravity directions: x, y, z per direction, finite, not zero."""
     values = list(value) if isinstance(value, (list, tuple)) else None
     if not values or len(values) % 3 or not all(isinstance(v, (int, float)) for v in values):

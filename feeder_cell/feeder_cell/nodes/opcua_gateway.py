@@ -13,7 +13,6 @@ import asyncio
 import logging
 import signal
 import threading
-from typing import Any
 
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -41,7 +40,7 @@ NODE_NAME = "opcua_gateway"
 EXIT_BAD_CONFIGURATION = 2
 
 
-def _strings(value: Any) -> str | None:
+def _strings(value: object) -> str | None:
     ok = isinstance(value, list) and all(isinstance(v, str) for v in value)
     return None if ok else f"must be a list of strings, got {value!r}"
 

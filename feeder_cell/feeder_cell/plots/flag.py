@@ -9,7 +9,6 @@ import argparse
 import importlib
 import sys
 from pathlib import Path
-from typing import Any
 
 from feeder_cell.plots.paths import check_plot_path
 from feeder_planner.errors import InputError
@@ -46,7 +45,7 @@ def add_plot_flag(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def write_plot(args: argparse.Namespace, kind: str, *objects: Any, **options: Any) -> Path | None:
+def write_plot(args: argparse.Namespace, kind: str, *objects: object, **options: object) -> Path | None:
     """Draw the figure of ``kind`` and write it if ``--plot`` was given; return its path (None without).
 
     ``objects`` and ``options`` go to the kind's figure function (PLOT_KINDS), e.g. the part and the
