@@ -201,7 +201,7 @@ def check_declared_parameters(scene: Scene) -> None:
                 raise InputError(f"{where}.{name}", problem)
 
 
-def _check_type(value: Any, default: Any, field: str) -> None:
+def _check_type(value: Any, default: object, field: str) -> None:
     """Refuse a value whose ROS parameter type differs from the declared default's (rclpy would)."""
     if isinstance(default, list) and default and isinstance(value, list):
         want, got = _parameter_kind(default[0], field), _parameter_kind(value[0], f"{field}[0]")

@@ -22,7 +22,7 @@ import math
 import sys
 import threading
 import time
-from typing import Any
+from typing import Any, Callable
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -505,7 +505,7 @@ class CellController(Node):
         namespace = self.get_namespace().rstrip("/")
         return name if name.startswith("/") else f"{namespace}/{name}"
 
-    def _status_callback(self, key: str) -> Any:
+    def _status_callback(self, key: str) -> Callable[[DeviceStatus], None]:
         def on_status(msg: DeviceStatus) -> None:
             self.status[key] = msg
 
