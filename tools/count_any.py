@@ -67,6 +67,7 @@ import argparse
 import ast
 import json
 import re
+import signal
 import sys
 from collections import Counter
 from dataclasses import asdict, dataclass
@@ -431,6 +432,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--all", action="store_true", help="list the edges too, with their rule")
     args = parser.parse_args(argv)
+    signal.signal(signal.SIGPIPE, signal.SIG_DFL)  # `| head` ends the listing quietly
     roots = [p.resolve() for p in args.paths] or [ROOT / package / package for package in PACKAGES]
     uses = [use for path in python_files(roots) for use in count_file(path)]
     files = sorted({use.path for use in uses})
