@@ -16,10 +16,10 @@ Flight recorder: the cell scene (feeder_cell/scenes/cell.yaml, its controller cy
 ``feeder record --all --snapshot-on-fault`` (cache 32 MiB and 30 s, 3 s after each fault); every 30 s a
 fault is injected into the throwing arm (motor_fault) or the MEMS array (power_loss), cleared and the
 device reset 5 s later. The recorder's RSS is sampled every second: peak, the median of the last tenth
-against the median once the cache is full (after the first 40 s: flat), and the rise over its RSS at 10 s
-(start-up done, the cache still small) against twice the cache bound (a fault's copy shares the cache's
-messages; the post-fault seconds and the bag being written come on top); every fault must give one bag.
-Quick mode: 120 s; full: 10 minutes.
+against the median of the first tenth once the cache is full (after 40 s: flat), and the peak's rise over
+that against twice the cache bound (a fault's copy shares the cache's messages; the post-fault seconds and
+the bag being written come on top); every fault must give one bag. Quick mode: 120 s; full: 10 minutes
+(measured once: 19 faults, 19 bags, 171.7 MiB once full, 181.8 MiB peak; the README's row).
 """
 
 from __future__ import annotations
@@ -351,14 +351,11 @@ def _flight_memory(env: dict[str, str], work: Path, seconds: float) -> dict[str,
     rss = [r for _, r in samples]
     tenth = max(1, len(rss) // 10)
     full = [r for t, r in samples if t >= CACHE_SECONDS + 10] or rss
-    # After start-up (imports, discovery) and before the cache holds much: what the cache adds is above it.
-    settled = [r for t, r in samples if t >= 10.0] or rss
     messages = sum(t["count"] for t in summary.get("topics", {}).values())
     return {
         "seconds": seconds,
         "samples": samples,
         "peak_mb": max(rss) / 2**20,
-        "start_mb": settled[0] / 2**20,
         "full_mb": statistics.median(full[:tenth]) / 2**20,
         "late_mb": statistics.median(rss[-tenth:]) / 2**20,
         "messages": messages,
@@ -458,7 +455,7 @@ def run(out: Path, quick: bool) -> list[dict]:
         )
     )
     flat = flight["late_mb"] / flight["full_mb"] if flight["full_mb"] else float("nan")
-    rise = flight["peak_mb"] - flight["start_mb"]
+    rise = flight["peak_mb"] - flight["full_mb"]
     bound = 2 * CACHE_BYTES / 2**20
     rows.append(
         row(
@@ -469,8 +466,9 @@ def run(out: Path, quick: bool) -> list[dict]:
             f"({flight['messages']} msgs)",
             flight["peak_mb"],
             "MiB",
-            f"flat once full (last tenth <= 1.1 x), rise <= {bound:.0f} MiB, a bag per fault",
-            f"at 10 s {flight['start_mb']:.1f}, cache full {flight['full_mb']:.1f}, "
+            f"flat once the cache is full (last tenth <= 1.1 x), peak <= that + {bound:.0f} MiB, "
+            "a bag per fault",
+            f"cache full {flight['full_mb']:.1f}, "
             f"last {flight['late_mb']:.1f} MiB; cache peak {flight['cache_peak_mb']:.1f} MiB; "
             f"{flight['bags']} bags",
             flat <= 1.1 and rise <= bound and flight["bags"] == flight["faults"] > 0,
