@@ -448,7 +448,8 @@ class ManagedDevice(LifecycleNode, Generic[P]):
             behind_real_time=behind,
         )
         msg.header.stamp = self.get_clock().now().to_msg()
-        msg.header.frame_id = self.get_fully_qualified_name()
+        # A frame id, which tf2 refuses with a leading slash: the node's name under its namespace.
+        msg.header.frame_id = self.get_fully_qualified_name().lstrip("/")
         self._status_pub.publish(msg)
 
     @staticmethod

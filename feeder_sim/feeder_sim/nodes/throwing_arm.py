@@ -44,7 +44,7 @@ from feeder_sim.throwing import (
     parse_command,
 )
 from feeder_sim.throwing.counters import COUNTERS
-from feeder_sim.throwing.cycle import Pose, ThrowCycle, ns
+from feeder_sim.throwing.cycle import Pose, Shown, ThrowCycle, ns
 from feeder_sim.throwing.drawing import ArmDrawing
 from feeder_sim.throwing.feeding import FeedGoal, check_feed_goal
 from feeder_sim.throwing.parameters import BASE_FRAME, ArmParameters, configure_arm
@@ -237,16 +237,16 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         self.simulated += min(self.elapsed_ns(now_ns), ns(MAX_TICK_PERIODS / self.p.sensor_rate))
         t = self.simulated
         in_flight = cycle.motion is not None
-        pose, velocity, landed = cycle.show(t, ns(self.p.period * self.p.motion_fraction))
-        if landed is not None:
-            self._publish_event(now_ns, landed)
+        shown = cycle.show(t, ns(self.p.period * self.p.motion_fraction))
+        if shown.landed is not None:
+            self._publish_event(now_ns, shown.landed)
         elif not in_flight:
             feed_wants = self.feed is not None and self.feed.wants_throw(now_ns)
             ready = self.state() in (DeviceState.IDLE, DeviceState.RUNNING)
             if cycle.throw_due(t, ns(self.p.period), feed_wants, ready):
                 self._throw(now_ns, t)
-        self._publish_sensor(None if cycle.motion is None else pose)
-        self._publish_joint_and_pose(now_ns, pose, velocity)
+        self._publish_sensor(None if cycle.motion is None else shown.pose)
+        self._publish_joint_and_pose(now_ns, shown)
         return self.simulated * 1e-9
 
     def _throw(self, now_ns: int, t: int) -> None:
@@ -276,20 +276,21 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         if pose is None and self.feed is not None:
             self.feed.sample(delivered)  # the bit as published decides, faults and all
 
-    def _publish_joint_and_pose(self, now_ns: int, pose: Pose, velocity: float) -> None:
+    def _publish_joint_and_pose(self, now_ns: int, shown: Shown) -> None:
         """Publish the arm joint state, and the part pose in the arm frame while the part is on the arm."""
         stamp = _stamp(now_ns)
-        joint = JointState()
+        joint = JointState(
+            name=["arm_joint"], position=[shown.joint], velocity=[shown.velocity], effort=[0.0]
+        )
         joint.header.stamp = stamp
-        joint.name, joint.position, joint.velocity, joint.effort = ["arm_joint"], [0.0], [velocity], [0.0]
-        self.shown = (pose, joint.position[0])
+        self.shown = (shown.pose, shown.joint)
         self.pub_joint.publish(joint)
         if not self._cycle().arm.on_arm:
             return  # nothing on the arm to locate
         msg = PoseStamped()
         msg.header.stamp, msg.header.frame_id = stamp, self.frame_id
-        msg.pose.position.x, msg.pose.position.y = pose[0], pose[1]
-        msg.pose.orientation = yaw_quaternion(pose[2])
+        msg.pose.position.x, msg.pose.position.y = shown.pose[0], shown.pose[1]
+        msg.pose.orientation = yaw_quaternion(shown.pose[2])
         self.pub_pose.publish(msg)
 
     def _publish_event(self, now_ns: int, outcome: ThrowOutcome) -> None:

@@ -8,9 +8,9 @@ that adds to the model, on the model's simulated time in integer ns:
   ``stop``; a ``~/feed_part`` goal asks for its throws through the same queue and period;
 - the throw being shown: when it started, its outcome and the speed released at; it lands (and is
   reported) once ``period x motion_fraction`` has passed;
-- the pose and joint velocity shown along the way: the flight path fills the first ``FLIGHT_SHOWN`` of
-  the window (the part then rests), and the joint shows the release speed during the first
-  ``RELEASE_SHOWN``.
+- the pose and joint shown along the way: the flight path fills the first ``FLIGHT_SHOWN`` of the
+  window (the part then rests), and the joint swings up at the release speed and back during the first
+  ``RELEASE_SHOWN`` (``joint_swing``).
 
 The node publishes what this returns; the goal machine (``feeding``) decides from what the node publishes.
 """
@@ -26,7 +26,7 @@ from feeder_sim.throwing.arm import ThrowingArm
 from feeder_sim.throwing.faults import ArmFaults
 from feeder_sim.throwing.outcome import ThrowOutcome
 
-__all__ = ["FLIGHT_SHOWN", "RELEASE_SHOWN", "Pose", "Motion", "ThrowCycle", "ns"]
+__all__ = ["FLIGHT_SHOWN", "RELEASE_SHOWN", "Pose", "Shown", "Motion", "ThrowCycle", "joint_swing", "ns"]
 
 FLIGHT_SHOWN = 0.8
 RELEASE_SHOWN = 0.05
@@ -36,6 +36,16 @@ Pose = tuple[float, float, float]
 def ns(seconds: float) -> int:
     """Return a duration in integer nanoseconds (no rounding drift at epoch magnitudes)."""
     return int(round(seconds * 1e9))
+
+
+@dataclass(frozen=True)
+class Shown:
+    """What a tick shows: the part's pose, the joint's angle and velocity, and the throw landing now."""
+
+    pose: Pose
+    joint: float = 0.0
+    velocity: float = 0.0
+    landed: ThrowOutcome | None = None
 
 
 @dataclass(frozen=True)
@@ -126,23 +136,40 @@ class ThrowCycle:
             self.motion = Motion(t, outcome, self.arm.params.speed * self.faults.last_speed_scale)
         return outcome
 
-    def show(self, t: int, window_ns: int) -> tuple[Pose, float, ThrowOutcome | None]:
-        """Return the pose and joint velocity shown at ``t``, and the outcome when the throw lands now."""
+    def show(self, t: int, window_ns: int) -> Shown:
+        """Return what is shown at ``t`` (part pose, joint angle and velocity) and the landing, if now."""
         motion = self.motion
         if motion is None:
-            return self.arm.rest_pose(), 0.0, None
+            return Shown(self.arm.rest_pose())
         if t - motion.start >= window_ns:
             self.motion = None
-            return self.arm.rest_pose(), 0.0, motion.outcome
-        pose, velocity = self._along_path(motion, (t - motion.start) / window_ns)
-        return pose, velocity, None
+            return Shown(self.arm.rest_pose(), landed=motion.outcome)
+        fraction = (t - motion.start) / window_ns
+        angle, velocity = joint_swing(
+            motion.speed, fraction * window_ns * 1e-9, RELEASE_SHOWN * window_ns * 1e-9
+        )
+        return Shown(self._along_path(motion, fraction), angle, velocity)
 
-    def _along_path(self, motion: Motion, fraction: float) -> tuple[Pose, float]:
-        """Return the pose along the flight path and the joint velocity (the arm moves only at release)."""
+    def _along_path(self, motion: Motion, fraction: float) -> Pose:
+        """Return the part's pose along the flight path (at rest when the model gives no path)."""
         path = motion.outcome.path
-        velocity = motion.speed if fraction < RELEASE_SHOWN else 0.0
         if not path:
-            return self.arm.rest_pose(), velocity
+            return self.arm.rest_pose()
         index = min(int(fraction / FLIGHT_SHOWN * (len(path) - 1)), len(path) - 1)
         _, x, y, theta = path[index]
-        return (x, y, theta), velocity
+        return (x, y, theta)
+
+
+def joint_swing(speed: float, since: float, release: float) -> tuple[float, float]:
+    """Return the arm's joint angle (rad) and velocity (rad/s) ``since`` s into a throw shown.
+
+    The paper's throw is impulsive (the arm reaches W and stops at once, moving no angle); shown over
+    ``release`` s, the arm swings up at W for the first half and back at -W for the second, so the
+    angle is exactly the integral of the velocity and the arm is level again to catch the part.
+    """
+    if since >= release or since < 0:
+        return 0.0, 0.0
+    half = release / 2
+    if since < half:
+        return speed * since, speed
+    return speed * (release - since), -speed
