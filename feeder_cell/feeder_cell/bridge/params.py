@@ -13,11 +13,15 @@ from __future__ import annotations
 import base64
 import binascii
 import math
-from typing import Any
+from typing import Callable, TypeGuard, TypeVar
 
 from rcl_interfaces.msg import ParameterType, ParameterValue
 
+from feeder_cell.bridge.protocol import ParameterEntry
+
 __all__ = ["split_name", "to_json", "from_json", "TYPE_NAMES"]
+
+Element = TypeVar("Element")
 
 TYPE_NAMES = {
     ParameterType.PARAMETER_NOT_SET: "not set",
@@ -42,10 +46,10 @@ def split_name(name: str) -> tuple[str, str] | None:
     return node, parameter
 
 
-def to_json(name: str, value: ParameterValue) -> dict[str, Any]:
+def to_json(name: str, value: ParameterValue) -> ParameterEntry:
     """Return the protocol's parameter entry of a ROS parameter value (no ``value`` when not set)."""
     kind = value.type
-    entry: dict[str, Any] = {"name": name}
+    entry: ParameterEntry = {"name": name}
     if kind == ParameterType.PARAMETER_BOOL:
         entry["value"] = bool(value.bool_value)
     elif kind == ParameterType.PARAMETER_INTEGER:
@@ -68,15 +72,15 @@ def to_json(name: str, value: ParameterValue) -> dict[str, Any]:
     return entry
 
 
-def _is_int(value: Any) -> bool:
+def _is_int(value: object) -> TypeGuard[int]:
     return isinstance(value, int) and not isinstance(value, bool)
 
 
-def _is_number(value: Any) -> bool:
+def _is_number(value: object) -> TypeGuard[int | float]:
     return (_is_int(value) or isinstance(value, float)) and not isinstance(value, bool)
 
 
-def _integer(value: Any) -> int:
+def _integer(value: object) -> int:
     """Return a JSON number that is a whole number within int64 (JavaScript may send 3 as 3.0)."""
     if isinstance(value, float) and math.isfinite(value) and value == int(value):
         value = int(value)
@@ -85,13 +89,13 @@ def _integer(value: Any) -> int:
     return int(value)
 
 
-def _double(value: Any) -> float:
+def _double(value: object) -> float:
     if not _is_number(value):
         raise ValueError(f"must be a number, got {value!r}")
     return float(value)
 
 
-def _infer(value: Any, hint: str | None) -> int:
+def _infer(value: object, hint: str | None) -> int:
     """Return the ROS type a JSON value means when the node declared none (an undeclared parameter)."""
     if hint == "byte_array":
         return ParameterType.PARAMETER_BYTE_ARRAY
@@ -118,10 +122,10 @@ def _infer(value: Any, hint: str | None) -> int:
     raise ValueError(f"cannot be a ROS parameter value: {value!r}")
 
 
-def _array(value: Any, element: Any) -> list[Any]:
+def _array(value: object, element: Callable[[object], Element]) -> list[Element]:
     if not isinstance(value, list):
         raise ValueError(f"must be an array, got {value!r}")
-    out = []
+    out: list[Element] = []
     for i, item in enumerate(value):
         try:
             out.append(element(item))
@@ -130,19 +134,19 @@ def _array(value: Any, element: Any) -> list[Any]:
     return out
 
 
-def _bool(value: Any) -> bool:
+def _bool(value: object) -> bool:
     if not isinstance(value, bool):
         raise ValueError(f"must be true or false, got {value!r}")
     return value
 
 
-def _str(value: Any) -> str:
+def _str(value: object) -> str:
     if not isinstance(value, str):
         raise ValueError(f"must be a string, got {value!r}")
     return value
 
 
-def _bytes(value: Any) -> list[bytes]:
+def _bytes(value: object) -> list[bytes]:
     if isinstance(value, str):
         try:
             raw = base64.b64decode(value, validate=True)
@@ -152,14 +156,14 @@ def _bytes(value: Any) -> list[bytes]:
     return [bytes([b]) for b in _array(value, _byte)]
 
 
-def _byte(value: Any) -> int:
+def _byte(value: object) -> int:
     byte = _integer(value)
     if not 0 <= byte <= 255:
         raise ValueError(f"must be a byte (0 to 255), got {value!r}")
     return byte
 
 
-def from_json(value: Any, hint: str | None, declared: int) -> ParameterValue:
+def from_json(value: object, hint: str | None, declared: int) -> ParameterValue:
     """Return the ROS value of a JSON value for a parameter declared as ``declared`` (a ParameterType).
 
     ``value`` None (undefined in the client) is a value that is not set: the node decides whether the

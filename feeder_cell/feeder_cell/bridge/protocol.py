@@ -15,7 +15,7 @@ import json
 import math
 import struct
 from dataclasses import dataclass
-from typing import Any
+from typing import Callable, Mapping, NotRequired, TypedDict
 
 __all__ = [
     "SUBPROTOCOLS",
@@ -25,6 +25,8 @@ __all__ = [
     "ParameterSetting",
     "ServiceCall",
     "ClientData",
+    "ParameterEntry",
+    "ParameterJson",
     "parse_text",
     "parse_binary",
     "message_data",
@@ -75,8 +77,20 @@ class ParameterSetting:
     """One entry of setParameters: ``value`` None means the client left it undefined (unset)."""
 
     name: str
-    value: Any
+    value: object  # the JSON value as sent, converted to the node's type by bridge.params.from_json
     type: str | None
+
+
+# A parameter's value on the wire (a byte array travels as its base64 text).
+ParameterJson = bool | int | float | str | list[bool] | list[int] | list[float] | list[str]
+
+
+class ParameterEntry(TypedDict):
+    """One parameter as parameterValues lists it: no ``value`` when it is not set (or was deleted)."""
+
+    name: str
+    value: NotRequired[ParameterJson]
+    type: NotRequired[str]  # float64, float64_array or byte_array: how to read a value JSON blurs
 
 
 @dataclass(frozen=True)
@@ -97,12 +111,12 @@ class ClientData:
     payload: bytes
 
 
-def _short(value: Any) -> str:
+def _short(value: object) -> str:
     text = repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _uint32(op: str, where: str, value: Any) -> int:
+def _uint32(op: str, where: str, value: object) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= UINT32_MAX:
         raise ProtocolError(
             f"{op}: {where}", f"must be a whole number in [0, {UINT32_MAX}], got {_short(value)}"
@@ -110,41 +124,41 @@ def _uint32(op: str, where: str, value: Any) -> int:
     return value
 
 
-def _string(op: str, where: str, value: Any) -> str:
+def _string(op: str, where: str, value: object) -> str:
     if not isinstance(value, str):
         raise ProtocolError(f"{op}: {where}", f"must be a string, got {_short(value)}")
     return value
 
 
-def _list(op: str, where: str, value: Any) -> list[Any]:
+def _list(op: str, where: str, value: object) -> list[object]:
     if not isinstance(value, list):
         raise ProtocolError(f"{op}: {where}", f"must be an array, got {_short(value)}")
     return value
 
 
-def _object(op: str, where: str, value: Any) -> dict[str, Any]:
+def _object(op: str, where: str, value: object) -> dict[str, object]:
     if not isinstance(value, dict):
         raise ProtocolError(f"{op}: {where}", f"must be an object, got {_short(value)}")
     return value
 
 
-def _field(op: str, message: dict[str, Any], name: str, where: str | None = None) -> Any:
+def _field(op: str, message: dict[str, object], name: str, where: str | None = None) -> object:
     if name not in message:
         raise ProtocolError(f"{op}: {where or name}", "missing")
     return message[name]
 
 
-def _names(op: str, message: dict[str, Any]) -> list[str]:
+def _names(op: str, message: dict[str, object]) -> list[str]:
     names = _list(op, "parameterNames", message.get("parameterNames", []))
     return [_string(op, f"parameterNames[{i}]", name) for i, name in enumerate(names)]
 
 
-def _request_id(op: str, message: dict[str, Any]) -> str | None:
+def _request_id(op: str, message: dict[str, object]) -> str | None:
     value = message.get("id")
     return None if value is None else _string(op, "id", value)
 
 
-def _subscribe(message: dict[str, Any]) -> list[tuple[int, int]]:
+def _subscribe(message: dict[str, object]) -> list[tuple[int, int]]:
     op = "subscribe"
     out = []
     for i, item in enumerate(_list(op, "subscriptions", _field(op, message, "subscriptions"))):
@@ -162,12 +176,12 @@ def _subscribe(message: dict[str, Any]) -> list[tuple[int, int]]:
     return out
 
 
-def _ids(op: str, message: dict[str, Any], name: str) -> list[int]:
+def _ids(op: str, message: dict[str, object], name: str) -> list[int]:
     values = _list(op, name, _field(op, message, name))
     return [_uint32(op, f"{name}[{i}]", v) for i, v in enumerate(values)]
 
 
-def _advertise(message: dict[str, Any]) -> list[ClientChannel]:
+def _advertise(message: dict[str, object]) -> list[ClientChannel]:
     op = "advertise"
     out = []
     for i, item in enumerate(_list(op, "channels", _field(op, message, "channels"))):
@@ -189,14 +203,14 @@ def _advertise(message: dict[str, Any]) -> list[ClientChannel]:
 PARAMETER_TYPES = ("byte_array", "float64", "float64_array")
 
 
-def _settings(message: dict[str, Any]) -> list[ParameterSetting]:
+def _settings(message: dict[str, object]) -> list[ParameterSetting]:
     op = "setParameters"
     out = []
     for i, item in enumerate(_list(op, "parameters", _field(op, message, "parameters"))):
         entry = _object(op, f"parameters[{i}]", item)
         name = _string(op, f"parameters[{i}].name", _field(op, entry, "name", f"parameters[{i}].name"))
         kind = entry.get("type")
-        if kind is not None and kind not in PARAMETER_TYPES:
+        if kind is not None and not (isinstance(kind, str) and kind in PARAMETER_TYPES):
             raise ProtocolError(
                 f"{op}: parameters[{i}].type",
                 f"must be one of {', '.join(PARAMETER_TYPES)}, got {_short(kind)}",
@@ -205,8 +219,8 @@ def _settings(message: dict[str, Any]) -> list[ParameterSetting]:
     return out
 
 
-# op -> (what the parsed message is, a reader of its fields).
-_READERS: dict[str, Any] = {
+# op -> the reader of its fields (what parse_text returns for it).
+_READERS: dict[str, Callable[[dict[str, object]], object]] = {
     "subscribe": _subscribe,
     "unsubscribe": lambda m: _ids("unsubscribe", m, "subscriptionIds"),
     "advertise": _advertise,
@@ -222,7 +236,7 @@ _READERS: dict[str, Any] = {
 CLIENT_OPS = tuple(_READERS)
 
 
-def parse_text(text: str) -> tuple[str, Any]:
+def parse_text(text: str) -> tuple[str, object]:
     """Return (op, its fields) of a client's JSON message.
 
     Raises
@@ -295,7 +309,7 @@ def service_response(service_id: int, call_id: int, encoding: str, payload: byte
     return _SERVICE_HEADER.pack(OP_SERVICE_CALL_RESPONSE, service_id, call_id, len(name)) + name + payload
 
 
-def _finite(value: Any) -> Any:
+def _finite(value: object) -> object:
     """JSON has no NaN or infinity (a browser's JSON.parse refuses them): they travel as null."""
     if isinstance(value, float) and not math.isfinite(value):
         return None
@@ -306,6 +320,6 @@ def _finite(value: Any) -> Any:
     return value
 
 
-def to_json(message: dict[str, Any]) -> str:
+def to_json(message: Mapping[str, object]) -> str:
     """Return a server JSON message as text (compact, strict JSON)."""
     return json.dumps(_finite(message), separators=(",", ":"), allow_nan=False)

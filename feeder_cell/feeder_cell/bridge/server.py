@@ -25,13 +25,15 @@ import re
 import time
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any, Callable, TypeVarTuple, Unpack
 
-from rcl_interfaces.msg import Parameter, ParameterEvent
+from rcl_interfaces.msg import Parameter, ParameterEvent, ParameterValue
 from rcl_interfaces.srv import GetParameters, ListParameters, SetParameters
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_parameter_events
 from rclpy.serialization import deserialize_message, serialize_message
+from rclpy.subscription import Subscription
+from rclpy.topic_endpoint_info import TopicEndpointInfo
 from rosgraph_msgs.msg import Clock
 
 from feeder_cell.bag.qos import matching_qos, offered_qos
@@ -43,7 +45,7 @@ from feeder_cell.bridge.defaults import (
     DEFAULT_PORT,
     DEFAULT_SERVICE_TIMEOUT,
 )
-from feeder_cell.bridge.protocol import ClientChannel, ParameterSetting
+from feeder_cell.bridge.protocol import ClientChannel, ParameterEntry, ParameterSetting
 from feeder_cell.bridge.schemas import schema_of, service_schemas
 from feeder_cell.bridge.ws import LEVEL_ERROR, LEVEL_WARNING, Channel, FoxgloveServer, GraphSnapshot, Service
 from feeder_planner.node_kit.qos import request_qos
@@ -62,6 +64,13 @@ MATCH_WAIT = 2.0
 PARAMETER_TIMEOUT = 5.0  # s a node has to answer a parameter request
 # Parameter services every rclpy and rclcpp node offers; a node with all three takes parameter requests.
 PARAMETER_SERVICES = ("list_parameters", "get_parameters", "set_parameters")
+
+Arguments = TypeVarTuple("Arguments")
+# A service's answer: (its response, None) or (None, why there is none). The call machinery assumes
+# nothing of the response; each caller's callback takes its own service's response type.
+Done = Callable[[object, str | None], None]
+# A node's parameter values by name, and the problems met reading them.
+ReadDone = Callable[[dict[str, ParameterValue], list[str]], None]
 
 
 def _hidden(name: str) -> bool:
@@ -85,7 +94,7 @@ class _Topic:
     type_name: str
     channel: Channel
     offer: tuple[bool, bool]  # (reliable, latched) the publishers offer now
-    subscriptions: dict[int, Any] = field(default_factory=dict)  # client -> rclpy subscription
+    subscriptions: dict[int, Subscription] = field(default_factory=dict)  # client -> its subscription
     subscribed_offer: tuple[bool, bool] | None = None
 
 
@@ -102,7 +111,7 @@ class _Call:
 
     client: Any
     request: Any
-    done: Callable[[Any, str | None], None]
+    done: Done
     timeout: float
     server_deadline: float
     deadline: float
@@ -123,14 +132,14 @@ class _Publisher:
 class _Gather:
     """Collects the answers of several nodes and calls ``finish`` with all of them once the last arrives."""
 
-    def __init__(self, count: int, finish: Callable[[list[dict[str, Any]]], None]) -> None:
+    def __init__(self, count: int, finish: Callable[[list[ParameterEntry]], None]) -> None:
         self.left = count
-        self.values: list[dict[str, Any]] = []
+        self.values: list[ParameterEntry] = []
         self.finish = finish
         if count == 0:
             finish([])
 
-    def add(self, values: list[dict[str, Any]]) -> None:
+    def add(self, values: list[ParameterEntry]) -> None:
         self.values += values
         self.left -= 1
         if self.left == 0:
@@ -152,7 +161,7 @@ class GraphBridge:
         self.node = node
         self.me = node.get_fully_qualified_name()
         self.service_timeout = service_timeout
-        self._work: deque[tuple[Callable[..., None], tuple[Any, ...]]] = deque()
+        self._work: deque[tuple[str, Callable[[], None]]] = deque()  # (what, the work)
         self._guard = node.create_guard_condition(self._drain)
         self._channel_ids = itertools.count(1)
         self._service_ids = itertools.count(1)
@@ -167,8 +176,8 @@ class GraphBridge:
         self._calls: list[_Call] = []
         self._publishers: dict[tuple[int, int], _Publisher] = {}
         self._refused: set[tuple[int, int]] = set()  # client channels refused at advertise
-        self._parameter_events: Any = None
-        self._clock: Any = None
+        self._parameter_events: Subscription | None = None
+        self._clock: Subscription | None = None
         self._watch_graph = False
         self._graph = GraphSnapshot()
         self._clock_running = False
@@ -181,17 +190,17 @@ class GraphBridge:
         node.create_timer(CHECK_PERIOD, self._check_calls)
 
     # --- the queue from the WebSocket thread ------------------------------------------------------------
-    def _submit(self, function: Callable[..., None], *args: Any) -> None:
-        self._work.append((function, args))
+    def _submit(self, function: Callable[[Unpack[Arguments]], None], *args: Unpack[Arguments]) -> None:
+        self._work.append((function.__name__, lambda: function(*args)))
         self._guard.trigger()
 
     def _drain(self) -> None:
         while self._work:
-            function, args = self._work.popleft()
+            name, work = self._work.popleft()
             try:
-                function(*args)
+                work()
             except Exception as error:  # noqa: BLE001 -- one failed request must not end the bridge
-                self.node.get_logger().error(f"bridge: {function.__name__}: {type(error).__name__}: {error}")
+                self.node.get_logger().error(f"bridge: {name}: {type(error).__name__}: {error}")
 
     # Backend (bridge.ws.Backend): called on the WebSocket thread, run on the ROS thread.
     def subscribe(self, client: int, channel: int) -> None:
@@ -245,7 +254,7 @@ class GraphBridge:
     # --- the graph ---------------------------------------------------------------------------------------
     def discover(self) -> None:
         """Advertise the topics and services that appeared, withdraw those that went."""
-        publishers: dict[str, list[Any]] = {}
+        publishers: dict[str, list[TopicEndpointInfo]] = {}
         for name, type_names in self.node.get_topic_names_and_types():
             publishers[name] = self.node.get_publishers_info_by_topic(name)
             if publishers[name]:
@@ -274,7 +283,7 @@ class GraphBridge:
         if self._watch_graph:
             self._send_graph(publishers, providers)
 
-    def _see_topic(self, name: str, type_names: list[str], infos: list[Any]) -> None:
+    def _see_topic(self, name: str, type_names: list[str], infos: list[TopicEndpointInfo]) -> None:
         offer = offered_qos(infos)
         topic = self.topics.get(name)
         if topic is not None:
@@ -349,8 +358,10 @@ class GraphBridge:
                     self.node.destroy_client(entry.client)
         self.skipped_services &= wanted
 
-    def _send_graph(self, publishers: dict[str, list[Any]], providers: dict[str, tuple[str, ...]]) -> None:
-        def names(infos: list[Any]) -> tuple[str, ...]:
+    def _send_graph(
+        self, publishers: dict[str, list[TopicEndpointInfo]], providers: dict[str, tuple[str, ...]]
+    ) -> None:
+        def names(infos: list[TopicEndpointInfo]) -> tuple[str, ...]:
             return tuple(sorted({_full_name(i.node_name, i.node_namespace) for i in infos}))
 
         snapshot = GraphSnapshot(
@@ -398,9 +409,7 @@ class GraphBridge:
             self.node.destroy_subscription(subscription)
 
     # --- calls ----------------------------------------------------------------------------------------------
-    def _call(
-        self, client: Any, request: Any, done: Callable[[Any, str | None], None], timeout: float
-    ) -> None:
+    def _call(self, client: Any, request: Any, done: Done, timeout: float) -> None:
         """Call a service without blocking: ``done(response, None)`` or ``done(None, why)`` later."""
         now = time.monotonic()
         call = _Call(client, request, done, timeout, now + min(SERVER_WAIT, timeout), now + timeout)
@@ -478,12 +487,10 @@ class GraphBridge:
             )
         return self._parameter_clients[node][index]
 
-    def _read_node(
-        self, node: str, names: list[str] | None, done: Callable[[dict[str, Any], list[str]], None]
-    ) -> None:
+    def _read_node(self, node: str, names: list[str] | None, done: ReadDone) -> None:
         """Read ``names`` (None: all) of a node: ``done({name: ParameterValue}, problems)``."""
 
-        def listed(response: Any, error: str | None) -> None:
+        def listed(response: ListParameters.Response, error: str | None) -> None:
             if error is not None:
                 done({}, [f"{node}: {error}"])
                 return
@@ -494,7 +501,7 @@ class GraphBridge:
                 done({}, problems)
                 return
 
-            def got(answer: Any, failure: str | None) -> None:
+            def got(answer: GetParameters.Response, failure: str | None) -> None:
                 if failure is not None:
                     done({}, [*problems, f"{node}: {failure}"])
                 else:
@@ -548,7 +555,7 @@ class GraphBridge:
         gather = _Gather(len(wanted), lambda values: self.server.parameter_values(client, values, request_id))
         for node, node_names in wanted.items():
 
-            def done(values: dict[str, Any], problems: list[str], node: str = node) -> None:
+            def done(values: dict[str, ParameterValue], problems: list[str], node: str = node) -> None:
                 # Every parameter asked for by name that is missing is an error; a node that does not
                 # answer while all are read is only a warning (the others' values still come).
                 self._tell(client, operation, problems, LEVEL_ERROR if names else LEVEL_WARNING)
@@ -574,11 +581,11 @@ class GraphBridge:
         operation = "setParameters"
         names = [name for _, name, _ in items]
 
-        def report(values: dict[str, Any], problems: list[str]) -> None:
+        def report(values: dict[str, ParameterValue], problems: list[str]) -> None:
             self._tell(client, operation, problems)
             gather.add([param_json.to_json(f"{node}.{n}", v) for n, v in values.items()])
 
-        def current(values: dict[str, Any], problems: list[str]) -> None:
+        def current(values: dict[str, ParameterValue], problems: list[str]) -> None:
             # Each value is converted to the type the node declared the parameter with.
             self._tell(client, operation, problems)
             parameters = []
@@ -598,7 +605,7 @@ class GraphBridge:
                 self._read_node(node, names, report)
                 return
 
-            def answered(response: Any, error: str | None) -> None:
+            def answered(response: SetParameters.Response, error: str | None) -> None:
                 if error is not None:
                     self._tell(client, operation, [f"{node}: {error}"])
                 else:

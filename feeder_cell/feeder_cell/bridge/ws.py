@@ -22,13 +22,20 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Any, Callable, Protocol
+from typing import Callable, Mapping, Protocol, TypeVarTuple, Unpack
 
 from websockets.asyncio.server import ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
 
 from feeder_cell.bridge import protocol
-from feeder_cell.bridge.protocol import ENCODING, ClientChannel, ClientData, ParameterSetting, ProtocolError
+from feeder_cell.bridge.protocol import (
+    ENCODING,
+    ClientChannel,
+    ClientData,
+    ParameterEntry,
+    ParameterSetting,
+    ProtocolError,
+)
 
 __all__ = ["Backend", "Channel", "Service", "FoxgloveServer", "GraphSnapshot"]
 
@@ -40,6 +47,8 @@ MAX_FRAME = 8 * 2**20  # bytes of one client frame (a message to publish, a serv
 STOP_TIMEOUT = 10.0  # s to wait for the server's thread at close
 LEVEL_INFO, LEVEL_WARNING, LEVEL_ERROR = 0, 1, 2
 READ_ONLY = "refused: the bridge is read-only (--read-only)"
+
+Arguments = TypeVarTuple("Arguments")
 
 
 class Backend(Protocol):
@@ -91,7 +100,7 @@ class Channel:
     schema_name: str
     schema: str
 
-    def advert(self) -> dict[str, Any]:
+    def advert(self) -> dict[str, object]:
         """Return the channel as an Advertise message lists it."""
         return {
             "id": self.id,
@@ -113,7 +122,7 @@ class Service:
     request_schema: str
     response_schema: str
 
-    def advert(self) -> dict[str, Any]:
+    def advert(self) -> dict[str, object]:
         """Return the service as an Advertise Services message lists it."""
 
         def half(suffix: str, schema: str) -> dict[str, str]:
@@ -144,7 +153,7 @@ class GraphSnapshot:
     subscribers: dict[str, tuple[str, ...]] = field(default_factory=dict)
     providers: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
-    def update_from(self, before: GraphSnapshot) -> dict[str, Any] | None:
+    def update_from(self, before: GraphSnapshot) -> dict[str, object] | None:
         """Return the connectionGraphUpdate that turns ``before`` into this snapshot (None: no change)."""
         topics = set(self.publishers) | set(self.subscribers)
         old_topics = set(before.publishers) | set(before.subscribers)
@@ -197,7 +206,7 @@ class _Session:
         self.dropped = 0
         self.reported_drop = 0.0
 
-    def send(self, message: dict[str, Any] | bytes) -> None:
+    def send(self, message: Mapping[str, object] | bytes) -> None:
         self.control.append(message if isinstance(message, bytes) else protocol.to_json(message))
         if len(self.control) > CONTROL_BACKLOG:
             self.control.clear()
@@ -532,7 +541,7 @@ class FoxgloveServer:
         )
 
     # --- called from the ROS thread ------------------------------------------------------------------
-    def _post(self, function: Callable[..., None], *args: Any) -> None:
+    def _post(self, function: Callable[[Unpack[Arguments]], None], *args: Unpack[Arguments]) -> None:
         loop = self._loop
         if loop is None or loop.is_closed():
             return
@@ -642,23 +651,23 @@ class FoxgloveServer:
         if session is not None:
             self._failure(session, service, call_id, message)
 
-    def _to_client(self, client: int, message: dict[str, Any] | bytes) -> None:
+    def _to_client(self, client: int, message: Mapping[str, object] | bytes) -> None:
         session = self._sessions.get(client)
         if session is not None:
             session.send(message)
 
-    def parameter_values(self, client: int, parameters: list[dict[str, Any]], request_id: str | None) -> None:
+    def parameter_values(self, client: int, parameters: list[ParameterEntry], request_id: str | None) -> None:
         """Answer getParameters (or setParameters) with the nodes' values."""
-        message: dict[str, Any] = {"op": "parameterValues", "parameters": parameters}
+        message: dict[str, object] = {"op": "parameterValues", "parameters": parameters}
         if request_id is not None:
             message["id"] = request_id
         self._post(self._to_client, client, message)
 
-    def parameter_update(self, parameters: list[dict[str, Any]]) -> None:
+    def parameter_update(self, parameters: list[ParameterEntry]) -> None:
         """Parameters that changed on their nodes: to every client subscribed to them."""
         self._post(self._parameter_update, parameters)
 
-    def _parameter_update(self, parameters: list[dict[str, Any]]) -> None:
+    def _parameter_update(self, parameters: list[ParameterEntry]) -> None:
         for session in self._sessions.values():
             wanted = [p for p in parameters if session.wants_parameter(p["name"])]
             if wanted:

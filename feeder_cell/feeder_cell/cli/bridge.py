@@ -6,7 +6,7 @@ import argparse
 import math
 import re
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Callable
 
 from feeder_cell.bridge.defaults import (
     DEFAULT_ADDRESS,
@@ -16,6 +16,10 @@ from feeder_cell.bridge.defaults import (
 )
 from feeder_cell.ros_session import with_node
 from feeder_planner.errors import FeederError, InputError
+
+if TYPE_CHECKING:
+    from rclpy.executors import Executor
+    from rclpy.node import Node
 
 
 def _port(text: str) -> int:
@@ -55,7 +59,7 @@ def _run(args: argparse.Namespace) -> int:
     if not args.address.strip():
         raise InputError("--address", "must name an interface address, e.g. 127.0.0.1 or 0.0.0.0")
 
-    def work(node: Any, executor: Any, keep_going: Any) -> int:
+    def work(node: Node, executor: Executor, keep_going: Callable[[], bool]) -> int:
         try:
             bridge = GraphBridge(
                 node,
