@@ -265,6 +265,7 @@ class Player:
         )
         self._services()
         self.clock_pub = None
+        self._started = False
         if options.clock_hz is not None:
             from rclpy.qos import QoSProfile, ReliabilityPolicy
             from rosgraph_msgs.msg import Clock
@@ -296,7 +297,9 @@ class Player:
         """Publish the bag time reached on /clock (a timer at ``clock_hz``; also before playback)."""
         if self.clock_pub is None:
             return
-        now = self.playback.now()
+        # Until playback starts (the discovery wait) the clock holds at the window's start: it must
+        # not run ahead and then jump back when playback begins.
+        now = self.playback.now() if self._started else self.playback.window.start
         msg = self._clock_msg()
         msg.clock.sec, msg.clock.nanosec = divmod(now, 1_000_000_000)
         self.clock_pub.publish(msg)
@@ -390,8 +393,9 @@ class Player:
             self.wait_for_subscribers(keep_going)
         # The start delay and the discovery wait are not part of the played time.
         self.playback.clock.jump(self.playback.window.start, self.options.delay)
+        self._started = True
         # The start time on /clock before the first message: a sim-time node then never receives a
-        # replayed message while its clock still reads a time from before the jump (or none at all).
+        # replayed message while its clock reads no time at all.
         self.publish_clock()
         self.playback.run(keep_going)
         return dict(self.counts)
