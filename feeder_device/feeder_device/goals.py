@@ -135,7 +135,7 @@ class RunningGoal:
         return wake
 
 
-Validate = Callable[[Any], None]
+Validate = Callable[[object], None]  # takes the action's goal request (the runner assumes nothing of it)
 Start = Callable[[ServerGoalHandle], DeviceGoal]
 
 
@@ -164,7 +164,7 @@ def serve_goal(
         goals[0] += 1
         return GoalResponse.ACCEPT
 
-    async def on_execute(handle: ServerGoalHandle) -> Any:
+    async def on_execute(handle: ServerGoalHandle) -> object:
         running: RunningGoal | None = None
         poll = None
         try:
@@ -179,7 +179,7 @@ def serve_goal(
             await _drive(device, running)
             for message in running.goal.feedback():
                 handle.publish_feedback(message)
-            terminal, result = running.goal.result()
+            terminal, result = ("abort", None) if running.error else running.goal.result()
         except Exception as error:  # noqa: BLE001 - the guard: a bug in the goal aborts only the goal
             if running is None:
                 running = RunningGoal(device, name, _Failed(), handle)
