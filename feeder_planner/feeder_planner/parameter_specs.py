@@ -12,15 +12,17 @@ the generated parameter tables read the same specs without ROS.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Any, Callable, Mapping, Sequence, TypeVar
+from typing import Callable, Mapping, Sequence, TypeGuard, TypeVar
 
 from feeder_planner.errors import InputError
 
 __all__ = [
     "Check",
+    "ParameterData",
     "ParameterSpec",
     "check_value",
     "param",
@@ -37,7 +39,11 @@ __all__ = [
     "non_empty_string",
 ]
 
-Check = Callable[[Any], "str | None"]  # returns a problem description, or None if the value is fine
+# What a ROS parameter holds (rclpy may hand an array back as an array.array, a Sequence like the list).
+ParameterData = bool | int | float | str | list[bool] | list[int] | list[float] | list[str]
+# A check takes whatever value was given (a scene's YAML, a set_parameters request) and assumes nothing of
+# it: it returns a problem description, or None if the value is fine.
+Check = Callable[[object], "str | None"]
 
 
 @dataclass(frozen=True)
@@ -45,13 +51,13 @@ class ParameterSpec:
     """A node parameter: name, default (whose type is the parameter's), meaning, check, mutability."""
 
     name: str
-    default: Any
+    default: ParameterData
     description: str
     check: Check | None = None
     read_only: bool = False
 
 
-def check_value(spec: ParameterSpec, value: Any) -> None:
+def check_value(spec: ParameterSpec, value: object) -> None:
     """Raise InputError naming the parameter when ``value`` fails the spec's check."""
     problem = spec.check(value) if spec.check else None
     if problem:
@@ -59,13 +65,20 @@ def check_value(spec: ParameterSpec, value: Any) -> None:
 
 
 Parameters = TypeVar("Parameters")
+Default = TypeVar("Default", bound=ParameterData)
 
 
-def param(default: Any, description: str, check: Check | None = None, *, read_only: bool = False) -> Any:
-    """Return a dataclass field that is a node parameter: its default, meaning, check and mutability."""
+def param(
+    default: Default, description: str, check: Check | None = None, *, read_only: bool = False
+) -> Default:
+    """Return a dataclass field that is a node parameter: its default, meaning, check and mutability.
+
+    As ``dataclasses.field`` is, it is typed as its default, the value the field holds; a list default is
+    copied for each instance.
+    """
     metadata = {"description": description, "check": check, "read_only": read_only}
     if isinstance(default, list):
-        return dataclasses.field(default_factory=lambda: list(default), metadata=metadata)
+        return dataclasses.field(default_factory=lambda: copy.copy(default), metadata=metadata)
     return dataclasses.field(default=default, metadata=metadata)
 
 
@@ -75,43 +88,45 @@ def specs_of(cls: type) -> tuple[ParameterSpec, ...]:
     for f in dataclasses.fields(cls):
         factory = f.default_factory
         default = f.default if factory is dataclasses.MISSING else factory()
+        if default is dataclasses.MISSING:
+            raise TypeError(f"{cls.__name__}.{f.name}: a parameter is a param() field, with a default")
         meta = f.metadata
         specs.append(ParameterSpec(f.name, default, meta["description"], meta["check"], meta["read_only"]))
     return tuple(specs)
 
 
-def from_values(cls: type[Parameters], values: Mapping[str, Any]) -> Parameters:
+def from_values(cls: type[Parameters], values: Mapping[str, object]) -> Parameters:
     """Return the typed parameters from declared values by name (a name the class lacks is ignored)."""
     names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
     return cls(**{name: value for name, value in values.items() if name in names})
 
 
-def _is_number(value: Any) -> bool:
+def _is_number(value: object) -> TypeGuard[float]:
     # bool is an int subclass, but a parameter given as true is not a number.
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
-def finite(value: Any) -> str | None:
+def finite(value: object) -> str | None:
     """Accept any finite number."""
     return None if _is_number(value) else f"must be a finite number, got {value!r}"
 
 
-def positive(value: Any) -> str | None:
+def positive(value: object) -> str | None:
     """Accept a finite number > 0."""
     return None if _is_number(value) and value > 0 else f"must be a finite number > 0, got {value!r}"
 
 
-def non_negative(value: Any) -> str | None:
+def non_negative(value: object) -> str | None:
     """Accept a finite number >= 0."""
     return None if _is_number(value) and value >= 0 else f"must be a finite number >= 0, got {value!r}"
 
 
-def negative(value: Any) -> str | None:
+def negative(value: object) -> str | None:
     """Accept a finite number < 0."""
     return None if _is_number(value) and value < 0 else f"must be a finite number < 0, got {value!r}"
 
 
-def integer(value: Any) -> str | None:
+def integer(value: object) -> str | None:
     """Accept any integer (not a bool)."""
     return (
         None
@@ -123,7 +138,7 @@ def integer(value: Any) -> str | None:
 def integer_at_least(low: int) -> Check:
     """Return a check for an integer >= ``low``."""
 
-    def check(value: Any) -> str | None:
+    def check(value: object) -> str | None:
         ok = isinstance(value, int) and not isinstance(value, bool) and value >= low
         return None if ok else f"must be an integer >= {low}, got {value!r}"
 
@@ -133,7 +148,7 @@ def integer_at_least(low: int) -> Check:
 def one_of(choices: Sequence[str]) -> Check:
     """Return a check for one of a closed set of words."""
 
-    def check(value: Any) -> str | None:
+    def check(value: object) -> str | None:
         return None if value in choices else f"must be one of {', '.join(choices)}, got {value!r}"
 
     return check
@@ -146,7 +161,7 @@ def in_range(
     left, right = "[" if include_low else "(", "]" if include_high else ")"
     suffix = f" {unit}" if unit else ""
 
-    def check(value: Any) -> str | None:
+    def check(value: object) -> str | None:
         ok = (
             _is_number(value)
             and (value >= low if include_low else value > low)
@@ -164,7 +179,7 @@ def in_range(
 def non_empty_string(what: str) -> Check:
     """Return a check for a non-empty string; ``what`` says what it must name."""
 
-    def check(value: Any) -> str | None:
+    def check(value: object) -> str | None:
         return None if isinstance(value, str) and value else f"must name {what}"
 
     return check

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
 from feeder_device.parameters import DeviceParameters
 from feeder_planner.mems import DELTA_MAX, DELTA_MIN
@@ -37,16 +36,19 @@ NANOSECONDS = 1_000_000_000
 AUTO_CATCH_UP_TICKS = 4
 
 
-def _array_size(value: Sequence[object]) -> str | None:
+def _array_size(value: object) -> str | None:
     """Check the array_size parameter: two integers > 0."""
+    if not isinstance(value, Sequence):  # rclpy and the launcher refuse a single value before this
+        return f"must be two integers > 0 [nx, ny], got {value!r}"
     ok = len(value) == 2 and all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in value)
     return None if ok else f"must be two integers > 0 [nx, ny], got {list(value)!r}"
 
 
-def _time_step(value: Any) -> str | None:
+def _time_step(value: object) -> str | None:
     """Check the time_step parameter: > 0 and at least one nanosecond (steps are counted in ns)."""
     problem = positive(value)
-    if problem is None and round(value * NANOSECONDS) < 1:
+    # positive() accepts only an int or a float
+    if problem is None and isinstance(value, (int, float)) and round(value * NANOSECONDS) < 1:
         problem = f"must be at least 1e-9 s, got {value!r}"
     return problem
 
