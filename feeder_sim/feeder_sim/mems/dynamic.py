@@ -9,13 +9,16 @@ the bodies and a force model only, never the scene that owns it.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from feeder_planner.mems.fields import Field
 from feeder_sim.mems.bodies import Body, ForceModel, drag_coefficients, inertia, wrench_on
 from feeder_sim.mems.tolerances import COLLISION_FRICTION, EAR_CLIP_PASSES
+
+if TYPE_CHECKING:
+    import pymunk
 
 __all__ = ["ear_clip", "DynamicWorld"]
 
@@ -67,8 +70,8 @@ class DynamicWorld:
         self.damping = float(damping)
         self.friction = float(friction)
         self.gravity = float(gravity)
-        self.space: Any = None  # a pymunk.Space with several parts (pymunk ships no types)
-        self.handles: list[Any] = []
+        self.space: pymunk.Space | None = None  # with several parts (pymunk ships no types: Any to mypy)
+        self.handles: list[pymunk.Body] = []
         if len(bodies) > 1:
             self._build_space()
 

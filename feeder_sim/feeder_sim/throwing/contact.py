@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from functools import partial
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -334,8 +334,7 @@ class _Rest:
 class _Next:
     """The next phase of a throw (a trampoline: phases chain without growing the call stack)."""
 
-    step: Callable[..., _Rest | _Next]
-    args: tuple[Any, ...]
+    step: Callable[[], _Rest | _Next]  # the phase with its arguments bound (functools.partial)
 
 
 _Outcome = _Rest | _Next
@@ -350,14 +349,14 @@ def _impact(run: _Run, st: _State, k: int, kind: str) -> _Outcome:
     if not bool(outside_cone(xp - st.vx, yp - st.vy, run.mu)[0]):
         after = _State(st.x, st.y, st.theta, float(xp[0]), float(yp[0]), float(om[0]))
         run.log(kind, k, after)
-        return _Next(_roll, (run, k, st.theta, float(om[0]), st.x + rx))
+        return _Next(partial(_roll, run, k, st.theta, float(om[0]), st.x + rx))
     j_t, j_n, d_omega, stuck = sliding_impulse(rx, ry, st.vx, st.vy, st.omega, run.geo.rho, run.mu)
     slip = st.vx - st.omega * ry
     after = _State(st.x, st.y, st.theta, st.vx + j_t, st.vy + j_n, st.omega + d_omega)
     run.log("slide", k, after, impulse=(j_t, j_n), slip=slip)
     if stuck:
-        return _Next(_roll, (run, k, st.theta, after.omega, st.x + rx))
-    return _Next(_slide, (run, after, k))
+        return _Next(partial(_roll, run, k, st.theta, after.omega, st.x + rx))
+    return _Next(partial(_slide, run, after, k))
 
 
 def _roll(run: _Run, k: int, theta: float, omega: float, pivot_x: float) -> _Outcome:
@@ -387,13 +386,13 @@ def _roll(run: _Run, k: int, theta: float, omega: float, pivot_x: float) -> _Out
             st = run.pivot_state(pivot, lift[0], lift[1], float(pp[0]))
             run.log("lift_off", pivot, st)
             t, hit = _flight(run, st, pivot)
-            return _Next(_impact, (run, _fly(run, st, t), hit, "catch"))
+            return _Next(partial(_impact, run, _fly(run, st, t), hit, "catch"))
         j, e, cm_x, om_new, p_new = _strike(geo, kk, direction, target, h_target, om_end, pp)
         if bool(_strike_slip(geo, kk, j, target, h_target, om_end, om_new, run.mu)[0]):
             # The sticking strike would need more friction than mu: a sliding impact at j instead.
             before = run.pivot_state(pivot, float(target[0]), float(om_end[0]), float(pp[0]))
             run.touch(float(p_new[0]))
-            return _Next(_strike_sliding, (run, before, int(j[0]), int(e[0]), pivot))
+            return _Next(partial(_strike_sliding, run, before, int(j[0]), int(e[0]), pivot))
         run.impacts += 1
         run.touch(float(p_new[0]))
         after = run.pivot_state(int(j[0]), float(target[0]), float(om_new[0]), float(p_new[0]))
@@ -418,10 +417,10 @@ def _strike_sliding(run: _Run, st: _State, j: int, e: int, old: int) -> _Outcome
     run.log("slide", j, after, impulse=(j_t, j_n), slip=slip)
     ox, _ = run.r(old, st.theta)
     if after.omega * (ox - rx) < 0 or after.omega == 0:  # the old pivot would move into the arm
-        return _Next(_flat, (run, st, j, e))
+        return _Next(partial(_flat, run, st, j, e))
     if stuck:
-        return _Next(_roll, (run, j, st.theta, after.omega, st.x + rx))
-    return _Next(_slide, (run, after, j))
+        return _Next(partial(_roll, run, j, st.theta, after.omega, st.x + rx))
+    return _Next(partial(_slide, run, after, j))
 
 
 def _flat(run: _Run, st: _State, j: int, e: int) -> _Outcome:
@@ -436,7 +435,7 @@ def _flat(run: _Run, st: _State, j: int, e: int) -> _Outcome:
     if bool(run.part.stable[e]):
         run.log("rest", j, rest)
         return _Rest(e, x, st.theta)
-    return _Next(_roll, (run, j, st.theta, 0.0, x + rx))
+    return _Next(partial(_roll, run, j, st.theta, 0.0, x + rx))
 
 
 def _slide(run: _Run, st: _State, k: int, sigma: float = 0.0) -> _Outcome:
@@ -495,7 +494,7 @@ def _slide(run: _Run, st: _State, k: int, sigma: float = 0.0) -> _Outcome:
     if lift(0.0, z0) < 0:  # the slide would need a pulling normal force: the part leaves at once
         run.log("lift_off", k, st)
         t, hit = _flight(run, st, k)
-        return _Next(_impact, (run, _fly(run, st, t), hit, "catch"))
+        return _Next(partial(_impact, run, _fly(run, st, t), hit, "catch"))
     sol = solve_ivp(
         rates,
         (0.0, SLIDE_TIME_LIMIT * scale),
@@ -518,12 +517,12 @@ def _slide(run: _Run, st: _State, k: int, sigma: float = 0.0) -> _Outcome:
     if which == 0:
         run.log("lift_off", k, now)
         t, hit = _flight(run, now, k)
-        return _Next(_impact, (run, _fly(run, now, t), hit, "catch"))
+        return _Next(partial(_impact, run, _fly(run, now, t), hit, "catch"))
     if which == 1:
-        return _Next(_stick, (run, now, k, sigma))
+        return _Next(partial(_stick, run, now, k, sigma))
     m = neighbours[which - 2]
     e = k if m == (k + 1) % n else m  # the edge between k and m (edge i joins vertices i, i + 1)
-    return _Next(_strike_general, (run, now, m, e, k))
+    return _Next(partial(_strike_general, run, now, m, e, k))
 
 
 def _stick(run: _Run, st: _State, k: int, sigma: float) -> _Outcome:
@@ -537,14 +536,14 @@ def _stick(run: _Run, st: _State, k: int, sigma: float) -> _Outcome:
     normal = ay - g
     if normal >= 0 and abs(ax) <= run.mu * normal:
         run.log("stick", k, st)
-        return _Next(_roll, (run, k, st.theta, st.omega, st.x + rx))
+        return _Next(partial(_roll, run, k, st.theta, st.omega, st.x + rx))
     if normal < 0:
         run.log("lift_off", k, st)
         t, hit = _flight(run, st, k)
-        return _Next(_impact, (run, _fly(run, st, t), hit, "catch"))
+        return _Next(partial(_impact, run, _fly(run, st, t), hit, "catch"))
     # Static friction cannot hold: slip starts against the force it would have needed.
     run.log("slip_start", k, st)
-    return _Next(_slide, (run, st, k, -math.copysign(1.0, ax)))
+    return _Next(partial(_slide, run, st, k, -math.copysign(1.0, ax)))
 
 
 def _strike_general(run: _Run, st: _State, j: int, e: int, old: int) -> _Outcome:
@@ -555,10 +554,10 @@ def _strike_general(run: _Run, st: _State, j: int, e: int, old: int) -> _Outcome
     """
     rx, ry = run.r(j, st.theta)
     if st.vy + st.omega * rx >= -LEVEL_SLACK * math.sqrt(run.part.radius * -run.g):
-        return _Next(_flat, (run, st, j, e))
+        return _Next(partial(_flat, run, st, j, e))
     xp, yp, om = sticking_impact(_arr(rx), _arr(ry), _arr(st.vx), _arr(st.vy), _arr(st.omega), run.geo.rho)
     if bool(outside_cone(xp - st.vx, yp - st.vy, run.mu)[0]):
-        return _Next(_strike_sliding, (run, st, j, e, old))
+        return _Next(partial(_strike_sliding, run, st, j, e, old))
     run.impacts += 1
     run.touch(st.x + rx)
     omega = float(om[0])
@@ -570,7 +569,7 @@ def _strike_general(run: _Run, st: _State, j: int, e: int, old: int) -> _Outcome
     if omega == 0.0 and bool(run.part.stable[e]):
         run.log("rest", j, after)
         return _Rest(e, st.x, st.theta)
-    return _Next(_roll, (run, j, st.theta, omega, st.x + rx))
+    return _Next(partial(_roll, run, j, st.theta, omega, st.x + rx))
 
 
 def contact_trace(part: ArmPart, edge: int, radius: float, params: ThrowParams) -> ContactThrow:
@@ -587,7 +586,7 @@ def contact_trace(part: ArmPart, edge: int, radius: float, params: ThrowParams) 
     )
     step: _Outcome = _impact(run, _State(x, y, theta, vx, vy, om), int(k[0]), "catch")
     while isinstance(step, _Next):  # bounded: every phase logs an event, MAX_CONTACT_EVENTS in all
-        step = step.step(*step.args)
+        step = step.step()
     rest = step
     theta0 = float(rest_pose(part, edge, radius, params.offset)[2])
     rotation = rest.theta - theta0
