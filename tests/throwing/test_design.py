@@ -16,7 +16,7 @@ def test_design_search_reports_every_design_and_picks_the_widest_unique_one():
     part = triangle()
     offsets = np.array([-0.008, -0.005, -0.002])
     speeds = np.array([math.radians(280), math.radians(320), math.radians(360)])
-    found = search(part, 1, offsets, speeds, -9.66, 0.5, sensing_height=0.001, starts_per_edge=6, throws=150)
+    found = search(part, 1, offsets, speeds, -9.66, 0.5, sensing_height=0.001, starts_per_edge=6, throws=300)
     best, rows = found.best, found.designs
     assert len(rows) == 9 and {(r.offset, r.speed) for r in rows} == {(h, w) for h in offsets for w in speeds}
     assert best is not None and best.unique and best.trigger is not None

@@ -1,10 +1,25 @@
 """Attractors of the throw map: periodic cycles and quasi-periodic sets, found from a grid of starts.
 
-Theorem IV.6 of the paper speaks of a unique cycle; for parts whose visit sequence never repeats
-exactly (a 12-vertex convex part, issue 14) the forward limit set is still one attractor, only not a
-periodic one. Each start is iterated until its state, at the resolution of the start grid, stays in a
-set it has visited before (an adaptive burn-in, capped by the caller's throws); starts whose recurrent
-sets share a grid cell belong to one attractor.
+Theorem IV.3 of the paper: on a compact invariant Z (Theorem IV.5) every start reaches any neighbourhood of
+its forward limit set and stays there; Theorem IV.6 speaks of a unique cycle, but for parts whose visit
+sequence never repeats exactly (a 12-vertex convex part, issue 14) the forward limit set is still one
+attractor, only not a periodic one. What a finite run can see of it is a tail that no longer changes.
+
+The convergence rule (issue 25). A start is thrown, and at every check (a quarter of a window) after the
+first two windows its last n/2 states (the tail) are compared with their own second half, the last n/4:
+the start has converged when both show the same edges, each edge's radius range agrees to the resolution
+(``resolution``), the visit sequences have the same exact cycle or both have none, and the last n/4 hold
+flips (Prop. IV.1: jogs alone are a slow transit, never an attractor). A transient that the tail still
+holds shows in its older half only (an edge visited there and never since, radii the recent states no
+longer reach, another visit order), so it fails the comparison; as n grows the tail moves past it. The
+tail is therefore the confirmed part of the run only: the attractor's edges, ranges, cycle, pattern,
+throws per round and basin come from it, and a start that never confirms within the cap is unconverged,
+never folded into an attractor. Starts whose tails have the same edges and cycle and overlapping radius
+ranges on every edge belong to one attractor.
+
+The rule replaces the former one (a start converged once the start grid's cells of one window were all
+cells it had visited before): a slow transient passes through cells the attractor visits long before it
+reaches the attractor, so its visits were taken into the attractor (issue 25's three designs).
 """
 
 from __future__ import annotations
@@ -16,15 +31,34 @@ from typing import Any, Callable
 import numpy as np
 
 from feeder_planner.throwing.throw_map import ASSUMPTIONS, ThrowBatch, radius_in_domain
-from feeder_planner.throwing.tolerances import ATTRACTOR_WINDOW, MAX_MOTIF, MIN_WINDOW
+from feeder_planner.throwing.tolerances import (
+    ATTRACTOR_WINDOW,
+    CHECKS_PER_WINDOW,
+    CONFIRM_FLIPS,
+    CYCLE_REPEATS,
+    DRIFT_SHARE,
+    MAX_MOTIF,
+    MIN_WINDOW,
+    OUTSIDE_SHARE,
+    QUASI_VISITS,
+    RESOLUTION_SPAN_SHARE,
+    SOJOURN_FACTOR,
+)
 
 __all__ = [
     "Rows",
     "Search",
-    "iterate_to_recurrence",
+    "default_window",
+    "resolution",
+    "Stretch",
+    "stretch",
+    "confirms",
+    "settled",
+    "iterate_to_attractor",
     "Attractor",
     "group_attractors",
     "visit_runs",
+    "cycle_key",
     "find_period",
     "blocks",
     "round_pattern",
@@ -36,10 +70,10 @@ REPORTED = ("lift_off", "slip", "off_arm")
 
 @dataclass(frozen=True)
 class Rows:
-    """Per row of a batch (one start of one design): start, domain bound per edge, grid cells per edge.
+    """Per row of a batch (one start of one design): start, domain bound per edge, resolution per edge.
 
-    ``low[b, e]``: lowest throwable R of edge e for row b's design (inf: unstable edge); a cell of edge e
-    is ``width[b, e]`` wide from ``low[b, e]`` (the start grid's resolution).
+    ``low[b, e]``: lowest throwable R of edge e for row b's design (inf: unstable edge); ``width[b, e]``
+    is the start grid's spacing, the unit of the resolution at which radius ranges are compared.
     """
 
     edge: np.ndarray
@@ -50,11 +84,12 @@ class Rows:
 
 @dataclass
 class Search:
-    """Trajectories of every row until recurrence or the cap.
+    """Trajectories of every row until its tail confirmed or the cap.
 
     ``edge``, ``radius``, ``jog``, ``flags`` (bit k: ASSUMPTIONS[k]) have one column per throw;
-    ``end[b]`` is the last state of row b; ``tail[b]`` the first state of its recurrent tail (-1: the row
-    did not converge); ``escaped[b]``: a throw left the domain.
+    ``end[b]`` is the last state of row b; ``tail[b]`` and ``tail_end[b]`` the first and last states of
+    its confirmed tail (-1: the row did not converge); ``escaped[b]``: a throw left the domain;
+    ``width``: the rows' resolution unit.
     """
 
     edge: np.ndarray
@@ -64,98 +99,332 @@ class Search:
     end: np.ndarray
     tail: np.ndarray
     escaped: np.ndarray
-    cells: np.ndarray
+    width: np.ndarray
     window: int
+    tail_end: np.ndarray
 
     @property
     def converged(self) -> np.ndarray:
-        """Rows whose tail is recurrent (entered a set of cells they had visited before)."""
+        """Rows whose tail confirmed (the same attractor in its last half as in the whole tail)."""
         return self.tail >= 0
 
     def tail_slice(self, b: int) -> slice:
-        """Return the columns of row b's recurrent tail."""
-        return slice(int(self.tail[b]), int(self.end[b]) + 1)
-
-
-def _cell_codes(rows: Rows, idx: np.ndarray, edge: np.ndarray, radius: np.ndarray) -> np.ndarray:
-    """Return one integer per state: its edge and its cell of the start grid (edge-major)."""
-    low = rows.low[idx, edge]
-    width = rows.width[idx, edge]
-    cell = np.floor((radius - low) / width)
-    cell = np.clip(np.nan_to_num(cell, nan=-1.0), -1, 10**6).astype(np.int64)
-    return edge.astype(np.int64) * (10**7) + cell
+        """Return the columns of row b's confirmed tail."""
+        return slice(int(self.tail[b]), int(self.tail_end[b]) + 1)
 
 
 def default_window(throws: int) -> int:
-    """Return the recurrence window: ATTRACTOR_WINDOW throws, at most a sixth of the cap.
+    """Return the window: ATTRACTOR_WINDOW throws, at most a sixth of the cap, never below MIN_WINDOW.
 
-    A sixth leaves a start five chances (windows 2..6) to show recurrence before a short cap; never
-    below MIN_WINDOW, so a cap under two such windows cannot converge at all.
+    A start is first judged after two windows and then every quarter window, so a sixth leaves a short
+    cap some checks; a cap under two windows of MIN_WINDOW cannot converge at all.
     """
     return max(MIN_WINDOW, min(ATTRACTOR_WINDOW, throws // 6))
 
 
-def iterate_to_recurrence(
+def resolution(width: float, low: float, high: float) -> float:
+    """Return how far two radius-range ends may differ and still count equal, for a range [low, high].
+
+    A share of the start grid's spacing ``width`` (a converging periodic orbit, whose range shrinks to
+    points) or of the range's own span (a quasi-periodic attractor, whose extremes a finite stretch only
+    approaches), whichever is larger.
+    """
+    return max(width, RESOLUTION_SPAN_SHARE * (high - low))
+
+
+@dataclass(frozen=True)
+class Stretch:
+    """What a stretch of one row's states shows: its edges, each edge's radius range, its exact cycle."""
+
+    edges: tuple[int, ...]
+    low: tuple[float, ...]
+    high: tuple[float, ...]
+    cycle: tuple[int, ...] | None
+
+    def ranges(self) -> dict[int, tuple[float, float]]:
+        """Return the radius range of each edge."""
+        return {e: (lo, hi) for e, lo, hi in zip(self.edges, self.low, self.high, strict=True)}
+
+
+def _ranges(edge: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return the visited edges (sorted) and the lowest and highest radius on each."""
+    order = np.argsort(edge, kind="stable")
+    e, r = edge[order], radius[order]
+    cuts = np.flatnonzero(np.diff(e)) + 1
+    starts = np.concatenate([[0], cuts])
+    return e[starts], np.minimum.reduceat(r, starts), np.maximum.reduceat(r, starts)
+
+
+def _visits(edge: np.ndarray, jog: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return the edge of every visit (one starts at the first state and at each flip) and its throws."""
+    starts = np.concatenate([[0], np.flatnonzero(~jog[1:]) + 1])
+    return edge[starts], np.diff(np.concatenate([starts, [len(edge)]]))
+
+
+def _period(visits: np.ndarray) -> int | None:
+    """Return the shortest exact period of ``visits`` seen CYCLE_REPEATS times at least, or None."""
+    # A period p has visits[p] == visits[0]: only those p are compared whole (a quasi-periodic tail of
+    # hundreds of visits would otherwise cost hundreds of comparisons).
+    for p in np.flatnonzero(visits[1 : len(visits) // CYCLE_REPEATS + 1] == visits[:1]) + 1:
+        if np.array_equal(visits[p:], visits[:-p]):
+            return int(p)
+    return None
+
+
+def cycle_key(visits: np.ndarray) -> tuple[int, ...] | None:
+    """Return the exact cycle of a stretch's visits, as its least rotation; None when it has none.
+
+    The first and last visits are dropped (the stretch's ends cut them). The least rotation names a
+    cycle independently of where a stretch starts, so two stretches of one orbit compare equal.
+    """
+    inner = visits[1:-1]
+    p = _period(inner)
+    if p is None:
+        return None
+    one = [int(v) for v in inner[:p]]
+    return min(tuple(one[k:] + one[:k]) for k in range(p))
+
+
+def stretch(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray) -> Stretch:
+    """Return the Stretch of consecutive states (``jog[k]``: state k was reached from k - 1 by a jog)."""
+    edges, low, high = _ranges(edge, radius)
+    return Stretch(
+        tuple(int(e) for e in edges),
+        tuple(float(v) for v in low),
+        tuple(float(v) for v in high),
+        cycle_key(_visits(edge, jog)[0]),
+    )
+
+
+def confirms(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, width: np.ndarray) -> bool:
+    """Return whether a tail (a row's last 2N states) shows the same attractor as its last N states.
+
+    Both halves' union and the recent half must have the same edges, radius ranges equal to the
+    resolution (``resolution``, with ``width[e]`` the resolution unit of edge e) and the same exact cycle
+    or none; the recent half must hold CONFIRM_FLIPS flips (Prop. IV.1). Cheap tests first: most
+    rejections are an edge the older half still visits.
+    """
+    recent = len(edge) - len(edge) // 2
+    if int((~jog[1:recent]).sum()) < CONFIRM_FLIPS or int((~jog[recent:]).sum()) < CONFIRM_FLIPS:
+        return False
+    edges, low, high = _ranges(edge, radius)
+    edges_new, low_new, high_new = _ranges(edge[recent:], radius[recent:])
+    if not np.array_equal(edges, edges_new):
+        return False
+    older_e, older_r = edge[:recent], radius[:recent]
+    for k, e in enumerate(edges):
+        tol = resolution(float(width[e]), float(low[k]), float(high[k]))
+        if low_new[k] - low[k] <= tol and high[k] - high_new[k] <= tol:
+            continue
+        # A chaotic attractor's extremes show up now and then: a few older states beyond the recent
+        # range are sampling, a stretch of them (a transit, a slow approach) is a transient.
+        mine = older_r[older_e == e]
+        beyond = (mine < low_new[k] - tol) | (mine > high_new[k] + tol)
+        if beyond.sum() > max(1, OUTSIDE_SHARE * mine.size):
+            return False
+    visits, lengths = _visits(edge, jog)
+    key = cycle_key(visits)
+    if key is not None:
+        # The whole tail repeats the cycle, so its recent half does too.
+        return not _drifting(radius, visits, lengths, len(key))
+    return len(visits) >= QUASI_VISITS and cycle_key(_visits(edge[recent:], jog[recent:])[0]) is None
+
+
+def _drifting(radius: np.ndarray, visits: np.ndarray, lengths: np.ndarray, p: int) -> bool:
+    """Return whether a periodic tail's radii still drift: at some phase of its cycle, steadily one way.
+
+    At each phase of the cycle, the radius at the start of its visit, period after period (the cut
+    first and last visits left out): differences all of one sign, and the last at least DRIFT_SHARE of
+    the first, is a slow drift through the states (a quasi-periodic orbit whose cycle will break when
+    the drift reaches the next flip), not a converging orbit (whose differences shrink) or a settled
+    one (whose radii wander both ways).
+    """
+    starts = np.concatenate([[0], np.cumsum(lengths)[:-1]])[1:-1]
+    for phase in range(p):
+        r = radius[starts[phase::p]]
+        if len(r) < CYCLE_REPEATS:
+            continue
+        d = np.diff(r)
+        if ((d > 0).all() or (d < 0).all()) and abs(d[-1]) >= DRIFT_SHARE * abs(d[0]):
+            return True
+    return False
+
+
+def _consistent(
+    edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, first: int, width: np.ndarray
+) -> np.ndarray:
+    """Return, per state of a row's run (0..n), whether it is consistent with the tail from ``first`` on.
+
+    Consistent: on one of the tail's edges within that edge's radius range (to the resolution) and, when
+    the tail has an exact cycle, in a visit to the edge the cycle, in the tail's phase, has there.
+    """
+    ok = np.zeros(len(edge), dtype=bool)
+    edges, low, high = _ranges(edge[first:], radius[first:])
+    for k, e in enumerate(edges):
+        tol = resolution(float(width[e]), float(low[k]), float(high[k]))
+        ok |= (edge == e) & (radius >= low[k] - tol) & (radius <= high[k] + tol)
+    key = cycle_key(_visits(edge[first:], jog[first:])[0])
+    if key is not None:
+        # In phase with the tail's cycle: a run of one edge, or the same cycle shifted, is not the tail.
+        p = len(key)
+        visits, lengths = _visits(edge, jog)
+        starts = np.concatenate([[0], np.cumsum(lengths)[:-1]])
+        f = int(np.searchsorted(starts, first))
+        if f + p <= len(visits):
+            expected = visits[f : f + p][(np.arange(len(visits)) - f) % p]
+            ok &= np.repeat(visits == expected, lengths)
+    return ok
+
+
+def settled(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, first: int, width: np.ndarray) -> int:
+    """Return where a row's run (states 0..n) began keeping to its tail (from ``first``), or -1: not yet.
+
+    The run has been consistent with the tail (``_consistent``) since its last departure; that stay must
+    last SOJOURN_FACTOR times the longest earlier stay the run ended by departing. An attractor with rare
+    excursions (convex12's visits to edge 5, a quasi-periodic round's rare other block) leaves tails
+    that happen to hold none of them; the earlier stays, each ended by an excursion, say how long such
+    a tail can last, and a stay no longer than those proves nothing. The stay holds the tail, and its
+    start is where the transient ends.
+    """
+    ok = _consistent(edge, radius, jog, first, width)
+    out = np.flatnonzero(~ok)
+    if out.size == 0:
+        return 0
+    last = int(out[-1])
+    before = ok[:last].astype(np.int8)
+    if before.any():
+        steps = np.diff(np.concatenate([[0], before, [0]]))
+        longest = int((np.flatnonzero(steps == -1) - np.flatnonzero(steps == 1)).max())
+        if len(edge) - 1 - last < SOJOURN_FACTOR * longest:
+            return -1
+    return last + 1
+
+
+def _clusters(
+    tails: list[Stretch], width: np.ndarray
+) -> list[tuple[list[int], dict[int, tuple[float, float]]]]:
+    """Return tails grouped as ``group_attractors`` groups rows: same edges and cycle, meeting ranges.
+
+    Each group as (indices into ``tails``, the ranges covering them all).
+    """
+    buckets: dict[
+        tuple[tuple[int, ...], tuple[int, ...] | None], list[tuple[list[int], dict[int, tuple[float, float]]]]
+    ] = {}
+    for k, t in enumerate(tails):
+        groups = buckets.setdefault((t.edges, t.cycle), [])
+        ranges, joined, rest = t.ranges(), [k], []
+        for g_members, g_ranges in groups:
+            if _overlaps(ranges, g_ranges, width):
+                ranges = {
+                    e: (min(lo, g_ranges[e][0]), max(hi, g_ranges[e][1])) for e, (lo, hi) in ranges.items()
+                }
+                joined += g_members
+            else:
+                rest.append((g_members, g_ranges))
+        buckets[(t.edges, t.cycle)] = [*rest, (joined, ranges)]
+    return [g for groups in buckets.values() for g in groups]
+
+
+def _nested(tails: list[Stretch], width: np.ndarray) -> np.ndarray:
+    """Return, per tail, whether a richer attractor of the design holds it: more edges, or no exact cycle.
+
+    A tail is held by another group of tails (``_clusters``) whose edges include its own, all of them or
+    more, whose ranges include its ranges, and which shows more: another edge, or no exact cycle where
+    it has one. Such a tail may be a stretch of the richer attractor that happens to miss its rarest
+    edge or its rare break of the cycle.
+    """
+    groups = _clusters(tails, width)
+    held = np.zeros(len(tails), dtype=bool)
+    for members, ranges in groups:
+        t = tails[members[0]]
+        for others, outer in groups:
+            o = tails[others[0]]
+            richer = set(t.edges) < set(o.edges) or (
+                t.edges == o.edges and t.cycle is not None and o.cycle is None
+            )
+            if richer and _overlaps(ranges, outer, width, within=True):
+                held[members] = True
+                break
+    return held
+
+
+def iterate_to_attractor(
     rows: Rows,
     throw: Callable[[np.ndarray, np.ndarray, np.ndarray], ThrowBatch],
     throws: int,
     window: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    design: np.ndarray | None = None,
 ) -> Search:
-    """Iterate every row, in windows of throws, until it recurs at the grid's resolution, or the cap.
+    """Throw every row until its tail confirms, or the cap; rows whose tails nest in others' go on.
 
-    A row has converged after window k (k >= 2) when the grid cells its states visit in window k all
-    lie in those it visited before (from its start to the end of window k - 1) and window k holds a
-    flip (Prop. IV.1: jogs alone have no
-    stable fixed point, so a window of jogs only is a slow transit, not an attractor). Its tail is
-    then windows k - 1 and k. The burn-in thus adapts to each start, up to ``throws`` per start.
-    ``throw(idx, edge, radius)`` applies the map to rows ``idx``; ``progress(done, total)`` is told
-    after each window.
+    From two windows on, at every quarter window and at the cap, a row's last n/2 states are its tail:
+    it confirms when ``confirms`` holds for them (the same edges, ranges and cycle over the last n/4 as
+    over the last n/2) and ``settled`` holds for its run (it kept to that tail twice as long as ever
+    before), and then stops. The tail thus grows with n, and a transient of up to about n/2 throws has
+    left it. Once every row of a design (``design[b]``; one design when None) has confirmed or reached
+    the cap, a row whose tail's edges are a proper subset of another's, within its ranges (``_nested``),
+    is thrown on from where it stopped and judged again (its latest confirmed tail counts) until it no
+    longer nests or reaches the cap. A row that never confirms within ``throws`` stays unconverged.
+    Each row advances from its own state, one throw per call of ``throw(idx, edge, radius)`` (which
+    applies the map to rows ``idx``); ``progress(done, total)`` is told after each check.
     """
     w = default_window(throws) if window is None else window
+    step = max(1, w // CHECKS_PER_WINDOW)
     starts = len(rows.edge)
+    owner = np.zeros(starts, dtype=np.int64) if design is None else np.asarray(design, dtype=np.int64)
     edge = np.zeros((starts, throws + 1), dtype=np.int64)
     radius = np.full((starts, throws + 1), np.nan)
     jog = np.zeros((starts, throws + 1), dtype=bool)
     flags = np.zeros((starts, throws + 1), dtype=np.uint8)
-    cells = np.zeros((starts, throws + 1), dtype=np.int64)
     edge[:, 0], radius[:, 0] = rows.edge, rows.radius
-    cells[:, 0] = _cell_codes(rows, np.arange(starts), rows.edge, rows.radius)
     end = np.zeros(starts, dtype=np.int64)
     tail = np.full(starts, -1, dtype=np.int64)
+    tail_end = np.full(starts, -1, dtype=np.int64)
+    tails: dict[int, Stretch] = {}
     escaped = np.zeros(starts, dtype=bool)
-    alive = np.arange(starts)
-    seen: dict[int, set[int]] = {}
-    for n in range(1, throws + 1):
-        if alive.size == 0:
-            break
-        out = throw(alive, edge[alive, n - 1], radius[alive, n - 1])
-        edge[alive, n], radius[alive, n] = out.edge, out.radius
-        jog[alive, n] = out.is_jog(edge[alive, n - 1])
+    running = np.full(starts, throws > 0)
+    while running.any():
+        alive = np.flatnonzero(running)
+        now = end[alive]
+        out = throw(alive, edge[alive, now], radius[alive, now])
+        edge[alive, now + 1], radius[alive, now + 1] = out.edge, out.radius
+        jog[alive, now + 1] = out.is_jog(edge[alive, now])
         bits = np.zeros(alive.size, dtype=np.uint8)
         for k, name in enumerate(ASSUMPTIONS):
             bits |= out.flag(name).astype(np.uint8) << k
-        flags[alive, n] = bits
+        flags[alive, now + 1] = bits
         landed = np.maximum(out.edge, 0)
         ok = (out.edge >= 0) & radius_in_domain(out.radius, rows.low[alive, landed])
-        cells[alive, n] = _cell_codes(rows, alive, landed, out.radius)
-        end[alive] = n
+        end[alive] = now + 1
         escaped[alive[~ok]] = True
-        alive = alive[ok]
-        if n % w == 0:
-            keep = []
-            for b in alive:
-                last = set(cells[b, n - w + 1 : n + 1].tolist())
-                before = seen.setdefault(int(b), set(cells[b, : n - w + 1].tolist()))
-                if n >= 2 * w and last <= before and not jog[b, n - w + 1 : n + 1].all():
-                    tail[b] = n - 2 * w + 1
-                else:
-                    before |= last
-                    keep.append(b)
-            alive = np.array(keep, dtype=np.int64)
-        if progress is not None and n % w == 0:
-            progress(starts - alive.size, starts)
-    return Search(edge, radius, jog, flags, end, tail, escaped, cells, w)
+        running[alive[~ok]] = False
+        at = end[alive]
+        running[alive[at == throws]] = False
+        due = alive[ok & ((at == throws) | ((at >= 2 * w) & (at % step == 0)))]
+        if due.size == 0:
+            continue
+        for b in due:
+            n = int(end[b])
+            first = n - n // 2 + 1
+            sl = slice(first, n + 1)
+            if not confirms(edge[b, sl], radius[b, sl], jog[b, sl], rows.width[b]):
+                continue
+            stay = settled(edge[b, : n + 1], radius[b, : n + 1], jog[b, : n + 1], first, rows.width[b])
+            if stay >= 0:
+                tail[b], tail_end[b] = stay, n
+                tails[int(b)] = stretch(edge[b, stay : n + 1], radius[b, stay : n + 1], jog[b, stay : n + 1])
+        for g in np.unique(owner[due]):
+            members = np.flatnonzero(owner == g)
+            confirmed = members[tail[members] >= 0]
+            if not ((tail[members] >= 0) | escaped[members] | (end[members] == throws)).all():
+                running[confirmed] = False
+                continue
+            small = _nested([tails[int(b)] for b in confirmed], rows.width[members[0]])
+            running[confirmed] = small & (end[confirmed] < throws) & ~escaped[confirmed]
+        if progress is not None:
+            progress(starts - int(running.sum()), starts)
+    return Search(edge, radius, jog, flags, end, tail, escaped, rows.width, w, tail_end)
 
 
 @dataclass(frozen=True)
@@ -164,8 +433,10 @@ class Attractor:
 
     ``pattern`` lists, for one round, each block of the visit sequence (a stretch repeating a motif of
     at most MAX_MOTIF edges) as [edge, min, max]: how many visits that edge gets in the block, over
-    the rounds seen. ``throws_per_round`` is (min, mean, max); ``basin`` the fraction of all starts that
-    reach it and ``longest_transient`` the most throws any of them took to enter its cells.
+    the rounds seen. ``throws_per_round`` is (min, mean, max); ``basin`` the fraction of all starts whose
+    confirmed tails are this attractor. ``longest_transient`` (and ``median_transient``): over those
+    starts, the throws before the state stays inside the attractor for good, on its edges and within
+    each edge's radius range to the resolution; the tails, and so everything above, exclude them.
     ``violations``: the fraction of its throws that break each assumption (REPORTED).
     """
 
@@ -199,15 +470,8 @@ class Attractor:
 
 def visit_runs(edge_row: np.ndarray, jog_row: np.ndarray) -> tuple[list[int], list[int]]:
     """Return the visited edges (a visit starts at each flip) and the throws of each visit."""
-    visits: list[int] = []
-    lengths: list[int] = []
-    for n in range(len(edge_row)):
-        if n == 0 or not jog_row[n]:
-            visits.append(int(edge_row[n]))
-            lengths.append(1)
-        else:
-            lengths[-1] += 1
-    return visits, lengths
+    visits, lengths = _visits(np.asarray(edge_row), np.asarray(jog_row, dtype=bool))
+    return [int(v) for v in visits], [int(n) for n in lengths]
 
 
 def blocks(visits: list[int]) -> list[tuple[int, int]]:
@@ -281,104 +545,121 @@ def round_pattern(
 
 
 def find_period(visits: list[int], lengths: list[int]) -> tuple[list[int], list[int]] | None:
-    """Return (one period of the visits, canonically rotated; throws of each whole period), or None."""
-    visits, lengths = visits[1:-1], lengths[1:-1]
-    total = len(visits)
-    for p in range(1, total // 2 + 1):
-        if all(visits[i] == visits[i + p] for i in range(total - p)):
-            break
-    else:
+    """Return (one period of the visits, canonically rotated; throws of each whole period), or None.
+
+    The period is the shortest exact one seen CYCLE_REPEATS times (first and last visits dropped, as
+    cut by the stretch's ends), the same test as ``cycle_key``. The cycle starts at the visit with the
+    longest stay (ties: smallest edge), as the paper tells its cycles.
+    """
+    inner_v, inner_n = visits[1:-1], lengths[1:-1]
+    p = _period(np.asarray(inner_v, dtype=np.int64))
+    if p is None:
         return None
-    if total < 2 * p:
-        return None
-    period = visits[:p]
-    # Start the cycle at the visit with the longest stay (ties: smallest edge), as the paper tells its cycles.
+    total = len(inner_v)
+    period = inner_v[:p]
     start = max(
-        range(p), key=lambda j: (sum(n for _, n in zip(visits[j::p], lengths[j::p], strict=True)), -period[j])
+        range(p),
+        key=lambda j: (sum(n for _, n in zip(inner_v[j::p], inner_n[j::p], strict=True)), -period[j]),
     )
     canonical = period[start:] + period[:start]
-    per_cycle = [sum(lengths[c : c + p]) for c in range(start, total - p + 1, p)]
+    per_cycle = [sum(inner_n[c : c + p]) for c in range(start, total - p + 1, p)]
     return canonical, per_cycle
+
+
+def _overlaps(
+    a: dict[int, tuple[float, float]],
+    b: dict[int, tuple[float, float]],
+    width: np.ndarray,
+    within: bool = False,
+) -> bool:
+    """Return whether ``a``'s radius ranges meet ``b``'s on every edge of ``a``, to the resolution.
+
+    ``within``: whether they also lie inside ``b``'s.
+    """
+    for e, (lo, hi) in a.items():
+        blo, bhi = b[e]
+        tol = resolution(float(width[e]), min(lo, blo), max(hi, bhi))
+        if within and (lo < blo - tol or hi > bhi + tol):
+            return False
+        if lo > bhi + tol or blo > hi + tol:
+            return False
+    return True
 
 
 def group_attractors(search: Search, rows: np.ndarray | None = None) -> list[Attractor]:
     """Group the converged rows (all, or those in ``rows``) into attractors and describe each.
 
-    Rows whose tails share a grid cell belong to one attractor (union-find). The basin is over the
-    rows considered, converged or not.
+    Rows whose tails have the same edges and exact cycle (or none) and whose radius ranges meet on every
+    edge belong to one attractor (``_clusters``; the rows are one design's). The basin is over the rows
+    considered, converged or not.
     """
     considered = np.arange(len(search.tail)) if rows is None else np.asarray(rows)
     members = [int(b) for b in considered if search.tail[b] >= 0]
-    parent = {b: b for b in members}
-
-    def root(b: int) -> int:
-        while parent[b] != b:
-            parent[b] = parent[parent[b]]
-            b = parent[b]
-        return b
-
-    owner: dict[int, int] = {}
-    tails = {b: set(search.cells[b, search.tail_slice(b)].tolist()) for b in members}
-    for b in members:
-        for c in tails[b]:
-            if c in owner:
-                ra, rb = root(owner[c]), root(b)
-                if ra != rb:
-                    parent[rb] = ra
-            else:
-                owner[c] = b
-    groups: dict[int, list[int]] = {}
-    for b in members:
-        groups.setdefault(root(b), []).append(b)
-    found = [_describe(search, g, len(considered)) for g in groups.values()]
+    tails = {
+        b: stretch(
+            search.edge[b, search.tail_slice(b)],
+            search.radius[b, search.tail_slice(b)],
+            search.jog[b, search.tail_slice(b)],
+        )
+        for b in members
+    }
+    if not members:
+        return []
+    listed = [tails[b] for b in members]
+    found = [
+        _describe(search, sorted(members[k] for k in group), len(considered), tails, listed[group[0]].cycle)
+        for group, _ in _clusters(listed, search.width[members[0]])
+    ]
     return sorted(found, key=lambda a: (-a.basin, a.edges))
 
 
-def _describe(search: Search, group: list[int], total: int) -> Attractor:
-    """Return the Attractor of one group of rows."""
-    cellset: set[int] = set()
-    for b in group:
-        cellset |= set(search.cells[b, search.tail_slice(b)].tolist())
-    transients = []
+def _transient(search: Search, b: int, ranges: dict[int, tuple[float, float]]) -> int:
+    """Return the throws row b took before its states stayed inside ``ranges`` (edges and radii) for good."""
+    e = search.edge[b, : search.end[b] + 1]
+    r = search.radius[b, : search.end[b] + 1]
+    inside = np.zeros(len(e), dtype=bool)
+    for edge, (lo, hi) in ranges.items():
+        tol = resolution(float(search.width[b, edge]), lo, hi)
+        inside |= (e == edge) & (r >= lo - tol) & (r <= hi + tol)
+    outside = np.flatnonzero(~inside)
+    return int(outside[-1]) + 1 if outside.size else 0
+
+
+def _describe(
+    search: Search, group: list[int], total: int, tails: dict[int, Stretch], key: tuple[int, ...] | None
+) -> Attractor:
+    """Return the Attractor of one group of rows, from their confirmed tails only."""
     ranges: dict[int, tuple[float, float]] = {}
+    for b in group:
+        for e, (lo, hi) in tails[b].ranges().items():
+            old = ranges.get(e)
+            ranges[e] = (lo, hi) if old is None else (min(old[0], lo), max(old[1], hi))
+    ranges = dict(sorted(ranges.items()))
+    transients = [_transient(search, b, ranges) for b in group]
     counts = np.zeros(len(ASSUMPTIONS))
     n_throws = 0
     seqs = []
     for b in group:
         sl = search.tail_slice(b)
-        outside = np.flatnonzero(~np.isin(search.cells[b, : search.end[b] + 1], list(cellset)))
-        transients.append(int(outside[-1]) + 1 if outside.size else 0)
-        e, r = search.edge[b, sl], search.radius[b, sl]
-        for edge in np.unique(e):
-            values = r[e == edge]
-            lo, hi = float(values.min()), float(values.max())
-            old = ranges.get(int(edge))
-            ranges[int(edge)] = (lo, hi) if old is None else (min(old[0], lo), max(old[1], hi))
         fl = search.flags[b, sl][1:]
         for k in range(len(ASSUMPTIONS)):
             counts[k] += int(((fl >> k) & 1).sum())
         n_throws += fl.size
-        seqs.append(visit_runs(e, search.jog[b, sl]))
+        seqs.append(visit_runs(search.edge[b, sl], search.jog[b, sl]))
     violations = {name: float(counts[ASSUMPTIONS.index(name)] / max(n_throws, 1)) for name in REPORTED}
-    cycles = [find_period(v, n) for v, n in seqs]
-    names = [c[0] if c else None for c in cycles]
-    periodic = names[0] is not None and all(n == names[0] for n in names)
     cycle = None
     pattern: list[tuple[int, int, int]] | None = None
     per_round: tuple[int, float, int] | None = None
-    if periodic:
-        cycle = names[0]
-        spans = [t for c in cycles if c for t in c[1]]
+    if key is not None:
+        cycle, per_round = _cycle_of(list(key), seqs)
         counter = Counter(cycle)
-        pattern = [(e, counter[e], counter[e]) for e in dict.fromkeys(cycle)] if cycle else None
-        if spans:
-            per_round = (min(spans), float(np.mean(spans)), max(spans))
+        pattern = [(e, counter[e], counter[e]) for e in dict.fromkeys(cycle)]
     else:
         pattern, per_round = _quasi_pattern(seqs)
     return Attractor(
         edges=sorted(ranges),
-        edge_radius_ranges=dict(sorted(ranges.items())),
-        periodic=periodic,
+        edge_radius_ranges=ranges,
+        periodic=key is not None,
         cycle=cycle,
         pattern=pattern,
         throws_per_round=per_round,
@@ -388,6 +669,33 @@ def _describe(search: Search, group: list[int], total: int) -> Attractor:
         violations=violations,
         members=sorted(group),
     )
+
+
+def _cycle_of(
+    key: list[int], seqs: list[tuple[list[int], list[int]]]
+) -> tuple[list[int], tuple[int, float, int] | None]:
+    """Return a periodic attractor's cycle, from its longest stay over all members, and throws per cycle.
+
+    ``key`` is the cycle as its least rotation; each member's tail is aligned to it, so the stays add up
+    over members whose tails begin at different visits of the cycle.
+    """
+    p = len(key)
+    stay = np.zeros(p)
+    spans: list[int] = []
+    phases = []
+    for visits, lengths in seqs:
+        inner_v, inner_n = visits[1:-1], lengths[1:-1]
+        phase = next(k for k in range(p) if inner_v[k : k + p] == key)
+        phases.append((phase, inner_n))
+        for j, n in enumerate(inner_n):
+            stay[(j - phase) % p] += n
+    start = max(range(p), key=lambda j: (stay[j], -key[j]))
+    cycle = key[start:] + key[:start]
+    for phase, inner_n in phases:
+        first = (phase + start) % p
+        spans += [sum(inner_n[c : c + p]) for c in range(first, len(inner_n) - p + 1, p)]
+    per_round = (min(spans), float(np.mean(spans)), max(spans)) if spans else None
+    return cycle, per_round
 
 
 def _quasi_pattern(

@@ -15,7 +15,7 @@ from typing import Any, Callable
 import numpy as np
 
 from feeder_planner.errors import FeederError, InputError
-from feeder_planner.throwing.attractors import Rows, iterate_to_recurrence
+from feeder_planner.throwing.attractors import Rows, iterate_to_attractor
 from feeder_planner.throwing.geometry import ArmPart
 from feeder_planner.throwing.grasp import grasp_radius
 from feeder_planner.throwing.limit_set import (
@@ -31,6 +31,7 @@ from feeder_planner.throwing.tolerances import (
     MAX_GROWTH_ROUNDS,
     MAX_SCAN_RADII,
     MIN_WINDOW,
+    RESOLUTION_CELLS,
     SCAN_GROWTH,
 )
 
@@ -201,9 +202,10 @@ def evaluate(
     """Return the row of every design, all designs' throws batched together (issue 14 item 5).
 
     Per design: the edge bounds (``_bounds_many``), a grid of ``starts_per_edge`` starts per stable edge
-    over [low_i, R_max_i], iterated to recurrence (``iterate_to_recurrence``, at most ``throws``), read
-    as attractors and a trigger range (``read_limit_set``). A design's row only depends on the design,
-    not on the others in the batch, so any split of a study into batches gives the same rows.
+    over [low_i, R_max_i], thrown until the design's tails confirm (``iterate_to_attractor``, at most
+    ``throws``), read as attractors and a trigger range (``read_limit_set``). A design's row only depends
+    on the design, not on the others in the batch, so any split of a study into batches gives the same
+    rows.
     """
     height = sensing_height_or_default(part, sensing_height)
     low, top, notes = _bounds_many(part, designs, gravity, points)
@@ -220,20 +222,22 @@ def evaluate(
     if not owner:
         return [_failed(x, notes[k] or "") for k, x in enumerate(designs)]
     own = np.array(owner)
-    # One cell width per design for all its edges: its grid's coarsest spacing (``single_design_rows``).
+    # One resolution unit per design for all its edges: its widest edge span over RESOLUTION_CELLS, as
+    # ``single_design_rows`` (a row's tail does not depend on the other designs of the batch).
     finite = np.isfinite(low)
-    spacing = (np.where(finite, top, 0.0) - np.where(finite, low, 0.0)).max(axis=1) / starts_per_edge
+    span = (np.where(finite, top, 0.0) - np.where(finite, low, 0.0)).max(axis=1)
     ceiling = np.where(np.isfinite(top), top, 0.0).max(axis=1)
-    width = np.tile(np.maximum(spacing, FLIP_REFINE * ceiling)[:, None], (1, part.n))
+    width = np.tile(np.maximum(span / RESOLUTION_CELLS, FLIP_REFINE * ceiling)[:, None], (1, part.n))
     rows = Rows(np.array(edges), np.array(radii), low[own], width[own])
     h = np.array([x.offset for x in designs])[own]
     w = np.array([x.speed for x in designs])[own]
     mu = np.array([x.mu for x in designs])[own]
-    search_ = iterate_to_recurrence(
+    search_ = iterate_to_attractor(
         rows,
         lambda idx, e, r: throw_rows(part, e, r, h[idx], w[idx], gravity, mu[idx]),
         throws,
         max(MIN_WINDOW, min(window, throws // 3)),
+        design=own,
     )
     for d, design in enumerate(designs):
         if notes[d] is not None:

@@ -13,14 +13,12 @@ from feeder_planner.throwing.attractors import (
     Attractor,
     Rows,
     Search,
-    find_period,
     group_attractors,
-    iterate_to_recurrence,
-    visit_runs,
+    iterate_to_attractor,
 )
 from feeder_planner.throwing.geometry import ArmPart
 from feeder_planner.throwing.grasp import grasp_radii
-from feeder_planner.throwing.sensor import sensing_height_or_default, trigger_range
+from feeder_planner.throwing.sensor import sensing_height_or_default, trigger_blockers, trigger_range
 from feeder_planner.throwing.throw_map import ThrowParams, lowest_radius, radius_in_domain, throw_batch
 from feeder_planner.throwing.tolerances import (
     BURN_IN_CAP,
@@ -31,6 +29,7 @@ from feeder_planner.throwing.tolerances import (
     FLIP_REFINE,
     MAX_GROWTH_ROUNDS,
     MAX_SCAN_RADII,
+    RESOLUTION_CELLS,
     SCAN_GROWTH,
     SCAN_POINTS,
 )
@@ -50,6 +49,7 @@ __all__ = [
     "read_limit_set",
     "escape_error",
     "not_converged_error",
+    "trigger_note",
 ]
 
 
@@ -339,16 +339,16 @@ def check_limit_offset(part: ArmPart, offset: float, field: str = "offset") -> N
 
 
 def single_design_rows(part: ArmPart, bounds: EdgeBounds, starts_per_edge: int) -> Rows:
-    """Return the rows of one design's grid of starts, with cells of the start grid's resolution.
+    """Return the rows of one design's grid of starts, with the start grid's spacing as resolution unit.
 
-    One cell width for every edge: the coarsest spacing of the grid's starts. An edge with a narrow
-    range of R (the bracket's edge 1 spans 3.7 mm) would otherwise get cells so fine that each cycle
-    lands in a new one, and recurrence would take hundreds of cycles to show.
+    One unit for every edge: the coarsest spacing of the grid's starts. An edge with a narrow range of R
+    (the bracket's edge 1 spans 3.7 mm) would otherwise get a resolution so fine that its ranges would
+    take hundreds of cycles to agree between a tail's halves.
     """
     edges, radii = _grid_starts(part, bounds, starts_per_edge)
     low = np.full(part.n, np.inf)
-    spacing = max((bounds.max[i] - bounds.low[i]) / starts_per_edge for i in part.stable_edges)
-    width = np.full(part.n, max(spacing, FLIP_REFINE * max(bounds.max.values())))
+    span = max(bounds.max[i] - bounds.low[i] for i in part.stable_edges)
+    width = np.full(part.n, max(span / RESOLUTION_CELLS, FLIP_REFINE * max(bounds.max.values())))
     for i in part.stable_edges:
         low[i] = bounds.low[i]
     count = len(edges)
@@ -366,10 +366,57 @@ def escape_error(search: Search, rows: Rows, length: float = 1.0, unit: str = "m
 
 
 def not_converged_error(throws: int, window: int) -> SolverError:
-    """Return the error for a search in which no start reached an attractor (issue 16 item 3)."""
+    """Return the error for a search in which no start reached an attractor (issue 16 item 3, issue 25)."""
     return SolverError(
-        f"the attractor search did not converge: no start recurred at the grid's resolution within "
-        f"{throws} throws (windows of {window}); raise --throws"
+        f"the attractor search did not converge: no start's tail confirmed (the same edges, radius "
+        f"ranges and cycle over its last n/4 throws as over its last n/2) within {throws} throws "
+        f"(judged from {2 * window} throws on); raise --throws"
+    )
+
+
+def _tail_states(search: Search, b: int) -> list[tuple[int, float]]:
+    """Return the resting states (edge, R) of row b's confirmed tail."""
+    sl = search.tail_slice(b)
+    return list(
+        zip((int(v) for v in search.edge[b, sl]), (float(r) for r in search.radius[b, sl]), strict=True)
+    )
+
+
+def _name(k: int, a: Attractor) -> str:
+    """Return how a note names attractor k."""
+    return f"attractor {k} (edges {a.edges})"
+
+
+def trigger_note(
+    part: ArmPart, attractors: list[Attractor], search: Search, goal_edge: int, height: float
+) -> str:
+    """Return why no sensor radius singles out ``goal_edge`` on the attractors: which attractor and edge.
+
+    Either an attractor never visits the goal edge, or the goal edge's visits share no covered radius,
+    or other edges of named attractors cover every radius the goal edge's visits share (their resting
+    states, in SI metres, from the confirmed tails only).
+    """
+    missing = [_name(k, a) for k, a in enumerate(attractors) if goal_edge not in a.edges]
+    if missing:
+        return f"goal edge {goal_edge} is not visited by {', '.join(missing)}"
+    groups = [[_tail_states(search, b) for b in a.members] for a in attractors]
+    allowed, blockers, alone = trigger_blockers(part, goal_edge, height, groups)
+    if allowed is None:
+        return f"no complete visit to goal edge {goal_edge} in the attractors' tails"
+    if not allowed:
+        named = [_name(k, attractors[k]) for k in alone]
+        where = f" ({', '.join(named)})" if named else " (each attractor alone has one: they differ)"
+        return f"no sensor radius reads true in every visit to goal edge {goal_edge}{where}"
+
+    def spans(intervals: list[tuple[float, float]]) -> str:
+        return ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in intervals)
+
+    covering = "; ".join(
+        f"edge {e} of {_name(k, attractors[k])} covers {spans(hit)} m" for k, e, hit in blockers[:3]
+    )
+    return (
+        f"no sensor radius reads true in every visit to goal edge {goal_edge} and never elsewhere: every "
+        f"visit to edge {goal_edge} covers R_s in {spans(allowed)} m, but resting on {covering}"
     )
 
 
@@ -383,41 +430,26 @@ def read_limit_set(
 ) -> tuple[list[Attractor], tuple[float, float] | None, str | None, list[list[int] | None]]:
     """Return the attractors of ``members`` (rows of one design), its trigger range and why there is none.
 
-    The trigger is computed on the attractors' recurrent tails; it is None with a reason when some
-    attractor does not visit the goal edge, or when no sensor radius separates it. ``only_unique``
-    (a design search): no trigger and no per-start cycles unless every start reached one attractor.
+    Everything comes from the rows' confirmed tails (the transients are not in them). The trigger range
+    is None with a note naming the attractor and edge that rule it out (``trigger_note``).
+    ``only_unique`` (a design search): no trigger and no per-start cycles unless every start reached
+    one attractor.
     """
     attractors = group_attractors(search, members)
     converged = [int(b) for b in members if search.tail[b] >= 0]
     if only_unique and (len(attractors) != 1 or len(converged) != len(members)):
         return attractors, None, None, []
+    owner = {b: a for a in attractors for b in a.members}
     cycles: list[list[int] | None] = []
     for b in members:
-        if search.tail[b] < 0:
-            cycles.append(None)
-            continue
-        sl = search.tail_slice(int(b))
-        period = find_period(*visit_runs(search.edge[b, sl], search.jog[b, sl]))
-        cycles.append(period[0] if period else None)
+        a = owner.get(int(b))
+        cycles.append(a.cycle if a is not None and a.periodic else None)
     trigger, note = None, None
     if goal_edge is not None:
-        missing = [a.edges for a in attractors if goal_edge not in a.edges]
-        if missing:
-            note = f"goal edge {goal_edge} is not visited by every attractor (not by {missing})"
-        else:
-            runs = [
-                list(
-                    zip(
-                        (int(v) for v in search.edge[b, search.tail_slice(b)]),
-                        (float(r) for r in search.radius[b, search.tail_slice(b)]),
-                        strict=True,
-                    )
-                )
-                for b in converged
-            ]
-            trigger = trigger_range(part, goal_edge, height, runs)
-            if trigger is None:
-                note = "no sensor radius reads true in every visit to the goal edge and never elsewhere"
+        if all(goal_edge in a.edges for a in attractors):
+            trigger = trigger_range(part, goal_edge, height, [_tail_states(search, b) for b in converged])
+        if trigger is None:
+            note = trigger_note(part, attractors, search, goal_edge, height)
     return attractors, trigger, note, cycles
 
 
@@ -435,10 +467,13 @@ def limit_set(
     """Return the forward limit set from a grid of starts over Z (Figs. 7, 8): attractors, cycle, trigger.
 
     Every start of the grid (``starts_per_edge`` cell centres of [low_i, R_max_i] on each stable edge)
-    is thrown until it recurs at the grid's resolution (``iterate_to_recurrence``; at most ``throws``
-    throws, in windows of ``window``); starts whose recurrent sets meet form one attractor. ``unique``:
-    every start reached the same attractor (Theorem IV.6 for a periodic one); ``cycle`` is filled when
-    that attractor is periodic. ``sensing_height`` None means the default
+    is thrown until its tail confirms (``iterate_to_attractor``: the last n/2 throws show the same edges,
+    radius ranges and cycle as the last n/4; at most ``throws`` throws, judged from two windows of
+    ``window`` on); starts whose confirmed tails agree form one attractor (``group_attractors``), and
+    a start that does not confirm is counted unconverged, in no attractor. ``unique``: every start
+    reached the same attractor (Theorem IV.6 for a periodic one); ``cycle`` is filled when that
+    attractor is periodic. The trigger range is read on the attractors' tails only; ``trigger_note``
+    names the attractor and edge that rule it out. ``sensing_height`` None means the default
     (``sensing_height_or_default``). An offset at or below -d_min is refused (``check_limit_offset``).
     Raises SolverError when a start leaves the domain or no start converges.
     """
@@ -448,7 +483,7 @@ def limit_set(
     height = sensing_height_or_default(part, sensing_height)
     bounds = edge_bounds(part, params)
     rows = single_design_rows(part, bounds, starts_per_edge)
-    search = iterate_to_recurrence(
+    search = iterate_to_attractor(
         rows,
         lambda idx, e, r: throw_batch(part, e, r, params),
         throws,

@@ -22,6 +22,7 @@ __all__ = [
     "reads",
     "reads_pose",
     "trigger_range",
+    "trigger_blockers",
 ]
 
 Intervals = list[tuple[float, float]]
@@ -145,15 +146,16 @@ def reads_pose(
     return any(lo <= sensor_radius <= hi for lo, hi in covered(loops, arm_y, height))
 
 
-def trigger_range(
+def _goal_and_others(
     part: ArmPart, goal: int, height: float, states: list[list[tuple[int, float]]]
-) -> tuple[float, float] | None:
-    """Return the widest sensor radius range reading true at rest in every visit to ``goal``, never elsewhere.
+) -> tuple[Intervals | None, dict[int, Intervals]]:
+    """Return the sensor radii covered in every complete visit to ``goal``, and those of each other edge.
 
-    ``states`` holds, per start, the resting states (edge, R) of its trajectory inside the limit set.
+    The first is None when no visit to ``goal`` is complete; the second maps each other edge to the
+    radii covered while the part rests on it.
     """
     covers = {e: resting_cover(part, e, height) for e in {e for run in states for e, _ in run}}
-    forbidden: Intervals = []
+    forbidden: dict[int, Intervals] = {}
     allowed: Intervals | None = None
     for run in states:
         visit: Intervals = []
@@ -168,14 +170,59 @@ def trigger_range(
                 if last:
                     visit = []
             else:
-                forbidden.extend(shifted)
+                forbidden.setdefault(edge, []).extend(shifted)
+    return allowed, {e: merge(v) for e, v in forbidden.items()}
+
+
+def trigger_range(
+    part: ArmPart, goal: int, height: float, states: list[list[tuple[int, float]]]
+) -> tuple[float, float] | None:
+    """Return the widest sensor radius range reading true at rest in every visit to ``goal``, never elsewhere.
+
+    ``states`` holds, per start, the resting states (edge, R) of its trajectory inside the limit set.
+    """
+    allowed, others = _goal_and_others(part, goal, height, states)
     if allowed is None:
         return None
-    free = subtract(allowed, merge(forbidden))
+    free = subtract(allowed, merge([iv for v in others.values() for iv in v]))
     if not free:
         return None
     lo, hi = max(free, key=lambda iv: iv[1] - iv[0])
     return (lo, hi)
+
+
+def _length(intervals: Intervals) -> float:
+    """Return the total length of sorted, disjoint intervals."""
+    return sum(hi - lo for lo, hi in intervals)
+
+
+def trigger_blockers(
+    part: ArmPart, goal: int, height: float, groups: list[list[list[tuple[int, float]]]]
+) -> tuple[Intervals | None, list[tuple[int, int, Intervals]], list[int]]:
+    """Return why there is no trigger range: the goal edge's common cover and what covers it elsewhere.
+
+    ``groups`` holds the states of each attractor (as ``trigger_range`` takes them). Returns the radii
+    covered in every complete visit to ``goal`` over all groups (None: no complete visit); per (group,
+    other edge) whose resting states cover some of those radii, the part covered, the most first; and
+    the groups whose own goal visits share no radius. An empty common cover means the goal visits
+    themselves share no sensor radius.
+    """
+    per_group = [_goal_and_others(part, goal, height, g) for g in groups]
+    allowed: Intervals | None = None
+    for own, _ in per_group:
+        if own is not None:
+            allowed = own if allowed is None else intersect(allowed, own)
+    alone = [k for k, (own, _) in enumerate(per_group) if own is not None and not own]
+    if not allowed:
+        return allowed, [], alone
+    found: list[tuple[int, int, Intervals]] = []
+    for k, (_, others) in enumerate(per_group):
+        for edge, cover in others.items():
+            hit = intersect(allowed, cover)
+            if _length(hit) > 0:
+                found.append((k, edge, hit))
+    found.sort(key=lambda f: -_length(f[2]))
+    return allowed, found, alone
 
 
 def _starts_inside(run: list[tuple[int, float]], end: int, goal: int) -> bool:

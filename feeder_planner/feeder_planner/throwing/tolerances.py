@@ -28,6 +28,15 @@ __all__ = [
     "ATTRACTOR_WINDOW",
     "MAX_MOTIF",
     "MIN_WINDOW",
+    "CHECKS_PER_WINDOW",
+    "CONFIRM_FLIPS",
+    "CYCLE_REPEATS",
+    "QUASI_VISITS",
+    "DRIFT_SHARE",
+    "RESOLUTION_CELLS",
+    "RESOLUTION_SPAN_SHARE",
+    "SOJOURN_FACTOR",
+    "OUTSIDE_SHARE",
     "SENSING_HEIGHT_FRACTION",
     "SLAB_SLACK",
     "HORIZONTAL_EDGE",
@@ -95,15 +104,51 @@ DEFAULT_THROWS: Final = 3000
 # so that a long run reads more of the limit set rather than a longer transient.
 BURN_IN_CAP: Final = 100
 BURN_IN_DIVISOR: Final = 3
-# Throws per recurrence window: a start has reached its attractor when the grid cells it visits in one
-# window all lie in those of the window before (attractors.iterate_to_recurrence). 200 throws hold 13
-# or more cycles of the paper's triangle and bracket and about five rounds of convex12's quasi-periodic
-# attractor (40.6 throws per round), so one window shows every cell a round visits; a short cap
-# shrinks the window to a sixth of it.
+# Throws per window of the attractor search (attractors.iterate_to_attractor): a start is first judged
+# after two windows, then every quarter window, on its last n/2 throws against their second half. 400
+# throws hold 30 or more cycles of the paper's triangle and bracket and several rounds of convex12's
+# quasi-periodic attractor (25-279 throws per round), so the first tail judged can show a whole
+# attractor; a short cap shrinks the window to a sixth of it.
 ATTRACTOR_WINDOW: Final = 200
-# The shortest recurrence window: a window shorter than a cycle of the paper's parts (12-23 throws)
-# could repeat cells by chance within one cycle, so a cap below two windows of 20 never converges.
+# The shortest window: two windows of 20 (a tail of 20, halves of 10) are a cycle of the paper's parts
+# (12-23 throws), below which halves cannot show the same cycle; a cap below 40 never converges.
 MIN_WINDOW: Final = 20
+# Checks per window: a start is judged every quarter window, so a start whose transient ends just
+# after a check waits at most a quarter window more, at the cost of one comparison per alive start.
+CHECKS_PER_WINDOW: Final = 4
+# Flips the recent half of a tail must hold (Prop. IV.1: jogs alone have no stable fixed point, so a
+# stretch of jogs is a slow transit, never an attractor); three also lets a period-1 cycle show thrice.
+CONFIRM_FLIPS: Final = 3
+# An exact cycle counts only when the stretch shows it this many times: twice is matched by chance by
+# the two ends of a quasi-periodic block, three times rarely (the corpus of tests/throwing never).
+CYCLE_REPEATS: Final = 3
+# Visits a tail must hold before "no exact cycle" counts as quasi-periodic: with fewer, a cycle of
+# QUASI_VISITS / CYCLE_REPEATS visits or more could not have shown thrice (the corpus's longest
+# periodic attractor has 21 visits per cycle).
+QUASI_VISITS: Final = 90
+# A periodic tail whose radii at one phase of the cycle move one way period after period, the last step
+# at least this share of the first, still drifts (attractors._drifting): a converging orbit's steps
+# shrink geometrically, a slow quasi-periodic drift's do not (two corpus designs drift ~0.1 mm per
+# round for 500-1,000 throws, then break their cycle).
+DRIFT_SHARE: Final = 0.5
+# The resolution at which two radius ranges count equal: the larger of the widest domain span of an
+# edge, max_i (R_max_i - low_i), over this many cells (a periodic orbit's range shrinks to points; a
+# hundredth keeps the transient's last approach out of the tail without waiting for convergence to
+# rounding, and does not depend on the number of starts) and this share of the range's own span (a
+# quasi-periodic attractor's extremes are approached slowly; a tenth lets a tail of a few rounds
+# confirm while a transient reaching a tenth beyond the attractor's range still fails).
+RESOLUTION_CELLS: Final = 100
+RESOLUTION_SPAN_SHARE: Final = 0.1
+# Share of the older half's states on an edge that may lie beyond the recent half's range (to the
+# resolution): a chaotic attractor (the paper's triangle: R on edge 1 wherever the flip lands) shows
+# its extremes only now and then, so a short recent half misses a few of them; a transient is a
+# stretch of such states.
+OUTSIDE_SHARE: Final = 0.05
+# A tail confirms only once the run has kept to it this many times longer than it ever kept to it
+# before departing (attractors.settled): convex12's visits to edge 5 come 50 to 1,500 throws apart, and
+# a quasi-periodic round of the corpus breaks its 8-visit motif every ~1,200 throws; twice the longest
+# earlier stay let no tail of the corpus confirm without them, three times only cost more throws.
+SOJOURN_FACTOR: Final = 2
 # Longest motif (in visits) of a block of a quasi-periodic attractor's round: convex12 alternates
 # 3/2 then 0/6 (motifs of 2); 4 allows motifs of up to four edges before a stretch counts as irregular.
 MAX_MOTIF: Final = 4
