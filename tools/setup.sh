@@ -56,10 +56,14 @@ fi
 # --- 4. Build the colcon workspace when any package source changed. -----------------------------
 # --symlink-install makes Python edits live, so a .py file counts by its path only (a new module needs
 # no rebuild either, but costs nothing to count); setup.py, package.xml and interfaces count whole.
-src_hash=$(cd "$ROOT" && find feeder_msgs feeder_planner feeder_device feeder_sim feeder_cell -type f \
+src_hash=$(cd "$ROOT" && find feeder_msgs standard_interfaces feeder_planner feeder_device feeder_sim feeder_cell -type f \
              -not -path '*/__pycache__/*' -not -name '*.pyc' \
              \( \( -name '*.py' -not -name setup.py -printf '%p\n' \) -o -printf '%p %s %T@\n' \) \
            | sort | sha256sum | cut -d' ' -f1)
+# A package whose install is gone (removed by hand, or a new link in ros_ws/src) is built again too.
+for package in "$WS"/src/*; do
+  [ -d "$WS/install/$(basename "$package")" ] || src_hash="$src_hash+missing"
+done
 if [ "$(cat "$WS/install/.feeder-build-stamp" 2>/dev/null)" != "$src_hash" ]; then
   say "building ros_ws with colcon"
   (

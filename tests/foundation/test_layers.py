@@ -22,7 +22,12 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGES = ("feeder_planner", "feeder_device", "feeder_sim", "feeder_cell")
 # The device kit's ROS-free modules: what a model package may import of it.
-DEVICE_KIT_CORE = ("feeder_device", "feeder_device.declarations", "feeder_device.parameters", "feeder_device.rate")
+DEVICE_KIT_CORE = (
+    "feeder_device",
+    "feeder_device.declarations",
+    "feeder_device.parameters",
+    "feeder_device.rate",
+)
 # ROS client library and interface packages: what the ROS-free core must never import.
 ROS_MODULES = ("rclpy", "rcl_interfaces", "builtin_interfaces", "rosgraph_msgs", "lifecycle_msgs")
 

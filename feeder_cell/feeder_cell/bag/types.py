@@ -65,6 +65,8 @@ def typestore() -> Typestore:
             continue
         definitions: dict = {}
         for path in sorted((share / "msg").glob("*.msg")):
+            if not path.exists():  # a symlinked install keeps the link of an interface since removed
+                continue
             type_name = f"{package}/msg/{path.stem}"
             parsed = get_types_from_msg(path.read_text(), type_name)
             described = _described_fields(path.with_suffix(".json"), type_name)

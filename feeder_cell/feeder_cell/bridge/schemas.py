@@ -9,19 +9,15 @@ from __future__ import annotations
 
 from feeder_cell.bag import types
 
-__all__ = ["SCHEMA_ALIASES", "schema_of", "service_schemas"]
-
-# Types advertised under another name with the same fields and bytes: our stand-in for tf2_msgs (see
-# feeder_planner.node_kit.tf) is the standard TFMessage to Foxglove, whose 3D panel then uses the frames.
-SCHEMA_ALIASES = {"feeder_msgs/msg/TFMessage": "tf2_msgs/msg/TFMessage"}
+__all__ = ["schema_of", "service_schemas"]
 
 
 def schema_of(type_name: str) -> tuple[str, str] | None:
     """Return (schema name, ros2msg definition text) of a ROS type, or None when it cannot be described."""
-    name = SCHEMA_ALIASES.get(type_name, type_name)
-    source = name if types.is_known(name) else type_name
     try:
-        return name, types.connection_definition(source)[0]  # also service event and action feedback types
+        return type_name, types.connection_definition(type_name)[
+            0
+        ]  # also service event and action feedback types
     except Exception:  # noqa: BLE001 -- rosbags raises several unrelated errors for a type it cannot describe
         return None
 

@@ -1,17 +1,13 @@
-"""/tf and /tf_static: the devices placed in one cell frame, with or without tf2_msgs installed.
+"""/tf and /tf_static: the devices placed in one cell frame, as standard ``tf2_msgs/msg/TFMessage``.
 
-The standard type is ``tf2_msgs/msg/TFMessage``. The pinned wheels of this workspace do not ship
-tf2_msgs, and defining a package of that name ourselves would collide with the real one on a full ROS
-install. So ``feeder_msgs/msg/TFMessage`` repeats its one field (``geometry_msgs/TransformStamped[]
-transforms``: the same CDR bytes) and is used only when ``tf2_msgs`` cannot be imported; on a full
-install the nodes publish the real type and RViz, ``ros2 run tf2_ros tf2_echo`` and bags see standard tf.
-Without tf2_msgs, ``feeder bridge`` advertises our type to Foxglove under the standard name (the bytes
-and the definition text are identical), so Foxglove's 3D panel uses the frames either way.
+The registry's wheels do not ship tf2_msgs, so the workspace builds the standard package from its own
+definitions (``standard_interfaces/tf2_msgs``; a test checks every type's RIHS01 hash against the
+standard's): RViz, ``tf2_echo``, Foxglove's 3D panel and bags see standard tf, and on a full install the
+overlay is identical to the system package.
 """
 
 from __future__ import annotations
 
-import importlib
 import math
 from typing import Any, Sequence
 
@@ -20,26 +16,13 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Quaternion, TransformStamped
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from tf2_msgs.msg import TFMessage
 
 from feeder_planner.node_kit.parameters import ParameterSpec, non_empty_string
-
-
-def _tf_message_type() -> Any:
-    """Return the standard TFMessage if installed, else ours; None for an interface build older than it."""
-    for module in ("tf2_msgs.msg", "feeder_msgs.msg"):
-        try:
-            return importlib.import_module(module).TFMessage
-        except (ImportError, AttributeError):
-            continue
-    return None
-
-
-TFMessage: Any = _tf_message_type()
 
 __all__ = [
     "TFMessage",
     "TF_TYPE",
-    "STANDARD_TF_TYPE",
     "TF_STATIC_QOS",
     "TF_QOS",
     "CELL_FRAME",
@@ -56,12 +39,7 @@ __all__ = [
     "FramePublisher",
 ]
 
-STANDARD_TF_TYPE = "tf2_msgs/msg/TFMessage"
-TF_TYPE = (
-    STANDARD_TF_TYPE
-    if TFMessage is not None and TFMessage.__module__.startswith("tf2_msgs")
-    else "feeder_msgs/msg/TFMessage"
-)
+TF_TYPE = "tf2_msgs/msg/TFMessage"
 
 # tf2_ros's own profiles: a static broadcaster latches its one message of every transform it holds; the
 # dynamic topic is a deep volatile stream.
@@ -183,19 +161,13 @@ class StaticFrames:
 
     def __init__(self, node: Node) -> None:
         self.node = node
-        self.publisher = (
-            None if TFMessage is None else node.create_publisher(TFMessage, "/tf_static", TF_STATIC_QOS)
-        )
+        self.publisher = node.create_publisher(TFMessage, "/tf_static", TF_STATIC_QOS)
         self.transforms: dict[str, TransformStamped] = {}
-        if TFMessage is None:
-            node.get_logger().warning(
-                "no TFMessage type (run make setup to build feeder_msgs): no /tf frames"
-            )
 
     def set(self, transforms: Sequence[TransformStamped]) -> None:
         """Hold exactly ``transforms`` (keyed by child frame) and publish them if anything changed."""
         new = {t.child_frame_id: t for t in transforms}
-        if self.publisher is not None and self._key(new) != self._key(self.transforms):
+        if self._key(new) != self._key(self.transforms):
             self.transforms = new
             self.publisher.publish(TFMessage(transforms=list(new.values())))
 
@@ -221,9 +193,9 @@ class FramePublisher:
     """A node's moving frames on /tf (the fixture's tilting table)."""
 
     def __init__(self, node: Node) -> None:
-        self.publisher = None if TFMessage is None else node.create_publisher(TFMessage, "/tf", TF_QOS)
+        self.publisher = node.create_publisher(TFMessage, "/tf", TF_QOS)
 
     def publish(self, transforms: Sequence[TransformStamped]) -> None:
         """Publish ``transforms`` (nothing when there are none)."""
-        if transforms and self.publisher is not None:
+        if transforms:
             self.publisher.publish(TFMessage(transforms=list(transforms)))
