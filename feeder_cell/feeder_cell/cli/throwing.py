@@ -9,7 +9,6 @@ import numpy as np
 
 from feeder_cell.cli.common import add_json_flag, angle, emit, finite_float
 from feeder_cell.cli.throwing_studies import (
-    ATTRACTORS,
     EXIT_INTERRUPTED,
     add_robust_flags,
     attractor_lines,
@@ -52,6 +51,22 @@ numbered counter-clockwise from the first file vertex on the hull; edge i joins 
 Lengths on the command line (R, H, G in length/s^2, sensing height) are in the part file's
 length_unit; W is rad/s, or deg/s with a 'deg' suffix (320deg). JSON output is SI (m, rad, s).
 Exit 2 on bad input, 3 when a result cannot be certified (e.g. no invariant set)."""
+
+LIMIT_SET_RULE = """Each start is thrown until its tail confirms (issue 25): from two windows on, its last
+n/2 throws must show the same edges, radius ranges (to 1 % of the widest edge span or a tenth of the
+range) and exact cycle (or none) as its last n/4, and the start must have kept to them twice as long
+as it ever kept to a stretch it then left. A start that does not confirm within --throws is counted in
+"unconverged_starts" and in no attractor. Starts whose tails share edges, cycle and radii form one
+attractor, and everything reported of it comes from the tails (the transients are not in them).
+--json adds "attractors": per attractor its edges, edge_radius_ranges, periodic, cycle (one period,
+null when quasi-periodic), pattern (one round as blocks: [edge, min visits, max visits]),
+throws_per_round [min, mean, max], basin (fraction of starts), longest_transient, and
+assumption_violations (fraction of its throws with lift_off, slip, off_arm). longest_transient: the
+most throws any start of its basin took before its state stayed on the attractor's edges, each within
+its radius range; a sensor in the trigger range tells the goal edge only after that many throws from
+such a start. "unique": one attractor from every start; "cycle" only for a periodic unique one.
+"trigger_note" says why there is no trigger range, naming the attractor and edge that rule one out.
+Exit 3 when no start confirms within --throws ("raise --throws")."""
 
 FLAGS = {
     "radius": "--radius",
@@ -104,7 +119,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="grasp radii, forward limit set and sensor trigger range",
         description="Grasp radii (eqs. 1-4), R_flip and R_max (Prop. IV.4), the forward limit "
         "set from a grid of starts (Figs. 7, 8) and the sensor trigger radius range "
-        "for the goal edge.\n" + ATTRACTORS + "\n" + CONVENTIONS,
+        "for the goal edge.\n" + LIMIT_SET_RULE + "\n" + CONVENTIONS,
         formatter_class=fmt,
     )
     _common(q)
@@ -125,7 +140,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--throws",
         type=int,
         default=DEFAULT_THROWS,
-        help=f"cap on throws per start; each start stops once it recurs (default {DEFAULT_THROWS})",
+        help=f"cap on throws per start; each start stops once its tail confirms (default {DEFAULT_THROWS})",
     )
     add_plot_flag(q)
     q.set_defaults(handler=_guard(run_limit_set))
