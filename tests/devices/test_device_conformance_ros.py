@@ -317,15 +317,16 @@ DEVICES = (
     DeviceCase(
         "feeder_sim",
         "mems_field_array",
-        # The array fidelity (the cell faults need it) on a 6 mm array under the 4 x 3 mm bracket; a drag so
-        # strong that the part creeps at microns per second and stays on the array for the whole module.
+        # The array fidelity (the cell faults need it) on a 6 mm array under the 4 x 3 mm bracket, a drag so
+        # strong that the part creeps at microns per second (the tests hold it still with a zero field), and
+        # 10 ms steps: cheap ticks, also in this process (the guard's device).
         {
             "part_files": [BRACKET],
             "initial_poses": [0.0, 0.0, 0.0],
             "fidelity": "array",
             "array_size": [60, 60],
             "damping": 1e6,
-            "time_step": 1e-3,
+            "time_step": 1e-2,
             "publish_rate": 20.0,
             "fault_seed": 9,
         },
@@ -683,6 +684,19 @@ def cell(caller: Any, start_together: Any) -> Iterator[Cell]:
         lifecycle.close()
 
 
+def assert_ended_by_pid(process: launcher.NodeProcess) -> None:
+    """The process is gone, and its exit was a clean ROS shutdown (0, or the SIGINT it did not catch)."""
+    import os
+
+    assert not process.alive()
+    with pytest.raises(ProcessLookupError):
+        os.kill(process.pid, 0)
+    code = process.process.returncode
+    assert code in (0, -2, 130), (
+        f"{process.spec.fully_qualified_name} exited with {code}:\n{process.output()[-2000:]}"
+    )
+
+
 def no_fault(status: Any) -> bool:
     """No fault but perhaps the warning that the device is behind real time (a loaded machine)."""
     return status.fault_code in (DeviceStatus.FAULT_NONE, DeviceStatus.FAULT_BEHIND_REAL_TIME)
@@ -801,6 +815,8 @@ def test_each_bad_read_only_configuration_fails_configure_naming_it_and_the_node
         stop_together(processes)
         for lifecycle, _ in prepared.values():
             lifecycle.close()
+    for process in processes:  # ended by pid: SIGINT is a clean shutdown for a ROS node
+        assert_ended_by_pid(process)
 
 
 @pytest.mark.parametrize("case", DEVICES, ids=IDS)
@@ -1240,8 +1256,6 @@ def test_a_goal_whose_machine_raises_ends_aborted_and_the_device_serves_on(
 def test_shutdown_releases_everything_and_the_node_is_then_ended_by_pid(
     healthy: Cell, case: DeviceCase
 ) -> None:
-    import os
-
     cell = healthy
     statuses, events = cell.statuses[case.name], cell.transitions[case.name]
     process = cell.processes[case.executable]
@@ -1258,8 +1272,5 @@ def test_shutdown_releases_everything_and_the_node_is_then_ended_by_pid(
     assert lifecycle.get_state() == "finalized" and process.alive()
     response = cell.trigger(case, "stop")
     assert not response.success and "UNCONFIGURED" in response.message
-    code = process.stop()
-    assert not process.alive()
-    with pytest.raises(ProcessLookupError):
-        os.kill(process.pid, 0)
-    assert code in (0, -2, 130), f"{case.executable} exited with {code}:\n{process.output()[-2000:]}"
+    process.stop()
+    assert_ended_by_pid(process)
