@@ -100,6 +100,9 @@ class DeviceState(IntEnum):
 
 
 P = TypeVar("P", bound=DeviceParameters)
+# What ~/status last said (state, busy, fault code and text, fault labels, counters, behind real time):
+# the status is published again when it changes.
+StatusKey = tuple[DeviceState, bool, int, str, tuple[str, ...], tuple[tuple[str, int], ...], bool]
 
 
 def device_parameter_specs(
@@ -143,7 +146,7 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         self._tick_timer: Timer | None = None
         self._streams: list[tuple[Publisher, bool]] = []
         self.goals: list[TickedGoal] = []  # the goals executing (feeder_device.goals), advanced per tick
-        self._last_status: tuple[Any, ...] | None = None
+        self._last_status: StatusKey | None = None
         self._status_pub = self.create_publisher(DeviceStatus, "~/status", LATCHED)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         serve(self, Trigger, "~/stop", self._on_stop)
@@ -186,8 +189,12 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         """
         return None
 
-    def apply_parameter(self, name: str, value: Any) -> None:
-        """Apply a validated runtime parameter; raise InputError to refuse it."""
+    def apply_parameter(self, name: str, p: P) -> None:
+        """Apply the validated runtime parameter ``name``; raise InputError to refuse it.
+
+        ``p`` holds its new value (``p.<name>``; a display parameter's is not a field of it): ``self.p``
+        becomes ``p`` once this returns.
+        """
 
     def busy(self) -> bool:
         """Whether the device is executing a command (by default: a goal is executing)."""
@@ -647,12 +654,14 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         if self.lifecycle in ("active", "inactive"):
             for change in changes:
                 if change.name in self.specs:
+                    changed = self.p
+                    if change.name in self.p.__dataclass_fields__:
+                        changed = dataclasses.replace(self.p, **{change.name: change.value})
                     try:
-                        self.apply_parameter(change.name, change.value)
+                        self.apply_parameter(change.name, changed)
                     except FeederError as error:
                         return SetParametersResult(successful=False, reason=str(error))
-                    if change.name in self.p.__dataclass_fields__:
-                        self.p = dataclasses.replace(self.p, **{change.name: change.value})
+                    self.p = changed
         return SetParametersResult(successful=True)
 
     # --- heartbeat -------------------------------------------------------------------------------

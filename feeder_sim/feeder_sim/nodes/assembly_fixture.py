@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Any, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 from geometry_msgs.msg import Vector3Stamped
@@ -61,6 +61,7 @@ from feeder_sim.fixture import (
     FIXTURE_FAULTS,
     JOINT_NAMES,
     GoalWaypoints,
+    PathVerdict,
     PlannedPath,
     Table,
     TableLimits,
@@ -168,7 +169,7 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
         self._forget()
 
     # --- runtime parameters, status, stop/reset, faults ---------------------------------------------
-    def apply_parameter(self, name: str, value: Any) -> None:
+    def apply_parameter(self, name: str, p: FixtureParameters) -> None:
         """Apply max_rate_x/y to the running table (the move in progress speeds up or slows down).
 
         interlock, path_step and max_advance_per_tick are read from ``self.p`` at every move or tick, which
@@ -176,8 +177,10 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
         """
         if self.table is None or name not in ("max_rate_x", "max_rate_y"):
             return
-        field = "rate_x" if name == "max_rate_x" else "rate_y"
-        limits = replace(self.limits, **{field: float(value)})
+        if name == "max_rate_x":
+            limits = replace(self.limits, rate_x=float(p.max_rate_x))
+        else:
+            limits = replace(self.limits, rate_y=float(p.max_rate_y))
         try:
             limits.validate()
         except InputError as error:
@@ -329,7 +332,7 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
         self.publish_status()
         return goal.following(machine)
 
-    def _certifier(self, planned: PlannedPath, verdict: Any) -> Any:
+    def _certifier(self, planned: PlannedPath, verdict: PathVerdict) -> Callable[[int], bool]:
         """Return whether the LP certifies a sample of the path stable (asked only past the first failure)."""
         prepared = self.prepared
         assert prepared is not None

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -37,7 +36,7 @@ from geometry_msgs.msg import Pose, PoseArray
 from rclpy.action.server import ServerGoalHandle
 from rclpy.time import Time as RclTime
 
-from feeder_device.declarations import ActiveFault, DeviceError, FaultSpec
+from feeder_device.declarations import ActiveFault, Counters, DeviceError, FaultSpec
 from feeder_device.device import ManagedDevice, device_parameter_specs
 from feeder_device.goals import serve_goal
 from feeder_msgs.action import RunProgram
@@ -51,7 +50,7 @@ from feeder_msgs.msg import (
     MemsPartStates,
 )
 from feeder_msgs.srv import FieldSetProgram, MemsPlaceParts
-from feeder_planner.drawing import triangulate_loops
+from feeder_planner.drawing import Shape, triangulate_loops
 from feeder_planner.errors import InputError
 from feeder_planner.mems import Field, ProgramStep
 from feeder_planner.node_kit import LATCHED, STREAM_DEPTH, planar_pose, run_node, service_guard
@@ -64,6 +63,7 @@ from feeder_sim.mems import Grid, Scene
 from feeder_sim.mems.configure import configure_scene
 from feeder_sim.mems.counters import COUNTERS
 from feeder_sim.mems.drawing import array_shapes, force_shapes, parts_shapes
+from feeder_sim.mems.faults import ArrayFaults
 from feeder_sim.mems.parameters import AUTO_CATCH_UP_TICKS, BASE_FRAME, NANOSECONDS, MemsParameters
 from feeder_sim.mems.placing import place_parts, placement_reach, reset_parts
 from feeder_sim.mems.program_goal import ProgramGoal
@@ -111,6 +111,11 @@ FAULTS = {
 }
 
 
+# The array's static drawing, rebuilt on change: (cell forces drawn, (nx, ny, pitch, stride) or () before
+# the first, shapes).
+ArrayDrawing = tuple[np.ndarray | None, tuple[int, int, float, int] | tuple[()], list[Shape]]
+
+
 def _stamp(nanoseconds: int) -> Time:
     """Return a node-clock time (integer ns) as a message stamp."""
     return RclTime(nanoseconds=nanoseconds).to_msg()
@@ -143,11 +148,10 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         self.frame_id = ""
         self.step_ns = 1
         self.owed_ns = 0
-        self.last_cells: tuple[Any, ...] | None = None
+        self.last_cells: tuple[Field, ArrayFaults] | None = None
         self.last_grid_forces = np.zeros((0, 0, 2))
         self.part_triangles: tuple[Scene | None, list[np.ndarray]] = (None, [])
-        # (cell forces drawn, (nx, ny, pitch, stride), shapes): the array's static drawing, rebuilt on change.
-        self.array_drawing: tuple[np.ndarray | None, tuple[Any, ...], list[Any]] = (None, (), [])
+        self.array_drawing: ArrayDrawing = (None, (), [])
         self.last_activity: tuple[bool, int, bool, bool] | None = None
         self.program_stamp = 0
         self.predictions: dict[tuple[int, Field], Prediction] = {}
@@ -185,15 +189,15 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         self._forget()
 
     # --- runtime parameters, status, stop/reset ----------------------------------------------------
-    def apply_parameter(self, name: str, value: Any) -> None:
+    def apply_parameter(self, name: str, p: MemsParameters) -> None:
         """Apply damping, friction or max_steps_per_tick to the running scene (the others are read-only)."""
         if self.scene is None:
             return
         try:
             if name == "damping":
-                self.scene.set_damping(float(value))
+                self.scene.set_damping(float(p.damping))
             elif name == "friction":
-                self.scene.set_friction(float(value))
+                self.scene.set_friction(float(p.friction))
         except InputError as error:
             raise InputError(f"parameter {name}", error.problem) from None
         # max_steps_per_tick is read from self.p at every tick, which the kit updates after this returns
@@ -206,7 +210,7 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
             return False
         return not self.scene.on_last_step() or not all(self.scene.settled())
 
-    def counters(self) -> Any:
+    def counters(self) -> Counters:
         """Return the counts, with the parts at rest and the stiff steps read off the scene."""
         if self.scene is not None:
             self.count.set("parts_settled", sum(self.scene.settled()))

@@ -18,8 +18,9 @@ the same queue, period and motion as ``~/command throw``. While a goal executes,
 from __future__ import annotations
 
 import math
-from typing import Any, Sequence
+from typing import Sequence
 
+from builtin_interfaces.msg import Time as StampMsg
 from geometry_msgs.msg import PoseStamped
 from rclpy.action.server import ServerGoalHandle
 from rclpy.time import Time
@@ -132,12 +133,12 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         """Throwing: running every period, throws queued, a throw being shown, or a feed goal executing."""
         return super().busy() or (self.cycle is not None and self.cycle.busy)
 
-    def apply_parameter(self, name: str, value: Any) -> None:
+    def apply_parameter(self, name: str, p: ArmParameters) -> None:
         """Apply a runtime parameter to the running arm (the read-only ones never get here)."""
         if name == "release_speed":
-            self._cycle().arm.set_release_speed(float(value))
+            self._cycle().arm.set_release_speed(float(p.release_speed))
         elif name == "dynamic_step":
-            self._cycle().arm.dynamic_step = float(value)
+            self._cycle().arm.dynamic_step = float(p.dynamic_step)
         # period, motion_fraction, sensor_radius and sensing_height are read from self.p at each tick,
         # which the kit updates once this returns.
 
@@ -444,7 +445,7 @@ class FeedPartGoal:
         return ("canceled" if canceled else "abort"), result
 
 
-def _stamp(nanoseconds: int) -> Any:
+def _stamp(nanoseconds: int) -> StampMsg:
     """Return a node-clock time (integer ns) as a message stamp."""
     return Time(nanoseconds=nanoseconds).to_msg()
 
