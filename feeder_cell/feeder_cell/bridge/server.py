@@ -29,7 +29,9 @@ from typing import Any, Callable, TypeVarTuple, Unpack
 
 from rcl_interfaces.msg import Parameter, ParameterEvent, ParameterValue
 from rcl_interfaces.srv import GetParameters, ListParameters, SetParameters
+from rclpy.client import Client
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_parameter_events
 from rclpy.serialization import deserialize_message, serialize_message
 from rclpy.subscription import Subscription
@@ -102,14 +104,14 @@ class _Topic:
 class _Service:
     service: Service
     srv_class: Any
-    client: Any = None  # the rclpy client, made at the first call
+    client: Client | None = None  # made at the first call
 
 
 @dataclass
 class _Call:
     """A service request in flight: sent once its server is matched, failed at its deadline."""
 
-    client: Any
+    client: Client
     request: Any
     done: Done
     timeout: float
@@ -121,7 +123,7 @@ class _Call:
 
 @dataclass
 class _Publisher:
-    publisher: Any
+    publisher: Publisher
     msg_class: Any
     topic: str
     type_name: str
@@ -171,7 +173,7 @@ class GraphBridge:
         self.services: dict[str, _Service] = {}
         self.skipped_services: set[str] = set()
         self.parameter_nodes: set[str] = set()
-        self._parameter_clients: dict[str, tuple[Any, Any, Any]] = {}  # node -> (list, get, set) clients
+        self._parameter_clients: dict[str, tuple[Client, Client, Client]] = {}  # node -> (list, get, set)
         self._service_types: dict[str, list[str]] = {}
         self._calls: list[_Call] = []
         self._publishers: dict[tuple[int, int], _Publisher] = {}
@@ -409,7 +411,7 @@ class GraphBridge:
             self.node.destroy_subscription(subscription)
 
     # --- calls ----------------------------------------------------------------------------------------------
-    def _call(self, client: Any, request: Any, done: Done, timeout: float) -> None:
+    def _call(self, client: Client, request: Any, done: Done, timeout: float) -> None:
         """Call a service without blocking: ``done(response, None)`` or ``done(None, why)`` later."""
         now = time.monotonic()
         call = _Call(client, request, done, timeout, now + min(SERVER_WAIT, timeout), now + timeout)
@@ -477,7 +479,7 @@ class GraphBridge:
         self._call(entry.client, request, done, self.service_timeout)
 
     # --- parameters -----------------------------------------------------------------------------------------
-    def _parameter_client(self, node: str, index: int) -> Any:
+    def _parameter_client(self, node: str, index: int) -> Client:
         if node not in self._parameter_clients:
             qos = request_qos()
             self._parameter_clients[node] = (
