@@ -18,12 +18,13 @@ import struct
 from dataclasses import dataclass, field
 from io import BytesIO
 from pathlib import Path
-from typing import Any, BinaryIO, Iterator
+from typing import BinaryIO, Iterator, TypeAlias, TypedDict
 
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import Channel, Chunk, Message, Schema
 from mcap.stream_reader import get_chunk_data_stream
+from rosbags.interfaces import Connection
 from rosbags.rosbag2.metadata import parse_qos
 
 from feeder_cell.bag.types import type_hash
@@ -40,6 +41,17 @@ UNKNOWN_TYPE_HASH = "RIHS01_" + "0" * 64
 
 # A file from which nothing could be recovered is renamed with this suffix, out of the bag's file set.
 LEFT_OUT_SUFFIX = ".left-out"
+
+
+# The records of an MCAP file a bag is rebuilt from.
+McapRecord: TypeAlias = Schema | Channel | Message
+
+
+class TopicCount(TypedDict):
+    """A recovered topic: its type and message count."""
+
+    type: str
+    count: int
 
 
 @dataclass
@@ -64,7 +76,7 @@ class ReindexReport:
 
     path: Path
     files: list[FileReport] = field(default_factory=list)
-    topics: dict[str, dict[str, Any]] = field(default_factory=dict)
+    topics: dict[str, TopicCount] = field(default_factory=dict)
 
 
 def is_complete(mcap_file: Path) -> bool:
@@ -80,7 +92,7 @@ def is_complete(mcap_file: Path) -> bool:
         return False
 
 
-def _scan(stream: BinaryIO, size: int, report: FileReport) -> Iterator[Any]:
+def _scan(stream: BinaryIO, size: int, report: FileReport) -> Iterator[McapRecord]:
     """Yield the schema, channel and message records of the intact part of an MCAP file, in order."""
     magic = stream.read(len(MAGIC))
     if magic != MAGIC:
@@ -107,7 +119,7 @@ def _scan(stream: BinaryIO, size: int, report: FileReport) -> Iterator[Any]:
             report.stopped_by = f"record at byte {position} is cut off ({length} bytes announced)"
             return
         body = stream.read(length)
-        records: list[Any] = []
+        records: list[McapRecord] = []
         try:
             data = ReadDataStream(BytesIO(body))
             if opcode == Opcode.CHUNK:
@@ -139,7 +151,7 @@ class DamagedChunkError(ValueError):
     """A chunk record whose fields or contents do not add up (zeros or garbage where data should be)."""
 
 
-def _chunk_records(chunk: Chunk, consumed: int, length: int) -> list[Any]:
+def _chunk_records(chunk: Chunk, consumed: int, length: int) -> list[McapRecord]:
     """Return a chunk's schema, channel and message records, or raise DamagedChunkError.
 
     rosbags writes no chunk CRC, so consistency is what tells a whole chunk from one whose blocks were
@@ -151,7 +163,7 @@ def _chunk_records(chunk: Chunk, consumed: int, length: int) -> list[Any]:
     stream, size = get_chunk_data_stream(chunk, validate_crc=True)
     if size != chunk.uncompressed_size:
         raise DamagedChunkError(f"{size} bytes of contents, {chunk.uncompressed_size} stated")
-    records: list[Any] = []
+    records: list[McapRecord] = []
     while stream.count < size:
         opcode, inner = stream.read1(), stream.read8()
         if opcode == 0 or inner > size - stream.count:
@@ -177,7 +189,7 @@ def _type_hash(msgtype: str) -> str:
     return type_hash(msgtype) or UNKNOWN_TYPE_HASH
 
 
-def _file_order(path: Path) -> tuple[Any, ...]:
+def _file_order(path: Path) -> tuple[int | str, ...]:
     """Sort key putting ``<bag>_2.mcap`` before ``<bag>_10.mcap`` (numbers compared as numbers)."""
     return tuple(int(part) if part.isdigit() else part for part in re.split(r"(\d+)", path.name))
 
@@ -240,7 +252,7 @@ def reindex(bag: Path) -> ReindexReport:
     writer = BagWriter(rebuilt)
     written: list[FileReport] = []  # files rewritten into the work directory, in order
     try:
-        connections: dict[tuple[str, str, str], Any] = {}
+        connections: dict[tuple[str, str, str], Connection] = {}
         for path in files:
             size = path.stat().st_size
             file_report = FileReport(path.name, size, 0)
@@ -254,7 +266,7 @@ def reindex(bag: Path) -> ReindexReport:
             written.append(file_report)
             # Schema and channel ids are per file: map them to this bag's connections by topic, type, QoS.
             schemas: dict[int, Schema] = {}
-            channel_map: dict[int, Any] = {}
+            channel_map: dict[int, Connection] = {}
             with path.open("rb") as stream:
                 for record in _scan(stream, size, file_report):
                     if isinstance(record, Schema):
@@ -301,10 +313,10 @@ def reindex(bag: Path) -> ReindexReport:
 
 def _connect(
     writer: BagWriter,
-    connections: dict[tuple[str, str, str], Any],
+    connections: dict[tuple[str, str, str], Connection],
     channel: Channel,
     schema: Schema,
-) -> Any:
+) -> Connection:
     """Return the bag's connection for a file's channel (the writer declares it in each file it is used)."""
     qos = channel.metadata.get("offered_qos_profiles", "")
     key = (channel.topic, schema.name, qos)

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from rosbags.interfaces import Nodetype, Typestore
+from rosbags.interfaces.typing import BaseDesc, Constdefs, Fielddefs, FieldDesc, NameDesc, Typesdict
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 OWN_INTERFACE_PACKAGES = ("feeder_msgs",)
@@ -63,7 +64,7 @@ def typestore() -> Typestore:
         share = _share_dir(package)
         if share is None:
             continue
-        definitions: dict = {}
+        definitions: Typesdict = {}
         for path in sorted((share / "msg").glob("*.msg")):
             if not path.exists():  # a symlinked install keeps the link of an interface since removed
                 continue
@@ -84,7 +85,7 @@ def typestore() -> Typestore:
 _msg_hashes: dict[str, str] = {}
 
 
-def _described_fields(path: Path, type_name: str) -> tuple[list[tuple[str, Any]], str] | None:
+def _described_fields(path: Path, type_name: str) -> tuple[Fielddefs, str] | None:
     """Return a type's fields and hash from its rosidl type description file, or None without one."""
     if not path.is_file():
         return None
@@ -98,17 +99,17 @@ def _described_fields(path: Path, type_name: str) -> tuple[list[tuple[str, Any]]
 
 
 # Per service or action type: its fields (as rosbags field definitions) and its rosidl type hash.
-_interface_types: dict[str, tuple[list[tuple[str, Any]], str]] = {}
+_interface_types: dict[str, tuple[Fielddefs, str]] = {}
 _loaded: set[str] = set()
 
 
-def _field_type(field_type: dict[str, Any]) -> tuple[Any, Any]:
+def _field_type(field_type: dict[str, Any]) -> FieldDesc:
     """Return the rosbags field definition of a type description's field type."""
     type_id = field_type["type_id"]
     kind, base = divmod(type_id, 48)
     kind *= 48
     if base == _NESTED:
-        element: tuple[Any, Any] = (Nodetype.NAME, field_type["nested_type_name"])
+        element: BaseDesc | NameDesc = (Nodetype.NAME, field_type["nested_type_name"])
     elif base in _BASE_TYPES:
         element = (
             Nodetype.BASE,
@@ -167,7 +168,7 @@ def _short_name(type_name: str) -> str:
     return f"{package}/{name}"
 
 
-def _field_text(name: str, definition: tuple[Any, Any], nested: list[str]) -> str:
+def _field_text(name: str, definition: FieldDesc, nested: list[str]) -> str:
     node_type, detail = definition
     if node_type == Nodetype.BASE:
         base, bound = detail
@@ -188,13 +189,13 @@ def _field_text(name: str, definition: tuple[Any, Any], nested: list[str]) -> st
     return f"{_short_name(element_detail)}{suffix} {name}"
 
 
-def _fields_of(type_name: str) -> list[tuple[str, Any]]:
+def _fields_of(type_name: str) -> Fielddefs:
     if type_name in _interface_types:
         return _interface_types[type_name][0]
     return list(typestore().fielddefs[type_name][1])
 
 
-def _constants_of(type_name: str) -> list[tuple[str, str, Any]]:
+def _constants_of(type_name: str) -> Constdefs:
     if type_name in _interface_types:
         return []  # type descriptions carry no constants; decoding does not need them
     return list(typestore().fielddefs[type_name][0])
