@@ -7,22 +7,26 @@ burst must not lose requests.
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Callable, TypeVar
 
 from rclpy.node import Node
+from rclpy.service import Service
 
 from feeder_planner.node_kit.qos import request_qos
 
 __all__ = ["serve_pause_controls"]
 
+# A service response message: a callback fills in and returns the one it is handed.
+Response = TypeVar("Response")
+
 
 def serve_pause_controls(
     node: Node,
-    pause: Callable[[], Any],
-    resume: Callable[[], Any],
-    toggle: Callable[[], Any],
+    pause: Callable[[], object],
+    resume: Callable[[], object],
+    toggle: Callable[[], object],
     paused: Callable[[], bool],
-) -> list[Any]:
+) -> list[Service]:
     """Serve the four pause services on ``node``; return the services (the caller keeps them alive).
 
     Parameters
@@ -36,14 +40,14 @@ def serve_pause_controls(
     """
     from feeder_msgs.srv import IsPaused, Pause, Resume, TogglePaused
 
-    def doing(action: Callable[[], Any]) -> Callable[[Any, Any], Any]:
-        def callback(_request: Any, response: Any) -> Any:
+    def doing(action: Callable[[], object]) -> Callable[[object, Response], Response]:
+        def callback(_request: object, response: Response) -> Response:
             action()
             return response
 
         return callback
 
-    def is_paused(_request: Any, response: Any) -> Any:
+    def is_paused(_request: IsPaused.Request, response: IsPaused.Response) -> IsPaused.Response:
         response.paused = paused()
         return response
 

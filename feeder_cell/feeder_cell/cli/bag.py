@@ -6,14 +6,21 @@ import argparse
 import re
 import time
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from feeder_cell.cli.common import add_json_flag, emit, finite_float, output_directory
 from feeder_cell.ros_session import with_node
 from feeder_planner.errors import InputError
 
+if TYPE_CHECKING:
+    from rclpy.executors import Executor
+    from rclpy.node import Node
+    from rclpy.service import Service
 
-def _selection(args: argparse.Namespace) -> Any:
+    from feeder_cell.bag.recorder import Recorder, Selection
+
+
+def _selection(args: argparse.Namespace) -> Selection:
     from feeder_cell.bag.recorder import Selection
 
     selective = args.topics or args.regex is not None or args.services is not None or args.actions is not None
@@ -78,7 +85,7 @@ def _record(args: argparse.Namespace) -> int:
     # bags go into OUTPUT as a directory of bags, which may exist already (each bag's name is new).
     output = output_directory(args.output, "output", must_be_new=not snapshot)
 
-    def work(node: Any, executor: Any, keep_going: Any) -> dict[str, Any]:
+    def work(node: Node, executor: Executor, keep_going: Callable[[], bool]) -> dict[str, Any]:
         clock: Callable[[], int] = time.time_ns
         if args.use_sim_time:
             from rclpy.parameter import Parameter
@@ -185,12 +192,12 @@ def _snapshot_options(args: argparse.Namespace) -> bool:
 DEFAULT_POST_FAULT = 5.0
 
 
-def _serve_snapshot(node: Any, recorder: Any) -> Any:
+def _serve_snapshot(node: Node, recorder: Recorder) -> Service:
     """Serve ``~/snapshot`` (rosbag2_interfaces' Snapshot shape) on the recorder node."""
     from feeder_msgs.srv import Snapshot
     from feeder_planner.node_kit.qos import request_qos
 
-    def callback(_request: Any, response: Any) -> Any:
+    def callback(_request: Snapshot.Request, response: Snapshot.Response) -> Snapshot.Response:
         response.success = recorder.snapshot_now()
         return response
 
