@@ -38,11 +38,16 @@ import re
 import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterator
+from typing import TYPE_CHECKING, Any, Iterator, TypedDict
 
 from feeder_cell.bag.recorder import SERVICE_EVENT_SUFFIX, is_hidden
 from feeder_cell.bag.writer import BagWriter
 from feeder_planner.errors import InputError
+
+if TYPE_CHECKING:
+    from rosbags.interfaces import Connection, Qos
+
+    from feeder_cell.bag.reindex import TopicCount
 
 __all__ = ["ConvertResult", "OutputBag", "convert", "load_output_options", "parse_output_options"]
 
@@ -317,7 +322,7 @@ class _Topic:
     msgdef: str
     type_hash: str
     encoding: str
-    profiles: list[Any] = field(default_factory=list)
+    profiles: list[Qos] = field(default_factory=list)
     profile_keys: set[str] = field(default_factory=set)
 
 
@@ -400,12 +405,22 @@ def _declared_topics(files: list[InputFile]) -> tuple[dict[str, _Topic], dict[st
     return topics, ambiguous
 
 
+class OutputSummary(TypedDict):
+    """One output bag as ``convert`` wrote it: its files, message count, compression and topics."""
+
+    uri: str
+    files: list[str]
+    messages: int
+    compression: str
+    topics: dict[str, TopicCount]
+
+
 @dataclass
 class ConvertResult:
     """What ``convert`` wrote: per output its files and per-topic counts; per input its message count."""
 
     inputs: dict[str, int] = field(default_factory=dict)
-    outputs: list[dict[str, Any]] = field(default_factory=list)
+    outputs: list[OutputSummary] = field(default_factory=list)
     skipped_topics: dict[str, list[str]] = field(default_factory=dict)
 
 
@@ -435,7 +450,7 @@ def convert(inputs: list[Path], outputs: list[OutputBag]) -> ConvertResult:
             writer = BagWriter(output.uri, output.compression, custom_data=dict(output.custom_data))
             writer.open()
             writers.append(writer)
-        connections: list[dict[str, Any]] = []
+        connections: list[dict[str, Connection]] = []
         for writer, names in zip(writers, taken, strict=True):
             made = {}
             for name in sorted(names):

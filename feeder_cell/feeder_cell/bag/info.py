@@ -11,9 +11,12 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, Sequence
 
 from feeder_cell.bag.recorder import service_of
+
+if TYPE_CHECKING:
+    from rosbags.interfaces import Qos
 
 # service_msgs/msg/ServiceEventInfo event_type: the first byte after the 4-byte CDR encapsulation.
 _REQUEST_EVENTS = (0, 1)  # REQUEST_SENT, REQUEST_RECEIVED
@@ -36,7 +39,7 @@ def _chunk_compressions(path: Path) -> list[str]:
     return sorted({index.compression or "none" for index in summary.chunk_indexes})
 
 
-def _qos_dicts(profiles: list[Any]) -> list[dict[str, Any]]:
+def _qos_dicts(profiles: Sequence[Qos]) -> list[dict[str, Any]]:
     from rosbags.rosbag2.metadata import dump_qos_v9
 
     return [dict(p) for p in dump_qos_v9(list(profiles))]

@@ -42,6 +42,7 @@ from typing import Any, Callable, Iterable
 
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
+from rosbags.interfaces import Connection
 
 from feeder_cell.bag.qos import matching_qos, offered_qos, to_bag_qos
 from feeder_cell.bag.snapshot import (
@@ -52,6 +53,7 @@ from feeder_cell.bag.snapshot import (
     SnapshotCache,
     SnapshotWriter,
     TopicInfo,
+    WrittenBag,
     capture_name,
 )
 from feeder_cell.bag.types import connection_definition, is_known, message_class
@@ -266,7 +268,7 @@ class Recorder:
         self._lock = threading.Lock()
         self._sync_lock = threading.Lock()
         self._synced = 0  # file position the last fsync covered
-        self._connections: dict[str, Any] = {}
+        self._connections: dict[str, Connection] = {}
         self._topic_info: dict[str, TopicInfo] = {}
         self._offers: dict[str, _Offer] = {}
         self._subscriptions: dict[str, Any] = {}
@@ -551,7 +553,7 @@ class Recorder:
         self._captures = keep
 
     @property
-    def written(self) -> list[Any]:
+    def written(self) -> list[WrittenBag]:
         """Return the snapshot bags written so far (snapshot mode)."""
         return list(self._snapshots.written) if self._snapshots is not None else []
 

@@ -31,9 +31,12 @@ import threading
 from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, NamedTuple
+from typing import TYPE_CHECKING, Any, Callable, NamedTuple
 
 from feeder_planner.errors import InputError
+
+if TYPE_CHECKING:
+    from rosbags.interfaces import Connection, Qos
 
 __all__ = [
     "ENTRY_OVERHEAD",
@@ -78,7 +81,7 @@ class TopicInfo:
     type_name: str
     msgdef: str
     rihs01: str
-    profiles: tuple[Any, ...]
+    profiles: tuple[Qos, ...]
 
 
 def check_cache_limits(max_bytes: int, max_duration: float) -> None:
@@ -334,7 +337,7 @@ class SnapshotWriter:
         writer.open(first_file=f"{capture.name}.mcap")
         try:
             known = self.topics()
-            connections: dict[str, Any] = {}
+            connections: dict[str, Connection] = {}
             for topic in sorted({e.topic for e in entries}):
                 info = known[topic]
                 connections[topic] = writer.add_connection(

@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from rosbags.interfaces import Connection
-from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.rosbag2 import CompressionMode, StoragePlugin, Writer
 from rosbags.rosbag2.errors import WriterError
 from rosbags.rosbag2.metadata import dump_qos_v9
 from rosbags.rosbag2.storage_mcap import Channel, McapWriter, write_channel, write_record, write_string
@@ -182,9 +182,7 @@ class McapFile(McapWriter):
         return int(self.bio.tell() + self.chunk.bio.tell())
 
 
-def _rosbags_mode() -> Any:
-    from rosbags.rosbag2 import CompressionMode
-
+def _rosbags_mode() -> CompressionMode:
     # Chunks are compressed by McapFile.use_compression, never by rosbags' mode.
     return CompressionMode.NONE
 
