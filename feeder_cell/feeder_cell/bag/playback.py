@@ -15,7 +15,7 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass
-from typing import Any, Callable, Iterator, NamedTuple
+from typing import Callable, Generic, Iterator, NamedTuple, TypeVar
 
 from feeder_planner.errors import InputError
 
@@ -26,10 +26,14 @@ NS = 1_000_000_000
 WAKE_PERIOD = 0.1
 
 
-class Item(NamedTuple):
+# What a message goes to: the player's connection id, whatever its caller chooses (a topic name).
+Key = TypeVar("Key")
+
+
+class Item(NamedTuple, Generic[Key]):
     """One message of the bag: what it goes to (a connection or topic), its bag time and its bytes."""
 
-    key: Any
+    key: Key
     stamp: int
     data: bytes
 
@@ -162,7 +166,7 @@ class BagClock:
         self.rate = rate
 
 
-class Playback:
+class Playback(Generic[Key]):
     """The play loop and its controls (pause, resume, toggle, play-next, seek, rate, burst).
 
     ``source(start)`` returns the bag's messages from bag time ``start`` on, in stamp order; ``publish``
@@ -173,9 +177,9 @@ class Playback:
 
     def __init__(
         self,
-        source: Callable[[int], Iterator[Item]],
+        source: Callable[[int], Iterator[Item[Key]]],
         window: Window,
-        publish: Callable[[Item], None],
+        publish: Callable[[Item[Key]], None],
         rate: float = 1.0,
         start_paused: bool = False,
         loop: bool = False,
@@ -193,8 +197,8 @@ class Playback:
         self._lock = threading.Condition()
         self.clock = BagClock(window.start, rate, start_paused, wall)
         self.clock.jump(window.start, delay)
-        self._buffer: deque[Item] = deque()
-        self._messages: Iterator[Item] = iter(())
+        self._buffer: deque[Item[Key]] = deque()
+        self._messages: Iterator[Item[Key]] = iter(())
         self._exhausted = False
         self._restart(window.start)
         self.published = 0
@@ -219,12 +223,12 @@ class Playback:
             if item.stamp >= self.window.start:
                 self._buffer.append(item)
 
-    def _next_item(self) -> Item | None:
+    def _next_item(self) -> Item[Key] | None:
         if not self._buffer:
             self._fill()
         return self._buffer[0] if self._buffer else None
 
-    def _send(self, item: Item) -> None:
+    def _send(self, item: Item[Key]) -> None:
         self._buffer.popleft()
         self._publish(item)
         self.published += 1

@@ -276,7 +276,7 @@ class Player:
             )
             node.create_timer(1.0 / options.clock_hz, self.publish_clock)
 
-    def _messages(self, start: int) -> Iterator[Item]:
+    def _messages(self, start: int) -> Iterator[Item[int]]:
         if not self.connections:
             return
         try:
@@ -289,7 +289,7 @@ class Player:
                 f"{_reindex_hint(self.path)}",
             ) from None
 
-    def _publish(self, item: Item) -> None:
+    def _publish(self, item: Item[int]) -> None:
         self.publishers[item.key].publish(bytes(item.data))
         self.counts[self._topic_by_id[item.key]] += 1
 
