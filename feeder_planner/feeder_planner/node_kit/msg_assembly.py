@@ -11,6 +11,7 @@ from feeder_planner.node_kit.msg_geometry import point, vec
 
 __all__ = ["ASSEMBLY_PARAMETERS", "force_msgs", "load_assembly_parameter", "region_msg"]
 
+
 def region_msg(result: RegionResult) -> StabilityRegion:
     """Build the feeder_msgs/StabilityRegion of a computed region and its contact count."""
     region = result.region
