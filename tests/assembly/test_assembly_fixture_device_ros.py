@@ -1,9 +1,10 @@
 """Over DDS: the assembly fixture as a managed device.
 
-Lifecycle (a bad file or parameter fails configure, naming it, and the node keeps answering; deactivate
-freezes the table, activate resumes the move; cleanup), status and diagnostics, stop/reset, runtime and
-read-only parameters, a namespaced fixture and its planner, node-clock time under a stepped cell clock
-(elapsed-time motion and its cap), and one test per injected fault as a subscriber sees it.
+Lifecycle (deactivate freezes the table, activate resumes the move; cleanup), status and diagnostics,
+stop/reset, runtime and read-only parameters, a namespaced fixture and its planner, node-clock time under a
+stepped cell clock (elapsed-time motion and its cap), and one test per injected fault as a subscriber sees
+it. What every device does alike (a bad parameter failing configure, hostile requests...) is the conformance
+suite's, tests/devices/test_device_conformance_ros.py.
 
 The fixture holds the built-in block in an L bracket; tilting about tilt_y alone to -0.9 rad keeps it stable
 (margin > 0.27 rad), so the moves below pass the interlock. Along such a move gravity follows the great circle
@@ -141,41 +142,6 @@ def launch_fixture(launch_node: Any, namespace: str, parameters: dict | None = N
 
 
 # --- lifecycle ------------------------------------------------------------------------------------
-@pytest.mark.parametrize(
-    "case,bad,named",
-    [
-        (1, {"assembly_file": "/nonexistent/assembly.yaml"}, "parameter assembly_file"),
-        (2, {"tilt_x_min": 0.5, "tilt_x_max": 0.2}, "parameter tilt_x_min/tilt_x_max"),
-        (3, {"tilt_y_max": 0.5, "initial_tilt_y": 0.8}, "parameter initial_tilt_y"),
-        (4, {"publish_rate": -5.0}, "parameter publish_rate"),
-        (5, {"inject_faults": ["rate_limit=1.5"]}, "parameter inject_faults[0] (value)"),
-    ],
-)
-def test_bad_configuration_fails_configure_naming_it_and_the_node_keeps_answering(
-    launch_node, ros_client, case, bad, named
-) -> None:
-    from feeder_cell.lifecycle_client import LifecycleError
-    from feeder_msgs.msg import DeviceStatus
-
-    # One namespace per case: a service of the previous case's ended node may linger in discovery.
-    namespace = f"/bad{case}"
-    device = f"{namespace}/{NODE}"
-    launch_node("feeder_sim", NODE, bad, namespace=namespace, lifecycle="unconfigured")
-    client = lifecycle(ros_client, device)
-    with pytest.raises(LifecycleError, match="configure refused"):
-        client.change("configure")
-    assert client.get_state() == "unconfigured"
-    report = status(ros_client, device, lambda s: s.fault_code == DeviceStatus.FAULT_CONFIGURATION)
-    assert report.state_name == "UNCONFIGURED" and not report.ready
-    assert named in report.fault_text, report.fault_text
-    response = move(ros_client, device, (0.0, -0.2))
-    assert not response.ok and "move refused: device is UNCONFIGURED" in response.error
-    # still answering: the lifecycle services, and a second configure fails the same way
-    with pytest.raises(LifecycleError, match="configure refused"):
-        client.change("configure")
-    assert client.get_state() == "unconfigured"
-
-
 def test_deactivate_freezes_the_table_and_activate_resumes_the_move(launch_node, ros_client) -> None:
     from sensor_msgs.msg import JointState
 

@@ -439,35 +439,6 @@ def test_cancel_with_the_interlock_off_runs_on_to_the_next_certified_sample(
     assert any(not f.stable for f in sent.feedback_now())
 
 
-# --- bad goals ---------------------------------------------------------------------------------------
-@pytest.mark.parametrize(
-    "case,gravity,tilt,named",
-    [
-        ("none", [], [], "needs at least one waypoint"),
-        ("both", [(0.0, 0.0, -1.0)], [0.0, -0.1], "gravity_waypoints/tilt_waypoints: give one kind"),
-        ("nan", [(0.0, math.nan, -1.0)], [], "gravity_waypoints[0]: must be finite"),
-        (
-            "zero",
-            [(0.0, 0.0, -1.0), (0.0, 0.0, 0.0)],
-            [],
-            "gravity_waypoints[1]: must be a non-zero direction",
-        ),
-        ("odd", [], [0.0, -0.1, 0.2], "tilt_waypoints: needs (tilt_x, tilt_y) pairs"),
-        ("limits", [], [0.0, -0.1, 2.0, 0.0], "tilt_waypoints[2] (tilt_x of waypoint 1): 2 rad is outside"),
-    ],
-)
-def test_bad_goals_are_rejected_at_goal_time_with_the_reason_and_the_node_keeps_serving(
-    goals, home, listen, case, gravity, tilt, named
-) -> None:
-    sent = goals.send(goals.goal(gravity=[np.array(g) for g in gravity], tilt=tilt))
-    assert not sent.accepted
-    reason = rejection(listen, FOLLOW, named)
-    assert reason.startswith("~/follow_path: "), reason
-    joint_state(listen, FOLLOW, at_rest((0.0, 0.0)))  # nothing moved
-    _, status, result = goals.run(goals.goal(tilt=[0.0, -0.1]))
-    assert status == succeeded(), result.message
-
-
 def test_a_second_goal_and_a_move_are_refused_while_a_goal_runs(goals, home, ros_client, listen) -> None:
     from geometry_msgs.msg import Vector3
 

@@ -8,8 +8,10 @@ arm, the MEMS array and the fixture.
 - A flood of each planner (200 concurrent calls) leaves another client's small request answered within
   ``SMALL_BOUND`` and a simulator's publish rate above half its nominal rate.
 - Hostile contents are answered ``ok: false`` naming the field, and the planner's memory stays flat.
-- The devices refuse what they used to accept (off-arm placements, a wrapping throw queue, poses at
-  1e308, a fixture path of more than ``MAX_MOVE_SAMPLES`` samples), naming the field.
+- The devices' own bounds (off-arm placements, a wrapping throw queue, poses at 1e308, a fixture path or
+  goal of more than ``MAX_MOVE_SAMPLES`` samples) are hostile requests of the conformance suite
+  (tests/devices/test_device_conformance_ros.py); here the devices' services take part in the hostile
+  round beside the planners'.
 - A second throw_planner under the running one's name logs why and exits 1; the first serves on.
 """
 
@@ -32,7 +34,6 @@ from sensor_msgs.msg import JointState
 
 from feeder_msgs.srv import (
     ArmCommand,
-    ArmPlacePart,
     DesignSearch,
     EquilibriaCompute,
     FixtureMove,
@@ -46,7 +47,6 @@ from feeder_msgs.srv import (
     ThrowCompute,
 )
 from feeder_planner.node_kit.msg_parts import part_to_msg
-from feeder_planner.node_kit.request_limits import MAX_MOVE_SAMPLES
 
 pytestmark = pytest.mark.ros
 
@@ -182,83 +182,6 @@ def flood_while_measuring(
         f"{listener.topic} at {during:.1f} Hz during the flood, {before:.1f} Hz before (nominal {rate:g})"
     )
     return [f.result() if f.done() else None for f in futures]
-
-
-# --- devices ------------------------------------------------------------------------------------------
-
-
-def test_arm_refuses_placements_off_the_arm_and_a_wrapping_queue(ros_client: Any, nodes: dict) -> None:
-    for radius in (10.0, 1e308, -10.0):
-        request = ArmPlacePart.Request(edge=1, radius=radius)
-        answer = call(ros_client, ArmPlacePart, f"{ARM}/place_part", request)
-        assert not answer.ok and "radius" in answer.error and "arm_length" in answer.error, answer.error
-    assert call(ros_client, ArmPlacePart, f"{ARM}/place_part", ArmPlacePart.Request(edge=1, radius=0.12)).ok
-    huge = ArmCommand.Request(command="throw", count=2**32 - 1)
-    answer = call(ros_client, ArmCommand, f"{ARM}/command", huge)
-    assert not answer.ok and "count" in answer.error, answer.error
-    stop = call(ros_client, ArmCommand, f"{ARM}/command", ArmCommand.Request(command="stop"))
-    assert stop.ok and stop.pending == 0
-
-
-def test_mems_refuses_poses_far_off_the_array(ros_client: Any, nodes: dict) -> None:
-    for key in ("x", "y"):
-        fields = {"x": [0.0], "y": [0.0], "theta": [0.0], key: [1e308]}
-        request = MemsPlaceParts.Request(names=["square"], **fields)
-        answer = call(ros_client, MemsPlaceParts, f"{SIM}/place_parts", request)
-        assert not answer.ok and f"{key}[0]" in answer.error, answer.error
-    request = MemsPlaceParts.Request(names=["square"], x=[0.0], y=[0.0], theta=[math.inf])
-    assert "theta[0]" in call(ros_client, MemsPlaceParts, f"{SIM}/place_parts", request).error
-    ok = MemsPlaceParts.Request(names=["square"], x=[1e-4], y=[0.0], theta=[0.0])
-    answer = call(ros_client, MemsPlaceParts, f"{SIM}/place_parts", ok)
-    assert answer.ok, answer.error
-
-
-def test_fixture_refuses_a_path_past_its_sample_bound(ros_client: Any, nodes: dict) -> None:
-    # 100 waypoints swinging a quarter turn each: 18,001 samples at the default 0.5 degree step, each an
-    # LP on the single-threaded device. Refused by count before any sample is made, naming the field.
-    side = Vector3(x=1.0, y=0.0, z=-1.0)
-    swing = FixtureMove.Request(waypoints=[side, DOWN] * 50)
-    start = time.monotonic()
-    answer = call(ros_client, FixtureMove, f"{FIXTURE}/move", swing)
-    waited = time.monotonic() - start
-    assert not answer.ok and answer.error.startswith("bad request: waypoints:"), answer.error
-    assert "path samples" in answer.error and f"limit per request is {MAX_MOVE_SAMPLES}" in answer.error
-    assert waited < SMALL_BOUND, f"the refusal took {waited:.2f} s"
-    # ...and the fixture moves on: a move to where it stands is one sample.
-    answer = call(ros_client, FixtureMove, f"{FIXTURE}/move", FixtureMove.Request(waypoints=[DOWN]))
-    assert answer.ok and answer.samples == 1, answer.error
-
-
-def test_fixture_rejects_a_follow_path_goal_past_its_sample_bound(
-    ros_client: Any, nodes: dict, listen: Any
-) -> None:
-    from diagnostic_msgs.msg import DiagnosticArray
-
-    from feeder_msgs.action import FollowPath
-    from feeder_planner.node_kit.action_client import ActionClient
-
-    def rejection(message: Any) -> str:
-        for entry in message.status:
-            if entry.name == FIXTURE:
-                return {kv.key: kv.value for kv in entry.values}.get("last_goal_rejection", "")
-        return ""
-
-    diagnostics = listen(DiagnosticArray, "/diagnostics")
-    client = ActionClient(ros_client, FollowPath, f"{FIXTURE}/follow_path")
-    assert client.wait_for_server(timeout_sec=30), f"{FIXTURE}/follow_path not available"
-    # 100 tilt pairs swinging tilt_x by 1.5 rad: 17,190 samples at the default step.
-    swing = FollowPath.Goal(tilt_waypoints=[1.5, 0.0, 0.0, 0.0] * 50)
-    # Fast DDS drops a reply to a client the server has not discovered yet: send until one answer comes.
-    for _ in range(10):
-        future = client.send_goal_async(swing)
-        done = threading.Event()
-        future.add_done_callback(lambda _, done=done: done.set())
-        if done.wait(3.0):
-            break
-    assert future.done() and not future.result().accepted, "the goal was not rejected"
-    message = diagnostics.wait(lambda m: "path samples" in rejection(m), timeout=15)
-    reason = rejection(message)
-    assert "tilt_waypoints:" in reason and f"limit per request is {MAX_MOVE_SAMPLES}" in reason, reason
 
 
 # --- bursts and floods ----------------------------------------------------------------------------------

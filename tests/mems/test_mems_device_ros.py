@@ -1,9 +1,10 @@
 """Over DDS: the MEMS field array as a managed device.
 
-Lifecycle (a bad parameter or file fails configure, naming it, and the node keeps answering; deactivate
-freezes the physics, activate resumes it; cleanup), status and diagnostics, stop/reset, runtime and
-read-only parameters, a namespaced array and its planner, node-clock time under a stepped cell clock
-(elapsed-time stepping and its cap), and one test per injected fault as a subscriber sees it.
+Lifecycle (deactivate freezes the physics, activate resumes it; cleanup), status and diagnostics, stop/reset,
+runtime and read-only parameters, a namespaced array and its planner, node-clock time under a stepped cell
+clock (elapsed-time stepping and its cap), and one test per injected fault as a subscriber sees it. What
+every device does alike (a bad parameter failing configure, hostile requests...) is the conformance suite's,
+tests/devices/test_device_conformance_ros.py.
 
 Most tests drive the part with a constant field f = (0, -1) N/m^2: in the quasi-static models the part
 then translates at exactly v = f / damping, and the field's force on it is exactly f A (A its area) while
@@ -134,48 +135,6 @@ class Device:
 
 
 # --- lifecycle ------------------------------------------------------------------------------------
-@pytest.mark.ros
-@pytest.mark.parametrize(
-    "namespace,bad,named",
-    [
-        ("/bad_fidelity", {"fidelity": "psychic"}, "parameter fidelity"),
-        ("/bad_file", {"part_files": ["/nonexistent/part.yaml"]}, "parameter part_files[0]"),
-        ("/bad_step", {"time_step": -1e-3}, "parameter time_step"),
-        (
-            "/bad_fault",
-            {"fidelity": "ideal", "inject_faults": ["dead_cells=0.2"]},
-            "parameter inject_faults[0]",
-        ),
-    ],
-)
-def test_bad_configuration_fails_configure_naming_it_and_the_node_keeps_answering(
-    launch_node, ros_client, listen, tmp_path, namespace, bad, named
-) -> None:
-    from feeder_cell.lifecycle_client import LifecycleError
-    from feeder_msgs.msg import DeviceStatus
-
-    device = Device(ros_client, listen, f"{namespace}/mems_field_array")
-    node = launch_node(
-        "feeder_sim",
-        "mems_field_array",
-        device_parameters(tmp_path, **bad),
-        namespace=namespace,
-        lifecycle="unconfigured",
-    )
-    client = device.lifecycle()
-    with pytest.raises(LifecycleError, match="configure refused"):
-        client.change("configure")
-    assert client.get_state() == "unconfigured" and node.alive()
-    report = device.status(lambda s: s.fault_code == DeviceStatus.FAULT_CONFIGURATION)
-    assert report.state_name == "UNCONFIGURED" and not report.ready
-    assert named in report.fault_text, report.fault_text
-    if "inject_faults" in bad:
-        assert "'ideal'" in report.fault_text  # the cell fault needs the array fidelity
-    response = device.set_program(type="combined", delta=0.2)
-    assert not response.ok and "UNCONFIGURED" in response.error
-    assert client.get_state() == "unconfigured" and node.alive()
-
-
 @pytest.mark.ros
 def test_deactivate_freezes_the_physics_and_activate_resumes_it(
     launch_node, ros_client, listen, tmp_path

@@ -135,26 +135,6 @@ def test_bad_part_in_request(nodes, ros_client) -> None:
 
 
 @pytest.mark.ros
-def test_bad_program_and_placement(nodes, ros_client) -> None:
-    from feeder_msgs.msg import FieldProgram, FieldSpec
-    from feeder_msgs.srv import FieldSetProgram, MemsPlaceParts
-
-    bad = FieldSetProgram.Request(program=FieldProgram(steps=[FieldSpec(type="vortex")]))
-    response = ros_harness.call_service(ros_client, FieldSetProgram, f"{SIM}/set_program", bad)
-    assert not response.ok and "program.steps[0].type" in response.error
-    bad = FieldSetProgram.Request(program=FieldProgram(steps=[FieldSpec(type="combined", delta=2.0)]))
-    response = ros_harness.call_service(ros_client, FieldSetProgram, f"{SIM}/set_program", bad)
-    assert not response.ok and "program.steps[0].delta" in response.error
-    place = MemsPlaceParts.Request(names=["nobody"], x=[0.0], y=[0.0], theta=[0.0])
-    response = ros_harness.call_service(ros_client, MemsPlaceParts, f"{SIM}/place_parts", place)
-    assert not response.ok and "names[0]" in response.error
-    place = MemsPlaceParts.Request(names=["bracket"], x=[float("nan")], y=[0.0], theta=[0.0])
-    response = ros_harness.call_service(ros_client, MemsPlaceParts, f"{SIM}/place_parts", place)
-    assert not response.ok and "x[0]" in response.error
-    assert nodes[0].alive()
-
-
-@pytest.mark.ros
 def test_stamps_are_node_clock_time_and_cell_forces_are_latched(nodes, ros_client, listen) -> None:
     from feeder_msgs.msg import MemsCellForces, MemsPartStates
 
