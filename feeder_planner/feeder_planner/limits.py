@@ -36,6 +36,7 @@ __all__ = [
     "MAX_THROWS",
     "MAX_LIMIT_SET_THROWS",
     "MAX_QUEUED_THROWS",
+    "MAX_GOAL_TIMEOUT",
     "quote",
     "describe",
     "check_count",
@@ -107,6 +108,9 @@ MAX_LIMIT_SET_THROWS: Final = 1_000_000
 
 # Throws an arm keeps queued (ArmCommand count and its uint32 pending reply): refused past it, never wrapped.
 MAX_QUEUED_THROWS = 100_000
+# A device goal's timeout (s of node clock): a year is past any production cycle, and keeps the deadline
+# an exact integer of nanoseconds (1e308 s would overflow it; the goal would fail at its first tick).
+MAX_GOAL_TIMEOUT = 365 * 24 * 3600.0
 
 
 def quote(value: object, limit: int = QUOTE_CHARS) -> str:

@@ -63,6 +63,14 @@ def test_a_timeout_must_be_finite_and_positive(bad: float) -> None:
     assert check_timeout(2.5) == 2.5
 
 
+def test_a_timeout_beyond_a_year_is_refused_before_its_deadline_could_overflow() -> None:
+    from feeder_planner.limits import MAX_GOAL_TIMEOUT
+
+    assert check_timeout(MAX_GOAL_TIMEOUT) == MAX_GOAL_TIMEOUT
+    with pytest.raises(InputError, match=r"^timeout: must be at most"):
+        check_timeout(1e308)
+
+
 # --- the detector ---------------------------------------------------------------------------------
 def test_a_part_at_rest_settles_once_the_dwell_has_passed_not_before() -> None:
     detector = SettlingDetector(1, SettlingCriterion(1e-6, 0.5))

@@ -324,3 +324,11 @@ def test_the_paper_feeder_presents_the_part_on_the_goal_edge_with_the_limit_set_
         goal.sample(faults.sensor(arm.sensor(sensor_radius, HEIGHT)))
         goal.tick(now, None, False)
     assert goal.outcome is not None and goal.outcome.name == "MAX_THROWS"
+
+
+def test_a_timeout_beyond_a_year_is_refused_before_its_deadline_could_overflow():
+    from feeder_planner.limits import MAX_GOAL_TIMEOUT
+
+    assert check_feed_goal(1, MAX_GOAL_TIMEOUT).timeout == MAX_GOAL_TIMEOUT
+    with pytest.raises(InputError, match="timeout: must be at most"):
+        check_feed_goal(1, 1e308)

@@ -28,6 +28,7 @@ from typing import Final
 import numpy as np
 
 from feeder_planner.errors import FeederError, InputError
+from feeder_planner.limits import MAX_GOAL_TIMEOUT
 from feeder_planner.mems import (
     CombinedField,
     Field,
@@ -109,7 +110,7 @@ def settling_criterion(tolerance: float, dwell: float) -> SettlingCriterion:
 
 
 def check_timeout(timeout: float, field: str = "timeout") -> float:
-    """Return ``timeout`` (s) if it is a finite number > 0, else raise InputError naming ``field``."""
+    """Return ``timeout`` (s) if it is in (0, MAX_GOAL_TIMEOUT], else raise InputError naming ``field``."""
     if (
         isinstance(timeout, bool)
         or not isinstance(timeout, (int, float))
@@ -117,6 +118,8 @@ def check_timeout(timeout: float, field: str = "timeout") -> float:
         or timeout <= 0
     ):
         raise InputError(field, f"must be a finite number > 0 (s of the node clock), got {timeout!r}")
+    if timeout > MAX_GOAL_TIMEOUT:
+        raise InputError(field, f"must be at most {MAX_GOAL_TIMEOUT:.6g} s (a year), got {timeout!r}")
     return float(timeout)
 
 

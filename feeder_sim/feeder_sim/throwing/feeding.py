@@ -36,6 +36,7 @@ from typing import Generic, TypeVar
 
 from feeder_device.declarations import deadline_ns
 from feeder_planner.errors import InputError
+from feeder_planner.limits import MAX_GOAL_TIMEOUT
 
 __all__ = [
     "OUTCOME_CODES",
@@ -69,7 +70,8 @@ def check_feed_goal(max_throws: object, timeout: object) -> FeedRequest:
     max_throws
         Throws the goal may use; an integer >= 1.
     timeout
-        Seconds of node clock the goal may take; finite and >= 0 (0: no limit beyond ``max_throws``).
+        Seconds of node clock the goal may take; in [0, MAX_GOAL_TIMEOUT] (0: no limit beyond
+        ``max_throws``).
     """
     if isinstance(max_throws, bool) or not isinstance(max_throws, int) or max_throws < 1:
         raise InputError("max_throws", f"must be an integer >= 1, got {max_throws!r}")
@@ -77,6 +79,8 @@ def check_feed_goal(max_throws: object, timeout: object) -> FeedRequest:
         raise InputError("timeout", f"must be a number of seconds, got {timeout!r}")
     if not math.isfinite(timeout) or timeout < 0:
         raise InputError("timeout", f"must be finite and >= 0 s (0: no limit), got {timeout!r}")
+    if timeout > MAX_GOAL_TIMEOUT:
+        raise InputError("timeout", f"must be at most {MAX_GOAL_TIMEOUT:.6g} s (a year), got {timeout!r}")
     return FeedRequest(int(max_throws), float(timeout))
 
 
