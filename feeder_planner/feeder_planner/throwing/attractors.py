@@ -1,25 +1,31 @@
 """Attractors of the throw map: periodic cycles and quasi-periodic sets, found from a grid of starts.
 
-Theorem IV.3 of the paper: on a compact invariant Z (Theorem IV.5) every start reaches any neighbourhood of
-its forward limit set and stays there; Theorem IV.6 speaks of a unique cycle, but for parts whose visit
+Theorem IV.3 of the paper: on a compact invariant Z (Theorem IV.5) every start reaches any neighbourhood
+of its forward limit set and stays there; Theorem IV.6 speaks of a unique cycle, but for parts whose visit
 sequence never repeats exactly (a 12-vertex convex part, issue 14) the forward limit set is still one
 attractor, only not a periodic one. What a finite run can see of it is a tail that no longer changes.
 
-The convergence rule (issue 25). A start is thrown, and at every check (a quarter of a window) after the
-first two windows its last n/2 states (the tail) are compared with their own second half, the last n/4:
-the start has converged when both show the same edges, each edge's radius range agrees to the resolution
-(``resolution``), the visit sequences have the same exact cycle or both have none, and the last n/4 hold
-flips (Prop. IV.1: jogs alone are a slow transit, never an attractor). A transient that the tail still
-holds shows in its older half only (an edge visited there and never since, radii the recent states no
-longer reach, another visit order), so it fails the comparison; as n grows the tail moves past it. The
-tail is therefore the confirmed part of the run only: the attractor's edges, ranges, cycle, pattern,
-throws per round and basin come from it, and a start that never confirms within the cap is unconverged,
-never folded into an attractor. Starts whose tails have the same edges and cycle and overlapping radius
-ranges on every edge belong to one attractor.
+The convergence rule (issue 25). A start is thrown, and at every check (a quarter of a window) after
+the first two windows its last n/2 states are compared with their own second half, the last n/4
+(``confirms``): both must hold flips (Prop. IV.1: jogs alone are a slow transit, never an attractor),
+show the same edges and radius ranges to the resolution (``resolution``; a few older states beyond are
+the sampling of a chaotic attractor's extremes, a stretch of them is a transient), and the whole n/2
+must repeat one exact cycle thrice, with radii that do not drift period after period, or, with enough
+visits, none. Then the run must have kept to that tail, on its edges within its ranges and in phase
+with its cycle, twice as long as it ever kept to it before leaving it (``settled``): the earlier stays
+are how long a stretch of a richer attractor without its rarest edge or break can last. A transient
+that the tail still holds shows in its older half only, so the start waits; as n grows the tail moves
+past it. The start's tail is then its whole stay since it last left (the transient ends there), and
+the attractor's edges, ranges, cycle, pattern, throws per round and basin come from such tails only; a
+start that never confirms within the cap is unconverged, never folded into an attractor. A start whose
+tail a richer attractor of its design holds (more edges, or no exact cycle; ``_nested``) is thrown on
+and judged again. Starts whose tails have the same edges and cycle and meeting radius ranges form one
+attractor (``_clusters``).
 
 The rule replaces the former one (a start converged once the start grid's cells of one window were all
-cells it had visited before): a slow transient passes through cells the attractor visits long before it
-reaches the attractor, so its visits were taken into the attractor (issue 25's three designs).
+cells it had visited before, and its last two windows were its tail): a slow transient passes through
+cells the attractor visits long before it reaches the attractor, so its visits were taken into the
+attractor (issue 25's three designs).
 """
 
 from __future__ import annotations
@@ -199,10 +205,12 @@ def stretch(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray) -> Stretch:
 def confirms(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, width: np.ndarray) -> bool:
     """Return whether a tail (a row's last 2N states) shows the same attractor as its last N states.
 
-    Both halves' union and the recent half must have the same edges, radius ranges equal to the
-    resolution (``resolution``, with ``width[e]`` the resolution unit of edge e) and the same exact cycle
-    or none; the recent half must hold CONFIRM_FLIPS flips (Prop. IV.1). Cheap tests first: most
-    rejections are an edge the older half still visits.
+    Both halves hold CONFIRM_FLIPS flips (Prop. IV.1); the whole tail and its recent half visit the same
+    edges; each edge's radius range over the recent half reaches the whole tail's to the resolution
+    (``resolution``, ``width[e]`` the unit of edge e), or at most OUTSIDE_SHARE of the older half's
+    states lie beyond it; and the whole tail repeats one exact cycle CYCLE_REPEATS times without drifting
+    (``_drifting``), or, holding QUASI_VISITS visits, has no cycle and neither has its recent half. Cheap
+    tests first: most rejections are an edge the older half still visits.
     """
     recent = len(edge) - len(edge) // 2
     if int((~jog[1:recent]).sum()) < CONFIRM_FLIPS or int((~jog[recent:]).sum()) < CONFIRM_FLIPS:
@@ -252,11 +260,13 @@ def _drifting(radius: np.ndarray, visits: np.ndarray, lengths: np.ndarray, p: in
 
 def _consistent(
     edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, first: int, width: np.ndarray
-) -> np.ndarray:
+) -> tuple[np.ndarray, np.ndarray]:
     """Return, per state of a row's run (0..n), whether it is consistent with the tail from ``first`` on.
 
-    Consistent: on one of the tail's edges within that edge's radius range (to the resolution) and, when
-    the tail has an exact cycle, in a visit to the edge the cycle, in the tail's phase, has there.
+    Consistent: on one of the tail's edges within that edge's radius range (to the resolution) and,
+    when the tail has an exact cycle, in a visit the cycle has there. Two answers: in the tail's own
+    phase (the cycle continued backwards visit by visit), and in any phase (within p consecutive visits
+    that are the cycle in some rotation; a run of one edge is in none).
     """
     ok = np.zeros(len(edge), dtype=bool)
     edges, low, high = _ranges(edge[first:], radius[first:])
@@ -264,34 +274,39 @@ def _consistent(
         tol = resolution(float(width[e]), float(low[k]), float(high[k]))
         ok |= (edge == e) & (radius >= low[k] - tol) & (radius <= high[k] + tol)
     key = cycle_key(_visits(edge[first:], jog[first:])[0])
-    if key is not None:
-        # In phase with the tail's cycle: a run of one edge, or the same cycle shifted, is not the tail.
-        p = len(key)
-        visits, lengths = _visits(edge, jog)
-        starts = np.concatenate([[0], np.cumsum(lengths)[:-1]])
-        f = int(np.searchsorted(starts, first))
-        if f + p <= len(visits):
-            expected = visits[f : f + p][(np.arange(len(visits)) - f) % p]
-            ok &= np.repeat(visits == expected, lengths)
-    return ok
+    if key is None:
+        return ok, ok
+    p = len(key)
+    visits, lengths = _visits(edge, jog)
+    starts = np.concatenate([[0], np.cumsum(lengths)[:-1]])
+    f = min(int(np.searchsorted(starts, first)), len(visits) - p)
+    phased = visits == visits[f : f + p][(np.arange(len(visits)) - f) % p]
+    windows = np.lib.stride_tricks.sliding_window_view(visits, p)
+    match = np.zeros(len(windows), dtype=bool)
+    for k in range(p):
+        match |= (windows == np.roll(np.array(key), -k)).all(axis=1)
+    anyhow = np.zeros(len(visits), dtype=bool)
+    for k in range(p):
+        anyhow[k : k + len(match)] |= match
+    return ok & np.repeat(phased, lengths), ok & np.repeat(anyhow, lengths)
 
 
 def settled(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, first: int, width: np.ndarray) -> int:
     """Return where a row's run (states 0..n) began keeping to its tail (from ``first``), or -1: not yet.
 
-    The run has been consistent with the tail (``_consistent``) since its last departure; that stay must
-    last SOJOURN_FACTOR times the longest earlier stay the run ended by departing. An attractor with rare
-    excursions (convex12's visits to edge 5, a quasi-periodic round's rare other block) leaves tails
-    that happen to hold none of them; the earlier stays, each ended by an excursion, say how long such
-    a tail can last, and a stay no longer than those proves nothing. The stay holds the tail, and its
-    start is where the transient ends.
+    The run has been consistent with the tail, in its phase (``_consistent``), since its last departure;
+    that stay must last SOJOURN_FACTOR times the longest earlier stay (consistent in any phase) that the
+    run ended by departing. An attractor with rare excursions (convex12's visits to edge 5, a
+    quasi-periodic round's rare other block) leaves tails that happen to hold none of them; the earlier
+    stays, each ended by an excursion, say how long such a tail can last, and a stay no longer than those
+    proves nothing. The stay holds the tail, and its start is where the transient ends.
     """
-    ok = _consistent(edge, radius, jog, first, width)
+    ok, anyhow = _consistent(edge, radius, jog, first, width)
     out = np.flatnonzero(~ok)
     if out.size == 0:
         return 0
     last = int(out[-1])
-    before = ok[:last].astype(np.int8)
+    before = anyhow[:last].astype(np.int8)
     if before.any():
         steps = np.diff(np.concatenate([[0], before, [0]]))
         longest = int((np.flatnonzero(steps == -1) - np.flatnonzero(steps == 1)).max())
