@@ -1,0 +1,158 @@
+"""Transients kept out of attractors (issue 25): the rule's pieces, the long-transient example, regressions.
+
+The regressions are designs found by a seeded search like ``truth_corpus``'s on which the former rule
+(a start converged once its states recurred at the start grid's resolution, its last two windows the
+tail) folded transient visits into the attractor, as in the issue's three designs.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+from throwing_helpers import EXAMPLES
+from truth_corpus import CorpusDesign, design_truth, long_runs
+
+from feeder_planner.errors import SolverError
+from feeder_planner.parts import load_part, make_part
+from feeder_planner.throwing.attractors import Rows, confirms, iterate_to_attractor, settled
+from feeder_planner.throwing.geometry import arm_part
+from feeder_planner.throwing.limit_set import edge_bounds, limit_set, single_design_rows
+from feeder_planner.throwing.sensor import reads
+from feeder_planner.throwing.throw_map import ThrowBatch, ThrowParams
+
+MM = 0.001
+
+
+def _tail(visits: list[tuple[int, int]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return edge, radius, jog arrays of a stretch given as (edge, throws on it) visits, R = 0.1 + edge."""
+    edge, jog = [], []
+    for e, n in visits:
+        edge += [e] * n
+        jog += [False] + [True] * (n - 1)
+    edge_a = np.array(edge)
+    return edge_a, 0.1 + 0.01 * edge_a, np.array(jog)
+
+
+WIDTH = np.full(6, 1e-3)
+
+
+def test_a_tail_whose_older_half_still_visits_a_transient_edge_does_not_confirm():
+    edge, radius, jog = _tail([(0, 3), (2, 1), (4, 2)] * 20)
+    assert confirms(edge, radius, jog, WIDTH)
+    older = [(1, 2), (0, 3), (2, 1), (4, 2)] * 10  # edge 1 only in the older half: a transient
+    edge, radius, jog = _tail(older + [(0, 3), (2, 1), (4, 2)] * 10)
+    assert not confirms(edge, radius, jog, WIDTH)
+
+
+def test_a_tail_of_jogs_alone_is_a_transit_not_an_attractor():
+    edge, radius, jog = _tail([(3, 80)])
+    assert not confirms(edge, np.linspace(0.1, 0.2, 80), jog, WIDTH)
+
+
+def test_a_run_must_keep_to_its_tail_twice_as_long_as_it_ever_did_before_leaving_it():
+    # 60 throws of the cycle, an excursion to edge 5, then the cycle again: a stay of 60 ended by an
+    # excursion says a tail of the cycle alone may be a stretch of an attractor that visits edge 5.
+    before = [(0, 3), (2, 1), (4, 2)] * 10 + [(5, 1)]
+    for again, ok in ((15, False), (25, True)):
+        edge, radius, jog = _tail(before + [(0, 3), (2, 1), (4, 2)] * again)
+        first = len(edge) - 6 * again // 2
+        assert (settled(edge, radius, jog, first, WIDTH) >= 0) == ok
+    edge, radius, jog = _tail(before + [(0, 3), (2, 1), (4, 2)] * 25)
+    assert settled(edge, radius, jog, len(edge) - 60, WIDTH) == 61  # the stay begins after edge 5
+
+
+def test_a_start_that_never_confirms_is_unconverged_and_in_no_attractor():
+    # Two starts replayed: one settles in the cycle [0, 4, 2], one jogs out along edge 1 forever.
+    cycle = _tail([(0, 3), (2, 1), (4, 2)] * 100)[0]
+    done = np.zeros(2, dtype=int)
+
+    def throw(idx: np.ndarray, e: np.ndarray, r: np.ndarray) -> ThrowBatch:
+        done[idx] += 1
+        nxt = np.where(idx == 0, cycle[done[idx]], 1)
+        radius = np.where(idx == 0, 0.1 + 0.01 * nxt, 0.1 + 1e-3 * done[idx])
+        zero = np.zeros(len(idx))
+        return ThrowBatch(nxt, radius, np.where(nxt == e, 0.0, 4.0), zero, zero)
+
+    rows = Rows(np.array([0, 1]), np.array([0.1, 0.1]), np.zeros((2, 6)), np.full((2, 6), 1e-6))
+    search = iterate_to_attractor(rows, throw, 400, window=40)
+    assert search.converged.tolist() == [True, False]
+    assert search.end[0] < 400 and search.end[1] == 400
+
+
+def _example(name: str) -> tuple[object, str]:
+    path = EXAMPLES / f"{name}.yaml"
+    return arm_part(load_part(path)), path.read_text()
+
+
+TRANSIENT5 = ThrowParams(offset=-0.82 * MM, speed=math.radians(106), gravity=-2.2, mu=0.41)
+
+
+def test_the_long_transient_example_reaches_the_cycle_its_file_states():
+    part, text = _example("transient5")
+    stated = [int(e) for e in re.search(r"the cycle \[([0-9, ]+)\]", text).group(1).split(",")]
+    ls = limit_set(part, TRANSIENT5, goal_edge=2)
+    assert ls.converged and ls.unique
+    (a,) = ls.attractors
+    assert a.periodic and a.cycle == stated == [2, 0, 4] and a.edges == [0, 2, 4]
+    assert 17 <= a.throws_per_round[0] and a.throws_per_round[2] <= 19
+    # Some starts take hundreds of throws to lock in, and those throws are not in the attractor.
+    assert a.longest_transient > 500 and a.median_transient < a.longest_transient
+    lo, hi = ls.trigger
+    assert abs(lo - 480.2 * MM) < 0.5 * MM and abs(hi - 496.2 * MM) < 0.5 * MM
+
+
+def test_the_long_transient_example_agrees_with_its_long_run():
+    # The issue's first design: a five-edge part whose transient (here up to ~540 throws of the long
+    # run) was folded into one quasi-periodic attractor on edges 0, 1, 2, 4 by the former rule.
+    part, _ = _example("transient5")
+    rows = single_design_rows(part, edge_bounds(part, TRANSIENT5), 2)
+    runs = long_runs([CorpusDesign(0, 0, part, TRANSIENT5, True)], [(rows.edge, rows.radius)], 1500)[0]
+    truths, why = design_truth(runs, part.radius)
+    assert why == ""
+    assert {(t.edges, t.cycle) for t in truths} == {((0, 2, 4), (0, 4, 2))}
+    assert max(t.transient for t in truths) > 100  # and some start is long on the way
+
+
+# The issue's second design: a wedge whose trigger range for goal edge 0 came out null under the former
+# rule (its tail held the radii of the approach) where one of about 6 mm exists.
+WEDGE = [[1.29, 21.05], [-19.44, -10.49], [8.58, -17.46], [11.14, -16.61], [17.03, -14.01]]
+WEDGE_PARAMS = ThrowParams(offset=-1.128 * MM, speed=math.radians(277.7), gravity=-9.66, mu=0.613)
+
+
+def test_the_wedges_trigger_range_is_read_on_its_attractor_only():
+    part = arm_part(make_part(WEDGE, unit_scale=MM))
+    ls = limit_set(part, WEDGE_PARAMS, goal_edge=0, sensing_height=None)
+    (a,) = ls.attractors
+    assert ls.unique and a.cycle == [0, 4, 1] and a.edges == [0, 1, 4]
+    assert ls.trigger is not None and ls.trigger_note is None
+    lo, hi = ls.trigger
+    assert 5.5 * MM < hi - lo < 7 * MM
+    # A sensor in the middle of the range, on the long run's last half: true at rest at least once per
+    # cycle, and only on edge 0.
+    rows = single_design_rows(part, edge_bounds(part, WEDGE_PARAMS), 1)
+    runs = long_runs([CorpusDesign(0, 0, part, WEDGE_PARAMS, True)], [(rows.edge, rows.radius)], 800)[0]
+    height = 0.01 * part.radius
+    for run in runs:
+        e, r = run.edge[400:], run.radius[400:]
+        seen = np.array(
+            [reads(part, int(x), float(y), 0.5 * (lo + hi), height) for x, y in zip(e, r, strict=True)]
+        )
+        assert not seen[e != 0].any()
+        assert np.diff(np.flatnonzero(seen)).max() <= a.throws_per_round[2]
+
+
+def test_no_trigger_names_the_attractor_and_edge_that_rule_it_out():
+    part, _ = _example("transient5")
+    ls = limit_set(part, TRANSIENT5, goal_edge=4, starts_per_edge=4)
+    assert ls.trigger is None
+    assert "edge 2 of attractor 0 (edges [0, 2, 4])" in ls.trigger_note
+
+
+def test_no_start_confirming_is_the_raise_throws_error():
+    part, _ = _example("transient5")
+    with pytest.raises(SolverError) as info:
+        limit_set(part, TRANSIENT5, starts_per_edge=2, throws=60)
+    assert "did not converge" in str(info.value) and "raise --throws" in str(info.value)
