@@ -35,7 +35,8 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType, JumpThreshold
 from rclpy.duration import Duration
-from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+from rclpy.lifecycle import LifecycleNode, LifecycleNodeMixin, LifecycleState, TransitionCallbackReturn
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from rclpy.qos import QoSProfile
@@ -82,6 +83,8 @@ class TickedGoal(Protocol):
         """Wake the goal's coroutine now."""
         ...
 
+
+RCLError = _rclpy.RCLError
 
 # Heartbeat of ~/status and /diagnostics (Hz), on the steady clock so that a paused sim clock does not
 # silence a device: a controller must still see that the device is there and why it is not moving.
@@ -552,6 +555,25 @@ class ManagedDevice(LifecycleNode, Generic[P]):
             self._wake_tick_waiters()
             self.publish_status()
         return TransitionCallbackReturn.SUCCESS
+
+    def _LifecycleNodeMixin__on_change_state(self, request: Any, response: Any) -> Any:  # noqa: N802
+        """Refuse a transition the present state does not have, instead of dying of it.
+
+        rclpy's lifecycle node raises out of its ~/change_state callback for a transition id that is not
+        registered in the present state (ros2/rclpy#1209, fixed upstream after the pinned Jazzy wheel),
+        which ends the device's process: a controller sending ``activate`` to an unconfigured device would
+        kill it. Overriding the name-mangled callback is the one place to catch it; the answer is
+        ``success: false``, as for a transition named by an unknown label.
+        """
+        try:
+            return LifecycleNodeMixin._LifecycleNodeMixin__on_change_state(self, request, response)
+        except RCLError as error:
+            self.get_logger().warning(
+                f"change_state refused: transition {request.transition.id} "
+                f"{request.transition.label!r} is not available in state {self.lifecycle}: {error}"
+            )
+            response.success = False
+            return response
 
     # --- services --------------------------------------------------------------------------------
     def _on_stop(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:

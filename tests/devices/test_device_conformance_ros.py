@@ -40,8 +40,8 @@ import ros_harness
 from action_msgs.msg import GoalStatus
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import Vector3
-from lifecycle_msgs.msg import TransitionEvent
-from lifecycle_msgs.srv import GetAvailableTransitions
+from lifecycle_msgs.msg import Transition, TransitionEvent
+from lifecycle_msgs.srv import ChangeState, GetAvailableTransitions
 from rcl_interfaces.msg import Log
 from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.srv import DescribeParameters, GetParameters, ListParameters, SetParameters
@@ -904,6 +904,10 @@ def test_each_lifecycle_transition_is_served_and_published_at_once(healthy: Cell
             )
             labels = {t.transition.label for t in available.available_transitions}
             assert {"configure", "shutdown"} <= labels and "activate" not in labels, labels
+            # A transition the state does not have is refused, and the device lives on (rclpy raised out
+            # of its callback and ended the process: ros2/rclpy#1209); the next transition proves it.
+            invalid = ChangeState.Request(transition=Transition(id=Transition.TRANSITION_ACTIVATE))
+            assert not cell.call(case, ChangeState, "change_state", invalid).success
     fresh = cell.status(case, lambda s: s.state_name in READY)
     assert list(fresh.counter_names) == [c.name for c in case.device_class().COUNTERS]
     assert counters(fresh)[counter] == 0  # a new run: the goal before the cleanup is forgotten
