@@ -65,7 +65,7 @@ def _commands(path: str) -> dict[str, list[str]]:
     return {
         "equilibria": ["equilibria", path, "--delta=0.1", "--method=asymptotic", "--json"],
         "throw": ["throw", path, "--edge=0", "--radius=5", *THROW_FLAGS, "--json"],
-        "limit-set": ["limit-set", path, *THROW_FLAGS, "--starts-per-edge=1", "--throws=60", "--json"],
+        "limit-set": ["limit-set", path, *THROW_FLAGS, "--starts-per-edge=1", "--throws=100", "--json"],
         "throw-design": [
             "throw-design",
             path,
