@@ -377,10 +377,10 @@ def iterate_to_attractor(
     it confirms when ``confirms`` holds for them (the same edges, ranges and cycle over the last n/4 as
     over the last n/2) and ``settled`` holds for its run (it kept to that tail twice as long as ever
     before), and then stops. The tail thus grows with n, and a transient of up to about n/2 throws has
-    left it. Once every row of a design (``design[b]``; one design when None) has confirmed or reached
-    the cap, a row whose tail's edges are a proper subset of another's, within its ranges (``_nested``),
-    is thrown on from where it stopped and judged again (its latest confirmed tail counts) until it no
-    longer nests or reaches the cap. A row that never confirms within ``throws`` stays unconverged.
+    left it. A confirmed row whose tail a richer group of confirmed tails of its design holds
+    (``_nested``; ``design[b]``, one design when None) is thrown on from where it stopped and judged
+    again (its latest confirmed tail counts) until it no longer nests or reaches the cap. A row that
+    never confirms within ``throws`` stays unconverged.
     Each row advances from its own state, one throw per call of ``throw(idx, edge, radius)`` (which
     applies the map to rows ``idx``); ``progress(done, total)`` is told after each check.
     """
@@ -432,11 +432,9 @@ def iterate_to_attractor(
         for g in np.unique(owner[due]):
             members = np.flatnonzero(owner == g)
             confirmed = members[tail[members] >= 0]
-            if not ((tail[members] >= 0) | escaped[members] | (end[members] == throws)).all():
-                running[confirmed] = False
-                continue
-            small = _nested([tails[int(b)] for b in confirmed], rows.width[members[0]])
-            running[confirmed] = small & (end[confirmed] < throws) & ~escaped[confirmed]
+            if confirmed.size:
+                small = _nested([tails[int(b)] for b in confirmed], rows.width[members[0]])
+                running[confirmed] = small & (end[confirmed] < throws) & ~escaped[confirmed]
         if progress is not None:
             progress(starts - int(running.sum()), starts)
     return Search(edge, radius, jog, flags, end, tail, escaped, rows.width, w, tail_end)

@@ -18,7 +18,7 @@ from feeder_planner.throwing.attractors import (
 )
 from feeder_planner.throwing.geometry import ArmPart
 from feeder_planner.throwing.grasp import grasp_radii
-from feeder_planner.throwing.sensor import sensing_height_or_default, trigger_blockers, trigger_range
+from feeder_planner.throwing.sensor import TriggerReading, read_trigger, sensing_height_or_default
 from feeder_planner.throwing.throw_map import ThrowParams, lowest_radius, radius_in_domain, throw_batch
 from feeder_planner.throwing.tolerances import (
     BURN_IN_CAP,
@@ -387,24 +387,20 @@ def _name(k: int, a: Attractor) -> str:
     return f"attractor {k} (edges {a.edges})"
 
 
-def trigger_note(
-    part: ArmPart, attractors: list[Attractor], search: Search, goal_edge: int, height: float
-) -> str:
+def trigger_note(attractors: list[Attractor], goal_edge: int, reading: TriggerReading | None) -> str:
     """Return why no sensor radius singles out ``goal_edge`` on the attractors: which attractor and edge.
 
-    Either an attractor never visits the goal edge, or the goal edge's visits share no covered radius,
-    or other edges of named attractors cover every radius the goal edge's visits share (their resting
-    states, in SI metres, from the confirmed tails only).
+    Either an attractor never visits the goal edge (``reading`` None), or the goal edge's visits share no
+    covered radius, or other edges of named attractors cover every radius the goal edge's visits share
+    (their resting states, in SI metres, from the confirmed tails only; ``sensor.read_trigger``).
     """
     missing = [_name(k, a) for k, a in enumerate(attractors) if goal_edge not in a.edges]
-    if missing:
+    if missing or reading is None:
         return f"goal edge {goal_edge} is not visited by {', '.join(missing)}"
-    groups = [[_tail_states(search, b) for b in a.members] for a in attractors]
-    allowed, blockers, alone = trigger_blockers(part, goal_edge, height, groups)
-    if allowed is None:
+    if reading.allowed is None:
         return f"no complete visit to goal edge {goal_edge} in the attractors' tails"
-    if not allowed:
-        named = [_name(k, attractors[k]) for k in alone]
+    if not reading.allowed:
+        named = [_name(k, attractors[k]) for k in reading.alone]
         where = f" ({', '.join(named)})" if named else " (each attractor alone has one: they differ)"
         return f"no sensor radius reads true in every visit to goal edge {goal_edge}{where}"
 
@@ -412,11 +408,11 @@ def trigger_note(
         return ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in intervals)
 
     covering = "; ".join(
-        f"edge {e} of {_name(k, attractors[k])} covers {spans(hit)} m" for k, e, hit in blockers[:3]
+        f"edge {e} of {_name(k, attractors[k])} covers {spans(hit)} m" for k, e, hit in reading.blockers[:3]
     )
     return (
         f"no sensor radius reads true in every visit to goal edge {goal_edge} and never elsewhere: every "
-        f"visit to edge {goal_edge} covers R_s in {spans(allowed)} m, but resting on {covering}"
+        f"visit to edge {goal_edge} covers R_s in {spans(reading.allowed)} m, but resting on {covering}"
     )
 
 
@@ -446,10 +442,13 @@ def read_limit_set(
         cycles.append(a.cycle if a is not None and a.periodic else None)
     trigger, note = None, None
     if goal_edge is not None:
+        reading = None
         if all(goal_edge in a.edges for a in attractors):
-            trigger = trigger_range(part, goal_edge, height, [_tail_states(search, b) for b in converged])
+            groups = [[_tail_states(search, b) for b in a.members] for a in attractors]
+            reading = read_trigger(part, goal_edge, height, groups)
+            trigger = reading.trigger
         if trigger is None:
-            note = trigger_note(part, attractors, search, goal_edge, height)
+            note = trigger_note(attractors, goal_edge, reading)
     return attractors, trigger, note, cycles
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -22,7 +23,8 @@ __all__ = [
     "reads",
     "reads_pose",
     "trigger_range",
-    "trigger_blockers",
+    "TriggerReading",
+    "read_trigger",
 ]
 
 Intervals = list[tuple[float, float]]
@@ -196,16 +198,29 @@ def _length(intervals: Intervals) -> float:
     return sum(hi - lo for lo, hi in intervals)
 
 
-def trigger_blockers(
-    part: ArmPart, goal: int, height: float, groups: list[list[list[tuple[int, float]]]]
-) -> tuple[Intervals | None, list[tuple[int, int, Intervals]], list[int]]:
-    """Return why there is no trigger range: the goal edge's common cover and what covers it elsewhere.
+@dataclass(frozen=True)
+class TriggerReading:
+    """The trigger range of a set of attractors and, when there is none, why.
 
-    ``groups`` holds the states of each attractor (as ``trigger_range`` takes them). Returns the radii
-    covered in every complete visit to ``goal`` over all groups (None: no complete visit); per (group,
-    other edge) whose resting states cover some of those radii, the part covered, the most first; and
-    the groups whose own goal visits share no radius. An empty common cover means the goal visits
-    themselves share no sensor radius.
+    ``trigger``: the widest sensor radius range reading true in every complete visit to the goal edge
+    and in no resting state elsewhere (None: none). ``allowed``: the radii covered in every complete goal
+    visit (None: no complete visit; empty: the visits share none). ``blockers``: per (attractor, other
+    edge) whose resting states cover some of ``allowed``, the part covered, the most first. ``alone``:
+    the attractors whose own goal visits share no radius.
+    """
+
+    trigger: tuple[float, float] | None
+    allowed: Intervals | None
+    blockers: list[tuple[int, int, Intervals]]
+    alone: list[int]
+
+
+def read_trigger(
+    part: ArmPart, goal: int, height: float, groups: list[list[list[tuple[int, float]]]]
+) -> TriggerReading:
+    """Return the trigger range over the attractors' states and what rules one out, in one pass.
+
+    ``groups`` holds the states of each attractor, as ``trigger_range`` takes them.
     """
     per_group = [_goal_and_others(part, goal, height, g) for g in groups]
     allowed: Intervals | None = None
@@ -214,7 +229,7 @@ def trigger_blockers(
             allowed = own if allowed is None else intersect(allowed, own)
     alone = [k for k, (own, _) in enumerate(per_group) if own is not None and not own]
     if not allowed:
-        return allowed, [], alone
+        return TriggerReading(None, allowed, [], alone)
     found: list[tuple[int, int, Intervals]] = []
     for k, (_, others) in enumerate(per_group):
         for edge, cover in others.items():
@@ -222,7 +237,9 @@ def trigger_blockers(
             if _length(hit) > 0:
                 found.append((k, edge, hit))
     found.sort(key=lambda f: -_length(f[2]))
-    return allowed, found, alone
+    free = subtract(allowed, merge([iv for _, others in per_group for v in others.values() for iv in v]))
+    trigger = max(free, key=lambda iv: iv[1] - iv[0]) if free else None
+    return TriggerReading(trigger, allowed, found, alone)
 
 
 def _starts_inside(run: list[tuple[int, float]], end: int, goal: int) -> bool:
