@@ -79,7 +79,8 @@ class Rows:
     """Per row of a batch (one start of one design): start, domain bound per edge, resolution per edge.
 
     ``low[b, e]``: lowest throwable R of edge e for row b's design (inf: unstable edge); ``width[b, e]``
-    is the start grid's spacing, the unit of the resolution at which radius ranges are compared.
+    is the unit of the resolution at which radius ranges are compared (``resolution``): the design's
+    widest edge span over RESOLUTION_CELLS.
     """
 
     edge: np.ndarray
@@ -131,9 +132,9 @@ def default_window(throws: int) -> int:
 def resolution(width: float, low: float, high: float) -> float:
     """Return how far two radius-range ends may differ and still count equal, for a range [low, high].
 
-    A share of the start grid's spacing ``width`` (a converging periodic orbit, whose range shrinks to
-    points) or of the range's own span (a quasi-periodic attractor, whose extremes a finite stretch only
-    approaches), whichever is larger.
+    The resolution unit ``width`` (1 % of the widest edge span: a converging periodic orbit's range
+    shrinks to points) or RESOLUTION_SPAN_SHARE of the range's own span (a quasi-periodic or chaotic
+    attractor, whose extremes a finite stretch only approaches), whichever is larger.
     """
     return max(width, RESOLUTION_SPAN_SHARE * (high - low))
 

@@ -339,11 +339,12 @@ def check_limit_offset(part: ArmPart, offset: float, field: str = "offset") -> N
 
 
 def single_design_rows(part: ArmPart, bounds: EdgeBounds, starts_per_edge: int) -> Rows:
-    """Return the rows of one design's grid of starts, with the start grid's spacing as resolution unit.
+    """Return the rows of one design's grid of starts, with the resolution unit of their radius ranges.
 
-    One unit for every edge: the coarsest spacing of the grid's starts. An edge with a narrow range of R
-    (the bracket's edge 1 spans 3.7 mm) would otherwise get a resolution so fine that its ranges would
-    take hundreds of cycles to agree between a tail's halves.
+    One unit for every edge: the widest edge span max_i (R_max_i - low_i) over RESOLUTION_CELLS, so that
+    it does not depend on the number of starts. An edge with a narrow range of R (the bracket's edge 1
+    spans 3.7 mm) would otherwise get a resolution so fine that its ranges would take hundreds of cycles
+    to agree between a tail's halves.
     """
     edges, radii = _grid_starts(part, bounds, starts_per_edge)
     low = np.full(part.n, np.inf)
