@@ -94,10 +94,10 @@ MAX_GROWTH_ROUNDS: Final = 50
 
 # --- Forward limit set (Figs. 7, 8) ------------------------------------------------------------------
 # Grid starts per stable edge and the cap on throws per start when the caller gives none (the
-# `feeder limit-set` defaults and the throw_planner parameters). The burn-in adapts per start (each
-# start stops once it recurs, see ATTRACTOR_WINDOW), so the cap only bounds slow transients: the
-# 12-vertex convex part of issue 14 (examples/throwing/convex12.yaml) needs up to ~1,400 throws to
-# reach its attractor, plus two windows to see it recur; 3000 leaves room above that.
+# `feeder limit-set` defaults and the throw_planner parameters). Each start stops once its tail confirms
+# (attractors.iterate_to_attractor), so the cap only bounds slow transients: a start is confirmed at
+# about twice its transient, and examples/throwing/transient5.yaml's longest transients (~700 throws)
+# confirm by 1,400, convex12's by 1,500; 3000 leaves room above that.
 DEFAULT_STARTS_PER_EDGE: Final = 25
 DEFAULT_THROWS: Final = 3000
 # Throws discarded as the transient before the limit set is read: a third of the run, and at most 100,
@@ -105,10 +105,10 @@ DEFAULT_THROWS: Final = 3000
 BURN_IN_CAP: Final = 100
 BURN_IN_DIVISOR: Final = 3
 # Throws per window of the attractor search (attractors.iterate_to_attractor): a start is first judged
-# after two windows, then every quarter window, on its last n/2 throws against their second half. 400
-# throws hold 30 or more cycles of the paper's triangle and bracket and several rounds of convex12's
-# quasi-periodic attractor (25-279 throws per round), so the first tail judged can show a whole
-# attractor; a short cap shrinks the window to a sixth of it.
+# after two windows, then every quarter window, on its last n/2 throws against their second half. The
+# first tail judged, 200 throws, holds 8 or more cycles of the paper's triangle and bracket, so a start
+# that is in its attractor from the first throw is confirmed about as early as the first rule's two
+# windows did; a short cap shrinks the window to a sixth of it.
 ATTRACTOR_WINDOW: Final = 200
 # The shortest window: two windows of 20 (a tail of 20, halves of 10) are a cycle of the paper's parts
 # (12-23 throws), below which halves cannot show the same cycle; a cap below 40 never converges.
@@ -116,7 +116,7 @@ MIN_WINDOW: Final = 20
 # Checks per window: a start is judged every quarter window, so a start whose transient ends just
 # after a check waits at most a quarter window more, at the cost of one comparison per alive start.
 CHECKS_PER_WINDOW: Final = 4
-# Flips the recent half of a tail must hold (Prop. IV.1: jogs alone have no stable fixed point, so a
+# Flips each half of a tail must hold (Prop. IV.1: jogs alone have no stable fixed point, so a
 # stretch of jogs is a slow transit, never an attractor); three also lets a period-1 cycle show thrice.
 CONFIRM_FLIPS: Final = 3
 # An exact cycle counts only when the stretch shows it this many times: twice is matched by chance by
@@ -146,8 +146,9 @@ RESOLUTION_SPAN_SHARE: Final = 0.1
 OUTSIDE_SHARE: Final = 0.05
 # A tail confirms only once the run has kept to it this many times longer than it ever kept to it
 # before departing (attractors.settled): convex12's visits to edge 5 come 50 to 1,500 throws apart, and
-# a quasi-periodic round of the corpus breaks its 8-visit motif every ~1,200 throws; twice the longest
-# earlier stay let no tail of the corpus confirm without them, three times only cost more throws.
+# a quasi-periodic round of a corpus design breaks its 8-visit motif every ~1,200 throws; twice the
+# longest earlier stay let no tail of the tuning corpus confirm without them, three times only cost
+# more throws.
 SOJOURN_FACTOR: Final = 2
 # Longest motif (in visits) of a block of a quasi-periodic attractor's round: convex12 alternates
 # 3/2 then 0/6 (motifs of 2); 4 allows motifs of up to four edges before a stretch counts as irregular.
