@@ -203,8 +203,20 @@ def stretch(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray) -> Stretch:
     )
 
 
+# A tail's edges, each edge's lowest and highest radius, and its exact cycle (None: quasi-periodic).
+_Tail = tuple[np.ndarray, np.ndarray, np.ndarray, "tuple[int, ...] | None"]
+
+
 def confirms(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, width: np.ndarray) -> bool:
     """Return whether a tail (a row's last 2N states) shows the same attractor as its last N states.
+
+    See ``_confirm``.
+    """
+    return _confirm(edge, radius, jog, width) is not None
+
+
+def _confirm(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, width: np.ndarray) -> _Tail | None:
+    """Return the tail's edges, ranges and cycle when it shows the same attractor as its last N states.
 
     Both halves hold CONFIRM_FLIPS flips (Prop. IV.1); the whole tail and its recent half visit the same
     edges; each edge's radius range over the recent half reaches the whole tail's to the resolution
@@ -215,11 +227,11 @@ def confirms(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, width: np.nd
     """
     recent = len(edge) - len(edge) // 2
     if int((~jog[1:recent]).sum()) < CONFIRM_FLIPS or int((~jog[recent:]).sum()) < CONFIRM_FLIPS:
-        return False
+        return None
     edges, low, high = _ranges(edge, radius)
     edges_new, low_new, high_new = _ranges(edge[recent:], radius[recent:])
     if not np.array_equal(edges, edges_new):
-        return False
+        return None
     older_e, older_r = edge[:recent], radius[:recent]
     for k, e in enumerate(edges):
         tol = resolution(float(width[e]), float(low[k]), float(high[k]))
@@ -230,13 +242,15 @@ def confirms(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, width: np.nd
         mine = older_r[older_e == e]
         beyond = (mine < low_new[k] - tol) | (mine > high_new[k] + tol)
         if beyond.sum() > max(1, OUTSIDE_SHARE * mine.size):
-            return False
+            return None
     visits, lengths = _visits(edge, jog)
     key = cycle_key(visits)
     if key is not None:
         # The whole tail repeats the cycle, so its recent half does too.
-        return not _drifting(radius, visits, lengths, len(key))
-    return len(visits) >= QUASI_VISITS and cycle_key(_visits(edge[recent:], jog[recent:])[0]) is None
+        return None if _drifting(radius, visits, lengths, len(key)) else (edges, low, high, key)
+    if len(visits) >= QUASI_VISITS and cycle_key(_visits(edge[recent:], jog[recent:])[0]) is None:
+        return edges, low, high, None
+    return None
 
 
 def _drifting(radius: np.ndarray, visits: np.ndarray, lengths: np.ndarray, p: int) -> bool:
@@ -260,7 +274,7 @@ def _drifting(radius: np.ndarray, visits: np.ndarray, lengths: np.ndarray, p: in
 
 
 def _consistent(
-    edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, first: int, width: np.ndarray
+    edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, first: int, width: np.ndarray, tail: _Tail | None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Return, per state of a row's run (0..n), whether it is consistent with the tail from ``first`` on.
 
@@ -270,11 +284,12 @@ def _consistent(
     that are the cycle in some rotation; a run of one edge is in none).
     """
     ok = np.zeros(len(edge), dtype=bool)
-    edges, low, high = _ranges(edge[first:], radius[first:])
+    if tail is None:
+        tail = (*_ranges(edge[first:], radius[first:]), cycle_key(_visits(edge[first:], jog[first:])[0]))
+    edges, low, high, key = tail
     for k, e in enumerate(edges):
         tol = resolution(float(width[e]), float(low[k]), float(high[k]))
         ok |= (edge == e) & (radius >= low[k] - tol) & (radius <= high[k] + tol)
-    key = cycle_key(_visits(edge[first:], jog[first:])[0])
     if key is None:
         return ok, ok
     p = len(key)
@@ -292,7 +307,14 @@ def _consistent(
     return ok & np.repeat(phased, lengths), ok & np.repeat(anyhow, lengths)
 
 
-def settled(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, first: int, width: np.ndarray) -> int:
+def settled(
+    edge: np.ndarray,
+    radius: np.ndarray,
+    jog: np.ndarray,
+    first: int,
+    width: np.ndarray,
+    tail: _Tail | None = None,
+) -> int:
     """Return where a row's run (states 0..n) began keeping to its tail (from ``first``), or -1: not yet.
 
     The run has been consistent with the tail, in its phase (``_consistent``), since its last departure;
@@ -300,9 +322,10 @@ def settled(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, first: int, w
     run ended by departing. An attractor with rare excursions (convex12's visits to edge 5, a
     quasi-periodic round's rare other block) leaves tails that happen to hold none of them; the earlier
     stays, each ended by an excursion, say how long such a tail can last, and a stay no longer than those
-    proves nothing. The stay holds the tail, and its start is where the transient ends.
+    proves nothing. The stay holds the tail, and its start is where the transient ends. ``tail``: the
+    tail's edges, ranges and cycle when the caller has them (``_confirm``).
     """
-    ok, anyhow = _consistent(edge, radius, jog, first, width)
+    ok, anyhow = _consistent(edge, radius, jog, first, width, tail)
     out = np.flatnonzero(~ok)
     if out.size == 0:
         return 0
@@ -424,9 +447,10 @@ def iterate_to_attractor(
             n = int(end[b])
             first = n - n // 2 + 1
             sl = slice(first, n + 1)
-            if not confirms(edge[b, sl], radius[b, sl], jog[b, sl], rows.width[b]):
+            found = _confirm(edge[b, sl], radius[b, sl], jog[b, sl], rows.width[b])
+            if found is None:
                 continue
-            stay = settled(edge[b, : n + 1], radius[b, : n + 1], jog[b, : n + 1], first, rows.width[b])
+            stay = settled(edge[b, : n + 1], radius[b, : n + 1], jog[b, : n + 1], first, rows.width[b], found)
             if stay >= 0:
                 tail[b], tail_end[b] = stay, n
                 tails[int(b)] = stretch(edge[b, stay : n + 1], radius[b, stay : n + 1], jog[b, stay : n + 1])

@@ -148,32 +148,54 @@ def reads_pose(
     return any(lo <= sensor_radius <= hi for lo, hi in covered(loops, arm_y, height))
 
 
+def _merged(low: np.ndarray, high: np.ndarray) -> Intervals:
+    """Return the union of closed intervals [low[k], high[k]], sorted and disjoint (``merge``, vectorized)."""
+    if low.size == 0:
+        return []
+    order = np.lexsort((high, low))
+    low, high = low[order], high[order]
+    top = np.maximum.accumulate(high)
+    starts = np.flatnonzero(np.concatenate([[True], low[1:] > top[:-1]]))
+    ends = np.concatenate([starts[1:], [low.size]]) - 1
+    return [(float(low[a]), float(top[b])) for a, b in zip(starts, ends, strict=True)]
+
+
 def _goal_and_others(
     part: ArmPart, goal: int, height: float, states: list[list[tuple[int, float]]]
 ) -> tuple[Intervals | None, dict[int, Intervals]]:
     """Return the sensor radii covered in every complete visit to ``goal``, and those of each other edge.
 
     The first is None when no visit to ``goal`` is complete; the second maps each other edge to the
-    radii covered while the part rests on it.
+    radii covered while the part rests on it. A visit is a run of states on ``goal``; only whole visits
+    count (a visit cut by the stretch's ends may be incomplete).
     """
-    covers = {e: resting_cover(part, e, height) for e in {e for run in states for e, _ in run}}
-    forbidden: dict[int, Intervals] = {}
+    covers = {
+        e: np.array(resting_cover(part, e, height), dtype=float).reshape(-1, 2)
+        for e in {e for run in states for e, _ in run}
+    }
+    low: dict[int, list[np.ndarray]] = {}
+    high: dict[int, list[np.ndarray]] = {}
     allowed: Intervals | None = None
     for run in states:
-        visit: Intervals = []
-        for index, (edge, radius) in enumerate(run):
-            shifted = [(lo + radius, hi + radius) for lo, hi in covers[edge]]
-            if edge == goal:
-                visit.extend(shifted)
-                last = index + 1 == len(run) or run[index + 1][0] != goal
-                # Only whole visits count: a visit cut by the window's ends may be incomplete.
-                if last and index + 1 < len(run) and _starts_inside(run, index, goal):
-                    allowed = merge(visit) if allowed is None else intersect(allowed, merge(visit))
-                if last:
-                    visit = []
-            else:
-                forbidden.setdefault(edge, []).extend(shifted)
-    return allowed, {e: merge(v) for e, v in forbidden.items()}
+        if not run:
+            continue
+        edge = np.array([e for e, _ in run])
+        radius = np.array([r for _, r in run])
+        on = edge == goal
+        for other in dict.fromkeys(int(e) for e in edge[~on]):
+            r = radius[edge == other][:, None]
+            low.setdefault(other, []).append((covers[other][:, 0][None, :] + r).ravel())
+            high.setdefault(other, []).append((covers[other][:, 1][None, :] + r).ravel())
+        steps = np.diff(np.concatenate([[0], on.astype(np.int8), [0]]))
+        for a, b in zip(np.flatnonzero(steps == 1), np.flatnonzero(steps == -1), strict=True):
+            if a == 0 or b == len(run):
+                continue
+            r = radius[a:b][:, None]
+            visit = _merged(
+                (covers[goal][:, 0][None, :] + r).ravel(), (covers[goal][:, 1][None, :] + r).ravel()
+            )
+            allowed = visit if allowed is None else intersect(allowed, visit)
+    return allowed, {e: _merged(np.concatenate(low[e]), np.concatenate(high[e])) for e in low}
 
 
 def trigger_range(
