@@ -44,8 +44,8 @@ from feeder_planner.throwing.throw_map import ThrowParams, lowest_radius, radius
 SEED = 25
 DESIGNS_PER_PART = 8
 # Parts of the bench's corpus (8 designs each; about half of them have a limit set) and of its --quick run.
-CORPUS_PARTS = 60
-QUICK_PARTS = 10
+CORPUS_PARTS = 80
+QUICK_PARTS = 4
 # Gravities of the corpus (m/s^2): the bracket's inclined plane of the paper, the paper's, standard.
 GRAVITIES = (-2.20, -9.66, -9.81)
 REPEATS = 3  # an exact cycle counts when the last half shows it this many times

@@ -1,0 +1,81 @@
+"""limit_set against long plain iteration of the throw map, on a seeded corpus (issue 25).
+
+The corpus and the truth are ``truth_corpus``'s: every start of a design's grid is thrown many times,
+one throw after the other, and the last half of its run is its attractor. The suite runs a fixed
+subset of the corpus (SUITE) with shorter runs; the whole corpus, with limit-set's defaults, is the
+`make bench` row "throwing: limit set vs long iteration" (bench/bench_throwing.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from truth_corpus import (
+    CorpusDesign,
+    Run,
+    corpus_designs,
+    evaluate,
+    grid_starts,
+    judge,
+    long_runs,
+)
+
+from feeder_planner.throwing.throw_map import throw
+
+# The subset: (part, design) keys of the corpus whose truth is unambiguous with runs of SUITE_THROWS and
+# with the bench's 2,000 (chosen on the truth alone, among the cheap parts of 4-6 hull edges): 41 designs,
+# 2 quasi-periodic, 1 with several attractors, 10 with transients over 100 throws, 28 non-convex. About
+# 45 s of CPU (limit_set's bounds and iteration are ~1 s a design; the long runs ~12 s).
+SUITE: list[tuple[int, int]] = [
+    *[(0, j) for j in (3, 6)],
+    *[(9, j) for j in (0, 1, 2, 4, 5, 6)],
+    *[(11, j) for j in (3, 6)],
+    *[(22, j) for j in (0, 1, 2, 5, 6)],
+    *[(29, j) for j in (0, 3)],
+    *[(31, j) for j in (0, 1, 2)],
+    *[(33, j) for j in (5, 6, 7)],
+    *[(42, j) for j in (4, 5, 6, 7)],
+    *[(44, j) for j in (2, 7)],
+    *[(51, j) for j in (0, 1, 2, 3, 4, 7)],
+    (53, 7),
+    *[(55, j) for j in (1, 2, 3, 5, 7)],
+]
+SUITE_THROWS = 800
+SUITE_STARTS = 2
+# The design search's window (design.SEARCH_WINDOW): the suite checks the rule where its tails are
+# shortest; the bench row checks limit-set's default window on the whole corpus.
+SUITE_WINDOW = 50
+
+
+def _designs() -> list[CorpusDesign]:
+    parts = sorted({k for k, _ in SUITE})
+    by_part = {k: corpus_designs(k) for k in parts}
+    return [by_part[k][j] for k, j in SUITE]
+
+
+def test_limit_set_agrees_with_long_runs_on_the_suites_corpus_subset():
+    report = evaluate(_designs(), SUITE_THROWS, SUITE_STARTS, SUITE_WINDOW)
+    print(report.figure())
+    assert report.unambiguous >= 40, report.figure()
+    assert report.agree == report.unambiguous, "\n".join(report.mismatches)
+
+
+def test_the_long_runs_are_the_scalar_throw_map_bit_for_bit():
+    # The long runs throw many rows per call (throw_rows is elementwise); each throw must be the scalar
+    # `throw` of its state alone, to the last bit, jog or flip included.
+    design = _designs()[0]
+    starts = grid_starts(design, SUITE_STARTS)
+    assert starts is not None
+    runs = long_runs([design], [starts], 200)[0]
+    rng = np.random.default_rng(0)
+    for _ in range(40):
+        run = runs[int(rng.integers(len(runs)))]
+        n = int(rng.integers(200))
+        one = throw(design.part, int(run.edge[n]), float(run.radius[n]), design.params)
+        assert (one.edge, one.radius) == (int(run.edge[n + 1]), float(run.radius[n + 1]))
+        assert (one.kind == "jog") == bool(run.jog[n + 1])
+
+
+def test_a_start_still_jogging_out_is_no_truth():
+    # A run that only jogs along one edge in its last quarter is in transit (Prop. IV.1), not settled.
+    run = Run(np.zeros(401, dtype=int), np.linspace(0.1, 0.2, 401), np.ones(401, dtype=bool), False)
+    assert judge(run, 0.02).reason == "jogs on one edge (in transit)"
