@@ -61,10 +61,11 @@ src_hash=$(cd "$ROOT" && find feeder_msgs standard_interfaces feeder_planner fee
              \( \( -name '*.py' -not -name setup.py -printf '%p\n' \) -o -printf '%p %s %T@\n' \) \
            | sort | sha256sum | cut -d' ' -f1)
 # A package whose install is gone (removed by hand, or a new link in ros_ws/src) is built again too.
+missing=""
 for package in "$WS"/src/*; do
-  [ -d "$WS/install/$(basename "$package")" ] || src_hash="$src_hash+missing"
+  [ -d "$WS/install/$(basename "$package")" ] || missing="$missing $(basename "$package")"
 done
-if [ "$(cat "$WS/install/.feeder-build-stamp" 2>/dev/null)" != "$src_hash" ]; then
+if [ -n "$missing" ] || [ "$(cat "$WS/install/.feeder-build-stamp" 2>/dev/null)" != "$src_hash" ]; then
   say "building ros_ws with colcon"
   (
     set +u

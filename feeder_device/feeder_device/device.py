@@ -33,6 +33,7 @@ from typing import Any, Generic, Mapping, Protocol, Sequence, TypeVar
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.action import ActionServer
 from rclpy.clock import Clock, ClockType, JumpThreshold
 from rclpy.duration import Duration
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
@@ -149,6 +150,7 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         self._tick_timer: Timer | None = None
         self._streams: list[tuple[Publisher, bool]] = []
         self.goals: list[TickedGoal] = []  # the goals executing (feeder_device.goals), advanced per tick
+        self.action_servers: list[ActionServer] = []  # made by goals.serve_goal, ended by destroy_node
         self._last_status: StatusKey | None = None
         self._status_pub = self.create_publisher(DeviceStatus, "~/status", LATCHED)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
@@ -555,6 +557,19 @@ class ManagedDevice(LifecycleNode, Generic[P]):
             self._wake_tick_waiters()
             self.publish_status()
         return TransitionCallbackReturn.SUCCESS
+
+    def destroy_node(self) -> None:
+        """Destroy the node with its action servers and state machine, which rclpy's destroy_node leaves.
+
+        An action server keeps its rcl node and its DDS endpoints alive, even past ``rclpy.shutdown``: a
+        device destroyed in a process that goes on would still show its actions in the graph.
+        """
+        for server in self.action_servers:
+            server.destroy()
+        self.action_servers.clear()
+        super().destroy_node()
+        # Likewise the lifecycle state machine and its ~/transition_event publisher (rclpy keeps them).
+        self._state_machine.destroy_when_not_in_use()
 
     def _LifecycleNodeMixin__on_change_state(self, request: Any, response: Any) -> Any:  # noqa: N802
         """Refuse a transition the present state does not have, instead of dying of it.

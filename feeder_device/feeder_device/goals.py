@@ -202,7 +202,7 @@ def serve_goal(
 
     # Goal, cancel and result requests queue as deep as the device's services (node_kit.services).
     queue = request_qos(request_queue_depth(device))
-    return ActionServer(
+    server = ActionServer(
         device,
         action_type,
         name,
@@ -213,6 +213,10 @@ def serve_goal(
         result_service_qos_profile=queue,
         cancel_service_qos_profile=queue,
     )
+    device.action_servers.append(
+        server
+    )  # rclpy's destroy_node leaves action servers alive: the kit ends them
+    return server
 
 
 async def _drive(device: ManagedDevice, running: RunningGoal) -> None:

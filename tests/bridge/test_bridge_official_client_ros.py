@@ -16,12 +16,9 @@ from __future__ import annotations
 import base64
 import itertools
 import json
-import os
 import queue
 import shutil
-import signal
 import subprocess
-import sys
 import tempfile
 import threading
 import time
@@ -29,6 +26,7 @@ from pathlib import Path
 from typing import Any, Iterator
 
 import pytest
+from bridge_process import BridgeProcess
 
 pytestmark = pytest.mark.ros
 
@@ -163,41 +161,6 @@ def decoded(data: bytes | str, msg_type: Any) -> Any:
     from rclpy.serialization import deserialize_message
 
     return deserialize_message(base64.b64decode(data) if isinstance(data, str) else data, msg_type)
-
-
-class BridgeProcess:
-    """`feeder bridge --port 0 ARGS` as a child process; its first stdout line says where it serves."""
-
-    def __init__(self, *args: str) -> None:
-        command = [sys.executable, "-m", "feeder_cell.cli.main", "bridge", "--port", "0", *args]
-        self.log = tempfile.NamedTemporaryFile("w+", prefix="feeder-bridge-", suffix=".log")  # noqa: SIM115
-        self.process = subprocess.Popen(
-            command, stdout=subprocess.PIPE, stderr=self.log, text=True, env=dict(os.environ)
-        )
-        lines: queue.Queue[str] = queue.Queue()
-        threading.Thread(
-            target=lambda: [lines.put(x) for x in self.process.stdout or []], daemon=True
-        ).start()
-        try:
-            line = lines.get(timeout=TIMEOUT)
-        except queue.Empty:
-            self.stop()
-            raise AssertionError(f"feeder bridge printed nothing in {TIMEOUT} s: {self.output()}") from None
-        assert line.startswith("feeder bridge: serving ws://127.0.0.1:"), line  # loopback unless told
-        self.url = line.split()[3]
-
-    def output(self) -> str:
-        self.log.seek(0)
-        return self.log.read()[-4000:]
-
-    def stop(self) -> int:
-        if self.process.poll() is None:
-            self.process.send_signal(signal.SIGINT)
-            try:
-                return self.process.wait(timeout=10.0)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-        return self.process.wait(timeout=10.0)
 
 
 @pytest.fixture(scope="module")

@@ -230,7 +230,7 @@ def test_flood_of_throw_planner_leaves_other_clients_and_the_arm_served(
 ) -> None:
     joints = listen(JointState, f"{ARM}/joint_states")
     # Limit sets (each ~0.1-0.5 s of work) on one service, sent first...
-    heavy = LimitSetCompute.Request(part=part(), goal_edge=1, starts_per_edge=3, throws=60, **DESIGN)
+    heavy = LimitSetCompute.Request(part=part(), goal_edge=1, starts_per_edge=3, throws=100, **DESIGN)
     heavy_service = burst_client(ros_client, LimitSetCompute, f"{THROW}/limit_set")
     heavy_futures = [heavy_service.call_async(heavy) for _ in range(10)]
     # ...then 200 throws on another, while a grasp request and the arm's stream are measured.

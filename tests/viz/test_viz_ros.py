@@ -14,14 +14,7 @@ from __future__ import annotations
 import asyncio
 import json
 import math
-import os
-import queue
-import signal
 import struct
-import subprocess
-import sys
-import tempfile
-import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -29,6 +22,7 @@ from typing import Any
 import numpy as np
 import pytest
 import ros_harness
+from bridge_process import BridgeProcess
 
 from feeder_planner.node_kit.msg_markers import STYLES
 from feeder_planner.node_kit.tf import TFMessage, quaternion_from_matrix, quaternion_from_rpy
@@ -288,39 +282,6 @@ def test_marker_rate_refuses_bad_values_and_zero_stops_the_updates(
 
 
 # --- the bridge --------------------------------------------------------------------------------------
-class BridgeProcess:
-    """`feeder bridge --port 0` as a child process; its first stdout line says where it serves."""
-
-    def __init__(self) -> None:
-        command = [sys.executable, "-m", "feeder_cell.cli.main", "bridge", "--port", "0"]
-        self.log = tempfile.NamedTemporaryFile("w+", prefix="feeder-bridge-", suffix=".log")  # noqa: SIM115
-        self.process = subprocess.Popen(
-            command, stdout=subprocess.PIPE, stderr=self.log, text=True, env=dict(os.environ)
-        )
-        lines: queue.Queue[str] = queue.Queue()
-        threading.Thread(
-            target=lambda: [lines.put(x) for x in self.process.stdout or []], daemon=True
-        ).start()
-        try:
-            line = lines.get(timeout=30.0)
-        except queue.Empty:
-            self.stop()
-            raise AssertionError(f"feeder bridge printed nothing in 30 s: {self.output()}") from None
-        assert line.startswith("feeder bridge: serving ws://127.0.0.1:"), line
-        self.url = line.split()[3]
-
-    def output(self) -> str:
-        self.log.seek(0)
-        return self.log.read()[-4000:]
-
-    def stop(self) -> int:
-        if self.process.poll() is None:
-            self.process.send_signal(signal.SIGINT)
-            try:
-                return self.process.wait(timeout=10.0)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-        return self.process.wait(timeout=10.0)
 
 
 async def foxglove_session(url: str, topics: dict[str, int], timeout: float) -> dict[str, Any]:
