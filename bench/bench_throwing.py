@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import importlib
 import math
+import subprocess
+import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -14,9 +18,25 @@ from feeder_planner.throwing.geometry import arm_part
 from feeder_planner.throwing.limit_set import edge_bounds, iterate, limit_set
 from feeder_planner.throwing.throw_map import ThrowParams, throw, throw_batch
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "throwing"
+ROOT = Path(__file__).resolve().parents[1]
+# The corpus row: long runs of this many throws from this many starts per stable edge, and limit_set
+# with the same cap and grid (its window the default); tests/throwing/test_limit_truth.py runs a subset.
+CORPUS_THROWS = 2000
+CORPUS_STARTS = 2
+EXAMPLES = ROOT / "examples" / "throwing"
 TRIANGLE = ThrowParams(-0.005, math.radians(320), -9.66, 0.5)
 BRACKET = ThrowParams(-0.0025, math.radians(320), -2.20, 0.5)
+# The commit whose attractors.py and limit_set.py hold the previous convergence rule (the grid-cell
+# recurrence that issue 25 replaced): the examples' limit sets are timed with both rules in one run.
+RULE_BEFORE = "654331da32ef42c8780b82d91149452814df10db"
+# The examples with the designs their files and docs/throwing.md name (SI), and the goal edge.
+EXAMPLE_DESIGNS = {
+    "triangle": (TRIANGLE, 1),
+    "bracket": (BRACKET, 0),
+    "bracket5": (ThrowParams(-0.0025, math.radians(105), -2.20, 0.5), 4),
+    "convex12": (ThrowParams(-0.0003, math.radians(320), -9.66, 0.5), 3),
+    "transient5": (ThrowParams(-0.00082, math.radians(106), -2.20, 0.41), 2),
+}
 
 
 def _decagon():
@@ -136,7 +156,10 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     fig.savefig(out_dir / "throwing_fidelity_vs_step.png", dpi=110)
     plt.close(fig)
 
-    rows += _design_rows(tri, quick)
+    before = _previous_rule()
+    rows += _design_rows(tri, quick, before)
+    rows += _rule_rows(quick, before)
+    rows += _truth_rows(quick)
 
     # Figs. 7 / 8: convergence of a grid of starts to one cycle
     for name, params, throws in (("triangle", TRIANGLE, 150), ("bracket", BRACKET, 150)):
@@ -164,7 +187,7 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     return rows
 
 
-def _design_rows(tri, quick: bool) -> list[dict]:
+def _design_rows(tri, quick: bool, before: tuple[object, object] | None = None) -> list[dict]:
     """Issue 14 item 5: the batched 20 x 20 design search against the per-design loop, robust throughput."""
     from feeder_planner.throwing.design import search, search_loop
     from feeder_planner.throwing.studies import robust_study
@@ -181,6 +204,15 @@ def _design_rows(tri, quick: bool) -> list[dict]:
     search_loop(tri, 1, sub_h, sub_w, TRIANGLE.gravity, TRIANGLE.mu)
     per_design = (time.perf_counter() - t0) / (len(sub_h) * len(sub_w))
     unique = sum(r.unique for r in batched.designs)
+    previous = ""
+    if before is not None:
+        # The same batched search with the previous convergence rule (issue 25), in the same run.
+        t0 = time.perf_counter()
+        old = before[1].search(tri, 1, offsets, speeds, TRIANGLE.gravity, TRIANGLE.mu)  # type: ignore[attr-defined]
+        previous = (
+            f"; previous rule: batched {time.perf_counter() - t0:.1f} s, "
+            f"{sum(r.unique for r in old.designs)}/400 unique"
+        )
     out.append(
         {
             "benchmark": "throwing: throw-design 20 x 20 (h, W) grid, triangle, batched",
@@ -190,7 +222,7 @@ def _design_rows(tri, quick: bool) -> list[dict]:
             "target": "< 10 s",
             "baseline": (
                 f"per-design loop: {per_design:.2f} s a design (5 x 5 sample), {400 * per_design:.0f} s for "
-                f"400 ({400 * per_design / t_batched:.0f}x slower); {unique}/400 designs unique"
+                f"400 ({400 * per_design / t_batched:.0f}x slower); {unique}/400 designs unique{previous}"
             ),
             "met": t_batched < 10.0,
         }
@@ -223,6 +255,113 @@ def _design_rows(tri, quick: bool) -> list[dict]:
             }
         )
     return out
+
+
+def _previous_rule() -> tuple[object, object] | None:
+    """Return the previous rule's limit_set and design modules, loaded from git (None: no git history).
+
+    attractors.py, limit_set.py and design.py of RULE_BEFORE are written to a temporary package
+    ``throwing_before`` whose modules import each other instead of today's; everything else they use
+    (the throw map, the sensor, the tolerances) is today's, so only the rule differs.
+    """
+    folder = Path(tempfile.mkdtemp(prefix="rule_before_"))
+    package = folder / "throwing_before"
+    package.mkdir()
+    (package / "__init__.py").write_text("")
+    for name in ("attractors", "limit_set", "design"):
+        shown = subprocess.run(
+            [
+                "git",
+                "-C",
+                str(ROOT),
+                "show",
+                f"{RULE_BEFORE}:feeder_planner/feeder_planner/throwing/{name}.py",
+            ],
+            capture_output=True,
+            text=True,
+        )
+        if shown.returncode:
+            return None
+        text = shown.stdout
+        for other in ("attractors", "limit_set"):
+            text = text.replace(f"feeder_planner.throwing.{other}", f"throwing_before.{other}")
+        (package / f"{name}.py").write_text(text)
+    sys.path.insert(0, str(folder))
+    return importlib.import_module("throwing_before.limit_set"), importlib.import_module(
+        "throwing_before.design"
+    )
+
+
+def _rule_rows(quick: bool, before: tuple[object, object] | None) -> list[dict]:
+    """Issue 25 item 4: limit-set with the defaults on the examples, today's rule against the previous one.
+
+    CPU time of this process (the machine is shared), the best of two alternating runs per rule.
+    """
+    if before is None:
+        return [
+            {
+                "benchmark": "throwing: limit-set defaults on the examples, rule of issue 25 vs the previous",
+                "measure": "time ratio",
+                "value": math.nan,
+                "unit": "x",
+                "target": "<= 2",
+                "baseline": f"not measured: no git history with {RULE_BEFORE[:10]}",
+                "met": False,
+            }
+        ]
+    old_limit_set = before[0].limit_set  # type: ignore[attr-defined]
+    times: dict[str, tuple[float, float, int, int]] = {}
+    for name, (params, goal) in EXAMPLE_DESIGNS.items():
+        part = arm_part(load_part(EXAMPLES / f"{name}.yaml"))
+        best = {"new": math.inf, "old": math.inf}
+        used = {"new": 0, "old": 0}
+        for _ in range(1 if quick else 2):
+            for label, function in (("old", old_limit_set), ("new", limit_set)):
+                start = time.process_time()
+                result = function(part, params, goal_edge=goal)
+                best[label] = min(best[label], time.process_time() - start)
+                used[label] = result.throws_used
+        times[name] = (best["old"], best["new"], used["old"], used["new"])
+    worst = max(new / old for old, new, _, _ in times.values())
+    total_old = sum(t[0] for t in times.values())
+    total_new = sum(t[1] for t in times.values())
+    return [
+        {
+            "benchmark": "throwing: limit-set defaults on the examples, rule of issue 25 vs the previous",
+            "measure": "worst time ratio (CPU)",
+            "value": worst,
+            "unit": "x",
+            "target": "<= 2",
+            "baseline": "; ".join(
+                f"{name} {old:.2f} -> {new:.2f} s ({used_old} -> {used_new} throws)"
+                for name, (old, new, used_old, used_new) in times.items()
+            )
+            + f"; all {total_old:.1f} -> {total_new:.1f} s",
+            "met": worst <= 2.0,
+        }
+    ]
+
+
+def _truth_rows(quick: bool) -> list[dict]:
+    """Issue 25 item 3: limit_set against long plain iteration on the seeded corpus (tests/throwing)."""
+    sys.path.insert(0, str(ROOT / "tests" / "throwing"))
+    from truth_corpus import CORPUS_PARTS, QUICK_PARTS, corpus_designs, evaluate
+
+    parts = QUICK_PARTS if quick else CORPUS_PARTS
+    designs = [d for k in range(parts) for d in corpus_designs(k)]
+    report = evaluate(designs, CORPUS_THROWS, CORPUS_STARTS)
+    share = report.agree / report.unambiguous if report.unambiguous else math.nan
+    return [
+        {
+            "benchmark": f"throwing: limit set vs long iteration, seeded corpus ({parts} parts)",
+            "measure": "agreement on unambiguous designs",
+            "value": share,
+            "unit": "fraction",
+            "target": "1.0",
+            "baseline": report.figure() + "".join(f" | {m}" for m in (report.mismatches or [])[:5]),
+            "met": share == 1.0,
+        }
+    ]
 
 
 if __name__ == "__main__":
