@@ -47,6 +47,7 @@ from feeder_planner.throwing.tolerances import (
     MIN_WINDOW,
     OUTSIDE_SHARE,
     QUASI_VISITS,
+    QUASI_WINDOWS,
     RESOLUTION_SPAN_SHARE,
     SOJOURN_FACTOR,
 )
@@ -215,15 +216,17 @@ def confirms(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, width: np.nd
     return _confirm(edge, radius, jog, width) is not None
 
 
-def _confirm(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, width: np.ndarray) -> _Tail | None:
+def _confirm(
+    edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, width: np.ndarray, quasi_min: int = 0
+) -> _Tail | None:
     """Return the tail's edges, ranges and cycle when it shows the same attractor as its last N states.
 
     Both halves hold CONFIRM_FLIPS flips (Prop. IV.1); the whole tail and its recent half visit the same
     edges; each edge's radius range over the recent half reaches the whole tail's to the resolution
     (``resolution``, ``width[e]`` the unit of edge e), or at most OUTSIDE_SHARE of the older half's
     states lie beyond it; and the whole tail repeats one exact cycle CYCLE_REPEATS times without drifting
-    (``_drifting``), or, holding QUASI_VISITS visits, has no cycle and neither has its recent half. Cheap
-    tests first: most rejections are an edge the older half still visits.
+    (``_drifting``), or, holding QUASI_VISITS visits and ``quasi_min`` states, has no cycle and neither
+    has its recent half. Cheap tests first: most rejections are an edge the older half still visits.
     """
     recent = len(edge) - len(edge) // 2
     if int((~jog[1:recent]).sum()) < CONFIRM_FLIPS or int((~jog[recent:]).sum()) < CONFIRM_FLIPS:
@@ -248,7 +251,9 @@ def _confirm(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, width: np.nd
     if key is not None:
         # The whole tail repeats the cycle, so its recent half does too.
         return None if _drifting(radius, visits, lengths, len(key)) else (edges, low, high, key)
-    if len(visits) >= QUASI_VISITS and cycle_key(_visits(edge[recent:], jog[recent:])[0]) is None:
+    if len(edge) < quasi_min or len(visits) < QUASI_VISITS:
+        return None
+    if cycle_key(_visits(edge[recent:], jog[recent:])[0]) is None:
         return edges, low, high, None
     return None
 
@@ -447,7 +452,7 @@ def iterate_to_attractor(
             n = int(end[b])
             first = n - n // 2 + 1
             sl = slice(first, n + 1)
-            found = _confirm(edge[b, sl], radius[b, sl], jog[b, sl], rows.width[b])
+            found = _confirm(edge[b, sl], radius[b, sl], jog[b, sl], rows.width[b], QUASI_WINDOWS * w)
             if found is None:
                 continue
             stay = settled(edge[b, : n + 1], radius[b, : n + 1], jog[b, : n + 1], first, rows.width[b], found)

@@ -32,6 +32,7 @@ __all__ = [
     "CONFIRM_FLIPS",
     "CYCLE_REPEATS",
     "QUASI_VISITS",
+    "QUASI_WINDOWS",
     "DRIFT_SHARE",
     "RESOLUTION_CELLS",
     "RESOLUTION_SPAN_SHARE",
@@ -126,6 +127,10 @@ CYCLE_REPEATS: Final = 3
 # QUASI_VISITS / CYCLE_REPEATS visits or more could not have shown thrice (the corpus's longest
 # periodic attractor has 21 visits per cycle).
 QUASI_VISITS: Final = 90
+# Windows a quasi-periodic tail must span (its last n/2 throws: the start judged from 4 windows on): an
+# attractor that never repeats is where rare excursions live (a corpus design visits its fifth edge
+# 17 times in 6,000 throws, the first two 440 throws apart), and a shorter tail can fall between two.
+QUASI_WINDOWS: Final = 2
 # A periodic tail whose radii at one phase of the cycle move one way period after period, the last step
 # at least this share of the first, still drifts (attractors._drifting): a converging orbit's steps
 # shrink geometrically, a slow quasi-periodic drift's do not (two corpus designs drift ~0.1 mm per
