@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any, Callable
 
 import numpy as np
 
@@ -307,6 +308,7 @@ class CorpusReport:
     mismatches: list[str] | None = None
     kinds: dict[str, int] | None = None
     seconds: float = 0.0
+    baseline_agree: int = 0
 
     def figure(self) -> str:
         """Return the corpus figure: designs, why some are left out, agreement, what the corpus holds."""
@@ -341,8 +343,12 @@ def evaluate(
     starts_per_edge: int,
     window: int | None = None,
     progress: bool = False,
+    baseline: Callable[..., Any] | None = None,
 ) -> CorpusReport:
     """Return limit_set (``starts_per_edge``, ``throws``, ``window``) against long runs of ``throws``.
+
+    ``baseline``: another limit_set (the bench passes the previous rule's) judged on the same designs
+    and truths; its agreements are counted in ``baseline_agree``.
 
     A design is left out when it has no limit set (no R_flip, or some start's run leaves the domain:
     no invariant set) or when its truth is ambiguous (``design_truth``); on every other design each
@@ -421,6 +427,12 @@ def evaluate(
                 if yes:
                     kinds[what] = kinds.get(what, 0) + 1
             wrong = [ls] if isinstance(ls, str) else compare(ls.attractors, truths)
+            if baseline is not None:
+                try:
+                    other = baseline(d.part, d.params, starts_per_edge=starts_per_edge, throws=throws)
+                    report.baseline_agree += not compare(other.attractors, truths)
+                except SolverError:
+                    pass
             if wrong:
                 mismatches.append(f"design {d.name}: " + "; ".join(wrong[:3]))
             else:
