@@ -97,7 +97,7 @@ class Search:
     ``edge``, ``radius``, ``jog``, ``flags`` (bit k: ASSUMPTIONS[k]) have one column per throw;
     ``end[b]`` is the last state of row b; ``tail[b]`` and ``tail_end[b]`` the first and last states of
     its confirmed tail (-1: the row did not converge); ``escaped[b]``: a throw left the domain;
-    ``width``: the rows' resolution unit.
+    ``width``: the rows' resolution unit; ``stretches[b]``: what row b's confirmed tail shows.
     """
 
     edge: np.ndarray
@@ -110,6 +110,7 @@ class Search:
     width: np.ndarray
     window: int
     tail_end: np.ndarray
+    stretches: dict[int, Stretch] = field(default_factory=dict)
 
     @property
     def converged(self) -> np.ndarray:
@@ -467,7 +468,7 @@ def iterate_to_attractor(
                 running[confirmed] = small & (end[confirmed] < throws) & ~escaped[confirmed]
         if progress is not None:
             progress(starts - int(running.sum()), starts)
-    return Search(edge, radius, jog, flags, end, tail, escaped, rows.width, w, tail_end)
+    return Search(edge, radius, jog, flags, end, tail, escaped, rows.width, w, tail_end, tails)
 
 
 @dataclass(frozen=True)
@@ -639,7 +640,8 @@ def group_attractors(search: Search, rows: np.ndarray | None = None) -> list[Att
     considered = np.arange(len(search.tail)) if rows is None else np.asarray(rows)
     members = [int(b) for b in considered if search.tail[b] >= 0]
     tails = {
-        b: stretch(
+        b: search.stretches.get(b)
+        or stretch(
             search.edge[b, search.tail_slice(b)],
             search.radius[b, search.tail_slice(b)],
             search.jog[b, search.tail_slice(b)],

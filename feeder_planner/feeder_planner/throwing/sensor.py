@@ -173,6 +173,7 @@ def _goal_and_others(
         e: np.array(resting_cover(part, e, height), dtype=float).reshape(-1, 2)
         for e in {e for run in states for e, _ in run}
     }
+    goal_cover = [(float(lo), float(hi)) for lo, hi in covers.get(goal, np.zeros((0, 2)))]
     low: dict[int, list[np.ndarray]] = {}
     high: dict[int, list[np.ndarray]] = {}
     allowed: Intervals | None = None
@@ -190,10 +191,8 @@ def _goal_and_others(
         for a, b in zip(np.flatnonzero(steps == 1), np.flatnonzero(steps == -1), strict=True):
             if a == 0 or b == len(run):
                 continue
-            r = radius[a:b][:, None]
-            visit = _merged(
-                (covers[goal][:, 0][None, :] + r).ravel(), (covers[goal][:, 1][None, :] + r).ravel()
-            )
+            # A visit holds a few states: plain Python merges them faster than numpy would.
+            visit = merge([(lo + r, hi + r) for _, r in run[a:b] for lo, hi in goal_cover])
             allowed = visit if allowed is None else intersect(allowed, visit)
     return allowed, {e: _merged(np.concatenate(low[e]), np.concatenate(high[e])) for e in low}
 
