@@ -10,11 +10,15 @@ from typing import Sequence
 
 import numpy as np
 
-from feeder_planner.drawing import Shape, lift, part_shapes
+from feeder_planner.drawing import Shape, lift, part_shapes, triangulate_loops
 from feeder_planner.parts import Part
 from feeder_sim.mems.coverage import Grid
+from feeder_sim.mems.scene import Scene
 
-__all__ = ["array_shapes", "force_shapes", "parts_shapes"]
+__all__ = ["array_shapes", "force_shapes", "parts_shapes", "ArrayDrawing", "Layout"]
+
+# What the array's static shapes are drawn for: (nx, ny, pitch, force arrow stride).
+Layout = tuple[int, int, float, int]
 
 # The surface sits this fraction of the pitch below the plane, so the parts drawn at z = 0 are on top.
 SURFACE_DEPTH = 0.05
@@ -77,3 +81,31 @@ def parts_shapes(
         tri = triangles[index] if triangles is not None else None
         shapes += part_shapes(part, pose, namespace, style, triangles=tri)
     return shapes
+
+
+class ArrayDrawing:
+    """The array's shapes as a viewer gets them, each rebuilt only when what it shows changed."""
+
+    def __init__(self) -> None:
+        # Parts are triangulated once per scene and placed at every update.
+        self.part_triangles: tuple[Scene | None, list[np.ndarray]] = (None, [])
+        # The cells' forces and layout the static shapes were drawn for (() before the first), and those.
+        self.array: tuple[np.ndarray | None, Layout | tuple[()], list[Shape]] = (None, (), [])
+
+    def shapes(self, scene: Scene, forces: np.ndarray, layout: Layout) -> tuple[list[Shape], list[Shape]]:
+        """Return (static, dynamic): the array and its force arrows, the parts at their poses.
+
+        The array and its force arrows change only with the cells' forces (a new array each time they
+        change) or the layout: built then, not at every update (thousands of arrows on a large array).
+        """
+        if self.part_triangles[0] is not scene:
+            self.part_triangles = (scene, [triangulate_loops(b.part.loops()) for b in scene.bodies])
+        drawn, drawn_layout, static = self.array
+        if drawn is not forces or drawn_layout != layout:
+            grid = Grid(layout[0], layout[1], layout[2])
+            static = array_shapes(grid) + force_shapes(grid, forces, layout[3])
+            self.array = (forces, layout, static)
+        parts = parts_shapes(
+            [b.part for b in scene.bodies], [b.pose for b in scene.bodies], self.part_triangles[1]
+        )
+        return static, parts

@@ -7,6 +7,7 @@ the docs' parameter table read them from here without ROS.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -24,7 +25,7 @@ from feeder_planner.parameter_specs import (
 from feeder_sim.mems.bodies import FIDELITIES
 from feeder_sim.mems.tolerances import DEFAULT_CELLS, DEFAULT_DAMPING, DEFAULT_FRICTION, DEFAULT_PITCH
 
-__all__ = ["MemsParameters", "BASE_FRAME", "AUTO_CATCH_UP_TICKS", "NANOSECONDS"]
+__all__ = ["MemsParameters", "BASE_FRAME", "AUTO_CATCH_UP_TICKS", "NANOSECONDS", "max_steps_per_tick"]
 
 BASE_FRAME = "mems_array"
 NANOSECONDS = 1_000_000_000
@@ -149,3 +150,13 @@ class MemsParameters(DeviceParameters):
         "~/markers draws the force of every k-th cell in each direction (0: no force vectors); runtime",
         integer_at_least(0),
     )
+
+
+def max_steps_per_tick(p: MemsParameters, step_ns: int) -> int:
+    """Return the cap on steps per tick (max_steps_per_tick, or the automatic one for 0)."""
+    cap = int(p.max_steps_per_tick)
+    if cap > 0:
+        return cap
+    factor = max(1.0, float(p.real_time_factor))
+    period_ns = NANOSECONDS * factor / float(p.publish_rate)
+    return max(1, math.ceil(AUTO_CATCH_UP_TICKS * period_ns / step_ns))

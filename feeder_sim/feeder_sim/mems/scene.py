@@ -17,6 +17,7 @@ from feeder_sim.mems.bodies import (
     drag_coefficients,
     wrench_on,
 )
+from feeder_sim.mems.coverage import Grid
 from feeder_sim.mems.dynamic import DynamicWorld
 from feeder_sim.mems.faults import ArrayFaults
 from feeder_sim.mems.models import ArrayForces, IdealForces
@@ -153,6 +154,18 @@ class Scene:
         """
         return dt * STIFF_STEP_RATIO / self.peak_step_ratio if self.peak_step_ratio > 0 else math.inf
 
+    def stiffness_warning(self, dt: float) -> str:
+        """Say why steps of ``dt`` are beyond the ideal model's margin since mark_steps(), or "" if not."""
+        if self.stiff_since_mark == 0:
+            return ""
+        return (
+            f"time_step {dt:g} s is beyond the ideal model's stability margin at damping {self.damping:g}: "
+            f"{self.stiff_since_mark} steps changed a part's velocity by up to {self.peak_step_ratio:.2f} "
+            f"times itself (margin {STIFF_STEP_RATIO:g}; from 2 a part can stop off its equilibrium), so "
+            f"poses are not certified; a time_step of {self.stable_step_estimate(dt):.2g} s or less, or "
+            "more damping, keeps the margin"
+        )
+
     def set_program(self, program: tuple[ProgramStep, ...]) -> None:
         """Start ``program`` now (its first step's time counts from the current scene time)."""
         self.program = tuple(program)
@@ -171,6 +184,16 @@ class Scene:
     def output_field(self) -> Field:
         """Return the field the cells are driven with now: the program's, or nothing when switched off."""
         return self.active_field() if self.switched_on else FIELD_OFF
+
+    def cell_forces(self, field: Field, grid: Grid) -> np.ndarray:
+        """Return what the cells of ``grid`` push with in ``field``, (nx, ny, 2), faults included.
+
+        The array model's own cells; for ideal and dynamic, the ideal field sampled at the cell centres.
+        """
+        forces = self.forces.cell_forces(field)
+        if forces is None:
+            forces = self.faults.apply_to_cells(field.force_density(grid.centers()))
+        return forces
 
     def on_last_step(self) -> bool:
         """Whether the program has reached its last step (which stays on until the next program)."""

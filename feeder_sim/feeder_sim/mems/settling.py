@@ -55,6 +55,7 @@ __all__ = [
     "predict",
     "Match",
     "match",
+    "equilibrium_summary",
     "wrapped_distance",
 ]
 
@@ -261,3 +262,18 @@ def match(
     off = math.hypot(x - nearest.x, y - nearest.y)
     at = distance <= angle_tolerance and off <= distance_tolerance
     return Match(nearest.index if at else -1, nearest.theta, distance, off, at)
+
+
+def equilibrium_summary(name: str, prediction: Prediction, found: Match) -> str:
+    """Say where a part ended against its prediction, for a run's result message."""
+    if not prediction.predicted:
+        return f"{name}: {prediction.reason}"
+    if found.at:
+        return (
+            f"{name}: at predicted equilibrium {found.index} (theta {found.theta:.6g} rad, "
+            f"{found.distance:.2g} rad and {found.position_distance:.2g} m off)"
+        )
+    return (
+        f"{name}: at no predicted equilibrium (the nearest, theta {found.theta:.6g} rad, is "
+        f"{found.distance:.2g} rad and {found.position_distance:.2g} m off)"
+    )

@@ -1,116 +1,88 @@
 """ROS 2 node: a two-axis tilting fixture holding an assembly, with a stability interlock (Figs. 1-2).
 
-A managed device (thin adapter around ``feeder_sim.fixture``; the kit, ``feeder_device``, owns the lifecycle,
-the tick, the streams and the goal runner). Lifecycle: configure loads the assembly and
-prepares its stability LP and region, checks the joint limits and the start pose (a bad file or parameter
-fails the transition, naming it); activate starts the tick timer and the streams; deactivate freezes the table
-where it is (a move in progress resumes from there on activate); cleanup releases the model.
-
-Time: everything is on the node clock (``use_sim_time`` puts it on the cell clock). At every tick of
-``publish_rate`` (Hz of the node clock) the table advances by the node-clock time elapsed since the last tick,
-but by at most ``max_advance_per_tick`` seconds (0: ``CATCH_UP_PERIODS`` periods, times the real-time factor
-when it is above 1); a longer gap is not simulated and the tick is counted (``capped_ticks``), so a fixture
-that cannot keep up lags visibly (its simulated time, recorded at every tick, falls behind the clock).
-
-Injected faults (``~/inject_fault`` or the ``inject_faults`` parameter) act through the table model
-(``feeder_sim.fixture.faults``); this node only wires them. The encoder faults change what ``~/joint_states``
-and ``~/gravity`` report; ``~/stability`` is the model's ground truth: the true gravity and its verdict.
-
-Motion: ``~/move`` (service, no feedback) and the ``~/follow_path`` action (feedback, cancel, result codes)
-plan on one code path (``feeder_sim.fixture.follow.plan_path``); one of them moves the table at a time. A
-goal (``feeder_sim.fixture.path_goal``) is advanced by the ticks through the device kit's goal runner, so a
-held clock holds it.
+An adapter (docs/devices.md): the model is ``feeder_sim.fixture`` (the table, its faults, the interlock,
+the follow-path goal of ``path_goal``), the parameters ``fixture.parameters``, the counters
+``fixture.counters``, the faults as the kit declares them ``fixture.fault_specs``, the messages
+``feeder_sim.node_kit.msg_fixture``; the device kit (``feeder_device``) owns the lifecycle, the tick, the
+streams and the goal runner. ``~/move`` and ``~/follow_path`` plan on one code path
+(``fixture.follow.plan_path``). Lifecycle, time (node clock; at most ``max_advance_per_tick`` per tick,
+a longer gap counted in ``capped_ticks``) and faults: docs/assembly.md. ``~/stability`` is the model's
+ground truth; the encoder faults change only what ``~/joint_states`` and ``~/gravity`` report.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import replace
-from typing import Callable, Sequence
 
 import numpy as np
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.action.server import ServerGoalHandle
-from rclpy.time import Time as RclTime
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Header
 
-from feeder_device.declarations import ActiveFault, DeviceError, FaultSpec
+from feeder_device.declarations import ActiveFault, DeviceError
 from feeder_device.device import ManagedDevice, device_parameter_specs
 from feeder_device.goals import serve_goal
 from feeder_msgs.action import FollowPath
 from feeder_msgs.msg import DeviceStatus, StabilityStatus
 from feeder_msgs.srv import FixtureMove
-from feeder_planner.assembly import PreparedAssembly, check_result, prepare
+from feeder_planner.assembly import PreparedAssembly, prepare
 from feeder_planner.assembly.parameters import load_assembly_parameter
-from feeder_planner.errors import FeederError, InputError
-from feeder_planner.node_kit import STREAM_DEPTH, from_vec, run_node, service_guard, vec
-from feeder_planner.node_kit.msg_assembly import force_msgs
-from feeder_planner.node_kit.request_limits import (
-    MAX_MOVE_SAMPLES,
-    MAX_WAYPOINTS,
-    check_arc_samples,
-    check_count,
-)
+from feeder_planner.errors import FeederError
+from feeder_planner.node_kit import STREAM_DEPTH, run_node, service_guard
+from feeder_planner.node_kit.request_limits import MAX_MOVE_SAMPLES, check_arc_samples
 from feeder_planner.node_kit.services import serve
 from feeder_planner.node_kit.tf import quaternion_from_matrix
 from feeder_planner.node_kit.viz import VIZ_PARAMETERS, DeviceViz, Drawing, MovingFrame
 from feeder_sim.fixture import (
-    CATCH_UP_PERIODS,
     FAULT_INFO,
-    FIXTURE_FAULTS,
-    JOINT_NAMES,
     GoalWaypoints,
-    PathVerdict,
     PlannedPath,
     Table,
     TableLimits,
     certify,
     check_fault_name,
-    goal_waypoints,
-    gravity_of,
     plan_goal,
     plan_path,
 )
 from feeder_sim.fixture.counters import COUNTERS
 from feeder_sim.fixture.drawing import body_shapes, gravity_shape, table_rotation, table_shapes
-from feeder_sim.fixture.parameters import BASE_FRAME, TABLE_BASE_FRAME, FixtureParameters
+from feeder_sim.fixture.fault_specs import fault_specs
+from feeder_sim.fixture.interlock import InterlockRefusedError, certifier
+from feeder_sim.fixture.parameters import (
+    BASE_FRAME,
+    TABLE_BASE_FRAME,
+    FixtureParameters,
+    max_advance_per_tick,
+    retimed_limits,
+    table_limits,
+)
 from feeder_sim.fixture.path_goal import PathGoal, PathOutcome
+from feeder_sim.node_kit.msg_fixture import (
+    FOLLOW_PATH,
+    FollowPathGoal,
+    fill_move_response,
+    follow_path_waypoints,
+    gravity_msg,
+    joint_state_msg,
+    move_waypoints,
+    stability_msg,
+)
+from feeder_sim.node_kit.stamp import header
 
 __all__ = ["PARAMETERS", "FAULTS", "AssemblyFixtureNode", "InterlockRefusedError", "main"]
 
 NODE_NAME = "assembly_fixture"
 NANOSECONDS = 1_000_000_000
-FOLLOW_PATH = "~/follow_path"
 PARAMETERS = device_parameter_specs(FixtureParameters, VIZ_PARAMETERS)
 
-FAULTS: dict[str, FaultSpec] = {
-    name: FaultSpec(
-        name,
-        f"{FAULT_INFO[name].description} ({FAULT_INFO[name].magnitude})",
-        # Empty: the kit's label would print indices as "cells"; status and diagnostics list the name (the
-        # log, and for rate_limit the status text, say the axes and the magnitude).
-        value_meaning="",
-        # axis_stall stops the fixture only once the joint has stalled (raise_model_fault), not on injection.
-        stops_device=False,
-        code={"axis_stall": DeviceStatus.FAULT_AXIS_STALL, "rate_limit": DeviceStatus.FAULT_RATE_LIMIT}.get(
-            name, DeviceStatus.FAULT_NONE
-        ),
-    )
-    for name in FIXTURE_FAULTS
-}
-
-
-class InterlockRefusedError(FeederError):
-    """The interlock refused a commanded path."""
+# The kit's specs of the table's faults (fixture/fault_specs.py) with their DeviceStatus codes.
+FAULTS = fault_specs(
+    {"axis_stall": DeviceStatus.FAULT_AXIS_STALL, "rate_limit": DeviceStatus.FAULT_RATE_LIMIT}
+)
 
 
 class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
-    """Publishes ~/joint_states, ~/gravity and ~/stability at publish_rate; serves ~/move and ~/follow_path.
-
-    ~/move is refused unless the device is ready; the device services of ``ManagedDevice`` (~/stop, ~/reset,
-    ~/inject_fault; ~/status, /diagnostics) come with it.
-    """
+    """Publishes ~/joint_states, ~/gravity, ~/stability at publish_rate; serves ~/move and ~/follow_path."""
 
     FAULTS = FAULTS
     COUNTERS = COUNTERS
@@ -138,18 +110,7 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
     def configure_device(self, p: FixtureParameters) -> None:
         """Load the assembly, prepare its LP and region, build the table; InputError names a bad field."""
         self._forget()
-        limits = TableLimits(
-            p.tilt_x_min,
-            p.tilt_x_max,
-            p.tilt_y_min,
-            p.tilt_y_max,
-            p.max_rate_x,
-            p.max_rate_y,
-        )
-        try:
-            limits.validate()
-        except InputError as error:
-            raise InputError(f"parameter {error.field}", error.problem) from None
+        limits = table_limits(p)
         assembly = load_assembly_parameter(p.assembly_file)
         self.prepared = prepare(assembly, p.mu if p.override_mu else None, p.facets)
         self.table = Table(np.array([p.initial_tilt_x, p.initial_tilt_y], float), limits)
@@ -177,14 +138,7 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
         """
         if self.table is None or name not in ("max_rate_x", "max_rate_y"):
             return
-        if name == "max_rate_x":
-            limits = replace(self.limits, rate_x=float(p.max_rate_x))
-        else:
-            limits = replace(self.limits, rate_y=float(p.max_rate_y))
-        try:
-            limits.validate()
-        except InputError as error:
-            raise InputError(f"parameter {name}", error.problem) from None
+        limits = retimed_limits(self.limits, name, p)
         self.limits = self.table.limits = limits
 
     def busy(self) -> bool:
@@ -252,10 +206,7 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
         assert table is not None and prepared is not None  # require_ready: configured
         if self.goals:
             raise DeviceError(f"move refused: a {FOLLOW_PATH} goal is executing; cancel it first")
-        if not request.waypoints:
-            raise InputError("waypoints", "needs at least one gravity direction")
-        check_count(len(request.waypoints), MAX_WAYPOINTS, "waypoints", "waypoints")
-        waypoints = [from_vec(w, f"waypoints[{i}]") for i, w in enumerate(request.waypoints)]
+        waypoints = move_waypoints(request)
         self._advance_to(self.get_clock().now().nanoseconds)
         self.require_ready("move")  # the table may have stalled on its way here
         # Counted before sampling: every sample is an LP on this single-threaded device (request_limits).
@@ -263,10 +214,7 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
         # Joint limits are checked before anything moves; the timing is at the rates the axes reach now.
         planned = plan_path(table, waypoints, self.p.path_step)
         verdict = certify(prepared, planned.samples)
-        response.samples = len(planned.samples)
-        response.first_unstable_sample = verdict.first_unstable
-        response.unbalanced_bodies = list(verdict.unbalanced_bodies)
-        response.duration = planned.path.duration
+        fill_move_response(response, planned, verdict)
         if not verdict.stable:
             what = verdict.problem()
             if self.p.interlock:
@@ -282,11 +230,7 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
         assert table is not None  # require_ready: configured
         if table.moving:
             raise DeviceError(f"{FOLLOW_PATH} goal refused: a ~/move is in progress; wait for it or ~/stop")
-        check_count(len(goal.gravity_waypoints), MAX_WAYPOINTS, "gravity_waypoints", "waypoints")
-        check_count(len(goal.tilt_waypoints) // 2, MAX_WAYPOINTS, "tilt_waypoints", "waypoints")
-        waypoints = goal_waypoints(
-            [(v.x, v.y, v.z) for v in goal.gravity_waypoints], list(goal.tilt_waypoints), self.limits
-        )
+        waypoints = follow_path_waypoints(goal, self.limits)
         step = self.p.path_step
         check_arc_samples(table.gravity(), waypoints.gravity, step, waypoints.field, MAX_MOVE_SAMPLES)
         return waypoints, plan_goal(table, waypoints, step)
@@ -314,9 +258,7 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
             return goal.ended_early(PathOutcome("FAULT", f"not certified: {error}; the table halted"))
         warning = ""
         if not verdict.stable:
-            goal.answer.first_unstable_sample = verdict.first_unstable
-            goal.answer.first_unstable_gravity = vec(planned.samples[verdict.first_unstable])
-            goal.answer.unbalanced_bodies = list(verdict.unbalanced_bodies)
+            goal.unstable_at(verdict)
             if self.p.interlock:
                 self.count.add("path_goals_refused")
                 refused = f"refused by the interlock: {verdict.problem()}; nothing moved"
@@ -324,25 +266,13 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
             warning = f"interlock off, moving anyway: {verdict.problem()}"
             self.get_logger().warning(f"{FOLLOW_PATH}: {warning}")
         stalls = self.count["stalls"]
-        certified = self._certifier(planned, verdict)
+        certified = certifier(prepared, planned.samples, verdict)
         machine = PathGoal(
             table, planned, verdict, waypoints, warning, stalls, certified, DeviceStatus.FAULT_AXIS_STALL
         )
         table.start(planned.path)
         self.publish_status()
         return goal.following(machine)
-
-    def _certifier(self, planned: PlannedPath, verdict: PathVerdict) -> Callable[[int], bool]:
-        """Return whether the LP certifies a sample of the path stable (asked only past the first failure)."""
-        prepared = self.prepared
-        assert prepared is not None
-
-        def certified(sample: int) -> bool:
-            if verdict.stable or sample < verdict.first_unstable:
-                return True
-            return bool(prepared.check(planned.samples[sample]).stable)
-
-        return certified
 
     def reading(self) -> np.ndarray:
         """Return the last tick's encoder reading (the table's before the first tick)."""
@@ -352,20 +282,13 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
         return self.table.reading()
 
     # --- time and the streams ------------------------------------------------------------------------
-    def _max_advance(self) -> float:
-        """Return the most simulated time (s) one tick may advance."""
-        cap = float(self.p.max_advance_per_tick)
-        if cap > 0:
-            return cap
-        return CATCH_UP_PERIODS * max(1.0, float(self.p.real_time_factor)) / float(self.p.publish_rate)
-
     def _advance_to(self, now_ns: int) -> None:
         """Advance the table by the node-clock time since the last advance (capped); report a stall."""
         table = self.table
         if table is None or not self.active:
             return
         elapsed = self.elapsed_ns(now_ns) / NANOSECONDS
-        cap = self._max_advance()
+        cap = max_advance_per_tick(self.p)
         if elapsed > cap:
             self.count.add("capped_ticks")
             elapsed = cap
@@ -383,32 +306,12 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
         """Advance the table and publish joint states and gravity (as the encoders read) and stability."""
         table, prepared = self.table, self.prepared
         assert table is not None and prepared is not None  # active implies configured
-        now = now_ns
-        self._advance_to(now)
-        header = Header(stamp=RclTime(nanoseconds=now).to_msg(), frame_id=self.frame_id)
-        reading = table.reading()
-        self.last_reading = reading
-        self.joint_pub.publish(
-            JointState(
-                header=header,
-                name=list(JOINT_NAMES),
-                position=reading.tolist(),
-                velocity=table.velocity.tolist(),
-            )
-        )
-        self.gravity_pub.publish(Vector3Stamped(header=header, vector=vec(gravity_of(reading))))
-        g = table.gravity()
-        status = StabilityStatus(header=header, gravity=vec(g), moving=table.moving)
-        try:
-            result = check_result(prepared, g)
-            status.stable = result.stable
-            status.margin = result.margin_rad
-            status.unbalanced_bodies = list(result.unbalanced_bodies)
-            status.forces = force_msgs(result.forces)
-        except FeederError as error:  # an uncertified LP is reported, never published as stable
-            status.stable = False
-            status.margin = math.nan
-            status.unbalanced_bodies = [f"(not certified: {error})"]
+        self._advance_to(now_ns)
+        head = header(now_ns, self.frame_id)
+        self.last_reading = reading = table.reading()
+        self.joint_pub.publish(joint_state_msg(head, reading, table.velocity))
+        self.gravity_pub.publish(gravity_msg(head, reading))
+        status = stability_msg(head, prepared, table.gravity(), table.moving)
         self.stability_pub.publish(status)
         self.last_stability = (bool(status.stable), float(status.margin))
         self.last_unbalanced = list(status.unbalanced_bodies)
@@ -429,114 +332,6 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
         rotation = quaternion_from_matrix(table_rotation(table.joints))
         tilt = MovingFrame(base, self.frame_id, (0.0, 0.0, 0.0), rotation)
         return Drawing(self.frame_id, base, static=table_shapes(assembly), dynamic=dynamic, moving=[tilt])
-
-
-class FollowPathGoal:
-    """The runner's view of a ``PathGoal``: feedback and result as FollowPath messages, built at the tick."""
-
-    def __init__(self, node: AssemblyFixtureNode, result: FollowPath.Result) -> None:
-        self.node, self.answer = node, result
-        self.machine: PathGoal | None = None
-        self.early: PathOutcome | None = None  # a goal that ended before the table moved
-        self.pending: list[FollowPath.Feedback] = []
-        self.ended = False
-
-    def ended_early(self, outcome: PathOutcome) -> FollowPathGoal:
-        """End the goal before anything moved (not started, not certified, refused by the interlock)."""
-        self.early = outcome
-        self._finish()
-        return self
-
-    def following(self, machine: PathGoal) -> FollowPathGoal:
-        """Follow the started path; the first feedback goes out now."""
-        self.machine = machine
-        self._feedback_if_due()
-        return self
-
-    @property
-    def outcome(self) -> PathOutcome | None:
-        """How the goal ended, or None while it runs."""
-        return self.early or (self.machine.outcome if self.machine is not None else None)
-
-    @property
-    def done(self) -> bool:
-        """Whether the goal has ended."""
-        return self.outcome is not None
-
-    def advance(self, now_ns: int, ticked: bool = True) -> None:
-        """Decide after a tick (or a cancel); feedback and the result are built from what this tick read."""
-        node, machine = self.node, self.machine
-        if machine is None or machine.done:
-            return
-        every = max(1, math.ceil(float(node.p.publish_rate) / float(node.p.feedback_rate) - 1e-9))
-        try:
-            machine.advance(node.stopping_fault(), node.stopped, node.count["stalls"], every, ticked)
-        except FeederError as error:  # an LP that cannot certify the cancel's stop ends the goal
-            machine.table.halt()
-            machine.end("FAULT", f"not certified: {error}; the table halted")
-        self._feedback_if_due()
-        self._finish()
-
-    def cancel(self, reason: str) -> None:
-        """Stop at the next certified sample ahead: at once when the table stands on one."""
-        if self.machine is not None:
-            self.machine.cancel_requested = True
-            self.advance(self.node.get_clock().now().nanoseconds, ticked=False)
-
-    def interrupt(self, reason: str) -> None:
-        """End now: the device left active; the table stops where it is."""
-        if self.machine is not None:
-            self.machine.interrupt(self.node.state().name)
-        self._finish()
-
-    def halt(self) -> None:
-        """Stop the table (the guard aborted the goal)."""
-        if self.node.table is not None:
-            self.node.table.halt()
-
-    def feedback(self) -> Sequence[FollowPath.Feedback]:
-        """Return the feedback built since the last call."""
-        pending, self.pending = self.pending, []
-        return pending
-
-    def result(self) -> tuple[str, FollowPath.Result]:
-        """Return the terminal state and the result built when the goal ended."""
-        outcome = self.outcome
-        assert outcome is not None  # the runner asks only once the goal ended
-        terminal = {"REACHED": "succeed", "CANCELED": "canceled"}.get(outcome.name, "abort")
-        return terminal, self.answer
-
-    def _feedback_if_due(self) -> None:
-        """Build progress, gravity as the encoders read it, and the last tick's stability verdict."""
-        machine = self.machine
-        if machine is None or not machine.feedback_due:
-            return
-        stable, margin = self.node.last_stability
-        gravity = vec(gravity_of(self.node.reading()))
-        self.pending.append(
-            FollowPath.Feedback(progress=machine.progress, gravity=gravity, stable=stable, margin=margin)
-        )
-
-    def _finish(self) -> None:
-        """Fill the result once the goal ends (the table as the encoders read it); log the outcome."""
-        outcome = self.outcome
-        if outcome is None or self.ended:
-            return
-        self.ended = True
-        node, result = self.node, self.answer
-        if outcome.name == "REACHED":
-            node.count.add("path_goals_reached")
-        result.outcome, result.outcome_name, result.message = outcome.code, outcome.name, outcome.message
-        result.fault_code, result.fault_text = outcome.fault_code, outcome.fault_text
-        if node.table is not None:
-            reading = node.reading()
-            result.tilt = [float(a) for a in reading]
-            result.gravity = vec(gravity_of(reading))
-        # Two call sites: rclpy refuses one call site logging at two severities.
-        if outcome.name == "REACHED":
-            node.get_logger().info(f"{FOLLOW_PATH} {outcome.name}: {outcome.message}")
-        else:
-            node.get_logger().warning(f"{FOLLOW_PATH} {outcome.name}: {outcome.message}")
 
 
 def main(args: list[str] | None = None) -> None:

@@ -1,60 +1,30 @@
 """ROS 2 node: the simulated MEMS field array, a managed device (thin adapter around feeder_sim.mems).
 
 An adapter (docs/devices.md): the model is ``feeder_sim.mems`` (the scene built by ``configure``, placing
-by ``placing``, the run-program goal of ``program_goal``), the parameters ``mems.parameters``, the
-counters ``mems.counters``; the device kit (``feeder_device``) owns the lifecycle, the tick, the streams
-and the goal runner.
-
-Lifecycle: configure loads the part and program files and builds the scene (a bad file or parameter
-fails the transition, naming it); activate starts the physics timer and the part-state streams;
-deactivate freezes the physics where it is (the latched descriptions stay); cleanup releases the scene.
-
-Time: everything is on the node clock (``use_sim_time`` puts it on the cell clock). At every tick of
-``publish_rate`` (Hz of the node clock) the scene advances by the node-clock time elapsed since the last
-tick, in whole ``time_step`` steps (the remainder carries to the next tick), but by at most
-``max_steps_per_tick`` steps: what that cap leaves unsimulated is dropped and counted
-(``steps_dropped``), so a device that cannot keep up lags visibly (its simulated time, recorded at every
-tick, falls behind the clock) and never silently runs slower.
-
-The ideal model measures how stiff each step is (``feeder_sim.mems.tolerances.STIFF_STEP_RATIO``): while
-the present program or drag has had steps beyond that margin, status and diagnostics warn with
-FAULT_TIME_STEP (not a stop; counter ``stiff_steps``), and a ``~/run_program`` goal whose parts come to
-rest ends FAULT with that code rather than SETTLED: a too-large step can stop a part off its equilibrium.
-
-Injected faults (``~/inject_fault`` or the ``inject_faults`` parameter) act through the force model
-(``feeder_sim.mems.faults``); this node only wires them.
+by ``placing``, the run-program goal of ``program_goal``, the faults of ``faults``), the parameters
+``mems.parameters``, the counters ``mems.counters``, the faults as the kit declares them
+``mems.fault_specs``, the messages ``feeder_sim.node_kit.msg_mems``; the device kit (``feeder_device``)
+owns the lifecycle, the tick, the streams and the goal runner. Time (node clock; whole ``time_step``
+steps per tick, at most ``max_steps_per_tick``, the rest dropped and counted) and the stiff-step warning
+FAULT_TIME_STEP: docs/mems.md, "Time".
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Sequence
-
 import numpy as np
-from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Pose, PoseArray
+from geometry_msgs.msg import PoseArray
 from rclpy.action.server import ServerGoalHandle
-from rclpy.time import Time as RclTime
 
-from feeder_device.declarations import ActiveFault, Counters, DeviceError, FaultSpec
+from feeder_device.declarations import ActiveFault, Counters, DeviceError
 from feeder_device.device import ManagedDevice, device_parameter_specs
 from feeder_device.goals import serve_goal
 from feeder_msgs.action import RunProgram
-from feeder_msgs.msg import (
-    DeviceStatus,
-    FieldProgram,
-    FieldSpec,
-    MemsCellForces,
-    MemsParts,
-    MemsPartState,
-    MemsPartStates,
-)
+from feeder_msgs.msg import DeviceStatus, FieldProgram, MemsCellForces, MemsParts, MemsPartStates
 from feeder_msgs.srv import FieldSetProgram, MemsPlaceParts
-from feeder_planner.drawing import Shape, triangulate_loops
 from feeder_planner.errors import InputError
 from feeder_planner.mems import Field, ProgramStep
-from feeder_planner.node_kit import LATCHED, STREAM_DEPTH, planar_pose, run_node, service_guard
-from feeder_planner.node_kit.msg_fields import fill_field_spec, program_from_msg
+from feeder_planner.node_kit import LATCHED, STREAM_DEPTH, run_node, service_guard
+from feeder_planner.node_kit.msg_fields import program_from_msg
 from feeder_planner.node_kit.msg_parts import part_to_msg
 from feeder_planner.node_kit.request_limits import MAX_NAMES, check_count
 from feeder_planner.node_kit.services import serve
@@ -62,63 +32,29 @@ from feeder_planner.node_kit.viz import VIZ_PARAMETERS, DeviceViz, Drawing
 from feeder_sim.mems import Grid, Scene
 from feeder_sim.mems.configure import configure_scene
 from feeder_sim.mems.counters import COUNTERS
-from feeder_sim.mems.drawing import array_shapes, force_shapes, parts_shapes
+from feeder_sim.mems.drawing import ArrayDrawing
+from feeder_sim.mems.fault_specs import fault_specs
 from feeder_sim.mems.faults import ArrayFaults
-from feeder_sim.mems.parameters import AUTO_CATCH_UP_TICKS, BASE_FRAME, NANOSECONDS, MemsParameters
+from feeder_sim.mems.parameters import BASE_FRAME, NANOSECONDS, MemsParameters, max_steps_per_tick
 from feeder_sim.mems.placing import place_parts, placement_reach, reset_parts
 from feeder_sim.mems.program_goal import ProgramGoal
 from feeder_sim.mems.settling import (
-    Match,
     Prediction,
     check_timeout,
     holding_start,
     holding_step,
-    match,
     predict,
     settling_criterion,
 )
-from feeder_sim.mems.tolerances import STIFF_STEP_RATIO
+from feeder_sim.node_kit.msg_mems import RunProgramGoal, cell_forces_msg, field_program_msg, part_states_msgs
 
 __all__ = ["PARAMETERS", "FAULTS", "MemsFieldArrayNode", "main"]
 
 NODE_NAME = "mems_field_array"
 PARAMETERS = device_parameter_specs(MemsParameters, VIZ_PARAMETERS)
 
-FAULTS = {
-    "dead_cells": FaultSpec(
-        "dead_cells",
-        "cells that push with no force (array fidelity)",
-        "fraction of the cells in (0, 1], drawn with the seed; or explicit indices (i * ny + j)",
-        indices_label="cells",
-    ),
-    "stuck_cells": FaultSpec(
-        "stuck_cells",
-        "cells stuck pushing in direction angle (rad) at the field's magnitude (array fidelity)",
-        "fraction of the cells in (0, 1], drawn with the seed; or explicit indices; angle: the direction",
-        indices_label="cells",
-    ),
-    "field_strength_error": FaultSpec(
-        "field_strength_error",
-        "every cell force scaled by 1 + e",
-        "relative error e (> -1, nonzero)",
-    ),
-    "power_loss": FaultSpec(
-        "power_loss",
-        "the array has lost power: no field at all",
-        stops_device=True,
-        code=DeviceStatus.FAULT_POWER_LOSS,
-    ),
-}
-
-
-# The array's static drawing, rebuilt on change: (cell forces drawn, (nx, ny, pitch, stride) or () before
-# the first, shapes).
-ArrayDrawing = tuple[np.ndarray | None, tuple[int, int, float, int] | tuple[()], list[Shape]]
-
-
-def _stamp(nanoseconds: int) -> Time:
-    """Return a node-clock time (integer ns) as a message stamp."""
-    return RclTime(nanoseconds=nanoseconds).to_msg()
+# The kit's specs of the array's faults (mems/fault_specs.py) with their DeviceStatus codes.
+FAULTS = fault_specs({"power_loss": DeviceStatus.FAULT_POWER_LOSS})
 
 
 class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
@@ -150,8 +86,7 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         self.owed_ns = 0
         self.last_cells: tuple[Field, ArrayFaults] | None = None
         self.last_grid_forces = np.zeros((0, 0, 2))
-        self.part_triangles: tuple[Scene | None, list[np.ndarray]] = (None, [])
-        self.array_drawing: ArrayDrawing = (None, (), [])
+        self.array_drawing = ArrayDrawing()
         self.last_activity: tuple[bool, int, bool, bool] | None = None
         self.program_stamp = 0
         self.predictions: dict[tuple[int, Field], Prediction] = {}
@@ -223,17 +158,8 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
 
     def time_step_warning(self) -> tuple[int, str] | None:
         """Return (FAULT_TIME_STEP, why) when the present program or drag has had stiff ideal steps."""
-        scene = self.scene
-        if scene is None or scene.stiff_since_mark == 0:
-            return None
-        dt = float(self.p.time_step)
-        return DeviceStatus.FAULT_TIME_STEP, (
-            f"time_step {dt:g} s is beyond the ideal model's stability margin at damping {scene.damping:g}: "
-            f"{scene.stiff_since_mark} steps changed a part's velocity by up to {scene.peak_step_ratio:.2f} "
-            f"times itself (margin {STIFF_STEP_RATIO:g}; from 2 a part can stop off its equilibrium), so "
-            f"poses are not certified; a time_step of {scene.stable_step_estimate(dt):.2g} s or less, or "
-            "more damping, keeps the margin"
-        )
+        why = self.scene.stiffness_warning(float(self.p.time_step)) if self.scene is not None else ""
+        return (DeviceStatus.FAULT_TIME_STEP, why) if why else None
 
     def stop_device(self) -> None:
         """Switch every cell off: parts come to rest where they are; commands are refused until ~/reset."""
@@ -278,15 +204,13 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         """Publish the scene's field program (latched), stamped with its node-clock start time."""
         if self.scene is None:
             return
-        msg = FieldProgram(
-            name="program", steps=[fill_field_spec(FieldSpec(), s) for s in self.scene.program]
-        )
-        msg.header.frame_id = self.frame_id
-        msg.header.stamp = _stamp(self.program_stamp)
-        self.program_pub.publish(msg)
+        self.program_pub.publish(field_program_msg(self.scene.program, self.program_stamp, self.frame_id))
 
-    def publish_cells(self) -> None:
-        """Publish what the cells push with (latched) when it changed: field, faults or switched off."""
+    def publish_cells(self, now_ns: int | None = None) -> None:
+        """Publish what the cells push with (latched) when it changed: field, faults or switched off.
+
+        Stamped at the tick's instant ``now_ns`` from the tick, at the node clock's now from a handler.
+        """
         scene = self.scene
         if scene is None:
             return
@@ -296,51 +220,20 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
             return
         self.last_cells = key
         nx, ny = self.p.array_size
-        pitch = self.p.pitch
-        grid_forces = scene.forces.cell_forces(field)
-        if grid_forces is None:  # ideal / dynamic: the ideal field sampled at the cell centres
-            grid_forces = scene.faults.apply_to_cells(field.force_density(Grid(nx, ny, pitch).centers()))
-        self.last_grid_forces = grid_forces
-        msg = MemsCellForces(
-            nx=nx,
-            ny=ny,
-            pitch=pitch,
-            fx=grid_forces[..., 0].ravel().tolist(),
-            fy=grid_forces[..., 1].ravel().tolist(),
-        )
-        msg.header.stamp = self.get_clock().now().to_msg()
-        msg.header.frame_id = self.frame_id
-        self.cells_pub.publish(msg)
+        self.last_grid_forces = forces = scene.cell_forces(field, Grid(nx, ny, self.p.pitch))
+        if now_ns is None:
+            now_ns = self.get_clock().now().nanoseconds
+        self.cells_pub.publish(cell_forces_msg((nx, ny), self.p.pitch, forces, now_ns, self.frame_id))
 
     def drawing(self) -> Drawing | None:
         """Return what ~/markers shows: the array and the force vectors (static), the parts at their poses."""
         scene = self.scene
         if scene is None:
             return None
-        if self.part_triangles[0] is not scene:  # triangulated once per scene, placed at every update
-            self.part_triangles = (scene, [triangulate_loops(b.part.loops()) for b in scene.bodies])
         nx, ny = self.p.array_size
         layout = (nx, ny, self.p.pitch, int(self.p.marker_force_stride))
-        # The array and its force arrows change only with the cells' forces (a new array from publish_cells)
-        # or the layout: built then, not at every update (thousands of arrows on a large array).
-        forces, (drawn, drawn_layout, static) = self.last_grid_forces, self.array_drawing
-        if drawn is not forces or drawn_layout != layout:
-            grid = Grid(nx, ny, layout[2])
-            static = array_shapes(grid) + force_shapes(grid, forces, layout[3])
-            self.array_drawing = (forces, layout, static)
-        parts = parts_shapes(
-            [b.part for b in scene.bodies], [b.pose for b in scene.bodies], self.part_triangles[1]
-        )
+        static, parts = self.array_drawing.shapes(scene, self.last_grid_forces, layout)
         return Drawing(self.frame_id, self.frame_id, static=static, dynamic=parts)
-
-    def _max_steps(self) -> int:
-        """Return the cap on steps per tick (max_steps_per_tick, or the automatic one for 0)."""
-        cap = int(self.p.max_steps_per_tick)
-        if cap > 0:
-            return cap
-        factor = max(1.0, float(self.p.real_time_factor))
-        period_ns = NANOSECONDS * factor / float(self.p.publish_rate)
-        return max(1, math.ceil(AUTO_CATCH_UP_TICKS * period_ns / self.step_ns))
 
     def tick(self, now_ns: int) -> float:
         """Advance the scene by the node-clock time since the last tick (capped) and publish the states."""
@@ -348,7 +241,7 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         assert scene is not None  # active implies configured
         self.owed_ns += self.elapsed_ns(now_ns)
         steps, self.owed_ns = divmod(self.owed_ns, self.step_ns)
-        cap = self._max_steps()
+        cap = max_steps_per_tick(self.p, self.step_ns)
         if steps > cap:
             self.count.add("steps_dropped", steps - cap)
             steps = cap
@@ -356,12 +249,8 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         for _ in range(steps):
             scene.step(dt)
         self.count.add("steps", steps)
-        self.publish_cells()
-        states = MemsPartStates(parts=self.part_states())
-        states.header.stamp = _stamp(now_ns)
-        states.header.frame_id = self.frame_id
-        poses = PoseArray(poses=[state.pose for state in states.parts])
-        poses.header = states.header
+        self.publish_cells(now_ns)
+        states, poses = part_states_msgs(self.names, scene.bodies, now_ns, self.frame_id)
         self.state_pub.publish(states)
         self.pose_pub.publish(poses)
         # What a controller sees change between heartbeats: busy, parts at rest, falling behind, a step
@@ -371,29 +260,6 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
             self.last_activity = activity
             self.publish_status()
         return scene.time
-
-    def part_states(self, scene: Scene | None = None, names: list[str] | None = None) -> list[MemsPartState]:
-        """Return every part's state now: pose, twist, field wrench (of the node's scene by default).
-
-        A goal passes the scene and names it started with: a cleanup may have released the node's.
-        """
-        scene = scene or self.scene
-        names = self.names if names is None else names
-        states = []
-        for name, body in zip(names, scene.bodies if scene else [], strict=True):
-            state = MemsPartState(name=name, theta=float(body.pose[2]))
-            state.pose = self._pose(body.pose)
-            state.twist.linear.x, state.twist.linear.y = float(body.velocity[0]), float(body.velocity[1])
-            state.twist.angular.z = float(body.velocity[2])
-            state.wrench.force.x, state.wrench.force.y = float(body.wrench[0]), float(body.wrench[1])
-            state.wrench.torque.z = float(body.wrench[2])
-            states.append(state)
-        return states
-
-    @staticmethod
-    def _pose(pose: np.ndarray) -> Pose:
-        """Return a pose (x, y, theta) as a Pose message."""
-        return planar_pose(pose[0], pose[1], pose[2])
 
     # --- device services ----------------------------------------------------------------------------
     def _on_set_program(
@@ -469,104 +335,6 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         if key not in self.predictions:
             self.predictions[key] = predict(self.scene.bodies[index].part, field)
         return self.predictions[key]
-
-
-class RunProgramGoal:
-    """The runner's view of a ``ProgramGoal``: feedback and result as RunProgram messages."""
-
-    def __init__(self, node: MemsFieldArrayNode, machine: ProgramGoal, predictions: list[Prediction]) -> None:
-        self.node, self.machine, self.predictions = node, machine, predictions
-        self.pending: list[RunProgram.Feedback] = []
-        self.ended: RunProgram.Result | None = None
-
-    @property
-    def done(self) -> bool:
-        """Whether the goal has ended."""
-        return self.machine.done
-
-    def advance(self, now_ns: int) -> None:
-        """Decide after the tick; feedback and result are built now, from the scene this tick left."""
-        node = self.node
-        warning = node.time_step_warning()
-        self.machine.advance(now_ns, node.stopping_fault(), node.stopped, warning)
-        if self.machine.feedback_due:
-            scene = self.machine.scene
-            matches = [match(p, b.pose) for p, b in zip(self.predictions, scene.bodies, strict=True)]
-            self.pending.append(
-                RunProgram.Feedback(
-                    time=self.machine.elapsed,
-                    parts=node.part_states(scene, self.machine.names),
-                    settled=list(self.machine.flags),
-                    equilibrium_distance=[m.distance for m in matches],
-                )
-            )
-        self._result()
-
-    def cancel(self, reason: str) -> None:
-        """End now, where the parts are (the program stays on)."""
-        self.machine.cancel(reason)
-        self.advance(self.node.get_clock().now().nanoseconds)
-
-    def halt(self) -> None:
-        """Nothing to stop: the program stays on, as a cancel leaves it."""
-
-    def interrupt(self, reason: str) -> None:
-        """End now: the device left active."""
-        self.machine.interrupt(self.node.state().name)
-        self._result()
-
-    def feedback(self) -> Sequence[RunProgram.Feedback]:
-        """Return the feedback built since the last call."""
-        pending, self.pending = self.pending, []
-        return pending
-
-    def result(self) -> tuple[str, RunProgram.Result]:
-        """Return the terminal state and the result built when the goal ended."""
-        result = self._result()
-        assert result is not None  # the runner asks only once the goal ended
-        self.node.get_logger().info(f"run_program {result.outcome_name}: {result.message}")
-        terminal = {"SETTLED": "succeed", "CANCELED": "canceled"}.get(result.outcome_name, "abort")
-        return terminal, result
-
-    def _result(self) -> RunProgram.Result | None:
-        """Build the result once the machine ends: final states, the equilibrium each part reached."""
-        outcome = self.machine.outcome
-        if outcome is None or self.ended is not None:
-            return self.ended
-        scene, names = self.machine.scene, self.machine.names
-        matches = [match(p, b.pose) for p, b in zip(self.predictions, scene.bodies, strict=True)]
-        summary = [
-            _equilibrium_summary(name, prediction, found)
-            for name, prediction, found in zip(names, self.predictions, matches, strict=True)
-        ]
-        self.ended = RunProgram.Result(
-            outcome=outcome.code,
-            outcome_name=outcome.name,
-            message="; ".join([outcome.message, *summary]),
-            settled=outcome.settled,
-            parts=self.node.part_states(scene, names),
-            equilibrium=[m.index for m in matches],
-            equilibrium_theta=[m.theta for m in matches],
-            equilibrium_distance=[m.distance for m in matches],
-            fault_code=int(outcome.fault[0]),
-            fault_text=outcome.fault[1],
-        )
-        return self.ended
-
-
-def _equilibrium_summary(name: str, prediction: Prediction, found: Match) -> str:
-    """Say where a part ended against its prediction, for the result's message."""
-    if not prediction.predicted:
-        return f"{name}: {prediction.reason}"
-    if found.at:
-        return (
-            f"{name}: at predicted equilibrium {found.index} (theta {found.theta:.6g} rad, "
-            f"{found.distance:.2g} rad and {found.position_distance:.2g} m off)"
-        )
-    return (
-        f"{name}: at no predicted equilibrium (the nearest, theta {found.theta:.6g} rad, is "
-        f"{found.distance:.2g} rad and {found.position_distance:.2g} m off)"
-    )
 
 
 def main(args: list[str] | None = None) -> None:

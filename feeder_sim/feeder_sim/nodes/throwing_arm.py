@@ -18,35 +18,27 @@ the same queue, period and motion as ``~/command throw``. While a goal executes,
 from __future__ import annotations
 
 import math
-from typing import Sequence
 
-from builtin_interfaces.msg import Time as StampMsg
 from geometry_msgs.msg import PoseStamped
 from rclpy.action.server import ServerGoalHandle
-from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool
 
-from feeder_device.declarations import ActiveFault, DeviceError, FaultSpec
+from feeder_device.declarations import ActiveFault, DeviceError
 from feeder_device.device import DeviceState, ManagedDevice, device_parameter_specs
 from feeder_device.goals import serve_goal
 from feeder_msgs.action import FeedPart
 from feeder_msgs.msg import DeviceStatus, ThrowEvent
 from feeder_msgs.srv import ArmCommand, ArmPlacePart
-from feeder_planner.node_kit import EVENT_DEPTH, STREAM_DEPTH, run_node, service_guard, yaw_quaternion
+from feeder_planner.node_kit import EVENT_DEPTH, STREAM_DEPTH, run_node, service_guard
 from feeder_planner.node_kit.services import serve
 from feeder_planner.node_kit.viz import DeviceViz, Drawing, viz_parameters
-from feeder_sim.throwing import (
-    FAULT_INFO,
-    MAX_TICK_PERIODS,
-    ArmFaults,
-    ThrowingArm,
-    ThrowOutcome,
-    parse_command,
-)
+from feeder_sim.node_kit.msg_throwing import FeedPartGoal, joint_state_msg, part_pose_msg, throw_event_msg
+from feeder_sim.throwing import MAX_TICK_PERIODS, ArmFaults, ThrowingArm, ThrowOutcome, parse_command
 from feeder_sim.throwing.counters import COUNTERS
 from feeder_sim.throwing.cycle import Pose, Shown, ThrowCycle, ns
 from feeder_sim.throwing.drawing import ArmDrawing
+from feeder_sim.throwing.fault_specs import fault_specs
 from feeder_sim.throwing.feeding import FeedGoal, check_feed_goal
 from feeder_sim.throwing.parameters import BASE_FRAME, ArmParameters, configure_arm
 
@@ -56,19 +48,8 @@ __all__ = ["PARAMETERS", "FAULTS", "ThrowingArmNode", "main"]
 DISPLAY = viz_parameters(cell_pose=(0.0, 0.0, 0.0, math.pi / 2, 0.0, 0.0))
 PARAMETERS = device_parameter_specs(ArmParameters, DISPLAY)
 
-# The kit's specs of the model's faults (feeder_sim.throwing.faults), with their status codes.
-_CODES = {"motor_fault": DeviceStatus.FAULT_MOTOR, "part_lost": DeviceStatus.FAULT_PART_LOST}
-FAULTS: dict[str, FaultSpec] = {
-    name: FaultSpec(
-        name,
-        info.description,
-        info.value_meaning,
-        info.stops,
-        _CODES.get(name, 0),
-        shows_state=name in ("sensor_stuck", "release_speed_error"),  # the stuck bit; a fixed e
-    )
-    for name, info in FAULT_INFO.items()
-}
+# The kit's specs of the model's faults (throwing/fault_specs.py) with their DeviceStatus codes.
+FAULTS = fault_specs({"motor_fault": DeviceStatus.FAULT_MOTOR, "part_lost": DeviceStatus.FAULT_PART_LOST})
 
 
 class ThrowingArmNode(ManagedDevice[ArmParameters]):
@@ -279,41 +260,21 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
 
     def _publish_joint_and_pose(self, now_ns: int, shown: Shown) -> None:
         """Publish the arm joint state, and the part pose in the arm frame while the part is on the arm."""
-        stamp = _stamp(now_ns)
-        joint = JointState(
-            name=["arm_joint"], position=[shown.joint], velocity=[shown.velocity], effort=[0.0]
-        )
-        joint.header.stamp = stamp
         self.shown = (shown.pose, shown.joint)
-        self.pub_joint.publish(joint)
-        if not self._cycle().arm.on_arm:
-            return  # nothing on the arm to locate
-        msg = PoseStamped()
-        msg.header.stamp, msg.header.frame_id = stamp, self.frame_id
-        msg.pose.position.x, msg.pose.position.y = shown.pose[0], shown.pose[1]
-        msg.pose.orientation = yaw_quaternion(shown.pose[2])
-        self.pub_pose.publish(msg)
+        self.pub_joint.publish(joint_state_msg(now_ns, shown))
+        if self._cycle().arm.on_arm:  # else nothing on the arm to locate
+            self.pub_pose.publish(part_pose_msg(now_ns, self.frame_id, shown.pose))
 
     def _publish_event(self, now_ns: int, outcome: ThrowOutcome) -> None:
         """Publish the throw event: states before and after, kind, fault, the (true) sensor at rest."""
-        arm = self._cycle().arm
-        ev = ThrowEvent()
-        ev.header.stamp, ev.header.frame_id = _stamp(now_ns), self.frame_id
-        ev.index = self.count["throws"]
-        ev.edge_before, ev.radius_before = outcome.edge_before, outcome.radius_before
-        ev.edge_after, ev.radius_after = outcome.edge_after, outcome.radius_after
-        ev.kind, ev.turns, ev.rotation = outcome.kind, outcome.turns, outcome.rotation
-        ev.fault, ev.fault_reason = outcome.kind == "fault", outcome.fault
-        ev.sensor_at_rest = bool(arm.sensor(self.p.sensor_radius, self.p.sensing_height))
-        ev.fidelity = self.p.fidelity
-        # The paper model's assumptions this throw broke (issue 14); off_arm made it a part lost above.
-        ev.lift_off, ev.slip = "lift_off" in outcome.flags, "slip" in outcome.flags
-        ev.off_arm, ev.toe_stub = "off_arm" in outcome.flags, "toe_stub" in outcome.flags
+        sensor_at_rest = bool(self._cycle().arm.sensor(self.p.sensor_radius, self.p.sensing_height))
+        index = self.count["throws"]
+        ev = throw_event_msg(now_ns, self.frame_id, index, outcome, sensor_at_rest, self.p.fidelity)
         if ev.sensor_at_rest and not ev.fault:
             self.count.add("parts_presented")
         self.pub_event.publish(ev)
         if self.feed is not None:
-            self.feed.landed(now_ns, *self._ground_truth(), ev)
+            self.feed.landed(now_ns, *self.ground_truth(), ev)
         self.publish_status()
 
     def drawing(self) -> Drawing | None:
@@ -340,7 +301,7 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         """Start an accepted goal's machine at the node clock's now."""
         request = check_feed_goal(int(handle.request.max_throws), float(handle.request.timeout))
         feed: FeedGoal[ThrowEvent] = FeedGoal(
-            request, self.get_clock().now().nanoseconds, self._rest_window_ns(), *self._ground_truth()
+            request, self.get_clock().now().nanoseconds, self._rest_window_ns(), *self.ground_truth()
         )
         self.count.add("feed_goals")
         self.get_logger().info(
@@ -357,97 +318,12 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         rest = self.p.period * (1.0 - self.p.motion_fraction) - 1.0 / self.p.sensor_rate
         return ns(max(rest, 0.0))
 
-    def _ground_truth(self) -> tuple[int, float]:
+    def ground_truth(self) -> tuple[int, float]:
         """Return (edge, R) of the part at rest, or (-1, NaN) when it is not on the arm (for logging)."""
         arm = self.arm
         if arm is None or not arm.on_arm:
             return -1, math.nan
         return arm.edge, arm.radius
-
-
-class FeedPartGoal:
-    """The runner's view of a ``FeedGoal``: its feedback and result as FeedPart messages."""
-
-    def __init__(self, node: ThrowingArmNode, feed: FeedGoal[ThrowEvent], handle: ServerGoalHandle) -> None:
-        self.node, self.feed, self.handle = node, feed, handle
-
-    @property
-    def done(self) -> bool:
-        """Whether the feed goal has ended."""
-        return self.feed.done
-
-    def advance(self, now_ns: int) -> None:
-        """Take in the tick that is over: judge the bit, end, or ask for a throw."""
-        cycle = self.node.cycle
-        self.feed.tick(now_ns, self.node.stopping_fault(), cycle is not None and cycle.motion is not None)
-
-    def cancel(self, reason: str) -> None:
-        """End after the throw in flight, at once at rest (unless a ~/command stop already asked it to)."""
-        if not self.feed.cancel_reason:
-            self.feed.cancel(reason)
-            self.advance(self.node.get_clock().now().nanoseconds)
-
-    def halt(self) -> None:
-        """Forget the throws the goal asked for (a throw in flight still lands)."""
-        if self.node.cycle is not None:
-            self.node.cycle.cancel_commands()
-
-    def interrupt(self, reason: str) -> None:
-        """End now: the device left active, so no throw can land."""
-        state = self.node.state().name
-        self.feed.end_now(
-            "FAULT",
-            f"device {state} (deactivated) during the goal: the physics is frozen "
-            "and no throw can land; activate it and send a new goal",
-            DeviceStatus.FAULT_NONE,
-            f"device {state}",
-        )
-
-    def feedback(self) -> Sequence[FeedPart.Feedback]:
-        """One feedback per throw the goal has judged, in order."""
-        reports, self.feed.reports = self.feed.reports, []
-        return [
-            FeedPart.Feedback(
-                throws=r.throws,
-                sensor_at_rest=r.sensor_at_rest,
-                edge=r.edge,
-                radius=r.radius,
-                event=r.event if r.event is not None else ThrowEvent(),
-            )
-            for r in reports
-        ]
-
-    def result(self) -> tuple[str, FeedPart.Result]:
-        """Return the terminal state and result: the outcome's code and name, the arm's state now."""
-        outcome = self.feed.outcome
-        assert outcome is not None  # the runner asks only once the goal ended
-        # The arm's state now is the ground truth after the goal's last throw, and says (-1, NaN)
-        # when the part has left the arm, which the goal itself never saw land.
-        edge, radius = self.node._ground_truth()
-        result = FeedPart.Result(
-            outcome=outcome.code,
-            outcome_name=outcome.name,
-            message=outcome.message,
-            throws=outcome.throws,
-            sensor_at_rest=outcome.sensor_at_rest,
-            edge=edge,
-            radius=radius,
-            fault_code=outcome.fault_code,
-            fault_text=outcome.fault_text,
-        )
-        log = self.node.get_logger()
-        if outcome.name == "PRESENTED":
-            self.node.count.add("feeds_presented")
-            log.info(f"~/feed_part: {outcome.name}: {outcome.message}")
-            return "succeed", result
-        log.warning(f"~/feed_part: {outcome.name}: {outcome.message}")
-        canceled = outcome.name == "CANCELED" and self.handle.is_cancel_requested
-        return ("canceled" if canceled else "abort"), result
-
-
-def _stamp(nanoseconds: int) -> StampMsg:
-    """Return a node-clock time (integer ns) as a message stamp."""
-    return Time(nanoseconds=nanoseconds).to_msg()
 
 
 def main(args: list[str] | None = None) -> None:
