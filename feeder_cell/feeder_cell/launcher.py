@@ -219,6 +219,11 @@ def _check_type(value: Any, default: object, field: str) -> None:
         raise InputError(field, f"is declared {want}, got {got} {quote(value)}{hint}")
 
 
+def joins_lockstep(package: str, executable: str) -> bool:
+    """Whether an executable's node joins the cell clock's lockstep (it declares ``lockstep``)."""
+    return "lockstep" in _declared_parameters(package, executable)
+
+
 def _declared_parameters(package: str, executable: str) -> dict[str, ParameterSpec]:
     """Return the ParameterSpecs declared by an executable's node module, by name ({} when unknown)."""
     from importlib import import_module
@@ -374,6 +379,15 @@ class NodeProcess:
     def output(self) -> str:
         """Return what the node has written to its log so far."""
         return self.log_path.read_text(errors="replace") if self.log_path.exists() else ""
+
+    def cpu_seconds(self) -> float | None:
+        """CPU seconds (user + system) the process has used so far, from /proc; None once it has ended."""
+        try:
+            fields = Path(f"/proc/{self.pid}/stat").read_text().rpartition(")")[2].split()
+        except OSError:
+            return None
+        # utime and stime are fields 14 and 15 of proc(5); after the command's ")" they are 12th and 13th.
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
     def stop(self) -> int | None:
         """End the process by pid: SIGINT (a clean ROS shutdown), then SIGKILL after a grace period."""

@@ -12,7 +12,9 @@ Result = TypeVar("Result")
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
-def with_node(name: str, work: Callable[[Any, Any, Callable[[], bool]], Result]) -> Result:
+def with_node(
+    name: str, work: Callable[[Any, Any, Callable[[], bool]], Result], use_sim_time: bool = False
+) -> Result:
     """Run ``work(node, executor, keep_going)`` on a node of its own context; a stop signal ends it."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
@@ -26,6 +28,10 @@ def with_node(name: str, work: Callable[[Any, Any, Callable[[], bool]], Result])
     context = rclpy.Context()
     rclpy.init(context=context)
     node = rclpy.create_node(name, context=context)
+    if use_sim_time:
+        from rclpy.parameter import Parameter
+
+        node.set_parameters([Parameter("use_sim_time", Parameter.Type.BOOL, True)])
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     try:

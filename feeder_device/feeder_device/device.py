@@ -15,7 +15,11 @@ The kit owns the loop, as ros2_control's framework does; a device implements wha
   one unless told otherwise) that the kit destroys at cleanup, whatever path cleanup takes.
 - **The tick**: ``expect_rate(rate)`` at configure sets the main stream's rate; the kit runs the timer on
   the node clock while active, skips instants already ticked, calls ``tick(now_ns)``, advances the running
-  goals (``feeder_device.goals``), then counts the tick and wakes the goals' coroutines.
+  goals (``feeder_device.goals``), then counts the tick and wakes the goals' coroutines. Under the cell
+  clock's lockstep (parameter ``lockstep``) there is no timer: each announced time T runs every instant of
+  the rate's grid up to T, in order, each with its own ``now_ns``, and the device answers T once the
+  samples and results are sent (``feeder_planner.node_kit.lockstep``). So ``tick`` must stamp with
+  ``now_ns``, never with the clock.
   ``elapsed_ns(now_ns)`` is the one definition of the node-clock time since the model last advanced.
 - **Hooks**: ``configure_device`` (load and validate; raise InputError naming the field),
   ``activate_device``/``deactivate_device``, ``cleanup_device``, ``apply_parameter`` (runtime parameters),
@@ -59,6 +63,7 @@ from feeder_device.rate import RateMonitor, RateReport
 from feeder_msgs.msg import DeviceStatus
 from feeder_msgs.srv import InjectFault
 from feeder_planner.errors import FeederError, InputError
+from feeder_planner.node_kit.lockstep import Participant
 from feeder_planner.node_kit.parameters import ParameterSpec, check_value, declare_parameters
 from feeder_planner.node_kit.qos import LATCHED
 from feeder_planner.node_kit.services import REQUEST_QUEUE_PARAMETER, serve
@@ -169,6 +174,14 @@ class ManagedDevice(LifecycleNode, Generic[P]):
             min_forward=Duration(nanoseconds=1), min_backward=None, on_clock_change=True
         )
         self._clock_jump = self.get_clock().create_jump_callback(threshold, post_callback=self._on_clock_jump)
+        # Lockstep: the grid of tick instants (origin, rate, index of the last instant ticked) and the
+        # device's part in the cell clock's protocol; None when the device runs on its own timer.
+        self._grid_origin_ns = 0
+        self._grid_index = 0
+        self.lockstep: Participant | None = None
+        self.tick_instant_ns = 0  # the instant being ticked (0 outside a tick)
+        if self.p.lockstep:
+            self.lockstep = Participant(self, "tick", self._lockstep_ticks)
         self.clock_origin_ns()  # the wall clock (or a /clock already heard) starts the model now
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(1.0 / HEARTBEAT_RATE, self._heartbeat, clock=steady)
@@ -245,6 +258,13 @@ class ManagedDevice(LifecycleNode, Generic[P]):
 
     def _start_ticks(self) -> None:
         self._stop_ticks()
+        if self.lockstep is not None:
+            # The grid goes on from the present time: instants while inactive are not simulated.
+            now = self.get_clock().now().nanoseconds
+            if self._grid_origin_ns <= 0:
+                self._grid_origin_ns = now
+            self._grid_index = int((now - self._grid_origin_ns) * self.tick_rate // 1e9)
+            return
         self._tick_timer = self.create_timer(1.0 / self.tick_rate, self._on_tick_timer)
 
     def _stop_ticks(self) -> None:
@@ -253,16 +273,35 @@ class ManagedDevice(LifecycleNode, Generic[P]):
             self._tick_timer = None
 
     def _on_tick_timer(self) -> None:
+        """One tick at the clock's present time (the free-running timer)."""
+        if self.active:
+            self._tick_at(self.get_clock().now().nanoseconds)
+
+    def _tick_at(self, now: int) -> None:
         """One tick: the device's model and streams, then its goals, then the tick is counted."""
-        if not self.active:
-            return
-        now = self.get_clock().now().nanoseconds
         if not self.tick_due(now):
             return
-        simulated = self.tick(now)
-        for goal in list(self.goals):
-            goal.advance_guarded(now)
-        self.record_tick(simulated)
+        self.tick_instant_ns = now  # what a status published inside the tick is stamped with
+        try:
+            simulated = self.tick(now)
+            for goal in list(self.goals):
+                goal.advance_guarded(now)
+            self.record_tick(simulated)
+        finally:
+            self.tick_instant_ns = 0
+
+    def _grid_instant(self, index: int) -> int:
+        # Rounded from the index, not accumulated: a rate whose period is no whole number of
+        # nanoseconds does not drift, and every host computes the same instants.
+        return self._grid_origin_ns + round(index * 1e9 / self.tick_rate)
+
+    def _lockstep_ticks(self, now_ns: int) -> None:
+        """Tick every instant of the rate's grid up to ``now_ns``, in order (the lockstep's tick phase)."""
+        if not self.active or self._grid_origin_ns <= 0:
+            return
+        while self.active and (instant := self._grid_instant(self._grid_index + 1)) <= now_ns:
+            self._grid_index += 1
+            self._tick_at(instant)
 
     def elapsed_ns(self, now_ns: int) -> int:
         """Return the node-clock time (ns) since the model last advanced, and advance the mark to ``now_ns``.
@@ -373,6 +412,8 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         """
         self.tick_rate = rate
         self.monitor.configure(rate, float(self.p.real_time_factor))
+        self._grid_origin_ns = self.get_clock().now().nanoseconds  # the grid starts at configure
+        self._grid_index = 0
 
     def frame(self, base: str) -> str:
         """Return a per-instance frame id: ``base`` under the node's namespace (``cell/feeder_a/base``)."""
@@ -424,7 +465,7 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         """Publish ~/status when anything a controller sees changed (or when forced: the heartbeat)."""
         state = self.state()
         report = self.rate_report()
-        behind = self.active and report.behind
+        behind = self.is_behind(report)
         fault = self.stopping_fault()
         code, text = fault if fault is not None else (0, "")
         warning = self.warning_fault() if self.lifecycle in ("inactive", "active") else None
@@ -459,10 +500,16 @@ class ManagedDevice(LifecycleNode, Generic[P]):
             achieved_real_time_factor=report.achieved_real_time_factor,
             behind_real_time=behind,
         )
-        msg.header.stamp = self.get_clock().now().to_msg()
+        # Inside a tick, the tick's own instant: in lockstep one clock time covers several ticks.
+        stamp_ns = self.tick_instant_ns or self.get_clock().now().nanoseconds
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
         # A frame id, which tf2 refuses with a leading slash: the node's name under its namespace.
         msg.header.frame_id = self.get_fully_qualified_name().lstrip("/")
         self._status_pub.publish(msg)
+
+    def is_behind(self, report: RateReport) -> bool:
+        """Whether the device is behind the clock: never in lockstep, where the clock waits for it."""
+        return self.active and self.lockstep is None and report.behind
 
     @staticmethod
     def _behind_text(report: RateReport) -> str:
@@ -564,6 +611,8 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         An action server keeps its rcl node and its DDS endpoints alive, even past ``rclpy.shutdown``: a
         device destroyed in a process that goes on would still show its actions in the graph.
         """
+        if self.lockstep is not None:
+            self.lockstep.leave()
         for server in self.action_servers:
             server.destroy()
         self.action_servers.clear()
@@ -710,7 +759,7 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         state = self.state()
         report = self.rate_report()
         fault = self.stopping_fault()
-        behind = self.active and report.behind
+        behind = self.is_behind(report)
         if fault is not None or self.configuration_error:
             level, message = DiagnosticStatus.ERROR, fault[1] if fault else self.configuration_error
         elif self.lifecycle in ("inactive", "active") and (warning := self.warning_fault()) is not None:

@@ -11,14 +11,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from feeder_planner.parameter_specs import param, positive
+from feeder_planner.parameter_specs import non_negative, param
 
 __all__ = ["DeviceParameters"]
 
 
 @dataclass(frozen=True)
 class DeviceParameters:
-    """What the device kit reads of every device: injected faults, their seed, the pace, the hardware id."""
+    """What the device kit reads of every device: faults, their seed, the pace, the hardware id, lockstep."""
 
     inject_faults: list[str] = param(
         [""],
@@ -29,10 +29,17 @@ class DeviceParameters:
     real_time_factor: float = param(
         1.0,
         "real-time factor of the cell clock this device must keep up with (feeder launch --real-time-factor "
-        "sets it with use_sim_time); the configured figure in status and diagnostics",
-        positive,
+        "sets it with use_sim_time; 0: no pace, the lockstep at max); the configured figure in status and "
+        "diagnostics",
+        non_negative,
         read_only=True,
     )
     hardware_id: str = param(
         "", "hardware_id in /diagnostics (empty: sim:<fully qualified node name>)", read_only=True
+    )
+    lockstep: bool = param(
+        False,
+        "hold the cell clock until every tick up to its time is done (a tick participant of the cell "
+        "clock's lockstep, docs/cell.md; feeder launch --real-time-factor sets it with use_sim_time)",
+        read_only=True,
     )

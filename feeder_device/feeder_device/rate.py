@@ -63,8 +63,8 @@ class RateMonitor:
     def __init__(
         self, configured_rate: float, configured_real_time_factor: float = 1.0, window: float = DEFAULT_WINDOW
     ) -> None:
-        if not configured_rate > 0 or not configured_real_time_factor > 0 or not window > 0:
-            raise ValueError("rate, real-time factor and window must be > 0")
+        if not configured_rate > 0 or not configured_real_time_factor >= 0 or not window > 0:
+            raise ValueError("rate and window must be > 0, the real-time factor >= 0 (0: no pace)")
         self.configured_rate = configured_rate
         self.configured_real_time_factor = configured_real_time_factor
         self.window = window
@@ -76,8 +76,8 @@ class RateMonitor:
 
     def configure(self, rate: float, real_time_factor: float) -> None:
         """Change the targets (rate in Hz of the node clock) and start measuring afresh."""
-        if not rate > 0 or not real_time_factor > 0:
-            raise ValueError("rate and real-time factor must be > 0")
+        if not rate > 0 or not real_time_factor >= 0:
+            raise ValueError("rate must be > 0, the real-time factor >= 0 (0: no pace)")
         self.configured_rate, self.configured_real_time_factor = rate, real_time_factor
         self.reset()
 

@@ -355,6 +355,10 @@ class Recorder:
             changed.append(name)
         return changed
 
+    def subscriptions(self) -> dict[str, Any]:
+        """Return the readers by topic (the lockstep observer checks that they matched their publishers)."""
+        return dict(self._subscriptions)
+
     def _offer(self, name: str) -> _Offer | None:
         """Return what a subscription must match now, or None while the topic has no publisher."""
         publishers = self.node.get_publishers_info_by_topic(name)

@@ -10,7 +10,14 @@ from typing import Any, Callable
 
 from feeder_cell.cli.bag import _summary as bag_summary
 from feeder_cell.cli.common import add_json_flag, emit, finite_float, output_directory
-from feeder_cell.launcher import NodeProcess, NodeSpec, load_scene, start_node
+from feeder_cell.launcher import (
+    NodeProcess,
+    NodeSpec,
+    ParameterScalar,
+    joins_lockstep,
+    load_scene,
+    start_node,
+)
 from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError
 from feeder_cell.ros_session import with_node
 from feeder_planner.errors import FeederError, InputError
@@ -19,20 +26,32 @@ STARTUP_TIMEOUT_S = 30.0
 # Primary lifecycle states in the order `feeder launch` walks them (anything else is a transition state).
 RANK = {"unconfigured": 0, "inactive": 1, "active": 2}
 
-# The cell clock `--real-time-factor` starts; every node of the scene then runs on sim time.
+# The cell clock `--real-time-factor` starts, in lockstep; every node of the scene then runs on sim time.
 CLOCK_NODE = NodeSpec("feeder_cell", "cell_clock")
+LAUNCH_NODE = "feeder_launch"
+DEFAULT_QUANTUM = 0.1  # s of cell time per lockstep advance (the clock's own default)
 
 
-# /clock updates per wall second: a device can tick at most once per clock update, so at factor F the
-# clock must update at least F x the fastest device rate (the arm's 100 Hz sensor) per wall second, with
-# a margin of two against aliasing; past the ceiling the devices say they are behind.
+# /clock updates per wall second of a free-running cell clock (tests start one directly): a device can
+# tick at most once per clock update, so at factor F the clock must update at least F x the fastest
+# device rate (the arm's 100 Hz sensor) per wall second, with a margin of two against aliasing.
 CLOCK_UPDATES_PER_CLOCK_SECOND = 200.0
 MAX_CLOCK_RATE = 2000.0
 
 
 def clock_rate(factor: float) -> float:
-    """Return the /clock publish rate (Hz, wall) for a cell clock at real-time factor ``factor``."""
+    """Return the /clock rate (Hz, wall) of a free-running cell clock at real-time factor ``factor``."""
     return min(MAX_CLOCK_RATE, max(CLOCK_UPDATES_PER_CLOCK_SECOND, CLOCK_UPDATES_PER_CLOCK_SECOND * factor))
+
+
+def real_time_factor(text: str) -> float:
+    """Argparse type of --real-time-factor: a finite number > 0, or ``max`` (0: as fast as it can)."""
+    if text.strip().lower() == "max":
+        return 0.0
+    value = finite_float(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be > 0 or max, got {text!r}")
+    return value
 
 
 def _graph_names(node: Any) -> set[str]:
@@ -112,8 +131,8 @@ def _launch(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene)
     if args.duration is not None and args.duration <= 0:
         raise InputError("--duration", f"must be > 0 seconds, got {args.duration}")
-    if args.real_time_factor is not None and args.real_time_factor <= 0:
-        raise InputError("--real-time-factor", f"must be > 0, got {args.real_time_factor}")
+    if not (args.quantum > 0):
+        raise InputError("--quantum", f"must be > 0 seconds, got {args.quantum}")
     if args.record:
         output_directory(args.record, "--record", must_be_new=True)
     if args.log_dir:
@@ -121,19 +140,39 @@ def _launch(args: argparse.Namespace) -> int:
     log_dir = Path(args.log_dir) if args.log_dir else Path(tempfile.mkdtemp(prefix=f"feeder-{scene.name}-"))
     sim_time = args.real_time_factor is not None
     specs = list(scene.nodes)
+    participants = [s for s in specs if joins_lockstep(s.package, s.executable)]
     if sim_time:
+        expect: list[ParameterScalar] = [s.fully_qualified_name for s in participants]
+        if args.record:
+            expect.append(f"/{LAUNCH_NODE}")
         clock = NodeSpec(
             CLOCK_NODE.package,
             CLOCK_NODE.executable,
-            {"real_time_factor": args.real_time_factor, "publish_rate": clock_rate(args.real_time_factor)},
+            {
+                "real_time_factor": args.real_time_factor,
+                "lockstep": True,
+                "quantum": args.quantum,
+                "lockstep_expect": expect or [""],
+            },
         )
         specs.insert(0, clock)
 
     def work(node: Any, executor: Any, keep_going: Callable[[], bool]) -> dict[str, Any]:
         from feeder_cell.bag.recorder import Recorder
+        from feeder_cell.lockstep_observer import CellTime, RecordingObserver
 
         processes: list[NodeProcess] = []
-        recorder = Recorder(node, Path(args.record)) if args.record else None
+        cell_time = CellTime(node) if sim_time else None
+        recorder = None
+        if args.record:
+            # On the cell clock a message's log time is the cell time it was received at.
+            recorder = (
+                Recorder(node, Path(args.record), clock=cell_time.now_ns, wait_for_clock=True)
+                if cell_time
+                else Recorder(node, Path(args.record))
+            )
+        # Recording in lockstep, the recorder holds each quantum until it has taken in all of it.
+        observer = RecordingObserver(node, recorder) if recorder and sim_time else None
         states: dict[str, str] = {}
         try:
             for spec in specs:
@@ -141,11 +180,13 @@ def _launch(args: argparse.Namespace) -> int:
                     break  # interrupted during start-up: end what was started, no traceback
                 # On the cell clock every node follows /clock, and every device learns the factor it
                 # must keep up with (an undeclared parameter is ignored by the nodes without one).
-                extra = (
+                extra: dict[str, Any] = (
                     {"use_sim_time": True, "real_time_factor": args.real_time_factor}
                     if sim_time and spec is not specs[0]
                     else {}
                 )
+                if sim_time and spec in participants:
+                    extra["lockstep"] = True
                 processes.append(start_node(spec, log_dir, extra_parameters=extra))
             _wait_until_in_graph(node, executor, processes, keep_going)
             if keep_going():
@@ -155,21 +196,26 @@ def _launch(args: argparse.Namespace) -> int:
             started = time.monotonic()
             next_discovery = 0.0
             while keep_going() and (args.duration is None or time.monotonic() - started < args.duration):
-                if recorder and time.monotonic() >= next_discovery:
+                if recorder and observer is None and time.monotonic() >= next_discovery:
                     recorder.discover()
                     next_discovery = time.monotonic() + 0.5
                 if any(not p.alive() for p in processes):
                     # A node that ends mid-run ends the scene: on_exit shutdown (a controller done with
                     # its cycles) by design, any other as a failure; exit codes are reported below.
                     break
-                executor.spin_once(timeout_sec=0.05)
+                executor.spin_once(timeout_sec=0.001 if observer and observer.holding() else 0.05)
+                if observer is not None:
+                    observer.after_spin(executor)
         finally:
+            if observer is not None:
+                observer.leave()
             stats = recorder.close() if recorder else {}
+            cpu = {p.spec.fully_qualified_name: p.cpu_seconds() for p in processes}
             codes = [(p, p.alive(), p.stop()) for p in processes]
         result: dict[str, Any] = {
             "scene": scene.name,
             "log_dir": str(log_dir),
-            "real_time_factor": args.real_time_factor,
+            "real_time_factor": "max" if args.real_time_factor == 0 else args.real_time_factor,
             "nodes": [
                 {
                     "package": p.package,
@@ -181,10 +227,13 @@ def _launch(args: argparse.Namespace) -> int:
                     "ended_scene": not alive and p.spec.on_exit == "shutdown",
                     "died_early": not alive and p.spec.on_exit != "shutdown",
                     "exit_code": code,
+                    "cpu_s": cpu.get(p.spec.fully_qualified_name),
                 }
                 for p, alive, code in codes
             ],
         }
+        if cell_time is not None:
+            result["cell_time"] = cell_time.summary()
         if recorder:
             result["bag"] = {
                 "path": str(Path(args.record).resolve()),
@@ -192,7 +241,7 @@ def _launch(args: argparse.Namespace) -> int:
             }
         return result
 
-    result = with_node("feeder_launch", work)
+    result = with_node(LAUNCH_NODE, work, use_sim_time=sim_time)
     emit(args, result, _summary)
     return exit_code(result["nodes"])
 
@@ -212,11 +261,19 @@ def exit_code(nodes: list[dict[str, Any]]) -> int:
 
 def _summary(result: dict[str, Any]) -> str:
     lines = [f"scene {result['scene']}: logs in {result['log_dir']}"]
+    if "cell_time" in result:
+        t = result["cell_time"]
+        lines.append(
+            f"  cell clock: {t['cell_s']:.3f} s of cell time in {t['wall_s']:.3f} s of wall time after the "
+            f"first quantum: real-time factor {t['achieved_real_time_factor']:.3g} "
+            f"(asked {result['real_time_factor']})"
+        )
     for n in result["nodes"]:
         state = "DIED EARLY" if n["died_early"] else "ended the scene" if n["ended_scene"] else "stopped"
         lines.append(
             f"  {n['name']} ({n['package']}/{n['executable']}) pid {n['pid']}: {n['lifecycle']}, "
             f"then {state}, exit code {n['exit_code']}"
+            + (f", {n['cpu_s']:.1f} s of CPU" if n.get("cpu_s") is not None else "")
         )
     if "bag" in result:
         lines.append(bag_summary(result["bag"]))
@@ -241,10 +298,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--record", help="record every topic into this new bag directory (rosbag2, MCAP)")
     parser.add_argument(
         "--real-time-factor",
-        type=finite_float,
+        type=real_time_factor,
         metavar="F",
-        help="run one cell clock (/clock at F simulated seconds per wall second, F > 0) and set "
-        "use_sim_time on every node; without it every node runs on wall time",
+        help="run one cell clock in lockstep (docs/cell.md) and set use_sim_time on every node: cell time "
+        "advances by --quantum once every device, the controller and the recorder are done with the "
+        "present quantum, at most F simulated seconds per wall second (F > 0), or as fast as they allow "
+        "(max); without it every node runs on wall time",
+    )
+    parser.add_argument(
+        "--quantum",
+        type=finite_float,
+        default=DEFAULT_QUANTUM,
+        metavar="S",
+        help=f"cell seconds per lockstep advance (default {DEFAULT_QUANTUM:g})",
     )
     parser.add_argument("--log-dir", help="where node logs go (default: a new temporary folder)")
     add_json_flag(parser)

@@ -1,57 +1,130 @@
-"""ROS 2 node: the cell's one clock source, publishing /clock at a real-time factor, with pause and step.
+"""ROS 2 node: the cell's one clock source, /clock at a real-time factor, free-running or in lockstep.
 
-`feeder launch SCENE --real-time-factor F` starts it and sets ``use_sim_time`` on every node, so every
-device simulates, times and stamps on this one timeline: F > 1 runs a shift in minutes, F < 1 slows the
-cell down for a debugger. A test can hold the whole cell still (``~/pause``) and advance it in lockstep
-(``~/step`` by a duration). The clock itself runs on the wall (steady) clock.
+`feeder launch SCENE --real-time-factor F` starts it in lockstep and sets ``use_sim_time`` on every node,
+so every device simulates, times and stamps on this one timeline. Two modes:
+
+- **Lockstep** (``lockstep: true``): cell time advances by ``quantum`` only when every participant has
+  finished the present quantum (``feeder_planner.node_kit.lockstep`` is the protocol, ``lockstep_barrier``
+  the rules). ``real_time_factor`` is then an upper bound on the pace, 0 runs as fast as the participants
+  allow, and the same seed gives the same run at any pace on any host. A participant that does not
+  answer within ``lockstep_timeout`` is dropped with an ERROR in /diagnostics naming it (the cell goes on,
+  or holds with ``on_lockstep_timeout: stop``).
+- **Free-running** (``lockstep: false``): /clock follows the wall clock times the factor at
+  ``publish_rate``; a device that cannot keep up falls behind and says so.
+
+Both serve ``~/pause``, ``~/resume`` (std_srvs/Trigger) and ``~/step`` (feeder_msgs/StepClock): a test can
+hold the whole cell still and advance it by exact amounts (in lockstep a step is whole quanta, answered
+once the cell has reached it). The clock itself runs on the wall (steady) clock.
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
+from typing import cast
 
 from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock as RclClock
 from rclpy.clock import ClockType
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.publisher import Publisher
 from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.task import Future
 from rosgraph_msgs.msg import Clock
+from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
+from feeder_cell.lockstep_barrier import Barrier, Dropped
 from feeder_msgs.srv import StepClock
 from feeder_planner.errors import InputError
-from feeder_planner.node_kit import ParameterSpec, check_value, declare_parameters, positive, run_node
+from feeder_planner.node_kit import check_value, declare_parameters, run_node
+from feeder_planner.node_kit.lockstep import ANNOUNCE_TOPIC, ANSWER_TOPIC, LEAVE_SEC, LOCKSTEP_QOS, ROLES
+from feeder_planner.parameter_specs import from_values, non_negative, one_of, param, positive, specs_of
 
-PARAMETERS = (
-    ParameterSpec(
-        "real_time_factor", 1.0, "simulated seconds per wall second (> 0); may change at run time", positive
-    ),
-    ParameterSpec(
-        "publish_rate",
+__all__ = ["ClockParameters", "PARAMETERS", "CellClock", "main"]
+
+
+@dataclass(frozen=True)
+class ClockParameters:
+    """The cell clock's parameters (docs/cell.md)."""
+
+    real_time_factor: float = param(
+        1.0,
+        "simulated seconds per wall second; may change at run time. In lockstep an upper bound on the "
+        "pace, 0: as fast as the participants allow (feeder launch --real-time-factor max)",
+        non_negative,
+    )
+    publish_rate: float = param(
         200.0,
-        "rate (Hz, wall clock) of /clock messages: the time resolution the "
-        "nodes see is real_time_factor / publish_rate",
+        "free-running only: rate (Hz, wall clock) of /clock messages, the time resolution the nodes see "
+        "being real_time_factor / publish_rate",
         positive,
         read_only=True,
-    ),
-    ParameterSpec(
-        "start_time",
+    )
+    start_time: float = param(
         0.0,
         "simulated time at start (s since the epoch); 0: the wall time at start",
-        lambda v: None if isinstance(v, float) and v >= 0 else f"must be >= 0 s, got {v!r}",
+        non_negative,
         read_only=True,
-    ),
-    ParameterSpec(
-        "start_paused", False, "hold the clock at start_time until ~/resume or ~/step", read_only=True
-    ),
-)
+    )
+    start_paused: bool = param(False, "hold the clock at start_time until ~/resume or ~/step", read_only=True)
+    lockstep: bool = param(
+        False,
+        "advance by quanta, each once every lockstep participant is done (else free-running)",
+        read_only=True,
+    )
+    quantum: float = param(
+        0.1,
+        "lockstep: cell seconds per advance; a device ticks every instant of its rate within it, a "
+        "controller decides once per quantum",
+        positive,
+        read_only=True,
+    )
+    clock_rate: float = param(
+        50.0,
+        "lockstep: most /clock messages per wall second (the participants hear every quantum on their "
+        "own topics; a node that does not join sees cell time at this rate and is not woken per quantum)",
+        positive,
+        read_only=True,
+    )
+    lockstep_expect: list[str] = param(
+        [""],
+        "lockstep: fully qualified names held for at start (the clock stays at start_time until each "
+        "has joined or join_timeout passed); feeder launch lists the scene's participants",
+        read_only=True,
+    )
+    lockstep_timeout: float = param(
+        30.0,
+        "lockstep: wall seconds a participant may take to answer a phase before it is dropped",
+        positive,
+        read_only=True,
+    )
+    join_timeout: float = param(
+        60.0, "lockstep: wall seconds the expected participants have to join", positive, read_only=True
+    )
+    on_lockstep_timeout: str = param(
+        "drop",
+        "lockstep: what a participant's timeout does: drop (ERROR in /diagnostics, the cell goes on) or "
+        "stop (ERROR, and the clock holds where it is)",
+        one_of(("drop", "stop")),
+        read_only=True,
+    )
+
+
+PARAMETERS = specs_of(ClockParameters)
 
 # rclpy's time source subscribes to /clock best effort with depth 1; a reliable publisher matches it.
 CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 
 NANOSECONDS = 1_000_000_000
+# A phase announcement not answered within this many wall seconds is published again: a best-effort
+# /clock reader (rclpy's time source) may have missed it. Participants ignore a time they have seen.
+REANNOUNCE_S = 1.0
+JOIN_REANNOUNCE_S = 0.2
+DIAGNOSTICS_PERIOD_S = 1.0
 
 
 def to_time(nanoseconds: int) -> Time:
@@ -59,17 +132,23 @@ def to_time(nanoseconds: int) -> Time:
     return Time(sec=nanoseconds // NANOSECONDS, nanosec=nanoseconds % NANOSECONDS)
 
 
+def _nanoseconds(stamp: Time) -> int:
+    return int(stamp.sec) * NANOSECONDS + int(stamp.nanosec)
+
+
 class CellClock(Node):
     """Publishes /clock; serves ~/pause, ~/resume (std_srvs/Trigger) and ~/step (feeder_msgs/StepClock)."""
 
     def __init__(self) -> None:
         super().__init__("cell_clock")
-        self.p = declare_parameters(self, PARAMETERS)
-        start = self.p["start_time"] or time.time()
+        self.p = from_values(ClockParameters, declare_parameters(self, PARAMETERS))
+        if not self.p.lockstep and self.p.real_time_factor == 0:
+            raise InputError("parameter real_time_factor", "0 (as fast as possible) needs lockstep: true")
+        start = self.p.start_time or time.time()
         # Integer nanoseconds: a long run at a high factor must not drift by float rounding.
         self.now_ns = int(round(start * NANOSECONDS))
-        self.factor = float(self.p["real_time_factor"])
-        self.paused = bool(self.p["start_paused"])
+        self.factor = float(self.p.real_time_factor)
+        self.paused = bool(self.p.start_paused)
         self.last_wall = time.monotonic()
         self.pub = self.create_publisher(Clock, "/clock", CLOCK_QOS)
         self.create_service(Trigger, "~/pause", self.on_pause)
@@ -77,15 +156,22 @@ class CellClock(Node):
         self.create_service(StepClock, "~/step", self.on_step)
         self.add_on_set_parameters_callback(self.on_parameters)
         steady = RclClock(clock_type=ClockType.STEADY_TIME)
-        self.create_timer(1.0 / self.p["publish_rate"], self.tick, clock=steady)
+        self.barrier: Barrier | None = None
+        if self.p.lockstep:
+            self._start_lockstep(steady)
+        else:
+            self.create_timer(1.0 / self.p.publish_rate, self.tick, clock=steady)
         self.publish()
+        mode = f"lockstep, quantum {self.p.quantum:g} s" if self.p.lockstep else "free-running"
+        pace = "max" if self.factor == 0 else f"{self.factor:g}"
         paused = " (paused)" if self.paused else ""
-        self.get_logger().info(f"/clock at real-time factor {self.factor:g}{paused}")
+        self.get_logger().info(f"/clock at real-time factor {pace}, {mode}{paused}")
 
     def publish(self) -> None:
         """Publish the present simulated time."""
         self.pub.publish(Clock(clock=to_time(self.now_ns)))
 
+    # --- free-running -------------------------------------------------------------------------------
     def tick(self) -> None:
         """Advance by the wall time since the last tick times the factor (nothing while paused)."""
         wall = time.monotonic()
@@ -94,9 +180,140 @@ class CellClock(Node):
             self.now_ns += int(round(elapsed * self.factor * NANOSECONDS))
         self.publish()
 
+    # --- lockstep -----------------------------------------------------------------------------------
+    def _start_lockstep(self, steady: RclClock) -> None:
+        self.barrier = Barrier(
+            self.now_ns,
+            int(round(self.p.quantum * NANOSECONDS)),
+            [name for name in self.p.lockstep_expect if name],
+            self.p.lockstep_timeout,
+            self.p.join_timeout,
+            phase_started=time.monotonic(),
+        )
+        self.stopped = ""  # why the clock holds for good (on_lockstep_timeout: stop)
+        self.steps_left = 0
+        self.step_waiters: list[Future] = []
+        self.quantum_wall = 0.0  # wall time the present quantum was announced
+        self.announced_wall = time.monotonic()
+        self.quanta = 0
+        self.announcers: dict[str, Publisher] = {
+            role: self.create_publisher(Clock, ANNOUNCE_TOPIC[role], LOCKSTEP_QOS) for role in ROLES
+        }
+        self.clock_wall = 0.0  # wall time /clock was last published
+        # A quantum completes inside an answer's callback; the next one starts from this guard, so the
+        # executor takes the answers, services and timers waiting in between (one quantum per turn).
+        self.next_quantum = self.create_guard_condition(self._pump)
+        for role in ROLES:
+            self.create_subscription(
+                Header, ANSWER_TOPIC[role], lambda msg, role=role: self._on_answer(role, msg), LOCKSTEP_QOS
+            )
+        self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.diagnostics_wall = 0.0
+        period = 0.1 if self.factor == 0 else min(0.01, self.p.quantum / self.factor / 4)
+        self.create_timer(period, self._on_lockstep_timer, clock=steady)
+
+    def _on_answer(self, role: str, msg: Header) -> None:
+        barrier = cast(Barrier, self.barrier)
+        leave = msg.stamp.sec == LEAVE_SEC
+        barrier.answer(role, msg.frame_id, -1 if leave else _nanoseconds(msg.stamp), leave)
+        self._pump()
+
+    def _on_lockstep_timer(self) -> None:
+        barrier = cast(Barrier, self.barrier)
+        wall = time.monotonic()
+        late = barrier.overdue(wall)
+        if late:
+            self._report_dropped(late)
+        elif not barrier.complete() and wall - self.announced_wall > (
+            JOIN_REANNOUNCE_S if barrier.phase == "join" else REANNOUNCE_S
+        ):
+            # Joining, the tick participants hear the start time again (they join by answering it).
+            self._announce("tick" if barrier.phase == "join" else barrier.phase)
+        if wall - self.diagnostics_wall >= DIAGNOSTICS_PERIOD_S:
+            self._publish_diagnostics()
+        self._pump()
+
+    def _report_dropped(self, late: list[Dropped]) -> None:
+        for dropped in late:
+            self.get_logger().error(f"lockstep: {dropped.describe()}")
+        if self.p.on_lockstep_timeout == "stop":
+            self.stopped = f"held after a lockstep timeout: {late[0].describe()}"
+        self._publish_diagnostics()
+
+    def _announce(self, role: str) -> None:
+        self.announced_wall = time.monotonic()
+        self.announcers[role].publish(Clock(clock=to_time(self.now_ns)))
+        if role == "tick" and self.announced_wall - self.clock_wall >= 1.0 / self.p.clock_rate:
+            self.clock_wall = self.announced_wall
+            self.publish()
+
+    def _pump(self) -> None:
+        """Run the phases as far as the answers allow: announce each phase once the previous is complete."""
+        barrier = cast(Barrier, self.barrier)
+        while barrier.complete() and not self.stopped:
+            wall = time.monotonic()
+            if barrier.phase in ("join", "done"):
+                if self.paused and self.steps_left == 0:
+                    return
+                if barrier.phase == "done" and self.factor > 0:
+                    due = self.quantum_wall + self.p.quantum / self.factor
+                    if wall < due:
+                        return  # the pace: the timer pumps again
+                if self.paused and barrier.phase == "done":
+                    self.steps_left -= 1
+                self.quantum_wall = wall
+            role = barrier.next_phase(wall)
+            self.now_ns = barrier.now_ns
+            if role == "done":
+                self.quanta += 1
+                if self.steps_left == 0:
+                    self._wake_steps()
+                self.next_quantum.trigger()
+                return
+            self._announce(role)
+
+    def _wake_steps(self) -> None:
+        waiters, self.step_waiters = self.step_waiters, []
+        for waiter in waiters:
+            if not waiter.done():
+                waiter.set_result(True)
+
+    def _publish_diagnostics(self) -> None:
+        barrier = cast(Barrier, self.barrier)
+        self.diagnostics_wall = time.monotonic()
+        if barrier.dropped or self.stopped:
+            level = DiagnosticStatus.ERROR
+            message = self.stopped or "; ".join(d.describe() for d in barrier.dropped)
+        else:
+            level, message = DiagnosticStatus.OK, f"lockstep at T = {self.now_ns / NANOSECONDS:.3f} s"
+        waiting = barrier.waiting_for()
+        values = {
+            "quantum_s": f"{self.p.quantum:g}",
+            "real_time_factor": "max" if self.factor == 0 else f"{self.factor:g}",
+            "cell_time_s": f"{self.now_ns / NANOSECONDS:.9f}",
+            "quanta": str(self.quanta),
+            "phase": barrier.phase,
+            "paused": str(self.paused).lower(),
+            "participants": ", ".join(f"{m.name} ({m.role})" for m in barrier.members.values()),
+            "waiting_for": ", ".join(m.name for m in waiting),
+            "dropped": ", ".join(d.name for d in barrier.dropped),
+        }
+        status = DiagnosticStatus(
+            level=level,
+            name=f"{self.get_fully_qualified_name()}: lockstep",
+            message=message,
+            hardware_id="sim:cell_clock",
+            values=[KeyValue(key=k, value=v) for k, v in values.items()],
+        )
+        array = DiagnosticArray(status=[status])
+        array.header.stamp = to_time(self.now_ns)
+        self.diagnostics_pub.publish(array)
+
+    # --- services -----------------------------------------------------------------------------------
     def on_pause(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        """Hold the clock where it is."""
-        self.tick()
+        """Hold the clock where it is (in lockstep: once the present quantum is complete)."""
+        if self.barrier is None:
+            self.tick()
         self.paused = True
         response.success, response.message = True, f"paused at {self.now_ns / NANOSECONDS:.9f} s"
         return response
@@ -105,21 +322,38 @@ class CellClock(Node):
         """Run the clock again from where it was held."""
         self.last_wall = time.monotonic()
         self.paused = False
+        self.steps_left = 0
         response.success, response.message = True, f"running at real-time factor {self.factor:g}"
+        if self.barrier is not None:
+            self._pump()
         return response
 
-    def on_step(self, request: StepClock.Request, response: StepClock.Response) -> StepClock.Response:
-        """Advance a paused clock by the requested duration and publish it at once."""
+    async def on_step(self, request: StepClock.Request, response: StepClock.Response) -> StepClock.Response:
+        """Advance a paused clock by the duration asked (in lockstep: whole quanta, answered once there)."""
         step_ns = int(request.duration.sec) * NANOSECONDS + int(request.duration.nanosec)
+        response.ok, response.error = False, ""
         if not self.paused:
-            response.ok = False
             response.error = "bad request: duration: the clock is running; ~/pause it first"
         elif step_ns <= 0:
-            response.ok, response.error = False, f"bad request: duration: must be > 0, got {step_ns} ns"
-        else:
+            response.error = f"bad request: duration: must be > 0, got {step_ns} ns"
+        elif self.barrier is None:
             self.now_ns += step_ns
             self.publish()
-            response.ok, response.error = True, ""
+            response.ok = True
+        elif step_ns % self.barrier.quantum_ns:
+            response.error = (
+                f"bad request: duration: must be a whole number of quanta ({self.p.quantum:g} s) "
+                f"in lockstep, got {step_ns / NANOSECONDS:g} s"
+            )
+        elif self.stopped:
+            response.error = f"bad request: the clock is {self.stopped}"
+        else:
+            done = Future()
+            self.step_waiters.append(done)
+            self.steps_left += step_ns // self.barrier.quantum_ns
+            self._pump()
+            await done
+            response.ok = True
         response.now = to_time(self.now_ns)
         return response
 
@@ -129,9 +363,12 @@ class CellClock(Node):
             if change.name == "real_time_factor":
                 try:
                     check_value(PARAMETERS[0], change.value)
+                    if self.barrier is None and change.value == 0:
+                        raise InputError("parameter real_time_factor", "0 needs lockstep: true")
                 except InputError as error:
                     return SetParametersResult(successful=False, reason=str(error))
-                self.tick()
+                if self.barrier is None:
+                    self.tick()
                 self.factor = float(change.value)
         return SetParametersResult(successful=True)
 

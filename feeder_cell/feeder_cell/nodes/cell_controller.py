@@ -14,6 +14,12 @@ real-time factor) and on the wall clock (``wall_timeout``, so a held ``/clock`` 
 
 Threads: rclpy spins on a background thread (answers, results, status messages); the cycle runs as a
 plain loop in the main thread and waits on futures. That keeps the cycle readable top to bottom.
+
+Lockstep (``lockstep: true``, which ``feeder launch --real-time-factor`` sets): the controller is a react
+participant of the cell clock (``feeder_planner.node_kit.lockstep``). Its cycle starts at the first
+``/lockstep/settled`` time and holds the clock while it works; a wait for a result lets the clock go
+one quantum at a time and looks again once every device has ticked it. Service calls and goal
+acceptances are answered within the quantum. So every decision happens at a defined cell time.
 """
 
 from __future__ import annotations
@@ -53,8 +59,9 @@ from feeder_planner.node_kit import (
     positive,
 )
 from feeder_planner.node_kit.action_client import ActionClient
+from feeder_planner.node_kit.lockstep import Participant
 from feeder_planner.node_kit.msg_fields import fill_field_spec
-from feeder_planner.node_kit.runner import build_node
+from feeder_planner.node_kit.runner import build_node, profiled
 
 __all__ = ["PARAMETERS", "CellController", "main"]
 
@@ -179,6 +186,14 @@ PARAMETERS = (
     ParameterSpec(
         "exit_when_done", False, "end the process when the machine ends (0 FINISHED, 1 STOPPED)", None, True
     ),
+    ParameterSpec(
+        "lockstep",
+        False,
+        "decide in the cell clock's lockstep, once per quantum (docs/cell.md; feeder launch "
+        "--real-time-factor sets it with use_sim_time)",
+        None,
+        True,
+    ),
 )
 
 
@@ -226,6 +241,9 @@ class CellController(Node):
         self.safe: list[Vector3] = []  # the planner's last path
         self.throws = 0  # throws the feeds of this cycle used
         self.step_times: dict[str, float] = {}  # s of node clock per state in this cycle
+        # Lockstep: the cell time whose decisions are being made (the last /lockstep/settled taken in).
+        self.lockstep = Participant(self, "react", hold=True) if self.p["lockstep"] else None
+        self.settled_ns = -1
         self.publish_status()
 
     # --- the cycle ------------------------------------------------------------------------------
@@ -245,6 +263,11 @@ class CellController(Node):
             State.RECOVER: self.recover,
         }
         try:
+            if self.lockstep is not None:
+                self.settled_ns = self.lockstep.wait_announcement(-1, self.p["wall_timeout"])
+                if self.settled_ns < 0:
+                    self.on_transition(self.machine.stop("the lockstep cell clock never settled a time"))
+                    return EXIT_STOPPED
             while not self.machine.finished:
                 state, started = self.machine.state, self.now()
                 outcome = work[state]()
@@ -389,7 +412,11 @@ class CellController(Node):
         return self.get_clock().now().nanoseconds * 1e-9
 
     def wait(self, future: Any, sim_timeout: float) -> bool:
-        """Wait for a future: at most ``sim_timeout`` s of node clock and ``wall_timeout`` s of wall clock."""
+        """Wait for a future: at most ``sim_timeout`` s of node clock and ``wall_timeout`` s of wall clock.
+
+        In lockstep the clock moves only while this waits: one quantum at a time, the future looked at
+        after each (every device has ticked it by then, so the answer is seen at a defined cell time).
+        """
         sim_deadline = self.now() + sim_timeout
         wall_deadline = time.monotonic() + self.p["wall_timeout"]
         while not future.done():
@@ -397,18 +424,26 @@ class CellController(Node):
                 raise ShutdownError("shutdown")
             if time.monotonic() > wall_deadline or self.now() > sim_deadline:
                 return False
-            time.sleep(POLL_S)
+            if self.lockstep is None:
+                time.sleep(POLL_S)
+                continue
+            self.lockstep.release(self.settled_ns)
+            settled = self.lockstep.wait_announcement(self.settled_ns, wall_deadline - time.monotonic())
+            if settled < 0:
+                return False
+            self.settled_ns = settled
         return True
 
     def wait_wall(self, future: Any) -> bool:
-        """Wait for a server's answer: at most ``answer_timeout`` wall seconds."""
+        """Wait for a server's answer: at most ``answer_timeout`` wall s (in lockstep, within the quantum)."""
+        done = threading.Event()
+        future.add_done_callback(lambda _: done.set())
         deadline = time.monotonic() + self.p["answer_timeout"]
-        while not future.done():
+        while not done.wait(POLL_S):
             if not rclpy.ok(context=self.context):
                 raise ShutdownError("shutdown")
             if time.monotonic() > deadline:
-                return False
-            time.sleep(POLL_S)
+                return future.done()
         return True
 
     def call(self, key: str, client: Any, request: Any) -> Any:
@@ -568,13 +603,17 @@ class CellController(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the controller: spin on a thread, run the cycles here; exit 0 FINISHED or shut down, 1 STOPPED."""
+    dump_profile = profiled(NODE_NAME)
     node = build_node(CellController, NODE_NAME, args)
     executor = SingleThreadedExecutor()
     executor.add_node(node)
 
     def spin() -> None:
         try:
-            executor.spin()
+            if node.lockstep is not None:
+                node.lockstep.spin(executor)
+            else:
+                executor.spin()
         except (KeyboardInterrupt, ExternalShutdownException):
             pass
 
@@ -583,6 +622,8 @@ def main(args: list[str] | None = None) -> None:
     code = EXIT_STOPPED
     try:
         code = node.run()
+        if node.lockstep is not None:
+            node.lockstep.leave()  # the clock goes on without a controller that has stopped deciding
         if not node.p["exit_when_done"]:
             while rclpy.ok():  # keep serving the latched status until Ctrl-C
                 time.sleep(0.1)
@@ -592,6 +633,8 @@ def main(args: list[str] | None = None) -> None:
         if rclpy.ok():
             try:
                 node.publish_status()
+                if node.lockstep is not None:
+                    node.lockstep.leave()
             except rclpy_implementation.RCLError:
                 pass  # Ctrl-C shut the context down between the check and the publish: nothing to tell
         # The spinning thread must be gone before the node is destroyed and the process exits.
@@ -599,6 +642,7 @@ def main(args: list[str] | None = None) -> None:
         spinner.join(timeout=5.0)
         node.destroy_node()
         rclpy.try_shutdown()
+        dump_profile()
     sys.exit(code)
 
 

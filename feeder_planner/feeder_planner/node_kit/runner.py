@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import time
+from pathlib import Path
 from typing import Callable, TypeVar
 
 import rclpy
@@ -10,9 +13,10 @@ from rclpy.node import Node
 
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit.introspection import configure_service_introspection
+from feeder_planner.node_kit.lockstep import Participant
 from feeder_planner.node_kit.names import EXIT_DUPLICATE_NAME, DuplicateNameError, watch_for_namesake
 
-__all__ = ["build_node", "run_node"]
+__all__ = ["build_node", "run_node", "profiled"]
 
 EXIT_BAD_CONFIGURATION = 2
 
@@ -32,13 +36,40 @@ def build_node(factory: Callable[[], NodeType], name: str, args: list[str] | Non
         raise SystemExit(EXIT_BAD_CONFIGURATION) from None
 
 
+PROFILE_VARIABLE = "FEEDER_PROFILE"
+
+
+def profiled(name: str) -> Callable[[], None]:
+    """Start cProfile when $FEEDER_PROFILE names a folder; return what writes ``<folder>/<name>-<pid>.prof``.
+
+    How the cell's per-node profile in docs/cell.md was taken: every node of a launch inherits the
+    variable, and ``python -m pstats`` reads the files.
+    """
+    folder = os.environ.get(PROFILE_VARIABLE, "")
+    if not folder:
+        return lambda: None
+    import cProfile
+
+    profile = cProfile.Profile(time.process_time)  # CPU, not wall: waiting is not cost
+    profile.enable()
+
+    def dump() -> None:
+        profile.disable()
+        Path(folder).mkdir(parents=True, exist_ok=True)
+        profile.dump_stats(str(Path(folder) / f"{name}-{os.getpid()}.prof"))
+
+    return dump
+
+
 def run_node(factory: Callable[[], Node], name: str, args: list[str] | None = None, threads: int = 1) -> None:
     """Build and spin one node: a bad configuration is a FATAL log and exit 2; Ctrl-C a clean stop.
 
     ``threads`` > 1 spins a multi-threaded executor: a planner whose services have their own callback
     groups (``services.serve(own_group=True)``) then serves a long request beside its other work. A
-    namesake in the graph at start-up ends the node with exit 1 (node_kit.names).
+    namesake in the graph at start-up ends the node with exit 1 (node_kit.names). A node with a lockstep
+    participant (its ``lockstep`` attribute) spins through it: drained before every answer.
     """
+    dump_profile = profiled(name)
     node = build_node(factory, name, args)
     executor: Executor = (
         MultiThreadedExecutor(num_threads=threads) if threads > 1 else SingleThreadedExecutor()
@@ -46,8 +77,12 @@ def run_node(factory: Callable[[], Node], name: str, args: list[str] | None = No
     executor.add_node(node)
     namesakes = watch_for_namesake(node)
     code = 0
+    participant = getattr(node, "lockstep", None)
     try:
-        executor.spin()
+        if isinstance(participant, Participant):
+            participant.spin(executor)
+        else:
+            executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except DuplicateNameError:
@@ -58,5 +93,6 @@ def run_node(factory: Callable[[], Node], name: str, args: list[str] | None = No
         executor.shutdown(timeout_sec=1.0)
         node.destroy_node()
         rclpy.try_shutdown()
+        dump_profile()
     if code:
         raise SystemExit(code)

@@ -1,0 +1,230 @@
+"""Lockstep: the protocol by which a node holds the cell clock until its work up to a cell time is done.
+
+The cell clock (``feeder_cell`` ``cell_clock`` with ``lockstep: true``, which ``feeder launch
+--real-time-factor`` starts) advances cell time by one quantum only when every participant has
+finished with the present one, so no device drops a step or a sample whatever the host's speed, and a
+seed gives the same run at any pace. Each quantum T has three phases, one per role, in this order:
+
+=========  ==============================  =========================  ========================================
+role       the clock announces T on        the participant answers    what the participant does before
+=========  ==============================  =========================  ========================================
+tick       ``/lockstep/tick``              ``/lockstep/ticked``       simulate up to T and publish every
+           (rosgraph_msgs/Clock)                                      sample up to T (devices)
+react      ``/lockstep/settled``           ``/lockstep/reacted``      decide on what every tick participant
+           (rosgraph_msgs/Clock)                                      produced up to T, send its requests and
+                                                                      wait for their answers (controllers)
+observe    ``/lockstep/quiet``             ``/lockstep/observed``     take in everything the quantum produced
+           (rosgraph_msgs/Clock)                                      (recorders)
+=========  ==============================  =========================  ========================================
+
+A participant runs on sim time and sets its node clock to T as it hears its announcement (``/clock`` itself is
+published at most ``clock_rate`` times per wall second, for the nodes that do not join: they see a faster,
+coarser clock and are not woken once per quantum). An answer is a ``std_msgs/Header``: ``frame_id`` the node's
+fully qualified name, ``stamp`` the cell time it is done with. The first answer joins (any stamp; the node is
+waited for from the next quantum on); ``stamp.sec == -1`` leaves. Answers must be published reliably. A
+participant that does not answer within the clock's ``lockstep_timeout`` (wall seconds) is dropped from the
+lockstep with an ERROR in ``/diagnostics`` naming it. A node that does not join simply sees a faster
+``/clock``.
+
+Why the phases: DDS delivers the messages one process sends to another in order, and a participant
+answers only after it has sent everything the quantum caused. So when a controller sees
+``/lockstep/settled`` T, every device sample and result stamped up to T is already in its queue, and
+the requests it sends in its phase reach devices that are idle between two ticks: each decision and
+each goal start happens at a defined cell time, not at whatever time a message happened to arrive.
+
+What "sent everything" means for an rclpy node is ``drain``: run every ready callback and every task
+that completes (an action result is sent by a task a few executor passes after the tick that ended
+the goal) until a pass does nothing more. ``Participant.spin`` is the loop that drains before
+answering; ``run_node`` uses it for a node that has a participant.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import Callable
+
+import rclpy
+from rclpy.clock import Clock as RclClock
+from rclpy.clock import ClockType, ROSClock
+from rclpy.executors import Executor, TimeoutException
+from rclpy.impl.implementation_singleton import rclpy_implementation
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.time import Time
+from rclpy.timer import Timer
+from rosgraph_msgs.msg import Clock
+from std_msgs.msg import Header
+
+__all__ = [
+    "ROLES",
+    "ANNOUNCE_TOPIC",
+    "ANSWER_TOPIC",
+    "LEAVE_SEC",
+    "LOCKSTEP_QOS",
+    "NANOSECONDS",
+    "Participant",
+    "drain",
+]
+
+ROLES = ("tick", "react", "observe")
+ANNOUNCE_TOPIC = {"tick": "/lockstep/tick", "react": "/lockstep/settled", "observe": "/lockstep/quiet"}
+ANSWER_TOPIC = {"tick": "/lockstep/ticked", "react": "/lockstep/reacted", "observe": "/lockstep/observed"}
+LEAVE_SEC = -1
+# Reliable and deep: an answer lost or overwritten would hold the whole cell until the timeout.
+LOCKSTEP_QOS = QoSProfile(
+    depth=100,
+    history=HistoryPolicy.KEEP_LAST,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+# Passes of a drain before it gives up looking for the end of a chain of tasks (a bound, never reached
+# by the nodes here: a goal's result takes three).
+MAX_DRAIN_PASSES = 50
+JOIN_PERIOD_S = 0.25  # wall s between join messages until the first announcement
+NANOSECONDS = 1_000_000_000
+RCLError = rclpy_implementation.RCLError
+
+
+def drain(executor: Executor, tasks_only: bool = False) -> None:
+    """Run every ready callback and every task that can finish, until one pass makes no progress.
+
+    ``tasks_only``: nothing to do unless the executor has tasks (a tick participant: what its tick publishes
+    is sent at once; only a goal's coroutine sends later, and a request that arrives may wait for the next
+    turn). A pass asks the executor for ready work without waiting. A subscription, service or timer callback
+    is progress, and so is a task that completes (a done callback, an action server's result); a coroutine
+    task that is resumed and suspends again on a future not yet done is not (rclpy resumes every pending
+    coroutine on every pass), so the drain ends while a goal waits for its next tick.
+    """
+    for _ in range(MAX_DRAIN_PASSES):
+        if tasks_only and not executor._tasks:
+            return
+        progressed = False
+        while True:
+            try:
+                handler, entity, _node = executor.wait_for_ready_callbacks(timeout_sec=0)
+            except TimeoutException:
+                break
+            handler()
+            error = handler.exception()
+            if error is not None:
+                raise error
+            if entity is not None or handler.done():
+                progressed = True
+        if not progressed:
+            return
+
+
+def _nanoseconds(msg: Clock) -> int:
+    return int(msg.clock.sec) * NANOSECONDS + int(msg.clock.nanosec)
+
+
+class Participant:
+    """One node's part in the lockstep: hear the role's announcements, answer once the work is sent.
+
+    ``on_announce(T)`` (optional) runs in the announcement's callback, the node clock already at T: a tick
+    participant simulates up to T there. The answer goes out from ``spin`` (or ``answer_pending``) after a
+    drain, never from the callback, so everything the work caused has been sent before it. A react participant
+    whose decisions run on another thread (the reference controller's cycle) sets ``hold`` and answers from
+    that thread with ``release`` once its requests are answered (``wait_announcement`` waits for the next T).
+    """
+
+    def __init__(
+        self,
+        node: Node,
+        role: str,
+        on_announce: Callable[[int], None] | None = None,
+        *,
+        hold: bool = False,
+    ) -> None:
+        if role not in ROLES:
+            raise ValueError(f"lockstep role must be one of {', '.join(ROLES)}, got {role!r}")
+        self.node = node
+        self.role = role
+        self.name = node.get_fully_qualified_name()
+        self.on_announce = on_announce
+        self.hold = hold
+        self.announced_ns = -1  # the last T announced to this role
+        self.answered_ns = -1  # the last T answered
+        self.pending = False  # announced, not yet answered
+        self._announced = threading.Condition()
+        self.drained_ns = -1  # the last T after which the spinning thread drained (``hold`` mode)
+        self._answer = node.create_publisher(Header, ANSWER_TOPIC[role], LOCKSTEP_QOS)
+        node.create_subscription(Clock, ANNOUNCE_TOPIC[role], self._on_message, LOCKSTEP_QOS)
+        # Join, and again until the first announcement comes: a message sent before the clock's reader
+        # has matched this writer is lost (volatile), and react and observe announcements start only
+        # once every expected participant has joined.
+        self.send(0)
+        self._joining: Timer | None = node.create_timer(
+            JOIN_PERIOD_S, lambda: self.send(0), clock=RclClock(clock_type=ClockType.STEADY_TIME)
+        )
+
+    def _on_message(self, msg: Clock) -> None:
+        if self._joining is not None:
+            self.node.destroy_timer(self._joining)
+            self._joining = None
+        now_ns = _nanoseconds(msg)
+        clock = self.node.get_clock()
+        if isinstance(clock, ROSClock) and clock.ros_time_is_active and now_ns > clock.now().nanoseconds:
+            # What rclpy's time source does with a /clock message (jump callbacks included): the node
+            # clock reads T before the phase's work, whenever the coarse /clock last came.
+            clock.set_ros_time_override(Time(nanoseconds=now_ns, clock_type=ClockType.ROS_TIME))
+        self.announce(now_ns)
+
+    def announce(self, now_ns: int) -> None:
+        """Take in the announcement of ``now_ns``: do the role's work now, answer after the next drain."""
+        if now_ns <= self.announced_ns:
+            return
+        self.announced_ns = now_ns
+        if self.on_announce is not None:
+            self.on_announce(now_ns)
+        self.pending = True
+
+    def answer_pending(self, executor: Executor) -> None:
+        """Drain, then answer the pending announcement (or, holding, tell the holding thread it may look)."""
+        if not self.pending:
+            return
+        drain(executor, tasks_only=self.role == "tick")
+        self.pending = False
+        if self.hold:
+            with self._announced:
+                self.drained_ns = self.announced_ns
+                self._announced.notify_all()
+        else:
+            self.send(self.announced_ns)
+
+    def send(self, now_ns: int) -> None:
+        """Publish an answer: done with ``now_ns`` (0 joins; ``leave`` leaves)."""
+        header = Header(frame_id=self.name)
+        header.stamp.sec, header.stamp.nanosec = divmod(now_ns, NANOSECONDS)
+        self._answer.publish(header)
+        self.answered_ns = max(self.answered_ns, now_ns)
+
+    def leave(self) -> None:
+        """Leave the lockstep: the clock stops waiting for this node (nothing to say once shut down)."""
+        if not self.node.context.ok():
+            return
+        header = Header(frame_id=self.name)
+        header.stamp.sec = LEAVE_SEC
+        try:
+            self._answer.publish(header)
+        except RCLError:
+            pass  # the context ended between the check and the publish: the clock's timeout drops it
+
+    # --- a holding participant (its decisions run on another thread) ----------------------------
+    def wait_announcement(self, after_ns: int, timeout_s: float) -> int:
+        """Block until an announcement later than ``after_ns`` has been drained; return it (-1: timeout)."""
+        with self._announced:
+            self._announced.wait_for(lambda: self.drained_ns > after_ns, timeout=timeout_s)
+            return self.drained_ns if self.drained_ns > after_ns else -1
+
+    def release(self, now_ns: int) -> None:
+        """Answer ``now_ns`` from the holding thread: its decisions for that time are sent and answered."""
+        if now_ns > self.answered_ns:
+            self.send(now_ns)
+
+    # --- the spin loop --------------------------------------------------------------------------
+    def spin(self, executor: Executor, poll_s: float = 0.1) -> None:
+        """Spin the executor, draining and answering after every callback that announced a time."""
+        while rclpy.ok(context=self.node.context):
+            executor.spin_once(timeout_sec=poll_s)
+            self.answer_pending(executor)
