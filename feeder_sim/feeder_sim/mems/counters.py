@@ -11,5 +11,7 @@ COUNTERS = (
     CounterSpec("placements", "parts placed (~/place_parts)"),
     CounterSpec("parts_settled", "parts at rest now (derived from the model)"),
     CounterSpec("program_goals", "~/run_program goals accepted"),
-    CounterSpec("stiff_steps", "ideal steps beyond the stability margin (derived from the model)"),
+    CounterSpec(
+        "stiff_steps", "time_steps the ideal model had to cut for stability (derived from the model)"
+    ),
 )

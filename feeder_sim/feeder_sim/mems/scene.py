@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 
@@ -21,6 +22,7 @@ from feeder_sim.mems.coverage import Grid
 from feeder_sim.mems.dynamic import DynamicWorld
 from feeder_sim.mems.faults import ArrayFaults
 from feeder_sim.mems.models import ArrayForces, IdealForces
+from feeder_sim.mems.stepping import IdealStepper
 from feeder_sim.mems.tolerances import (
     DEFAULT_CELLS,
     DEFAULT_DAMPING,
@@ -36,8 +38,6 @@ __all__ = ["FIDELITIES", "Fidelity", "Body", "Scene", "random_poses", "FIELD_OFF
 
 # What the cells push with while the array is switched off (a stopped device): nothing.
 FIELD_OFF: Field = ConstantField((0.0, 0.0))
-# Velocities in units of the settled speeds: one norm for (vx, vy, omega), and below 1 a part is at rest.
-SETTLED_SCALE = np.array([SETTLED_SPEED, SETTLED_SPEED, SETTLED_ANGULAR_SPEED])
 
 
 def random_poses(count: int, radius: float, seed: int) -> np.ndarray:
@@ -76,12 +76,11 @@ class Scene:
         self.damping = float(damping)
         self.friction = float(friction)
         self.time = 0.0
-        self.switched_on = True
-        # The ideal model's step monitor (STIFF_STEP_RATIO): stiff steps in all, and the count and peak
-        # ratio |k2 - k1| / |k1| at the last mark_steps().
-        self.stiff_steps = 0
+        self._switched_on = True
+        # The ideal model's integrator (stepping.py): error control, the stability limit
+        # (STIFF_STEP_RATIO: stiff steps in all, and their count at the last mark_steps()) and rest.
+        self.stepper = IdealStepper()
         self._stiff_at_mark = 0
-        self.peak_step_ratio = 0.0
         self.set_program(program)
         self.forces: ForceModel = (
             ArrayForces(*array, directions=directions) if self.fidelity == "array" else IdealForces()
@@ -91,6 +90,16 @@ class Scene:
             if self.fidelity == "dynamic"
             else None
         )
+
+    @property
+    def switched_on(self) -> bool:
+        """Whether the cells push (False: a stopped device, every cell off)."""
+        return self._switched_on
+
+    @switched_on.setter
+    def switched_on(self, on: bool) -> None:
+        self._switched_on = bool(on)
+        self.stepper.wake()
 
     @property
     def faults(self) -> ArrayFaults:
@@ -104,6 +113,7 @@ class Scene:
                 "fault", f"dead and stuck cells need fidelity 'array'; this scene is {self.fidelity!r}"
             )
         self.forces.set_faults(faults)
+        self.stepper.wake()
 
     def set_damping(self, damping: float) -> None:
         """Change the viscous surface drag (N s/m^3) from the next step on."""
@@ -111,6 +121,7 @@ class Scene:
             raise InputError("damping", f"must be a finite number > 0, got {damping!r}")
         self.damping = float(damping)
         self.mark_steps()  # the stiffness scales with 1 / damping: judged afresh
+        self.stepper.wake()
         if self._dynamic is not None:
             self._dynamic.damping = self.damping
 
@@ -128,23 +139,23 @@ class Scene:
 
     def mark_steps(self) -> None:
         """Judge the ideal model's steps afresh (a new program or drag): stiff_since_mark, peak ratio."""
-        self._stiff_at_mark = self.stiff_steps
-        self.peak_step_ratio = 0.0
+        self._stiff_at_mark = self.stepper.stiff_steps
+        self.stepper.peak_ratio = 0.0
+
+    @property
+    def stiff_steps(self) -> int:
+        """Return the steps of dt the ideal model had to cut for stability (STIFF_STEP_RATIO), in all."""
+        return self.stepper.stiff_steps
 
     @property
     def stiff_since_mark(self) -> int:
         """Return the stiff steps since the last mark_steps()."""
-        return self.stiff_steps - self._stiff_at_mark
+        return self.stepper.stiff_steps - self._stiff_at_mark
 
-    def _monitor_step(self, k1: np.ndarray, k2: np.ndarray) -> None:
-        """Count a Heun step whose velocity changed by more than STIFF_STEP_RATIO times itself within it."""
-        moving = float(np.linalg.norm(k1 / SETTLED_SCALE))
-        if moving <= 1.0:  # at rest: the rate is at its rounding floor, and its ratio means nothing
-            return
-        ratio = float(np.linalg.norm((k2 - k1) / SETTLED_SCALE)) / moving
-        self.peak_step_ratio = max(self.peak_step_ratio, ratio)
-        if ratio > STIFF_STEP_RATIO:
-            self.stiff_steps += 1
+    @property
+    def peak_step_ratio(self) -> float:
+        """Return the largest lambda dt met since mark_steps() (|k2 - k1| / |k1| scaled to the full dt)."""
+        return self.stepper.peak_ratio
 
     def stable_step_estimate(self, dt: float) -> float:
         """Return the step (s) that would have kept the peak ratio since mark_steps() at STIFF_STEP_RATIO.
@@ -152,18 +163,25 @@ class Scene:
         The ratio is lambda dt of the stiffest mode met, so it scales with the step; inf before any
         step was judged.
         """
-        return dt * STIFF_STEP_RATIO / self.peak_step_ratio if self.peak_step_ratio > 0 else math.inf
+        peak = self.peak_step_ratio
+        return dt * STIFF_STEP_RATIO / peak if peak > 0 else math.inf
 
     def stiffness_warning(self, dt: float) -> str:
-        """Say why steps of ``dt`` are beyond the ideal model's margin since mark_steps(), or "" if not."""
+        """Say why steps of ``dt`` are beyond the ideal model's margin since mark_steps(), or "" if not.
+
+        Only a dt the model actually had to cut for stability warns, so the step it names is shorter
+        than ``dt``.
+        """
         if self.stiff_since_mark == 0:
             return ""
         return (
             f"time_step {dt:g} s is beyond the ideal model's stability margin at damping {self.damping:g}: "
-            f"{self.stiff_since_mark} steps changed a part's velocity by up to {self.peak_step_ratio:.2f} "
-            f"times itself (margin {STIFF_STEP_RATIO:g}; from 2 a part can stop off its equilibrium), so "
-            f"poses are not certified; a time_step of {self.stable_step_estimate(dt):.2g} s or less, or "
-            "more damping, keeps the margin"
+            f"{self.stiff_since_mark} steps had to be cut, a part's velocity changing by up to "
+            f"{self.peak_step_ratio:.2f} times itself over a full step (margin {STIFF_STEP_RATIO:g}; from 2 "
+            "a step stops a part off its equilibrium). The poses stay within the step error tolerance, "
+            "but the device computes finer steps than configured, and a settling is not certified at "
+            f"this time_step; a time_step of {self.stable_step_estimate(dt):.2g} s or less, or more "
+            "damping, keeps the margin"
         )
 
     def set_program(self, program: tuple[ProgramStep, ...]) -> None:
@@ -171,6 +189,7 @@ class Scene:
         self.program = tuple(program)
         self.program_start = self.time
         self.mark_steps()
+        self.stepper.wake()
 
     def active_field(self) -> Field:
         """Return the field of the program step active now; the last step stays on when the program ends."""
@@ -213,25 +232,33 @@ class Scene:
         return w / drag_coefficients(body.part, self.damping), w
 
     def step(self, dt: float) -> None:
-        """Advance by dt seconds.
+        """Advance by dt seconds in the field active at the start of the step.
 
-        Heun's method for 'ideal', whose two evaluations also measure how stiff the step is
-        (STIFF_STEP_RATIO: ``stiff_steps``); forward Euler for 'array', whose cell discretisation error
-        dominates the step error (one force evaluation per step, unmonitored: its cell forces change in
-        jumps as edges cross cells); 'dynamic' by its world.
+        'ideal': Heun's method with error control and a stability limit, in steps of at most dt, and
+        nothing for a part at rest (``stepping.IdealStepper``; ``stiff_steps`` counts the dt that needed
+        a cut); 'array': forward Euler, whose cell discretisation error dominates the step error (one
+        force evaluation per step, unmonitored: its cell forces change in jumps as edges cross cells);
+        'dynamic' by its world.
         """
         field_now = self.output_field()
         if self._dynamic is not None:
             self._dynamic.step(dt, field_now)
+        elif self.fidelity == "ideal":
+            self.stepper.prepare(len(self.bodies), (field_now, self.faults, self.damping))
+            for index, body in enumerate(self.bodies):
+                moved = self.stepper.advance(
+                    index,
+                    body.pose,
+                    dt,
+                    partial(self._rate, body, field_now=field_now),
+                    body.part.radius,
+                )
+                if moved is not None:
+                    body.pose, body.velocity, body.wrench = moved
         else:
             for body in self.bodies:
                 k1, w = self._rate(body, body.pose, field_now)
-                if self.fidelity == "ideal":
-                    k2, _ = self._rate(body, body.pose + dt * k1, field_now)
-                    self._monitor_step(k1, k2)
-                    body.velocity = 0.5 * (k1 + k2)
-                else:
-                    body.velocity = k1
+                body.velocity = k1
                 body.pose = body.pose + dt * body.velocity
                 body.pose[2] = math.remainder(body.pose[2], 2 * math.pi) % (2 * math.pi)
                 body.wrench = w
