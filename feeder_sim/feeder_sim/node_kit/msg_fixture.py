@@ -21,7 +21,7 @@ from feeder_device.device import DeviceState
 from feeder_msgs.action import FollowPath
 from feeder_msgs.msg import StabilityStatus
 from feeder_msgs.srv import FixtureMove
-from feeder_planner.assembly import PreparedAssembly, check_result
+from feeder_planner.assembly import PreparedAssembly
 from feeder_planner.errors import FeederError, InputError
 from feeder_planner.node_kit import from_vec, vec
 from feeder_planner.node_kit.msg_assembly import force_msgs
@@ -38,6 +38,7 @@ from feeder_sim.fixture import (
 )
 from feeder_sim.fixture.parameters import FixtureParameters
 from feeder_sim.fixture.path_goal import PathGoal, PathOutcome
+from feeder_sim.fixture.stability import stability_result
 
 __all__ = [
     "FOLLOW_PATH",
@@ -70,7 +71,7 @@ def stability_msg(header: Header, prepared: PreparedAssembly, g: np.ndarray, mov
     """Return the LP's verdict at the true gravity ``g``: stable, margin, unbalanced bodies, forces."""
     status = StabilityStatus(header=header, gravity=vec(g), moving=moving)
     try:
-        result = check_result(prepared, g)
+        result = stability_result(prepared, g)  # solved again only when g changed (fixture/stability.py)
         status.stable = result.stable
         status.margin = result.margin_rad
         status.unbalanced_bodies = list(result.unbalanced_bodies)
