@@ -107,7 +107,10 @@ class Barrier:
     def complete(self) -> bool:
         """Whether the present phase is complete (``join``: every expected name has joined)."""
         if self.phase == "join":
-            return self.expect <= self.joined() | self._gone  # type: ignore[operator]
+            # A tick participant's clock reads T0 only once it has answered T0 (a join message may
+            # come first): no react phase before, or a controller would configure a device at time 0.
+            ticked = all(m.done_ns >= self.now_ns for m in self.members.values() if m.role == ROLES[0])
+            return ticked and self.expect <= self.joined() | self._gone  # type: ignore[operator]
         if self.phase == "done":
             return True
         return not self.waiting_for()

@@ -4,13 +4,15 @@ The recorder is an observe participant (``feeder_planner.node_kit.lockstep``): a
 T every device sample and every reaction of quantum T is in its queue; it drains them, subscribes to
 any topic that appeared in the quantum (a device configured by the controller makes its publishers
 then) and answers T only once its new readers have matched every publisher of their topics, so the
-first samples of a new topic are recorded too, at any pace.
+first samples of a new topic are recorded too, at any pace. A message's log time is the cell time of
+the quantum it belongs to (the quantum after the last one answered), not the moment it happened to be
+taken: so the same run gives the same bag at every pace.
 """
 
 from __future__ import annotations
 
 import time
-from typing import Any
+from typing import Any, Callable
 
 from rclpy.executors import Executor
 from rclpy.node import Node
@@ -21,9 +23,15 @@ from feeder_planner.node_kit.lockstep import NANOSECONDS, Participant
 
 __all__ = ["CellTime", "RecordingObserver"]
 
-# After new readers have matched their publishers, the publishers' side of the match (which DDS
-# completes on its own discovery traffic, in no order with the data) is given this long (wall s).
-MATCH_SETTLE_S = 0.05
+# After new readers have matched their publishers, the quantum is held this long (wall s): the
+# publishers' side of the match (which DDS completes on its own discovery traffic, in no order with
+# the data) and a latched publisher's history, which it sends on matching (within milliseconds), belong
+# to the quantum the topic appeared in. Only a quantum in which topics appear pays it. Not "until no
+# message comes": a latched topic published on a wall-clock timer (markers) never falls silent.
+MATCH_SETTLE_S = 0.2
+# The most a quantum waits for new readers to match (wall s): a publisher the recorder cannot match
+# (an incompatible QoS) must not hold the cell; its topic is named in a warning.
+MATCH_TIMEOUT_S = 2.0
 
 
 class CellTime:
@@ -63,40 +71,121 @@ class CellTime:
 class RecordingObserver:
     """Holds each quantum until the recorder has taken it in whole (subscribed and matched included)."""
 
-    def __init__(self, node: Node, recorder: Any) -> None:
+    def __init__(self, node: Node, quantum_ns: int, recorder: Any = None) -> None:
         self.node = node
-        self.recorder = recorder
-        self.participant = Participant(node, "observe", hold=True)
+        self.quantum_ns = quantum_ns
+        self.recorder = recorder  # set before ``start`` (the recorder's clock is ``log_time_ns``)
+        self.participant: Participant | None = None  # made by ``start``: joining holds the clock
         self._topics: list[tuple[str, list[str]]] = []
-        self._settle_until = 0.0
+        self._settling = False
+        self._quiet_since = 0.0
+        self._matching_since = 0.0
+
+    def start(
+        self,
+        executor: Executor,
+        keep_going: Callable[[], bool],
+        nodes: list[tuple[str, str]],
+        timeout_s: float = 30.0,
+    ) -> None:
+        """Subscribe to every topic of the scene's ``nodes`` (name, namespace), wait until matched, join.
+
+        The clock holds its start time until every expected participant has joined, so the topics the
+        scene's nodes made at start-up (latched descriptions, statuses) are recorded whole, at the start
+        time, whatever the order in which the processes came up. A node's publishers are discovered in
+        one burst after the node itself: they are taken once each node's list has stayed the same for
+        MATCH_SETTLE_S.
+        """
+        deadline = time.monotonic() + timeout_s
+        while keep_going() and not self.recorder.clock_started() and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.01)
+        stable_since, seen = time.monotonic(), self._publishers(nodes)
+        while keep_going() and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.01)
+            now = self._publishers(nodes)
+            if now != seen or not all(now):
+                stable_since, seen = time.monotonic(), now
+            elif time.monotonic() - stable_since >= MATCH_SETTLE_S:
+                break
+        self._topics = self._graph_topics()
+        self.recorder.discover()
+        self._settling, self._quiet_since = True, time.monotonic()
+        self._matching_since = time.monotonic()
+        while keep_going() and time.monotonic() < deadline and not self._matched():
+            executor.spin_once(timeout_sec=0.01)
+        self._quiet_since = time.monotonic()
+        while keep_going() and not self._quiet():
+            executor.spin_once(timeout_sec=0.01)
+        self._settling = False
+        self.participant = Participant(self.node, "observe", hold=True)
+
+    def _publishers(self, nodes: list[tuple[str, str]]) -> list[int]:
+        counts = []
+        for name, namespace in nodes:
+            try:
+                counts.append(len(self.node.get_publisher_names_and_types_by_node(name, namespace or "/")))
+            except Exception:  # noqa: BLE001 - rclpy raises its own NodeNameNonExistentError: not yet seen
+                counts.append(0)
+        return counts
+
+    def _graph_topics(self) -> list[tuple[str, list[str]]]:
+        return sorted((name, list(types)) for name, types in self.node.get_topic_names_and_types())
+
+    def _quiet(self) -> bool:
+        """Whether MATCH_SETTLE_S has passed since every new reader matched (latched histories are in)."""
+        return time.monotonic() - self._quiet_since >= MATCH_SETTLE_S
 
     def after_spin(self, executor: Executor) -> None:
         """Drain a quiet announcement and answer it once every new topic is subscribed and matched."""
+        if self.participant is None:
+            return
         self.participant.answer_pending(executor)
         now_ns = self.participant.drained_ns
         if now_ns <= self.participant.answered_ns:
             return
-        topics = sorted((name, list(types)) for name, types in self.node.get_topic_names_and_types())
+        topics = self._graph_topics()
         if topics != self._topics:
             if self.recorder.discover():
-                self._settle_until = time.monotonic() + MATCH_SETTLE_S
+                self._settling, self._quiet_since = True, time.monotonic()
+                self._matching_since = time.monotonic()
             if not self._matched():
                 return  # looked at again after the next spin
             self._topics = topics
-        if time.monotonic() < self._settle_until:
-            return
+            self._quiet_since = time.monotonic()
+        if self._settling:
+            if not self._quiet():
+                return
+            self._settling = False
         self.participant.release(now_ns)
 
+    def log_time_ns(self) -> int:
+        """Return the log time of a message taken now: the end of the quantum it belongs to."""
+        answered = self.participant.answered_ns if self.participant is not None else 0
+        if answered <= 0:
+            return int(self.node.get_clock().now().nanoseconds)  # start-up: the start time
+        return answered + self.quantum_ns
+
     def _matched(self) -> bool:
-        for name, subscription in self.recorder.subscriptions().items():
-            if subscription.get_publisher_count() < self.node.count_publishers(name):
-                return False
-        return True
+        """Whether every reader has matched every publisher of its topic (or MATCH_TIMEOUT_S passed)."""
+        unmatched = [
+            name
+            for name, subscription in self.recorder.subscriptions().items()
+            if subscription.get_publisher_count() < self.node.count_publishers(name)
+        ]
+        if unmatched and time.monotonic() - self._matching_since > MATCH_TIMEOUT_S:
+            self.node.get_logger().warning(
+                f"recording on: not every publisher matched within {MATCH_TIMEOUT_S:g} s on "
+                f"{', '.join(sorted(unmatched))} (its first messages may be missing)"
+            )
+            return True
+        return not unmatched
 
     def holding(self) -> bool:
         """Whether a quantum waits for this recorder (the launch then spins with a short timeout)."""
-        return self.participant.drained_ns > self.participant.answered_ns
+        p = self.participant
+        return p is not None and p.drained_ns > p.answered_ns
 
     def leave(self) -> None:
         """Leave the lockstep (the launch is ending)."""
-        self.participant.leave()
+        if self.participant is not None:
+            self.participant.leave()

@@ -157,6 +157,7 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         self.goals: list[TickedGoal] = []  # the goals executing (feeder_device.goals), advanced per tick
         self.action_servers: list[ActionServer] = []  # made by goals.serve_goal, ended by destroy_node
         self._last_status: StatusKey | None = None
+        self._last_status_msg: DeviceStatus | None = None
         self._status_pub = self.create_publisher(DeviceStatus, "~/status", LATCHED)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         serve(self, Trigger, "~/stop", self._on_stop)
@@ -182,6 +183,7 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         self.tick_instant_ns = 0  # the instant being ticked (0 outside a tick)
         if self.p.lockstep:
             self.lockstep = Participant(self, "tick", self._lockstep_ticks)
+            self.lockstep.on_first = lambda: self.publish_status(force=True)
         self.clock_origin_ns()  # the wall clock (or a /clock already heard) starts the model now
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(1.0 / HEARTBEAT_RATE, self._heartbeat, clock=steady)
@@ -302,6 +304,7 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         while self.active and (instant := self._grid_instant(self._grid_index + 1)) <= now_ns:
             self._grid_index += 1
             self._tick_at(instant)
+        self.publish_status()  # what the ticks changed (counters), stamped with the quantum's time
 
     def elapsed_ns(self, now_ns: int) -> int:
         """Return the node-clock time (ns) since the model last advanced, and advance the mark to ``now_ns``.
@@ -462,7 +465,13 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         return self.monitor.report(time.monotonic(), self.sim_seconds())
 
     def publish_status(self, force: bool = False) -> None:
-        """Publish ~/status when anything a controller sees changed (or when forced: the heartbeat)."""
+        """Publish ~/status when anything a controller sees changed (or when forced: the heartbeat).
+
+        In lockstep, not before the first announcement: until then the node clock has no cell time to
+        stamp it with (the first announcement publishes it).
+        """
+        if self.lockstep is not None and self.lockstep.announced_ns < 0:
+            return
         state = self.state()
         report = self.rate_report()
         behind = self.is_behind(report)
@@ -506,6 +515,7 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         # A frame id, which tf2 refuses with a leading slash: the node's name under its namespace.
         msg.header.frame_id = self.get_fully_qualified_name().lstrip("/")
         self._status_pub.publish(msg)
+        self._last_status_msg = msg
 
     def is_behind(self, report: RateReport) -> bool:
         """Whether the device is behind the clock: never in lockstep, where the clock waits for it."""
@@ -752,7 +762,12 @@ class ManagedDevice(LifecycleNode, Generic[P]):
 
     # --- heartbeat -------------------------------------------------------------------------------
     def _heartbeat(self) -> None:
-        self.publish_status(force=True)
+        if self.lockstep is not None and self._last_status_msg is not None:
+            # In lockstep the wall-clock heartbeat repeats what was last said, never news: a change is
+            # published at the end of the tick phase that made it, at a defined cell time.
+            self._status_pub.publish(self._last_status_msg)
+        else:
+            self.publish_status(force=True)
         self._diagnostics_pub.publish(self._diagnostics())
 
     def _diagnostics(self) -> DiagnosticArray:

@@ -133,6 +133,10 @@ def _launch(args: argparse.Namespace) -> int:
         raise InputError("--duration", f"must be > 0 seconds, got {args.duration}")
     if not (args.quantum > 0):
         raise InputError("--quantum", f"must be > 0 seconds, got {args.quantum}")
+    if args.start_time < 0:
+        raise InputError("--start-time", f"must be >= 0 seconds, got {args.start_time}")
+    if not (args.lockstep_timeout > 0):
+        raise InputError("--lockstep-timeout", f"must be > 0 seconds, got {args.lockstep_timeout}")
     if args.record:
         output_directory(args.record, "--record", must_be_new=True)
     if args.log_dir:
@@ -153,6 +157,9 @@ def _launch(args: argparse.Namespace) -> int:
                 "lockstep": True,
                 "quantum": args.quantum,
                 "lockstep_expect": expect or [""],
+                "start_time": args.start_time,
+                "lockstep_timeout": args.lockstep_timeout,
+                "on_lockstep_timeout": args.on_lockstep_timeout,
             },
         )
         specs.insert(0, clock)
@@ -164,15 +171,15 @@ def _launch(args: argparse.Namespace) -> int:
         processes: list[NodeProcess] = []
         cell_time = CellTime(node) if sim_time else None
         recorder = None
-        if args.record:
-            # On the cell clock a message's log time is the cell time it was received at.
-            recorder = (
-                Recorder(node, Path(args.record), clock=cell_time.now_ns, wait_for_clock=True)
-                if cell_time
-                else Recorder(node, Path(args.record))
-            )
-        # Recording in lockstep, the recorder holds each quantum until it has taken in all of it.
-        observer = RecordingObserver(node, recorder) if recorder and sim_time else None
+        observer = None
+        if args.record and sim_time:
+            # Recording in lockstep, the recorder holds each quantum until it has taken in all of it,
+            # and logs each message at the cell time of its quantum.
+            observer = RecordingObserver(node, int(round(args.quantum * 1e9)))
+            recorder = Recorder(node, Path(args.record), clock=observer.log_time_ns, wait_for_clock=True)
+            observer.recorder = recorder
+        elif args.record:
+            recorder = Recorder(node, Path(args.record))
         states: dict[str, str] = {}
         try:
             for spec in specs:
@@ -189,10 +196,17 @@ def _launch(args: argparse.Namespace) -> int:
                     extra["lockstep"] = True
                 processes.append(start_node(spec, log_dir, extra_parameters=extra))
             _wait_until_in_graph(node, executor, processes, keep_going)
+            if observer is not None and keep_going():
+                # Subscribed to every topic the scene's nodes made at start-up before the clock's join
+                # completes (it waits for the recorder): the recording starts at the start time.
+                observer.start(
+                    executor, keep_going, [(p.spec.node_name, p.spec.namespace) for p in processes]
+                )
             if keep_going():
                 # Recording starts before the bring-up, which takes a while: a controller in the scene
                 # is working already.
-                states = bring_up(node, executor, processes, recorder.discover if recorder else None)
+                discover = recorder.discover if recorder and observer is None else None
+                states = bring_up(node, executor, processes, discover)
             started = time.monotonic()
             next_discovery = 0.0
             while keep_going() and (args.duration is None or time.monotonic() - started < args.duration):
@@ -311,6 +325,28 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=DEFAULT_QUANTUM,
         metavar="S",
         help=f"cell seconds per lockstep advance (default {DEFAULT_QUANTUM:g})",
+    )
+    parser.add_argument(
+        "--start-time",
+        type=finite_float,
+        default=0.0,
+        metavar="S",
+        help="cell time at start, s since the epoch (default 0: the wall time at start); a fixed start "
+        "makes two runs' stamps comparable",
+    )
+    parser.add_argument(
+        "--lockstep-timeout",
+        type=finite_float,
+        default=30.0,
+        metavar="S",
+        help="wall seconds a lockstep participant may take to answer before it is dropped (default 30)",
+    )
+    parser.add_argument(
+        "--on-lockstep-timeout",
+        choices=("drop", "stop"),
+        default="drop",
+        help="drop: the cell goes on without the participant (an ERROR in /diagnostics names it); "
+        "stop: the clock holds where it is (default drop)",
     )
     parser.add_argument("--log-dir", help="where node logs go (default: a new temporary folder)")
     add_json_flag(parser)

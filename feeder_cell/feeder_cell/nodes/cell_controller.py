@@ -235,7 +235,7 @@ class CellController(Node):
         self.status_pub = self.create_publisher(CellStatus, "~/status", LATCHED)
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self.create_timer(1.0 / HEARTBEAT_RATE, self.publish_status, clock=steady)
+        self.create_timer(1.0 / HEARTBEAT_RATE, self._heartbeat, clock=steady)
         self.last: Transition | None = None
         self.stood = Vector3()  # where the fixture stands (gravity), from its last follow_path result
         self.safe: list[Vector3] = []  # the planner's last path
@@ -243,7 +243,10 @@ class CellController(Node):
         self.step_times: dict[str, float] = {}  # s of node clock per state in this cycle
         # Lockstep: the cell time whose decisions are being made (the last /lockstep/settled taken in).
         self.lockstep = Participant(self, "react", hold=True) if self.p["lockstep"] else None
+        if self.lockstep is not None:
+            self.lockstep.on_first = self.publish_status
         self.settled_ns = -1
+        self.last_status: CellStatus | None = None
         self.publish_status()
 
     # --- the cycle ------------------------------------------------------------------------------
@@ -573,10 +576,28 @@ class CellController(Node):
         msg.fault_code = t.outcome.fault_code if msg.stopped and t else 0
         return msg
 
+    def _heartbeat(self) -> None:
+        """Publish the status again (in lockstep the last one as it was: the cycle's thread makes news)."""
+        if self.lockstep is None:
+            self.publish_status()
+        elif self.last_status is not None:
+            self.status_pub.publish(self.last_status)
+            self._publish_diagnostics(self.last_status)
+
     def publish_status(self) -> None:
-        """Publish ~/status (latched) and the controller's /diagnostics entry."""
+        """Publish ~/status (latched) and the controller's /diagnostics entry.
+
+        In lockstep not before the first announcement, which sets the node clock that stamps it.
+        """
+        if self.lockstep is not None and self.lockstep.announced_ns < 0:
+            return
         msg = self.status_msg()
+        self.last_status = msg
         self.status_pub.publish(msg)
+        self._publish_diagnostics(msg)
+
+    def _publish_diagnostics(self, msg: CellStatus) -> None:
+        """Publish the controller's /diagnostics entry for the status ``msg``."""
         entry = DiagnosticStatus(name=self.get_fully_qualified_name(), hardware_id=f"sim:{self.get_name()}")
         if msg.stopped:
             entry.level, entry.message = DiagnosticStatus.ERROR, f"STOPPED: {msg.stop_reason}"

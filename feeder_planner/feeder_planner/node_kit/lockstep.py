@@ -143,6 +143,9 @@ class Participant:
         self.name = node.get_fully_qualified_name()
         self.on_announce = on_announce
         self.hold = hold
+        # Called once, after the node clock is set by the first announcement (and before its work): what
+        # a node publishes at start-up waits for it, or its stamp would depend on when the clock came.
+        self.on_first: Callable[[], None] | None = None
         self.announced_ns = -1  # the last T announced to this role
         self.answered_ns = -1  # the last T answered
         self.pending = False  # announced, not yet answered
@@ -174,7 +177,10 @@ class Participant:
         """Take in the announcement of ``now_ns``: do the role's work now, answer after the next drain."""
         if now_ns <= self.announced_ns:
             return
+        first = self.announced_ns < 0
         self.announced_ns = now_ns
+        if first and self.on_first is not None:
+            self.on_first()
         if self.on_announce is not None:
             self.on_announce(now_ns)
         self.pending = True

@@ -1,0 +1,271 @@
+"""The lockstep cell clock with real processes: the same run at every pace, quiet or loaded; a dead device.
+
+The determinism test launches the cell scene (its three devices, planners and the reference controller,
+one production cycle) with a fixed start time and a recorded bag at ``max``, at 5 and at 1, on a quiet
+machine and with a CPU hog on both cores, and compares every bag with the first message by message
+(``feeder bag-compare``: data fields, header stamps and log times; wall-clock topics and fields
+excepted). The factor-1 run covers a fixed span of cell time only, to keep the wall time modest.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any, Iterator
+
+import pytest
+import ros_harness
+
+ROOT = Path(__file__).resolve().parents[2]
+START_S = 1000.0  # a fixed start: the stamps of two runs are comparable
+CYCLE_SPAN_S = 16.0  # of cell time after the start: bring-up and one whole cycle (16.9 s) bar its end
+FACTOR_1_SPAN_S = 3.0  # what the factor-1 run records and compares (about 3 s of wall time)
+
+pytestmark = pytest.mark.ros
+
+
+def _scene(folder: Path, cycles: int = 1) -> Path:
+    """The cell scene with ``cycles`` cycles, its file paths made absolute, in ``folder``."""
+    import yaml
+
+    scene = ROOT / "feeder_cell" / "scenes" / "cell.yaml"
+    document = yaml.safe_load(scene.read_text())
+    for node in document["nodes"]:
+        parameters = node.get("parameters", {})
+        for key, value in list(parameters.items()):
+            if key.endswith("_file"):
+                parameters[key] = str((scene.parent / value).resolve())
+            elif key.endswith("_files"):
+                parameters[key] = [str((scene.parent / v).resolve()) for v in value]
+        if node["executable"] == "cell_controller":
+            parameters["cycles"] = cycles
+    path = folder / "cell.yaml"
+    path.write_text(yaml.safe_dump(document))
+    return path
+
+
+def _env(domain: int) -> dict[str, str]:
+    return dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+
+
+def _launch(folder: Path, name: str, factor: str, *extra: str) -> tuple[dict[str, Any], Path]:
+    """Run the one-cycle cell scene at ``factor`` recording a bag; return the launch summary and the bag."""
+    lease = ros_harness.DomainLease()
+    bag, logs = folder / f"bag_{name}", folder / f"logs_{name}"
+    try:
+        result = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "feeder_cell.cli.main",
+                "launch",
+                str(_scene(folder)),
+                "--real-time-factor",
+                factor,
+                "--start-time",
+                str(START_S),
+                "--record",
+                str(bag),
+                "--log-dir",
+                str(logs),
+                "--json",
+                *extra,
+            ],
+            env=_env(lease.domain),
+            capture_output=True,
+            text=True,
+            timeout=400,
+        )
+    finally:
+        lease.release()
+    controller = sorted(logs.glob("cell.cell_controller-*.log"))
+    tail = "\n".join(controller[0].read_text().splitlines()[-20:]) if controller else "(no controller log)"
+    assert result.returncode == 0, f"launch at {factor} ({name}) failed: {result.stderr[-1500:]}\n{tail}"
+    return json.loads(result.stdout), bag
+
+
+class CpuHog:
+    """A busy loop on every core, ended by pid."""
+
+    def __enter__(self) -> CpuHog:
+        self.processes = [
+            subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(os.cpu_count() or 2)
+        ]
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for process in self.processes:
+            process.kill()
+            process.wait(timeout=10)
+
+
+# The planners do not join the lockstep: they see a faster /clock, and what they publish on their own
+# (the field planner's predictions, on a timer of the node clock) comes whenever /clock reaches them.
+NOT_IN_LOCKSTEP = (r"/cell/\w+_planner/.*",)
+
+
+def _compare(left: Path, right: Path, end_s: float) -> tuple[str, dict[str, int]]:
+    from feeder_cell.bag.compare import DEFAULT_EXCLUDED, compare_bags
+
+    excluded = (*DEFAULT_EXCLUDED, *NOT_IN_LOCKSTEP)
+    difference, counts = compare_bags(left, right, 0, int(round(end_s * 1e9)), excluded)
+    return (difference.describe() if difference else ""), counts
+
+
+def test_the_cell_gives_the_same_run_at_every_pace_quiet_and_loaded(tmp_path: Path) -> None:
+    summary, reference = _launch(tmp_path, "max", "max")
+    # The one cycle ran to its end, the controller ending the scene, the devices brought up by it.
+    controller = next(n for n in summary["nodes"] if n["executable"] == "cell_controller")
+    assert controller["ended_scene"] and controller["exit_code"] == 0
+    assert all(not n["died_early"] for n in summary["nodes"])
+    log = next((tmp_path / "logs_max").glob("cell.cell_controller-*.log")).read_text()
+    assert "cell FINISHED: 1 cycles, 1 parts" in log
+    end = START_S + CYCLE_SPAN_S
+    _, counts = _compare(reference, reference, end)
+    # What is compared is the run itself: the devices' streams, goals' feedback and the controller.
+    for topic in (
+        "/cell/throwing_arm/joint_states",
+        "/cell/throwing_arm/throw_events",
+        "/cell/throwing_arm/sensor",
+        "/cell/mems_field_array/part_states",
+        "/cell/assembly_fixture/joint_states",
+        "/cell/cell_controller/status",
+    ):
+        assert counts.get(topic, 0) > 0, f"{topic} not recorded: {sorted(counts)}"
+    # Every sample of the arm's configured rate (100 Hz) in cell time, none dropped: 10 per quantum.
+    assert counts["/cell/throwing_arm/joint_states"] >= 100 * (CYCLE_SPAN_S - 1.0)
+
+    runs = [("5", "5", end, False), ("1", "1", START_S + FACTOR_1_SPAN_S, False)]
+    runs += [("max_loaded", "max", end, True), ("5_loaded", "5", end, True)]
+    for name, factor, span_end, loaded in runs:
+        extra = ("--duration", str(FACTOR_1_SPAN_S + 1.0)) if factor == "1" else ()
+        if loaded:
+            with CpuHog():
+                _, bag = _launch(tmp_path, name, factor, *extra)
+        else:
+            _, bag = _launch(tmp_path, name, factor, *extra)
+        difference, _ = _compare(reference, bag, span_end)
+        assert not difference, f"factor {name} differs from max: {difference}"
+
+
+def _pid_of(executable: str, domain: int) -> int | None:
+    """The pid of the process running ``executable`` on ROS domain ``domain`` (from /proc)."""
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            cmdline = (entry / "cmdline").read_bytes().split(b"\0")
+            environ = (entry / "environ").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if any(part.endswith(executable.encode()) for part in cmdline) and (
+            f"ROS_DOMAIN_ID={domain}".encode() in environ
+        ):
+            return int(entry.name)
+    return None
+
+
+@pytest.fixture
+def cell_launch(tmp_path: Path) -> Iterator[tuple[subprocess.Popen[str], int]]:
+    """The cell scene at max with a 3 s lockstep timeout, on its own domain; ended by pid."""
+    lease = ros_harness.DomainLease()
+    process = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "feeder_cell.cli.main",
+            "launch",
+            str(_scene(tmp_path, cycles=0)),
+            "--real-time-factor",
+            "max",
+            "--lockstep-timeout",
+            "3",
+            "--duration",
+            "120",
+            "--log-dir",
+            str(tmp_path / "logs"),
+            "--json",
+        ],
+        env=_env(lease.domain),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        yield process, lease.domain
+    finally:
+        if process.poll() is None:
+            process.send_signal(signal.SIGINT)
+            try:
+                process.communicate(timeout=30)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.communicate()
+        lease.release()
+
+
+def test_a_device_killed_mid_run_is_dropped_from_the_lockstep_and_the_cell_goes_on(
+    cell_launch: tuple[subprocess.Popen[str], int],
+) -> None:
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from rclpy.node import Node
+    from rosgraph_msgs.msg import Clock
+
+    from feeder_msgs.msg import DeviceStatus
+    from feeder_planner.node_kit import LATCHED
+
+    process, domain = cell_launch
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=domain)
+    node = Node("lockstep_kill_probe", context=context)
+    seen: dict[str, Any] = {"clock": 0, "errors": [], "arm": None}
+
+    def on_diagnostics(msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            if status.name.endswith("cell_clock: lockstep") and status.level == DiagnosticStatus.ERROR:
+                seen["errors"].append((status.message, seen["clock"]))
+
+    node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 50)
+    node.create_subscription(
+        Clock, "/clock", lambda m: seen.__setitem__("clock", m.clock.sec * 10**9 + m.clock.nanosec), 10
+    )
+    node.create_subscription(
+        DeviceStatus, "/cell/throwing_arm/status", lambda m: seen.__setitem__("arm", m), LATCHED
+    )
+    from rclpy.executors import SingleThreadedExecutor
+
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    try:
+
+        def spin_until(condition: Any, timeout: float, what: str) -> None:
+            deadline = time.monotonic() + timeout
+            while not condition():
+                assert process.poll() is None, f"the launch ended early: {process.communicate()[1][-1500:]}"
+                assert time.monotonic() < deadline, f"no {what} within {timeout} s"
+                executor.spin_once(timeout_sec=0.05)
+
+        spin_until(
+            lambda: seen["arm"] is not None and seen["arm"].state_name in ("IDLE", "RUNNING"), 90, "arm up"
+        )
+        pid = _pid_of("throwing_arm", domain)
+        assert pid is not None, "no throwing_arm process on the test's domain"
+        os.kill(pid, signal.SIGKILL)
+        killed_at = seen["clock"]
+        spin_until(
+            lambda: any("/cell/throwing_arm" in m for m, _ in seen["errors"]), 20, "ERROR naming the arm"
+        )
+        message, at = next((m, t) for m, t in seen["errors"] if "/cell/throwing_arm" in m)
+        assert "dropped" in message and "did not answer" in message
+        # The cell goes on without it: cell time keeps advancing after the drop.
+        spin_until(lambda: seen["clock"] > max(at, killed_at) + 2 * 10**9, 30, "cell time after the drop")
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
