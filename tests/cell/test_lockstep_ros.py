@@ -172,7 +172,7 @@ def _pid_of(executable: str, domain: int) -> int | None:
 
 @pytest.fixture
 def cell_launch(tmp_path: Path) -> Iterator[tuple[subprocess.Popen[str], int]]:
-    """The cell scene at max with a 3 s lockstep timeout, on its own domain; ended by pid."""
+    """The cell scene at factor 2 with a 3 s lockstep timeout, on its own domain; ended by pid."""
     lease = ros_harness.DomainLease()
     process = subprocess.Popen(
         [
@@ -182,7 +182,7 @@ def cell_launch(tmp_path: Path) -> Iterator[tuple[subprocess.Popen[str], int]]:
             "launch",
             str(_scene(tmp_path, cycles=0)),
             "--real-time-factor",
-            "max",
+            "2",
             "--lockstep-timeout",
             "3",
             "--duration",
@@ -254,6 +254,9 @@ def test_a_device_killed_mid_run_is_dropped_from_the_lockstep_and_the_cell_goes_
         spin_until(
             lambda: seen["arm"] is not None and seen["arm"].state_name in ("IDLE", "RUNNING"), 90, "arm up"
         )
+        # Past the launch's own start-up (a node dying in it ends the launch): 4 s of cell time at 2.
+        running_from = seen["clock"]
+        spin_until(lambda: seen["clock"] > running_from + 4 * 10**9, 60, "4 s of cell time with the arm up")
         pid = _pid_of("throwing_arm", domain)
         assert pid is not None, "no throwing_arm process on the test's domain"
         os.kill(pid, signal.SIGKILL)

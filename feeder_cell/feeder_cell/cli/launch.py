@@ -213,9 +213,10 @@ def _launch(args: argparse.Namespace) -> int:
                 if recorder and observer is None and time.monotonic() >= next_discovery:
                     recorder.discover()
                     next_discovery = time.monotonic() + 0.5
-                if any(not p.alive() for p in processes):
+                if any(not p.alive() and not _dropped_by_clock(p, sim_time, participants) for p in processes):
                     # A node that ends mid-run ends the scene: on_exit shutdown (a controller done with
-                    # its cycles) by design, any other as a failure; exit codes are reported below.
+                    # its cycles) by design, any other as a failure; exit codes are reported below. In
+                    # lockstep a device that dies is the clock's to drop (--on-lockstep-timeout).
                     break
                 executor.spin_once(timeout_sec=0.001 if observer and observer.holding() else 0.05)
                 if observer is not None:
@@ -258,6 +259,14 @@ def _launch(args: argparse.Namespace) -> int:
     result = with_node(LAUNCH_NODE, work, use_sim_time=sim_time)
     emit(args, result, _summary)
     return exit_code(result["nodes"])
+
+
+def _dropped_by_clock(process: NodeProcess, sim_time: bool, participants: list[NodeSpec]) -> bool:
+    """Whether a dead node leaves the scene running: a lockstep participant, which the clock drops.
+
+    Not a node whose on_exit ends the scene (the controller done with its cycles).
+    """
+    return sim_time and process.spec in participants and process.spec.on_exit != "shutdown"
 
 
 def exit_code(nodes: list[dict[str, Any]]) -> int:
