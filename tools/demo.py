@@ -93,10 +93,11 @@ PLANNER_STEPS: tuple[tuple[str, str, list[str]], ...] = (
         ],
     ),
 )
-# The cell: every device, planner and the reference controller, on one cell clock faster than real time.
-# The controller runs the scene's cycles and exits; with it the launch ends (on_exit: shutdown).
+# The cell: every device, planner and the reference controller, on one lockstep cell clock as fast as they
+# allow (the launch prints the factor it achieved). The controller runs the scene's cycles and exits;
+# with it the launch ends (on_exit: shutdown).
 SCENE = ROOT / "feeder_cell" / "scenes" / "cell.yaml"
-REAL_TIME_FACTOR = "5"
+REAL_TIME_FACTOR = "max"
 # A bound on the whole cell step, should the controller never end (every wait of its own is bounded).
 SCENE_MAX_SECONDS = "600"
 
@@ -155,7 +156,7 @@ def main() -> int:
         return 1
     logs = Path(tempfile.mkdtemp(prefix="feeder-demo-"))
     ok &= step(
-        f"The cell: devices, planners and the cell controller at {REAL_TIME_FACTOR}x real time, recorded",
+        "The cell: devices, planners and the cell controller in lockstep, as fast as they go, recorded",
         [
             "launch",
             str(SCENE.relative_to(ROOT)),

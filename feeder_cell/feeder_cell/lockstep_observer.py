@@ -32,6 +32,10 @@ MATCH_SETTLE_S = 0.2
 # The most a quantum waits for new readers to match (wall s): a publisher the recorder cannot match
 # (an incompatible QoS) must not hold the cell; its topic is named in a warning.
 MATCH_TIMEOUT_S = 2.0
+# At start-up the publishers' side of the match is given longer: a status published once, as the cell
+# starts, and replaced soon after is lost from a latched history of one if its writer matched late (a
+# loaded machine's discovery takes hundreds of milliseconds).
+START_SETTLE_S = 1.0
 
 
 class CellTime:
@@ -113,8 +117,8 @@ class RecordingObserver:
         self._matching_since = time.monotonic()
         while keep_going() and time.monotonic() < deadline and not self._matched():
             executor.spin_once(timeout_sec=0.01)
-        self._quiet_since = time.monotonic()
-        while keep_going() and not self._quiet():
+        settle_until = time.monotonic() + START_SETTLE_S
+        while keep_going() and time.monotonic() < settle_until:
             executor.spin_once(timeout_sec=0.01)
         self._settling = False
         self.participant = Participant(self.node, "observe", hold=True)

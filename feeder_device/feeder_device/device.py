@@ -30,6 +30,7 @@ The sequence a controller follows is in docs/cell.md; adding a device is docs/de
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import time
 from enum import IntEnum
@@ -764,8 +765,13 @@ class ManagedDevice(LifecycleNode, Generic[P]):
     def _heartbeat(self) -> None:
         if self.lockstep is not None and self._last_status_msg is not None:
             # In lockstep the wall-clock heartbeat repeats what was last said, never news: a change is
-            # published at the end of the tick phase that made it, at a defined cell time.
-            self._status_pub.publish(self._last_status_msg)
+            # published at the end of the tick phase that made it, at a defined cell time. Only the
+            # wall-clock figures (rate and real-time factor achieved) are fresh.
+            msg = copy.copy(self._last_status_msg)
+            report = self.rate_report()
+            msg.achieved_rate = report.achieved_rate
+            msg.achieved_real_time_factor = report.achieved_real_time_factor
+            self._status_pub.publish(msg)
         else:
             self.publish_status(force=True)
         self._diagnostics_pub.publish(self._diagnostics())

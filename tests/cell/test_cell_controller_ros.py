@@ -41,7 +41,6 @@ CYCLE_WALL_S = 60.0  # generous wall bound per cycle on a loaded 2-core machine
 # The whole scene is nine nodes on the cell clock, each handling every /clock message (at factor F the
 # clock updates 200 F times a wall second): at 5 they saturate two cores and the array falls behind;
 # at 2 every device keeps up on a loaded 2-core machine.
-SCENE_FACTOR = 2.0
 
 
 @pytest.fixture(scope="module")
@@ -232,86 +231,6 @@ def test_a_bad_parameter_exits_2_naming_it(ros_domain: int, tmp_path: Path) -> N
     finally:
         node.stop()
     assert "parameter fixture_route" in node.output() and "multiple of 3" in node.output()
-
-
-def _scene_copy(folder: Path, cycles: int) -> Path:
-    """The cell scene with the controller's cycle count set, paths made absolute, in ``folder``."""
-    import yaml
-
-    scene = ROOT / "feeder_cell" / "scenes" / "cell.yaml"
-    document = yaml.safe_load(scene.read_text())
-    for node in document["nodes"]:
-        parameters = node.get("parameters", {})
-        for key, value in list(parameters.items()):
-            if key.endswith("_file"):
-                parameters[key] = str((scene.parent / value).resolve())
-            elif key.endswith("_files"):
-                parameters[key] = [str((scene.parent / v).resolve()) for v in value]
-        if node["executable"] == "cell_controller":
-            parameters["cycles"] = cycles
-    path = folder / "cell.yaml"
-    path.write_text(yaml.safe_dump(document))
-    return path
-
-
-def _launch_failure(result: Any, log_dir: Path) -> str:
-    """What a failed launch said: its stderr, its summary, and the end of the controller's log."""
-    logs = sorted(log_dir.glob("cell.cell_controller-*.log"))
-    tail = "\n".join(logs[0].read_text().splitlines()[-30:]) if logs else "(no controller log)"
-    return f"stderr: {result.stderr[-2000:]}\nstdout: {result.stdout[:3000]}\ncontroller log:\n{tail}"
-
-
-@pytest.mark.ros
-def test_the_cell_scene_runs_its_cycles_and_the_launch_ends_with_the_controller(tmp_path: Path) -> None:
-    import json
-    import os
-    import subprocess
-    import sys
-
-    # Its own domain: the scene's nodes are under /cell like the module's cell.
-    lease = ros_harness.DomainLease()
-    try:
-        env = dict(os.environ, ROS_DOMAIN_ID=str(lease.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-        bag = tmp_path / "bag"
-        result = subprocess.run(
-            [
-                sys.executable,
-                "-m",
-                "feeder_cell.cli.main",
-                "launch",
-                str(_scene_copy(tmp_path, cycles=1)),
-                "--real-time-factor",
-                str(SCENE_FACTOR),
-                "--duration",
-                "300",
-                "--record",
-                str(bag),
-                "--log-dir",
-                str(tmp_path / "logs"),
-                "--json",
-            ],
-            env=env,
-            capture_output=True,
-            text=True,
-            timeout=400,
-        )
-    finally:
-        lease.release()
-    assert result.returncode == 0, _launch_failure(result, tmp_path / "logs")
-    summary = json.loads(result.stdout)
-    controller = next(n for n in summary["nodes"] if n["executable"] == "cell_controller")
-    assert controller["ended_scene"] and controller["exit_code"] == 0 and not controller["died_early"]
-    assert all(not n["died_early"] for n in summary["nodes"])
-    # The devices were left unconfigured by the launch and brought up by the controller.
-    assert {n["lifecycle"] for n in summary["nodes"] if n["package"] == "feeder_sim"} <= {
-        "unconfigured",
-        "active",
-    }
-    topics = summary["bag"]["topics"]
-    assert topics["/cell/cell_controller/status"]["count"] >= 1
-    assert topics["/cell/throwing_arm/throw_events"]["count"] >= 1
-    log = next((tmp_path / "logs").glob("cell.cell_controller-*.log")).read_text()
-    assert "cell FINISHED: 1 cycles, 1 parts" in log
 
 
 def test_scene_on_exit_must_be_shutdown(tmp_path: Path) -> None:

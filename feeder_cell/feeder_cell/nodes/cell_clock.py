@@ -193,7 +193,9 @@ class CellClock(Node):
         self.stopped = ""  # why the clock holds for good (on_lockstep_timeout: stop)
         self.steps_left = 0
         self.step_waiters: list[Future] = []
-        self.quantum_wall = 0.0  # wall time the present quantum was announced
+        # Wall time the next quantum may start at F: kept on a grid of q/F from the last on-time start, so
+        # the timer's lateness does not add up (after a slow quantum the grid starts again from now).
+        self.next_due = 0.0
         self.announced_wall = time.monotonic()
         self.quanta = 0
         self.announcers: dict[str, Publisher] = {
@@ -209,7 +211,7 @@ class CellClock(Node):
             )
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.diagnostics_wall = 0.0
-        period = 0.1 if self.factor == 0 else min(0.01, self.p.quantum / self.factor / 4)
+        period = 0.1 if self.factor == 0 else min(0.002, self.p.quantum / self.factor / 4)
         self.create_timer(period, self._on_lockstep_timer, clock=steady)
 
     def _on_answer(self, role: str, msg: Header) -> None:
@@ -255,13 +257,14 @@ class CellClock(Node):
             if barrier.phase in ("join", "done"):
                 if self.paused and self.steps_left == 0:
                     return
-                if barrier.phase == "done" and self.factor > 0:
-                    due = self.quantum_wall + self.p.quantum / self.factor
-                    if wall < due:
-                        return  # the pace: the timer pumps again
+                if barrier.phase == "done" and self.factor > 0 and wall < self.next_due:
+                    return  # the pace: the timer pumps again
                 if self.paused and barrier.phase == "done":
                     self.steps_left -= 1
-                self.quantum_wall = wall
+                if self.factor > 0:
+                    period = self.p.quantum / self.factor
+                    late = wall - self.next_due > period
+                    self.next_due = (wall if late else self.next_due) + period
             role = barrier.next_phase(wall)
             self.now_ns = barrier.now_ns
             if role == "done":
