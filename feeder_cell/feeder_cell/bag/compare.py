@@ -115,24 +115,43 @@ def read_bag(
 ) -> dict[str, list[Recorded]]:
     """Return the compared messages of a bag by topic, log time in [start_ns, end_ns], heartbeats dropped."""
     patterns = [re.compile(p) for p in excluded]
-    store = typestore()
     topics: dict[str, list[Recorded]] = {}
     for path in _mcap_files(bag):
-        with path.open("rb") as stream:
-            for schema, channel, message in make_reader(stream).iter_messages(log_time_order=True):
-                if any(p.fullmatch(channel.topic) for p in patterns):
-                    continue
-                if message.log_time < start_ns or (end_ns is not None and message.log_time > end_ns):
-                    continue
-                type_name = schema.name if schema is not None else ""
-                data = _without(_plain(store.deserialize_cdr(message.data, type_name)), type_name, False)
-                kept = topics.setdefault(channel.topic, [])
-                if type_name in HEARTBEAT_TYPES and kept:
-                    previous = _without(kept[-1].data, type_name, True)
-                    if next(_differences(previous, _without(data, type_name, True), ""), None) is None:
-                        continue  # a heartbeat copy (NaN fields equal to NaN, as in every comparison)
-                kept.append(Recorded(message.log_time, type_name, data))
+        try:
+            _read_file(path, patterns, start_ns, end_ns, topics)
+        except InputError:
+            raise
+        except Exception as error:  # noqa: BLE001 - the mcap reader's and deserializer's many errors
+            message = str(error).splitlines()[0] if str(error) else type(error).__name__
+            raise InputError(
+                "bag", f"{path} cannot be read ({message}); feeder bag-reindex recovers a cut bag"
+            ) from None
     return topics
+
+
+def _read_file(
+    path: Path,
+    patterns: list[re.Pattern[str]],
+    start_ns: int,
+    end_ns: int | None,
+    topics: dict[str, list[Recorded]],
+) -> None:
+    """Add the compared messages of one MCAP file to ``topics``."""
+    store = typestore()
+    with path.open("rb") as stream:
+        for schema, channel, message in make_reader(stream).iter_messages(log_time_order=True):
+            if any(p.fullmatch(channel.topic) for p in patterns):
+                continue
+            if message.log_time < start_ns or (end_ns is not None and message.log_time > end_ns):
+                continue
+            type_name = schema.name if schema is not None else ""
+            data = _without(_plain(store.deserialize_cdr(message.data, type_name)), type_name, False)
+            kept = topics.setdefault(channel.topic, [])
+            if type_name in HEARTBEAT_TYPES and kept:
+                previous = _without(kept[-1].data, type_name, True)
+                if next(_differences(previous, _without(data, type_name, True), ""), None) is None:
+                    continue  # a heartbeat copy (NaN fields equal to NaN, as in every comparison)
+            kept.append(Recorded(message.log_time, type_name, data))
 
 
 def _differences(left: Any, right: Any, path: str) -> Iterator[tuple[str, Any, Any]]:
