@@ -59,10 +59,6 @@ class CellTime:
         if self.first is not None:
             self.last = (now_ns, wall)
 
-    def now_ns(self) -> int:
-        """Return the node clock (cell time under use_sim_time), ns."""
-        return int(self.node.get_clock().now().nanoseconds)
-
     def summary(self) -> dict[str, float]:
         """Cell and wall seconds from the first advance to the last, and their ratio."""
         if self.first is None or self.last is None or self.last[1] <= self.first[1]:
@@ -113,14 +109,12 @@ class RecordingObserver:
                 break
         self._topics = self._graph_topics()
         self.recorder.discover()
-        self._settling, self._quiet_since = True, time.monotonic()
         self._matching_since = time.monotonic()
         while keep_going() and time.monotonic() < deadline and not self._matched():
             executor.spin_once(timeout_sec=0.01)
         settle_until = time.monotonic() + START_SETTLE_S
         while keep_going() and time.monotonic() < settle_until:
             executor.spin_once(timeout_sec=0.01)
-        self._settling = False
         self.participant = Participant(self.node, "observe", hold=True)
 
     def _publishers(self, nodes: list[tuple[str, str]]) -> list[int]:
@@ -150,8 +144,7 @@ class RecordingObserver:
         topics = self._graph_topics()
         if topics != self._topics:
             if self.recorder.discover():
-                self._settling, self._quiet_since = True, time.monotonic()
-                self._matching_since = time.monotonic()
+                self._settling, self._matching_since = True, time.monotonic()
             if not self._matched():
                 return  # looked at again after the next spin
             self._topics = topics
