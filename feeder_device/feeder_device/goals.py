@@ -168,14 +168,22 @@ def serve_goal(
         running: RunningGoal | None = None
         poll = None
         try:
+            if device.lockstep is not None:
+                # rclpy runs this after it has sent the accept answer, so in lockstep the goal starts
+                # at the device's next tick: what its start publishes then belongs to a defined quantum
+                # (a recorder would otherwise take it in this quantum or the next, by chance).
+                await device.next_tick()
             running = RunningGoal(device, name, start(handle), handle)
             device.goals.append(running)
             device.publish_status()
-            poll = device.create_timer(
-                CANCEL_POLL,
-                lambda: _poke_if_canceled(handle, running),
-                clock=Clock(clock_type=ClockType.STEADY_TIME),
-            )
+            if device.lockstep is None:
+                # A cancel under a held clock: no tick would wake the goal. In lockstep the ticks come,
+                # and a cancel is taken at the next one, at a defined cell time.
+                poll = device.create_timer(
+                    CANCEL_POLL,
+                    lambda: _poke_if_canceled(handle, running),
+                    clock=Clock(clock_type=ClockType.STEADY_TIME),
+                )
             await _drive(device, running)
             for message in running.goal.feedback():
                 handle.publish_feedback(message)
