@@ -22,8 +22,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-import yaml
 from benchlib import row
+
+from feeder_cell.launcher import scene_copy
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "feeder_cell" / "scenes" / "cell.yaml"
@@ -34,19 +35,7 @@ RUN_WALL_LIMIT_S = 240.0
 
 def _scene_with(cycles: int, folder: Path) -> Path:
     """Write the cell scene with the controller's cycle count set (paths made absolute)."""
-    document = yaml.safe_load(SCENE.read_text())
-    for node in document["nodes"]:
-        parameters = node.get("parameters", {})
-        for key, value in list(parameters.items()):
-            if key.endswith("_file") and isinstance(value, str) and value:
-                parameters[key] = str((SCENE.parent / value).resolve())
-            elif key.endswith("_files") and isinstance(value, list):
-                parameters[key] = [str((SCENE.parent / v).resolve()) for v in value]
-        if node["executable"] == "cell_controller":
-            parameters["cycles"] = cycles
-    path = folder / "cell.yaml"
-    path.write_text(yaml.safe_dump(document))
-    return path
+    return scene_copy(SCENE, folder, {"cell_controller": {"cycles": cycles}})
 
 
 def _launch(scene: Path, folder: str, domain: int, *extra: str) -> tuple[dict[str, Any], float]:

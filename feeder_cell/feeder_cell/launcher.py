@@ -219,6 +219,23 @@ def _check_type(value: Any, default: object, field: str) -> None:
         raise InputError(field, f"is declared {want}, got {got} {quote(value)}{hint}")
 
 
+def scene_copy(scene: Path, folder: Path, overrides: dict[str, dict[str, ParameterValue]]) -> Path:
+    """Write ``scene`` into ``folder`` with its file paths made absolute and per-executable parameters set.
+
+    Tests and benchmarks run a scene with, say, the controller's cycle count changed; the copy lives
+    elsewhere, so the paths relative to the scene file are resolved first.
+    """
+    document = yaml.safe_load(scene.read_text())
+    for node in document["nodes"]:
+        parameters = node.setdefault("parameters", {})
+        for key, value in list(parameters.items()):
+            parameters[key] = _resolve_path(key, value, scene.parent)
+        parameters.update(overrides.get(node["executable"], {}))
+    path = folder / scene.name
+    path.write_text(yaml.safe_dump(document))
+    return path
+
+
 def joins_lockstep(package: str, executable: str) -> bool:
     """Whether an executable's node joins the cell clock's lockstep (it declares ``lockstep``)."""
     return "lockstep" in _declared_parameters(package, executable)

@@ -31,22 +31,11 @@ pytestmark = pytest.mark.ros
 
 def _scene(folder: Path, cycles: int = 1) -> Path:
     """The cell scene with ``cycles`` cycles, its file paths made absolute, in ``folder``."""
-    import yaml
+    from feeder_cell.launcher import scene_copy
 
-    scene = ROOT / "feeder_cell" / "scenes" / "cell.yaml"
-    document = yaml.safe_load(scene.read_text())
-    for node in document["nodes"]:
-        parameters = node.get("parameters", {})
-        for key, value in list(parameters.items()):
-            if key.endswith("_file"):
-                parameters[key] = str((scene.parent / value).resolve())
-            elif key.endswith("_files"):
-                parameters[key] = [str((scene.parent / v).resolve()) for v in value]
-        if node["executable"] == "cell_controller":
-            parameters["cycles"] = cycles
-    path = folder / "cell.yaml"
-    path.write_text(yaml.safe_dump(document))
-    return path
+    return scene_copy(
+        ROOT / "feeder_cell" / "scenes" / "cell.yaml", folder, {"cell_controller": {"cycles": cycles}}
+    )
 
 
 def _env(domain: int) -> dict[str, str]:
