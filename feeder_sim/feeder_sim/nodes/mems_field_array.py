@@ -254,8 +254,11 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         self.state_pub.publish(states)
         self.pose_pub.publish(poses)
         # What a controller sees change between heartbeats: busy, parts at rest, falling behind, a step
-        # too stiff (the counters alone go out with the 1 Hz heartbeat rather than at every tick).
-        activity = (self.busy(), sum(scene.settled()), self.rate_report().behind, scene.stiff_since_mark > 0)
+        # too stiff (the counters alone go out with the 1 Hz heartbeat rather than at every tick). Behind
+        # as the status says it (never in lockstep): the monitor's wall-clock figure would make a loaded
+        # host publish a status the quiet one does not.
+        behind = self.is_behind(self.rate_report())
+        activity = (self.busy(), sum(scene.settled()), behind, scene.stiff_since_mark > 0)
         if activity != self.last_activity:
             self.last_activity = activity
             self.publish_status()
