@@ -12,9 +12,11 @@ so every device simulates, times and stamps on this one timeline. Two modes:
 - **Free-running** (``lockstep: false``): /clock follows the wall clock times the factor at
   ``publish_rate``; a device that cannot keep up falls behind and says so.
 
-Both serve ``~/pause``, ``~/resume`` (std_srvs/Trigger) and ``~/step`` (feeder_msgs/StepClock): a test can
-hold the whole cell still and advance it by exact amounts (in lockstep a step is whole quanta, answered
-once the cell has reached it). The clock itself runs on the wall (steady) clock.
+Both serve ``~/pause``, ``~/resume`` (std_srvs/Trigger), ``~/step`` (feeder_msgs/StepClock) and
+``~/is_paused`` (feeder_msgs/IsPaused): a test can hold the whole cell still and advance it by exact
+amounts (in lockstep a step is whole quanta, answered once the cell has reached it; the simulation node
+``cell_simulation`` drives the cell through these same services). The clock itself runs on the wall
+(steady) clock.
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
 from feeder_cell.lockstep_barrier import Barrier, Dropped
-from feeder_msgs.srv import StepClock
+from feeder_msgs.srv import IsPaused, StepClock
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit import check_value, declare_parameters, run_node
 from feeder_planner.node_kit.lockstep import ANNOUNCE_TOPIC, ANSWER_TOPIC, LEAVE_SEC, LOCKSTEP_QOS, ROLES
@@ -154,6 +156,7 @@ class CellClock(Node):
         self.create_service(Trigger, "~/pause", self.on_pause)
         self.create_service(Trigger, "~/resume", self.on_resume)
         self.create_service(StepClock, "~/step", self.on_step)
+        self.create_service(IsPaused, "~/is_paused", self.on_is_paused)
         self.add_on_set_parameters_callback(self.on_parameters)
         steady = RclClock(clock_type=ClockType.STEADY_TIME)
         self.barrier: Barrier | None = None
@@ -202,6 +205,7 @@ class CellClock(Node):
             role: self.create_publisher(Clock, ANNOUNCE_TOPIC[role], LOCKSTEP_QOS) for role in ROLES
         }
         self.clock_wall = 0.0  # wall time /clock was last published
+        self.held_published_ns = -1  # the held time last published on /clock
         # A quantum completes inside an answer's callback; the next one starts from this guard, so the
         # executor takes the answers, services and timers waiting in between (one quantum per turn).
         self.next_quantum = self.create_guard_condition(self._pump)
@@ -256,6 +260,7 @@ class CellClock(Node):
             wall = time.monotonic()
             if barrier.phase in ("join", "done"):
                 if self.paused and self.steps_left == 0:
+                    self._publish_held()
                     return
                 if barrier.phase == "done" and self.factor > 0 and wall < self.next_due:
                     return  # the pace: the timer pumps again
@@ -274,6 +279,12 @@ class CellClock(Node):
                 self.next_quantum.trigger()
                 return
             self._announce(role)
+
+    def _publish_held(self) -> None:
+        """Held, say where: /clock is throttled to clock_rate, and the last quantum may not have gone out."""
+        if self.held_published_ns != self.now_ns:
+            self.held_published_ns = self.now_ns
+            self.publish()
 
     def _wake_steps(self) -> None:
         waiters, self.step_waiters = self.step_waiters, []
@@ -329,6 +340,11 @@ class CellClock(Node):
         response.success, response.message = True, f"running at real-time factor {self.factor:g}"
         if self.barrier is not None:
             self._pump()
+        return response
+
+    def on_is_paused(self, request: IsPaused.Request, response: IsPaused.Response) -> IsPaused.Response:
+        """Whether the clock is held (a step in progress still counts as paused: it ends held)."""
+        response.paused = self.paused
         return response
 
     async def on_step(self, request: StepClock.Request, response: StepClock.Response) -> StepClock.Response:
