@@ -194,6 +194,8 @@ def test_status_and_diagnostics_report_state_counters_and_rate(
         "program_goals",
         "parts_settled",
         "stiff_steps",
+        "spawned",
+        "removed",
     }
     assert set(first.counter_names) == names
     assert device.set_program(type="combined", delta=0.3).ok

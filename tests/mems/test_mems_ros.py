@@ -152,3 +152,56 @@ def test_stamps_are_node_clock_time_and_cell_forces_are_latched(nodes, ros_clien
     # in [1 - delta, 1 + delta]
     magnitude = [math.hypot(x, y) for x, y in zip(cells.fx, cells.fy, strict=True)]
     assert 1 - DELTA - 1e-12 <= min(magnitude) and max(magnitude) <= 1 + DELTA + 1e-12
+
+
+@pytest.mark.ros
+def test_parts_spawned_and_removed_at_runtime_and_the_planner_follows(nodes, ros_client, listen) -> None:
+    """~/spawn_part and ~/remove_part: the streams, ~/parts and the planner follow; bad requests are refused.
+
+    Last in the module: it leaves the array as it found it (the spawned part removed again).
+    """
+    from feeder_msgs.msg import DeviceStatus, EquilibriaPrediction, MemsParts, MemsPartStates
+    from feeder_msgs.srv import MemsRemovePart, MemsSpawnPart
+
+    def spawn(**fields):
+        request = MemsSpawnPart.Request(**fields)
+        return ros_harness.call_service(ros_client, MemsSpawnPart, f"{SIM}/spawn_part", request)
+
+    def remove(name: str):
+        request = MemsRemovePart.Request(name=name)
+        return ros_harness.call_service(ros_client, MemsRemovePart, f"{SIM}/remove_part", request)
+
+    def names(msg) -> list[str]:
+        return [p.name for p in msg.parts]
+
+    parts = listen(MemsParts, f"{SIM}/parts", latched=True)
+    states = listen(MemsPartStates, f"{SIM}/part_states")
+    status = listen(DeviceStatus, f"{SIM}/status", latched=True)
+    square = (EXAMPLES / "square.yaml").read_text()
+    response = spawn(part_yaml=square, source="examples/mems/square.yaml", x=2e-3, y=-1e-3, theta=0.5)
+    assert response.ok and response.name == "square", response.error
+    assert names(parts.wait(lambda m: len(m.parts) == 2, current=True)) == ["bracket", "square"]
+    first = states.wait(lambda m: names(m) == ["bracket", "square"])
+    later = states.wait(
+        lambda m: names(m) == ["bracket", "square"] and ros_harness.stamp_ns(m) > ros_harness.stamp_ns(first)
+    )
+    assert later.parts[1].pose.position.x != first.parts[1].pose.position.x  # it moves with the field
+    predictions = listen(EquilibriaPrediction, f"{PLANNER}/predicted_poses", latched=True)
+    assert list(predictions.wait(lambda m: len(m.names) == 2, current=True).names) == ["bracket", "square"]
+    # Bad requests: refused in one line naming the field; the array serves on, its parts unchanged.
+    for bad, field in [
+        ({"name": "bracket", "part_yaml": square}, "name: a part named 'bracket' is on the array already"),
+        ({"name": "tri", "part_yaml": "vertices: [[0, 0], [1, 0]]\nlength_unit: mm"}, "part_yaml.vertices"),
+        ({"name": "far", "part_yaml": square, "x": 1.0}, "x: must be within"),
+    ]:
+        refused = spawn(**bad)
+        assert not refused.ok and field in refused.error and "\n" not in refused.error, refused.error
+        assert refused.name == ""
+    refused = remove("nope")
+    assert not refused.ok and "name: no part named 'nope'" in refused.error
+    assert "'bracket', 'square'" in refused.error
+    assert remove("square").ok
+    assert names(parts.wait(lambda m: len(m.parts) == 1, current=True)) == ["bracket"]
+    assert names(states.wait(lambda m: len(m.parts) == 1)) == ["bracket"]
+    done = status.wait(lambda s: ros_harness.counters(s)["removed"] == 1, current=True)
+    assert ros_harness.counters(done)["spawned"] == 1 and done.ready

@@ -253,6 +253,7 @@ def test_deactivate_freezes_a_throw_in_flight_activate_resumes_it_and_cleanup_re
         "parts_presented": 0,
         "feed_goals": 0,
         "feeds_presented": 0,
+        "parts_loaded": 0,
     }
     pose = wait_for(listen, PoseStamped, poses).pose.position
     assert (pose.x, pose.y) == pytest.approx(rest[:2], abs=1e-12)  # back at the initial state
@@ -280,6 +281,7 @@ def test_status_and_diagnostics_report_state_counters_and_the_achieved_rate(
         "parts_presented",
         "feed_goals",
         "feeds_presented",
+        "parts_loaded",
     ]
     time.sleep(6.0)  # the rate window is 5 s
     last = status(listen, device, lambda s: s.achieved_rate > 0)
@@ -329,6 +331,7 @@ def test_commanded_throws_are_counted_stop_halts_and_reset_returns_to_idle(
         "parts_presented": sum(presented),
         "feed_goals": 0,
         "feeds_presented": 0,
+        "parts_loaded": 0,
     }
     assert [e.sensor_at_rest for e in events] == presented and [e.index for e in events] == list(range(1, 7))
     assert [e.radius_after for e in events] == [r.radius_after for r in rests]
@@ -662,3 +665,53 @@ def test_part_lost_takes_the_part_off_until_place_part_puts_it_back(launch_node,
     assert all(readings(recorder, device, expect=True)) and recorder.wait(poses, 1)
     event = throw_events(ros_client, device, recorder, 1)[0]
     assert not event.fault and event.radius_after == local_arm().throw().radius_after
+
+
+# --- the part the arm holds -----------------------------------------------------------------------
+@pytest.mark.ros
+def test_load_part_replaces_the_part_the_arm_holds_and_puts_a_lost_part_back(
+    launch_node, ros_client, listen
+) -> None:
+    from feeder_msgs.msg import DeviceStatus, Part
+    from feeder_msgs.srv import ArmLoadPart
+
+    device = "/load/throwing_arm"
+    launch_node("feeder_sim", "throwing_arm", arm_parameters(), namespace="/load")
+    held = wait_for(listen, Part, f"{device}/part", latched=True)
+    assert held.name == "triangle" and list(held.outer.x) == [0.0, 6.0, 1.5] and held.length_unit == "cm"
+    bracket = EXAMPLES / "bracket.yaml"
+
+    def load(**fields: Any) -> Any:
+        request = ArmLoadPart.Request(part_yaml=bracket.read_text(), source=str(bracket), **fields)
+        return ros_harness.call_service(ros_client, ArmLoadPart, f"{device}/load_part", request)
+
+    # A bad request is refused in one line naming the field, and the arm keeps its part.
+    for fields, named in [
+        ({"edge": 3, "radius": 0.1}, "edge: must be a stable hull edge"),
+        ({"edge": 0, "radius": 0.001}, "radius"),
+        ({"name": "bad\nname"}, "name: expected a part name"),
+    ]:
+        refused = load(**fields)
+        assert not refused.ok and named in refused.error and "\n" not in refused.error, refused.error
+    refused = ros_harness.call_service(
+        ros_client, ArmLoadPart, f"{device}/load_part", ArmLoadPart.Request(part_yaml="vertices: [[0, 0]]")
+    )
+    assert not refused.ok and "part_yaml.vertices" in refused.error
+    # Loaded while the part is lost: the new part is on the arm, the fault is over (as ~/place_part).
+    assert inject(ros_client, device, "part_lost").ok
+    status(listen, device, lambda s: s.fault_code == DeviceStatus.FAULT_PART_LOST)
+    response = load(name="left bracket", edge=0, radius=0.1)
+    assert response.ok and response.name == "left bracket", response.error
+    idle = status(listen, device, lambda s: s.state_name == "IDLE" and counters(s)["parts_loaded"] == 1)
+    assert no_fault(idle)
+    held = wait_for(listen, Part, f"{device}/part", lambda m: m.name == "left bracket", latched=True)
+    assert list(held.outer.x) == [0.0, 1.4, 1.4, 0.5, 0.5, 0.0] and held.length_unit == "cm"
+    # It throws as an arm configured with the bracket from the start.
+    params = ThrowParams(PAPER["offset"], PAPER["release_speed"], PAPER["gravity"], PAPER["mu"])
+    local = ThrowingArm(arm_part(load_part(bracket)), params, 0, 0.1, arm_length=0.4)
+    events = throw_events(ros_client, device, streams(listen, device), 2)
+    expected = [local.throw() for _ in range(2)]
+    assert [(e.edge_after, e.radius_after) for e in events] == [
+        (o.edge_after, o.radius_after) for o in expected
+    ]
+    assert response.ok and load(edge=-1, radius=0.0).ok  # and serves on

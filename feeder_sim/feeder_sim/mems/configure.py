@@ -7,7 +7,7 @@ configure transition with one line; the node only wires the result to its stream
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -19,18 +19,24 @@ from feeder_planner.parts import Part, load_part
 from feeder_sim.mems.bodies import Body
 from feeder_sim.mems.parameters import MemsParameters
 from feeder_sim.mems.scene import Scene, random_poses
+from feeder_sim.mems.spawning import ArrayParts
 
 __all__ = ["ConfiguredScene", "configure_scene"]
 
 
 @dataclass
 class ConfiguredScene:
-    """The scene, its parts' names and part documents (for ~/parts), and their initial poses."""
+    """The scene, its parts' names and part documents (for ~/parts), their initial poses and part files."""
 
     scene: Scene
     names: list[str]
     documents: list[dict[str, Any]]
     initial: np.ndarray
+    sources: list[str] = field(default_factory=list)
+
+    def parts(self) -> ArrayParts:
+        """Return the array's parts as configured (what ~/spawn_part and ~/remove_part change)."""
+        return ArrayParts(self.scene, self.names, self.documents, self.initial, self.sources)
 
 
 def configure_scene(p: MemsParameters) -> ConfiguredScene:
@@ -40,12 +46,14 @@ def configure_scene(p: MemsParameters) -> ConfiguredScene:
     """
     parts: list[Part] = []
     documents: list[dict[str, Any]] = []
+    sources: list[str] = []
     for index, path in enumerate(p.part_files):
         if not path:
             continue
         try:
             parts.append(load_part(path))
             documents.append(load_yaml_mapping(path))
+            sources.append(path)
         except InputError as error:
             raise InputError(f"parameter part_files[{index}]", str(error)) from None
     poses = list(p.initial_poses)
@@ -86,4 +94,4 @@ def configure_scene(p: MemsParameters) -> ConfiguredScene:
     names = [
         doc["name"] if isinstance(doc.get("name"), str) else f"part{i}" for i, doc in enumerate(documents)
     ]
-    return ConfiguredScene(scene, names, documents, initial)
+    return ConfiguredScene(scene, names, documents, initial, sources)

@@ -14,4 +14,6 @@ COUNTERS = (
     CounterSpec(
         "stiff_steps", "time_steps the ideal model had to cut for stability (derived from the model)"
     ),
+    CounterSpec("spawned", "parts added at runtime (~/spawn_part)"),
+    CounterSpec("removed", "parts taken off the array (~/remove_part)"),
 )

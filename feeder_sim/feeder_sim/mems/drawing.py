@@ -87,8 +87,9 @@ class ArrayDrawing:
     """The array's shapes as a viewer gets them, each rebuilt only when what it shows changed."""
 
     def __init__(self) -> None:
-        # Parts are triangulated once per scene and placed at every update.
-        self.part_triangles: tuple[Scene | None, list[np.ndarray]] = (None, [])
+        # Parts are triangulated once per part (the parts a scene holds change with spawns and removals)
+        # and placed at every update.
+        self.part_triangles: tuple[list[Part], list[np.ndarray]] = ([], [])
         # The cells' forces and layout the static shapes were drawn for (() before the first), and those.
         self.array: tuple[np.ndarray | None, Layout | tuple[()], list[Shape]] = (None, (), [])
 
@@ -98,14 +99,18 @@ class ArrayDrawing:
         The array and its force arrows change only with the cells' forces (a new array each time they
         change) or the layout: built then, not at every update (thousands of arrows on a large array).
         """
-        if self.part_triangles[0] is not scene:
-            self.part_triangles = (scene, [triangulate_loops(b.part.loops()) for b in scene.bodies])
+        parts = [b.part for b in scene.bodies]
+        drawn_parts, triangles = self.part_triangles
+        if len(parts) != len(drawn_parts) or any(a is not b for a, b in zip(parts, drawn_parts, strict=True)):
+            known = {id(part): tri for part, tri in zip(drawn_parts, triangles, strict=True)}
+            triangles = [
+                known[id(part)] if id(part) in known else triangulate_loops(part.loops()) for part in parts
+            ]
+            self.part_triangles = (parts, triangles)
         drawn, drawn_layout, static = self.array
         if drawn is not forces or drawn_layout != layout:
             grid = Grid(layout[0], layout[1], layout[2])
             static = array_shapes(grid) + force_shapes(grid, forces, layout[3])
             self.array = (forces, layout, static)
-        parts = parts_shapes(
-            [b.part for b in scene.bodies], [b.pose for b in scene.bodies], self.part_triangles[1]
-        )
-        return static, parts
+        shapes = parts_shapes(parts, [b.pose for b in scene.bodies], self.part_triangles[1])
+        return static, shapes

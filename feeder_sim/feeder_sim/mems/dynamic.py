@@ -80,19 +80,53 @@ class DynamicWorld:
         import pymunk
 
         self.space = pymunk.Space()
+        self.handles = []
         for body in self.bodies:
-            part = body.part
-            mass = inertia(part)
-            handle = pymunk.Body(mass[0], mass[2])
-            handle.position = (float(body.pose[0]), float(body.pose[1]))
-            handle.angle = float(body.pose[2])
-            shapes = [
-                pymunk.Poly(handle, [tuple(map(float, p)) for p in tri]) for tri in ear_clip(part.outer)
-            ]
-            for shape in shapes:
-                shape.friction = COLLISION_FRICTION
-            self.space.add(handle, *shapes)
-            self.handles.append(handle)
+            self.handles.append(self._add_handle(body))
+
+    def _add_handle(self, body: Body) -> pymunk.Body:
+        """Put ``body`` into the space at its pose and velocity, its outer boundary as triangles."""
+        import pymunk
+
+        assert self.space is not None
+        part = body.part
+        mass = inertia(part)
+        handle = pymunk.Body(mass[0], mass[2])
+        self._sync(body, handle)
+        shapes = [pymunk.Poly(handle, [tuple(map(float, p)) for p in tri]) for tri in ear_clip(part.outer)]
+        for shape in shapes:
+            shape.friction = COLLISION_FRICTION
+        self.space.add(handle, *shapes)
+        return handle
+
+    @staticmethod
+    def _sync(body: Body, handle: pymunk.Body) -> None:
+        """Put the body's pose and velocity into its pymunk handle."""
+        handle.position = (float(body.pose[0]), float(body.pose[1]))
+        handle.angle = float(body.pose[2])
+        handle.velocity = (float(body.velocity[0]), float(body.velocity[1]))
+        handle.angular_velocity = float(body.velocity[2])
+
+    def added(self) -> None:
+        """Take in the body just appended to the shared list of bodies (a space once there are several)."""
+        if self.space is not None:
+            self.handles.append(self._add_handle(self.bodies[-1]))
+        elif len(self.bodies) > 1:
+            self._build_space()
+
+    def removed(self, index: int) -> None:
+        """Let go of the body that was at ``index`` of the shared list (one part left: no space)."""
+        if self.space is None:
+            return
+        handle = self.handles.pop(index)
+        self.space.remove(handle, *handle.shapes)
+        if len(self.bodies) <= 1:  # a part alone has no contacts: integrated directly again
+            self.space, self.handles = None, []
+
+    def placed(self, index: int) -> None:
+        """Move body ``index``'s handle to the pose and velocity the body was given (a placement)."""
+        if self.space is not None:
+            self._sync(self.bodies[index], self.handles[index])
 
     def _external(self, body: Body, field: Field) -> np.ndarray:
         """Return the field's wrench plus viscous drag and Coulomb surface friction on the body."""

@@ -16,7 +16,14 @@ import numpy as np
 from feeder_planner.errors import InputError
 from feeder_sim.mems.scene import Scene
 
-__all__ = ["PLACE_REACH_FACTOR", "MAX_PLACE_ANGLE", "placement_reach", "place_parts", "reset_parts"]
+__all__ = [
+    "PLACE_REACH_FACTOR",
+    "MAX_PLACE_ANGLE",
+    "placement_reach",
+    "check_coordinate",
+    "place_parts",
+    "reset_parts",
+]
 
 PLACE_REACH_FACTOR = 10.0
 MAX_PLACE_ANGLE = 1e6  # rad: far beyond any turn count, short of where float angles lose their meaning
@@ -29,8 +36,26 @@ def placement_reach(array_size: Sequence[int], pitch: float) -> float:
 
 def reset_parts(scene: Scene, initial: np.ndarray) -> None:
     """Put every part back at its initial pose, at rest."""
-    for body, pose in zip(scene.bodies, initial, strict=True):
-        body.pose, body.velocity = pose.copy(), np.zeros(3)
+    if len(initial) != len(scene.bodies):
+        raise ValueError(f"{len(initial)} initial poses for {len(scene.bodies)} parts")
+    for index, pose in enumerate(initial):
+        scene.place_body(index, pose.copy())
+
+
+def check_coordinate(key: str, value: float, reach: float, field: str | None = None) -> float:
+    """Return a pose coordinate (``key`` x, y or theta) if finite and within reach, else InputError.
+
+    The error names ``field`` (default ``key``); positions stay within ``reach`` (m), angles within
+    +-MAX_PLACE_ANGLE.
+    """
+    field = field or key
+    if not math.isfinite(value):
+        raise InputError(field, f"must be finite, got {value!r}")
+    limit = reach if key != "theta" else MAX_PLACE_ANGLE
+    if abs(value) > limit:
+        unit = "rad" if key == "theta" else "m (the array's extent)"
+        raise InputError(field, f"must be within +-{limit:.6g} {unit}, got {value:.6g}")
+    return float(value)
 
 
 def place_parts(
@@ -51,18 +76,12 @@ def place_parts(
         bad = [i for i, v in enumerate(values) if not math.isfinite(v)]
         if bad:
             raise InputError(f"{key}[{bad[0]}]", "must be finite")
-        limit = reach if key != "theta" else MAX_PLACE_ANGLE
-        far = [i for i, v in enumerate(values) if abs(v) > limit]
-        if far:
-            unit = "rad" if key == "theta" else "m (the array's extent)"
-            raise InputError(
-                f"{key}[{far[0]}]", f"must be within +-{limit:.6g} {unit}, got {values[far[0]]:.6g}"
-            )
+        for i, value in enumerate(values):
+            check_coordinate(key, value, reach, f"{key}[{i}]")
     targets = []
     for i, name in enumerate(wanted):
         if name not in names:
             raise InputError(f"names[{i}]", f"no part named {name!r} (parts: {', '.join(names)})")
         targets.append((list(names).index(name), np.array([c[i] for c in coordinates], float)))
     for index, pose in targets:
-        body = scene.bodies[index]
-        body.pose, body.velocity = pose, np.zeros(3)
+        scene.place_body(index, pose)

@@ -184,6 +184,32 @@ class Scene:
             "damping, keeps the margin"
         )
 
+    def add_body(self, body: Body) -> None:
+        """Add ``body`` (at its pose and velocity) from the next step on, at every fidelity.
+
+        The ideal model keeps its other bodies' steps and rests; the dynamic world takes the body into its
+        collision space (built once there are several parts).
+        """
+        self.bodies.append(body)
+        self.stepper.added(len(self.bodies))
+        if self._dynamic is not None:
+            self._dynamic.added()
+
+    def remove_body(self, index: int) -> Body:
+        """Take body ``index`` out of the scene and return it; the others keep their state."""
+        body = self.bodies.pop(index)
+        self.stepper.removed(index, len(self.bodies))
+        if self._dynamic is not None:
+            self._dynamic.removed(index)
+        return body
+
+    def place_body(self, index: int, pose: np.ndarray) -> None:
+        """Put body ``index`` at ``pose`` (x, y, theta), at rest, from the next step on (every fidelity)."""
+        body = self.bodies[index]
+        body.pose, body.velocity = np.array(pose, float), np.zeros(3)
+        if self._dynamic is not None:
+            self._dynamic.placed(index)
+
     def set_program(self, program: tuple[ProgramStep, ...]) -> None:
         """Start ``program`` now (its first step's time counts from the current scene time)."""
         self.program = tuple(program)

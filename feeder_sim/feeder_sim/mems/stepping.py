@@ -105,6 +105,16 @@ class IdealStepper:
         """Forget every rest and cached rate: the next call integrates every body afresh."""
         self.states = [BodyState(step=s.step) for s in self.states]
 
+    def added(self, count: int) -> None:
+        """Keep a fresh state for a body appended as the ``count``-th (the others' states stay)."""
+        if len(self.states) == count - 1:
+            self.states.append(BodyState())
+
+    def removed(self, index: int, count: int) -> None:
+        """Drop the state of the body that was at ``index`` of ``count + 1`` (the others' states stay)."""
+        if len(self.states) == count + 1:
+            self.states.pop(index)
+
     def prepare(self, count: int, conditions: tuple[object, ...]) -> None:
         """Start a call for ``count`` bodies under ``conditions`` (field, faults, drag); wake on a change.
 

@@ -6,7 +6,7 @@ kit's goal runner's view of the ROS-free ``mems.program_goal.ProgramGoal``.
 
 from __future__ import annotations
 
-from typing import Protocol, Sequence
+from typing import Any, Protocol, Sequence
 
 import numpy as np
 from geometry_msgs.msg import PoseArray
@@ -15,10 +15,11 @@ from rclpy.impl.rcutils_logger import RcutilsLogger
 
 from feeder_device.device import DeviceState
 from feeder_msgs.action import RunProgram
-from feeder_msgs.msg import FieldProgram, FieldSpec, MemsCellForces, MemsPartState, MemsPartStates
+from feeder_msgs.msg import FieldProgram, FieldSpec, MemsCellForces, MemsParts, MemsPartState, MemsPartStates
 from feeder_planner.mems import ProgramStep
 from feeder_planner.node_kit import planar_pose
 from feeder_planner.node_kit.msg_fields import fill_field_spec
+from feeder_planner.node_kit.msg_parts import part_to_msg
 from feeder_sim.mems import Body
 from feeder_sim.mems.program_goal import ProgramGoal
 from feeder_sim.mems.settling import Prediction, equilibrium_summary, match
@@ -31,6 +32,7 @@ __all__ = [
     "field_program_msg",
     "part_state_msgs",
     "part_states_msgs",
+    "parts_msg",
 ]
 
 
@@ -57,6 +59,11 @@ def cell_forces_msg(
     msg.header.stamp = stamp(now_ns)
     msg.header.frame_id = frame_id
     return msg
+
+
+def parts_msg(documents: Sequence[dict[str, Any]]) -> MemsParts:
+    """Return ~/parts: each part's document (its name the part's name on the array), in the array's order."""
+    return MemsParts(parts=[part_to_msg(document) for document in documents])
 
 
 def part_state_msgs(names: Sequence[str], bodies: Sequence[Body]) -> list[MemsPartState]:

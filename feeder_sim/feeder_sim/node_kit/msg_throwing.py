@@ -18,13 +18,23 @@ from feeder_device.declarations import Counters
 from feeder_device.device import DeviceState
 from feeder_msgs.action import FeedPart
 from feeder_msgs.msg import DeviceStatus, ThrowEvent
+from feeder_msgs.msg import Part as PartMsg
 from feeder_planner.node_kit import yaw_quaternion
+from feeder_planner.node_kit.msg_parts import part_to_msg
 from feeder_sim.node_kit.stamp import stamp
 from feeder_sim.throwing import ThrowOutcome
 from feeder_sim.throwing.cycle import Pose, Shown, ThrowCycle
 from feeder_sim.throwing.feeding import FeedGoal
+from feeder_sim.throwing.loading import HeldPart
 
-__all__ = ["FeedPartGoal", "FeedingArm", "joint_state_msg", "part_pose_msg", "throw_event_msg"]
+__all__ = [
+    "FeedPartGoal",
+    "FeedingArm",
+    "held_part_msg",
+    "joint_state_msg",
+    "part_pose_msg",
+    "throw_event_msg",
+]
 
 
 def joint_state_msg(now_ns: int, shown: Shown) -> JointState:
@@ -32,6 +42,15 @@ def joint_state_msg(now_ns: int, shown: Shown) -> JointState:
     joint = JointState(name=["arm_joint"], position=[shown.joint], velocity=[shown.velocity], effort=[0.0])
     joint.header.stamp = stamp(now_ns)
     return joint
+
+
+def held_part_msg(held: HeldPart) -> PartMsg:
+    """Return ~/part: the part the arm holds, its name, and its outline in its file's order and unit.
+
+    The arm numbers hull edges from the file's first hull vertex (``feeder_planner.throwing.arm_part``), so
+    ``arm_part(part_from_msg(msg))`` gives the edges that ThrowEvent, ~/place_part and ~/load_part name.
+    """
+    return part_to_msg(held.description())
 
 
 def part_pose_msg(now_ns: int, frame_id: str, pose: Pose) -> PoseStamped:

@@ -6,7 +6,8 @@ by ``placing``, the run-program goal of ``program_goal``, the faults of ``faults
 ``mems.fault_specs``, the messages ``feeder_sim.node_kit.msg_mems``; the device kit (``feeder_device``)
 owns the lifecycle, the tick, the streams and the goal runner. Time (node clock; whole ``time_step``
 steps per tick, at most ``max_steps_per_tick``, the rest dropped and counted) and the stiff-step warning
-FAULT_TIME_STEP: docs/mems.md, "Time".
+FAULT_TIME_STEP: docs/mems.md, "Time". Parts spawned and removed at runtime (``mems.spawning``):
+docs/mems.md, "Parts at runtime".
 """
 
 from __future__ import annotations
@@ -20,13 +21,12 @@ from feeder_device.device import ManagedDevice, device_parameter_specs
 from feeder_device.goals import serve_goal
 from feeder_msgs.action import RunProgram
 from feeder_msgs.msg import DeviceStatus, FieldProgram, MemsCellForces, MemsParts, MemsPartStates
-from feeder_msgs.srv import FieldSetProgram, MemsPlaceParts
+from feeder_msgs.srv import FieldSetProgram, MemsPlaceParts, MemsRemovePart, MemsSpawnPart
 from feeder_planner.errors import InputError
 from feeder_planner.mems import Field, ProgramStep
 from feeder_planner.node_kit import LATCHED, STREAM_DEPTH, run_node, service_guard
 from feeder_planner.node_kit.msg_fields import program_from_msg
-from feeder_planner.node_kit.msg_parts import part_to_msg
-from feeder_planner.node_kit.request_limits import MAX_NAMES, check_count
+from feeder_planner.node_kit.request_limits import MAX_NAMES, MAX_YAML_CHARS, check_count, check_text
 from feeder_planner.node_kit.services import serve
 from feeder_planner.node_kit.viz import VIZ_PARAMETERS, DeviceViz, Drawing
 from feeder_sim.mems import Grid, Scene
@@ -36,7 +36,7 @@ from feeder_sim.mems.drawing import ArrayDrawing
 from feeder_sim.mems.fault_specs import fault_specs
 from feeder_sim.mems.faults import ArrayFaults
 from feeder_sim.mems.parameters import BASE_FRAME, NANOSECONDS, MemsParameters, max_steps_per_tick
-from feeder_sim.mems.placing import place_parts, placement_reach, reset_parts
+from feeder_sim.mems.placing import place_parts, placement_reach
 from feeder_sim.mems.program_goal import ProgramGoal
 from feeder_sim.mems.settling import (
     Prediction,
@@ -46,7 +46,14 @@ from feeder_sim.mems.settling import (
     predict,
     settling_criterion,
 )
-from feeder_sim.node_kit.msg_mems import RunProgramGoal, cell_forces_msg, field_program_msg, part_states_msgs
+from feeder_sim.mems.spawning import ArrayParts
+from feeder_sim.node_kit.msg_mems import (
+    RunProgramGoal,
+    cell_forces_msg,
+    field_program_msg,
+    part_states_msgs,
+    parts_msg,
+)
 
 __all__ = ["PARAMETERS", "FAULTS", "MemsFieldArrayNode", "main"]
 
@@ -60,9 +67,9 @@ FAULTS = fault_specs({"power_loss": DeviceStatus.FAULT_POWER_LOSS})
 class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
     """Publishes ~/part_states, ~/part_poses at publish_rate and ~/field_program, ~/cell_forces, ~/parts.
 
-    Serves ~/set_program and ~/place_parts (refused unless the device is ready), the action
-    ~/run_program, plus the device services of ``ManagedDevice`` (~/stop, ~/reset, ~/inject_fault;
-    ~/status, /diagnostics).
+    Serves ~/set_program, ~/place_parts, ~/spawn_part and ~/remove_part (refused unless the device is
+    ready), the action ~/run_program, plus the device services of ``ManagedDevice`` (~/stop, ~/reset,
+    ~/inject_fault; ~/status, /diagnostics).
     """
 
     FAULTS = FAULTS
@@ -73,14 +80,15 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         self._forget()
         serve(self, FieldSetProgram, "~/set_program", service_guard(self)(self._on_set_program))
         serve(self, MemsPlaceParts, "~/place_parts", service_guard(self)(self._on_place_parts))
+        serve(self, MemsSpawnPart, "~/spawn_part", service_guard(self)(self._on_spawn_part))
+        serve(self, MemsRemovePart, "~/remove_part", service_guard(self)(self._on_remove_part))
         serve_goal(self, RunProgram, "~/run_program", self._validate_run_program, self._start_run_program)
         self.viz = DeviceViz(self, self.drawing)
 
     def _forget(self) -> None:
         """Forget the scene and what was last published (the kit destroys the streams, resets counters)."""
         self.scene: Scene | None = None
-        self.names: list[str] = []
-        self.initial = np.zeros((0, 3))
+        self.array_parts: ArrayParts | None = None
         self.frame_id = ""
         self.step_ns = 1
         self.owed_ns = 0
@@ -96,7 +104,7 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         """Build the scene from the parameters (InputError names the field), then its streams."""
         self._forget()
         configured = configure_scene(p)
-        self.scene, self.names, self.initial = configured.scene, configured.names, configured.initial
+        self.scene, self.array_parts = configured.scene, configured.parts()
         self.frame_id = p.frame_id or self.frame(BASE_FRAME)
         self.step_ns = int(round(p.time_step * NANOSECONDS))
         self.expect_rate(p.publish_rate)
@@ -105,7 +113,7 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         self.parts_pub = self.stream(MemsParts, "~/parts", LATCHED, lifecycle=False)
         self.state_pub = self.stream(MemsPartStates, "~/part_states", STREAM_DEPTH)
         self.pose_pub = self.stream(PoseArray, "~/part_poses", STREAM_DEPTH)
-        self.parts_pub.publish(MemsParts(parts=[part_to_msg(d) for d in configured.documents]))
+        self.publish_parts()
         self.program_stamp = self.get_clock().now().nanoseconds
         self.publish_program()
         self.publish_cells()
@@ -200,6 +208,16 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
             self.publish_cells()
 
     # --- publishing ---------------------------------------------------------------------------------
+    @property
+    def names(self) -> list[str]:
+        """The names of the parts on the array, in the order of the scene's bodies."""
+        return self.array_parts.names if self.array_parts is not None else []
+
+    def publish_parts(self) -> None:
+        """Publish the parts on the array (latched), in the order of ~/part_states."""
+        if self.array_parts is not None:
+            self.parts_pub.publish(parts_msg(self.array_parts.documents()))
+
     def publish_program(self) -> None:
         """Publish the scene's field program (latched), stamped with its node-clock start time."""
         if self.scene is None:
@@ -289,11 +307,19 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
     def _on_place_parts(
         self, request: MemsPlaceParts.Request, response: MemsPlaceParts.Response
     ) -> MemsPlaceParts.Response:
-        """Put named parts at requested poses at rest, or every part back at its initial pose."""
+        """Put named parts at requested poses at rest, or reset: the array as configured (docs/mems.md)."""
         self.require_ready("place_parts")
         assert self.scene is not None  # ready implies configured
+        parts = self.array_parts
+        assert parts is not None
         if request.reset:
-            reset_parts(self.scene, self.initial)
+            if self.goals and not parts.as_configured():
+                raise DeviceError(
+                    "place_parts reset refused: a ~/run_program goal is executing, and the reset would take "
+                    "spawned parts off the array or bring removed ones back; cancel the goal first"
+                )
+            if parts.reset():
+                self.parts_changed()
         else:
             check_count(len(request.names), MAX_NAMES, "names", "names")
             reach = placement_reach(self.p.array_size, float(self.p.pitch))
@@ -302,6 +328,49 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         self.count.add("placements")
         self.publish_status()
         return response
+
+    def _on_spawn_part(
+        self, request: MemsSpawnPart.Request, response: MemsSpawnPart.Response
+    ) -> MemsSpawnPart.Response:
+        """Add a part at rest at a pose; it moves with the field from the next tick (docs/mems.md)."""
+        self.require_ready("spawn_part")
+        if self.goals:
+            raise DeviceError("spawn_part refused: a ~/run_program goal is executing; cancel it first")
+        assert self.array_parts is not None  # ready implies configured
+        check_text(request.part_yaml, MAX_YAML_CHARS, "part_yaml")
+        reach = placement_reach(self.p.array_size, float(self.p.pitch))
+        pose = (request.x, request.y, request.theta)
+        entry = self.array_parts.spawn(request.name, request.part_yaml, request.source, pose, reach)
+        self.parts_changed()
+        self.count.add("spawned")
+        source = f" from {entry.source}" if entry.source else ""
+        self.get_logger().info(
+            f"spawn_part: {entry.name!r}{source} at x {pose[0]:.6g} m, y {pose[1]:.6g} m, "
+            f"theta {pose[2]:.6g} rad"
+        )
+        self.publish_status()
+        response.name = entry.name
+        return response
+
+    def _on_remove_part(
+        self, request: MemsRemovePart.Request, response: MemsRemovePart.Response
+    ) -> MemsRemovePart.Response:
+        """Take a part (configured or spawned) off the array by name."""
+        self.require_ready("remove_part")
+        if self.goals:
+            raise DeviceError("remove_part refused: a ~/run_program goal is executing; cancel it first")
+        assert self.array_parts is not None  # ready implies configured
+        entry = self.array_parts.remove(request.name)
+        self.parts_changed()
+        self.count.add("removed")
+        self.get_logger().info(f"remove_part: {entry.name!r} taken off the array")
+        self.publish_status()
+        return response
+
+    def parts_changed(self) -> None:
+        """After a spawn, a removal or a reset that changed the parts: forget per-index work, republish."""
+        self.predictions.clear()  # keyed by the index of a part, which a removal shifts
+        self.publish_parts()
 
     # --- ~/run_program --------------------------------------------------------------------------------
     def _validate_run_program(self, goal: RunProgram.Goal) -> None:

@@ -11,8 +11,11 @@ visibly in its status, never silently.
 ``~/feed_part`` (feeder_msgs/FeedPart) throws until the one-bit sensor reads true with the part at rest,
 decided by ``feeder_sim.throwing.feeding`` from what the device itself delivers; its throws go through
 the same queue, period and motion as ``~/command throw``. While a goal executes, ``~/command throw`` and
-``start`` and ``~/place_part`` are refused, ``~/command stop`` ends the goal after the throw in flight
-(CANCELED), and ``~/stop`` lands the throw at once and ends the goal (CANCELED, aborted).
+``start``, ``~/place_part`` and ``~/load_part`` are refused, ``~/command stop`` ends the goal after the
+throw in flight (CANCELED), and ``~/stop`` lands the throw at once and ends the goal (CANCELED, aborted).
+
+``~/load_part`` replaces the part the arm holds (``throwing.loading``); the latched ``~/part`` says which
+part that is (its name and outline, the configured part's from configure on): docs/throwing.md.
 """
 
 from __future__ import annotations
@@ -29,17 +32,26 @@ from feeder_device.device import DeviceState, ManagedDevice, device_parameter_sp
 from feeder_device.goals import serve_goal
 from feeder_msgs.action import FeedPart
 from feeder_msgs.msg import DeviceStatus, ThrowEvent
-from feeder_msgs.srv import ArmCommand, ArmPlacePart
-from feeder_planner.node_kit import EVENT_DEPTH, STREAM_DEPTH, run_node, service_guard
+from feeder_msgs.msg import Part as PartMsg
+from feeder_msgs.srv import ArmCommand, ArmLoadPart, ArmPlacePart
+from feeder_planner.node_kit import EVENT_DEPTH, LATCHED, STREAM_DEPTH, run_node, service_guard
+from feeder_planner.node_kit.request_limits import MAX_YAML_CHARS, check_text
 from feeder_planner.node_kit.services import serve
 from feeder_planner.node_kit.viz import DeviceViz, Drawing, viz_parameters
-from feeder_sim.node_kit.msg_throwing import FeedPartGoal, joint_state_msg, part_pose_msg, throw_event_msg
+from feeder_sim.node_kit.msg_throwing import (
+    FeedPartGoal,
+    held_part_msg,
+    joint_state_msg,
+    part_pose_msg,
+    throw_event_msg,
+)
 from feeder_sim.throwing import MAX_TICK_PERIODS, ArmFaults, ThrowingArm, ThrowOutcome, parse_command
 from feeder_sim.throwing.counters import COUNTERS
 from feeder_sim.throwing.cycle import Pose, Shown, ThrowCycle, ns
 from feeder_sim.throwing.drawing import ArmDrawing
 from feeder_sim.throwing.fault_specs import fault_specs
 from feeder_sim.throwing.feeding import FeedGoal, check_feed_goal
+from feeder_sim.throwing.loading import HeldPart, configured_part, load_arm_part
 from feeder_sim.throwing.parameters import BASE_FRAME, ArmParameters, configure_arm
 
 __all__ = ["PARAMETERS", "FAULTS", "ThrowingArmNode", "main"]
@@ -62,11 +74,13 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         super().__init__("throwing_arm", ArmParameters, DISPLAY)
         self.arm: ThrowingArm | None = None
         self.cycle: ThrowCycle | None = None
+        self.held: HeldPart | None = None  # the part the arm holds: name, document, source
         self._forget_run()
         guard = service_guard(self)
         # Served from the start; refused unless the device is ready (require_ready names the state).
         serve(self, ArmCommand, "~/command", guard(self._on_command))
         serve(self, ArmPlacePart, "~/place_part", guard(self._on_place_part))
+        serve(self, ArmLoadPart, "~/load_part", guard(self._on_load_part))
         serve_goal(self, FeedPart, "~/feed_part", self._validate_feed_part, self._start_feed_part)
         self.viz = DeviceViz(self, self.drawing)
 
@@ -89,7 +103,8 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
     def configure_device(self, p: ArmParameters) -> None:
         """Build the arm, its faults and the throw cycle from the parameters, then the streams."""
         arm = configure_arm(p)
-        self.arm, self.cycle = arm, ThrowCycle(arm, ArmFaults(arm))
+        held = configured_part(p, arm.part)
+        self.arm, self.cycle, self.held = arm, ThrowCycle(arm, ArmFaults(arm)), held
         self._forget_run()
         self.cycle.running = bool(p.autostart)
         self.frame_id = p.frame_id or self.frame(BASE_FRAME)
@@ -97,6 +112,8 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         self.pub_pose = self.stream(PoseStamped, "~/part_pose", STREAM_DEPTH)
         self.pub_event = self.stream(ThrowEvent, "~/throw_events", EVENT_DEPTH)
         self.pub_sensor = self.stream(Bool, "~/sensor", EVENT_DEPTH)
+        self.pub_part = self.stream(PartMsg, "~/part", LATCHED, lifecycle=False)
+        self.publish_part()
         self.expect_rate(p.sensor_rate)
 
     def activate_device(self) -> None:
@@ -107,6 +124,7 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
     def cleanup_device(self) -> None:
         """Release the model."""
         self.arm = self.cycle = None
+        self.held = None
         self._forget_run()
 
     # --- status, parameters, stop, reset, faults --------------------------------------------------
@@ -204,13 +222,47 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         self.publish_status()
         return response
 
-    def _require_place_ready(self) -> None:
+    def _on_load_part(
+        self, request: ArmLoadPart.Request, response: ArmLoadPart.Response
+    ) -> ArmLoadPart.Response:
+        """Replace the part the arm holds, at rest at (edge, R); ends FAULT_PART_LOST (docs/throwing.md)."""
+        self._require_place_ready("load_part")
+        if self.feed is not None:
+            raise DeviceError("load_part refused: a ~/feed_part goal is executing (cancel it first)")
+        cycle = self._cycle()
+        if cycle.running or cycle.pending:
+            raise DeviceError(
+                f"load_part refused: ~/command keeps the arm busy ({cycle.doing()}); ~/command stop first"
+            )
+        check_text(request.part_yaml, MAX_YAML_CHARS, "part_yaml")
+        start = (int(request.edge), float(request.radius))
+        held = load_arm_part(cycle, request.part_yaml, request.name, request.source, start, self.p.arm_length)
+        self.held = held
+        self.shown = None  # the last pose shown was the former part's
+        self.faults.pop("part_lost", None)
+        self.model_fault = None
+        self.count.add("parts_loaded")
+        source = f" from {held.source}" if held.source else ""
+        self.get_logger().info(
+            f"load_part: {held.name!r}{source} on edge {cycle.arm.edge} at R {cycle.arm.radius:.6g} m"
+        )
+        self.publish_part()
+        self.publish_status()
+        response.name = held.name
+        return response
+
+    def _require_place_ready(self, what: str = "place_part") -> None:
         """Accept ~/place_part when ready, or in FAULT when every cause is a part lost (placing ends it)."""
         fault = self.stopping_fault()
         others = [f for f in self.faults.values() if f.spec.stops_device and f.spec.name != "part_lost"]
         lost_only = fault is not None and fault[0] == DeviceStatus.FAULT_PART_LOST and not others
         if not (lost_only and self.active and not self.stopped):
-            self.require_ready("place_part")
+            self.require_ready(what)
+
+    def publish_part(self) -> None:
+        """Publish the part the arm holds (latched): its name, its outline in its file's order and unit."""
+        if self.held is not None:
+            self.pub_part.publish(held_part_msg(self.held))
 
     # --- the main stream ------------------------------------------------------------------------------
     def tick(self, now_ns: int) -> float:

@@ -128,6 +128,15 @@ class ThrowingArm:
         self.faulted = ""
         self.on_arm = True
 
+    def replace_part(self, part: ArmPart, edge: int, radius: float) -> None:
+        """Hold ``part`` instead, at rest at (edge, R): the grasp, the throws and the sensor follow it.
+
+        Refuses a start outside the new part's throw map domain (naming the field) before anything changes.
+        """
+        check_start(part, edge, radius, self.params)
+        self.part = part
+        self.place(edge, radius)
+
     def lose_part(self, reason: str) -> None:
         """Take the part off the arm (it fell off): nothing is sensed or thrown until ``place``."""
         self.on_arm = False

@@ -10,4 +10,5 @@ COUNTERS = (
     CounterSpec("parts_presented", "throws that landed with the true sensor bit at rest"),
     CounterSpec("feed_goals", "~/feed_part goals accepted"),
     CounterSpec("feeds_presented", "~/feed_part goals that ended PRESENTED"),
+    CounterSpec("parts_loaded", "parts that replaced the arm's part (~/load_part)"),
 )

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 from feeder_planner.errors import InputError
 from feeder_planner.limits import MAX_QUEUED_THROWS
+from feeder_planner.throwing import ArmPart
 from feeder_sim.throwing.arm import ThrowingArm
 from feeder_sim.throwing.faults import ArmFaults
 from feeder_sim.throwing.outcome import ThrowOutcome
@@ -92,13 +93,15 @@ class ThrowCycle:
 
     def place(self, edge: int, radius: float, arm_length: float) -> None:
         """Put the part at rest at (edge, R) on the arm, ending any throw being shown; fields are named."""
-        if not math.isfinite(radius):
-            raise InputError("radius", f"must be finite, got {radius!r}")
-        if abs(radius) > arm_length:
-            raise InputError(
-                "radius", f"must be on the arm (|R| <= arm_length {arm_length:g} m), got {radius:g}"
-            )
+        _check_on_arm(radius, arm_length)
         self.arm.place(edge, radius)
+        self.motion = None
+        self.faults.clear("part_lost")
+
+    def load(self, part: ArmPart, edge: int, radius: float, arm_length: float) -> None:
+        """Hold ``part`` instead, at rest at (edge, R), ending any throw being shown; fields are named."""
+        _check_on_arm(radius, arm_length)
+        self.arm.replace_part(part, edge, radius)
         self.motion = None
         self.faults.clear("part_lost")
 
@@ -158,6 +161,14 @@ class ThrowCycle:
         index = min(int(fraction / FLIGHT_SHOWN * (len(path) - 1)), len(path) - 1)
         _, x, y, theta = path[index]
         return (x, y, theta)
+
+
+def _check_on_arm(radius: float, arm_length: float) -> None:
+    """Refuse an R that is not finite or not on the arm, naming ``radius``."""
+    if not math.isfinite(radius):
+        raise InputError("radius", f"must be finite, got {radius!r}")
+    if abs(radius) > arm_length:
+        raise InputError("radius", f"must be on the arm (|R| <= arm_length {arm_length:g} m), got {radius:g}")
 
 
 def joint_swing(speed: float, since: float, release: float) -> tuple[float, float]:
