@@ -25,6 +25,7 @@ setup(
             "feeder = feeder_cell.cli.main:main",
             "cell_clock = feeder_cell.nodes.cell_clock:main",
             "cell_controller = feeder_cell.nodes.cell_controller:main",
+            "cell_simulation = feeder_cell.nodes.cell_simulation:main",
             "opcua_gateway = feeder_cell.nodes.opcua_gateway:main",
         ],
     },

@@ -28,6 +28,14 @@ RANK = {"unconfigured": 0, "inactive": 1, "active": 2}
 
 # The cell clock `--real-time-factor` starts, in lockstep; every node of the scene then runs on sim time.
 CLOCK_NODE = NodeSpec("feeder_cell", "cell_clock")
+# ... and beside it the simulation_interfaces node, which drives the cell through the clock and devices.
+SIMULATION_NODE = NodeSpec("feeder_cell", "cell_simulation")
+# Simulation-node parameter listing each device kind's nodes, by the executable that simulates it.
+DEVICE_LISTS = {
+    "mems_field_array": "mems_field_arrays",
+    "throwing_arm": "throwing_arms",
+    "assembly_fixture": "assembly_fixtures",
+}
 LAUNCH_NODE = "feeder_launch"
 DEFAULT_QUANTUM = 0.1  # s of cell time per lockstep advance (the clock's own default)
 
@@ -52,6 +60,24 @@ def real_time_factor(text: str) -> float:
     if value <= 0:
         raise argparse.ArgumentTypeError(f"must be > 0 or max, got {text!r}")
     return value
+
+
+def simulation_spec(specs: list[NodeSpec], quantum: float) -> NodeSpec:
+    """Return the simulation node of a scene: its devices by kind, the directories of its part files."""
+    parameters: dict[str, Any] = {name: [""] for name in DEVICE_LISTS.values()}
+    directories: list[str] = []
+    for spec in specs:
+        if spec.package == "feeder_sim" and spec.executable in DEVICE_LISTS:
+            listed = parameters[DEVICE_LISTS[spec.executable]]
+            parameters[DEVICE_LISTS[spec.executable]] = [*(n for n in listed if n), spec.fully_qualified_name]
+        for key, value in spec.parameters.items():
+            files = value if isinstance(value, list) else [value]
+            if key in ("part_file", "part_files"):
+                directories += [str(Path(str(f)).parent) for f in files if isinstance(f, str) and f]
+    parameters["part_directories"] = sorted(set(directories)) or [""]
+    parameters["quantum"] = quantum
+    parameters["clock_node"] = CLOCK_NODE.fully_qualified_name
+    return NodeSpec(SIMULATION_NODE.package, SIMULATION_NODE.executable, parameters)
 
 
 def _graph_names(node: Any) -> set[str]:
@@ -163,6 +189,7 @@ def _launch(args: argparse.Namespace) -> int:
             },
         )
         specs.insert(0, clock)
+        specs.insert(1, simulation_spec(specs[1:], args.quantum))
 
     def work(node: Any, executor: Any, keep_going: Callable[[], bool]) -> dict[str, Any]:
         from feeder_cell.bag.recorder import Recorder

@@ -28,6 +28,7 @@ from typing import cast
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.clock import Clock as RclClock
 from rclpy.clock import ClockType
 from rclpy.node import Node
@@ -155,7 +156,9 @@ class CellClock(Node):
         self.pub = self.create_publisher(Clock, "/clock", CLOCK_QOS)
         self.create_service(Trigger, "~/pause", self.on_pause)
         self.create_service(Trigger, "~/resume", self.on_resume)
-        self.create_service(StepClock, "~/step", self.on_step)
+        # Its own reentrant group: in lockstep a step waits for the answers of the quanta it runs, which the
+        # default (exclusive) group would hold back until the step's callback had returned.
+        self.create_service(StepClock, "~/step", self.on_step, callback_group=ReentrantCallbackGroup())
         self.create_service(IsPaused, "~/is_paused", self.on_is_paused)
         self.add_on_set_parameters_callback(self.on_parameters)
         steady = RclClock(clock_type=ClockType.STEADY_TIME)

@@ -1,0 +1,295 @@
+"""The simulation node's link to the cell: what it observes of each device and the calls it makes.
+
+rclpy-facing (clients and subscriptions of the node it is given), and nothing else: the rules are in
+``control``, ``entities`` and ``spawning``. Every change goes through the device's and the clock's own
+services (``~/place_parts``, ``~/place_part``, ``~/spawn_part``, ``~/remove_part``, ``~/load_part``,
+lifecycle ``change_state``, the clock's ``~/pause``, ``~/resume``, ``~/step``), so driving the cell through
+the standard and through those services cannot disagree. A call that gets no answer within the timeout
+fails with a message naming the service; the node keeps serving.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from builtin_interfaces.msg import Duration
+from geometry_msgs.msg import PoseStamped
+from lifecycle_msgs.msg import Transition
+from lifecycle_msgs.srv import ChangeState, GetState
+from rcl_interfaces.msg import ParameterType
+from rcl_interfaces.srv import GetParameters
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+from rclpy.task import Future
+from std_srvs.srv import Trigger
+from tf2_msgs.msg import TFMessage
+
+from feeder_cell.simulation.entities import EntityState
+from feeder_cell.simulation.msgs import nanoseconds
+from feeder_cell.simulation.results import OPERATION_FAILED, SimulationError
+from feeder_msgs.msg import MemsParts, MemsPartStates, Part
+from feeder_msgs.srv import (
+    ArmLoadPart,
+    ArmPlacePart,
+    IsPaused,
+    MemsPlaceParts,
+    MemsRemovePart,
+    MemsSpawnPart,
+    StepClock,
+)
+from feeder_planner.node_kit import LATCHED
+from feeder_planner.node_kit.tf import TF_STATIC_QOS
+
+__all__ = ["Device", "CellLink", "KINDS"]
+
+# The device kinds the cell simulates: launch parameter name -> (kind, base frame under the namespace).
+KINDS = {
+    "mems_field_arrays": ("mems_field_array", "mems_array"),
+    "throwing_arms": ("throwing_arm", "arm_pivot"),
+    "assembly_fixtures": ("assembly_fixture", "fixture_base"),
+}
+STREAM_QOS = 10
+
+
+@dataclass
+class Device:
+    """One device as observed: its part names, the latest state of each, what was set since."""
+
+    fqn: str
+    kind: str
+    base_frame: str
+    parts: list[str] = field(default_factory=list)  # in the device's order
+    part_documents: dict[str, Part] = field(default_factory=dict)
+    states: dict[str, EntityState] = field(default_factory=dict)
+    placed: dict[str, EntityState] = field(default_factory=dict)  # set or spawned, not yet ticked
+    frame_id: str = ""  # the frame the device's part states are in (from its streams)
+
+
+class CellLink:
+    """Clients of the clock and the devices, and subscriptions to what they publish."""
+
+    def __init__(self, node: Node, clock_node: str, devices: dict[str, list[str]], timeout_s: float) -> None:
+        self.node = node
+        # Reentrant: a request's coroutine waits for a device's answer, which the client's callback
+        # delivers while the request is suspended (in the default, exclusive group it never would).
+        self.group = ReentrantCallbackGroup()
+        self.timeout_s = timeout_s
+        self.clock_node = clock_node.rstrip("/")
+        self.pause_client = node.create_client(Trigger, f"{self.clock_node}/pause", callback_group=self.group)
+        self.resume_client = node.create_client(
+            Trigger, f"{self.clock_node}/resume", callback_group=self.group
+        )
+        self.step_client = node.create_client(StepClock, f"{self.clock_node}/step", callback_group=self.group)
+        self.paused_client = node.create_client(
+            IsPaused, f"{self.clock_node}/is_paused", callback_group=self.group
+        )
+        self.devices: dict[str, Device] = {}
+        self.clients: dict[tuple[str, str], Any] = {}
+        self.cell_frames: dict[str, EntityState] = {}  # child frame -> its pose in its parent
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        for parameter, fqns in devices.items():
+            kind, base = KINDS[parameter]
+            for fqn in fqns:
+                if fqn:
+                    self._add(fqn, kind, base)
+        node.create_subscription(TFMessage, "/tf_static", self._on_tf_static, TF_STATIC_QOS)
+
+    def _add(self, fqn: str, kind: str, base: str) -> None:
+        namespace = fqn.rpartition("/")[0].strip("/")
+        device = Device(fqn, kind, f"{namespace}/{base}" if namespace else base)
+        self.devices[fqn] = device
+        services: dict[str, Any] = {"change_state": ChangeState, "get_state": GetState}
+        if kind == "mems_field_array":
+            services |= {
+                "place_parts": MemsPlaceParts,
+                "spawn_part": MemsSpawnPart,
+                "remove_part": MemsRemovePart,
+            }
+            self.node.create_subscription(
+                MemsParts, f"{fqn}/parts", lambda m, d=device: self._on_mems_parts(d, m), LATCHED
+            )
+            self.node.create_subscription(
+                MemsPartStates,
+                f"{fqn}/part_states",
+                lambda m, d=device: self._on_part_states(d, m),
+                STREAM_QOS,
+            )
+        elif kind == "throwing_arm":
+            # get_parameters: the arm's offset h, which a rest pose's height depends on.
+            services |= {
+                "place_part": ArmPlacePart,
+                "load_part": ArmLoadPart,
+                "get_parameters": GetParameters,
+            }
+            self.node.create_subscription(
+                Part, f"{fqn}/part", lambda m, d=device: self._on_arm_part(d, m), LATCHED
+            )
+            self.node.create_subscription(
+                PoseStamped, f"{fqn}/part_pose", lambda m, d=device: self._on_part_pose(d, m), STREAM_QOS
+            )
+        for name, srv in services.items():
+            self.clients[(fqn, name)] = self.node.create_client(
+                srv, f"{fqn}/{name}", callback_group=self.group
+            )
+
+    # --- observations -------------------------------------------------------------------------------
+    def _on_tf_static(self, msg: TFMessage) -> None:
+        for transform in msg.transforms:
+            t, r = transform.transform.translation, transform.transform.rotation
+            self.cell_frames[transform.child_frame_id] = EntityState(
+                transform.header.frame_id,
+                nanoseconds(transform.header.stamp),
+                (t.x, t.y, t.z),
+                (r.x, r.y, r.z, r.w),
+            )
+
+    def _on_mems_parts(self, device: Device, msg: MemsParts) -> None:
+        device.parts = [part.name for part in msg.parts]
+        device.part_documents = {part.name: part for part in msg.parts}
+
+    def _on_part_states(self, device: Device, msg: MemsPartStates) -> None:
+        stamp = nanoseconds(msg.header.stamp)
+        device.frame_id = msg.header.frame_id
+        for part in msg.parts:
+            p, q = part.pose.position, part.pose.orientation
+            v, w = part.twist.linear, part.twist.angular
+            device.states[part.name] = EntityState(
+                msg.header.frame_id,
+                stamp,
+                (p.x, p.y, p.z),
+                (q.x, q.y, q.z, q.w),
+                (v.x, v.y, v.z),
+                (w.x, w.y, w.z),
+            )
+            self._forget_placed(device, part.name, stamp)
+
+    def _on_arm_part(self, device: Device, msg: Part) -> None:
+        device.parts = [msg.name]
+        device.part_documents = {msg.name: msg}
+
+    def _on_part_pose(self, device: Device, msg: PoseStamped) -> None:
+        stamp = nanoseconds(msg.header.stamp)
+        device.frame_id = msg.header.frame_id
+        p, q = msg.pose.position, msg.pose.orientation
+        for name in device.parts:
+            device.states[name] = EntityState(
+                msg.header.frame_id, stamp, (p.x, p.y, p.z), (q.x, q.y, q.z, q.w)
+            )
+            self._forget_placed(device, name, stamp)
+
+    @staticmethod
+    def _forget_placed(device: Device, name: str, stamp: int) -> None:
+        placed = device.placed.get(name)
+        if placed is not None and stamp > placed.stamp_ns:
+            del device.placed[name]
+
+    def state_of(self, device: Device, name: str) -> EntityState | None:
+        """Return a part's latest state: what was placed since the last sample, else the last sample."""
+        return device.placed.get(name) or device.states.get(name)
+
+    # --- calls --------------------------------------------------------------------------------------
+    async def call(self, client: Any, request: Any, what: str) -> Any:
+        """Call a service; raise OPERATION_FAILED naming it when it is not there or does not answer."""
+        if not client.service_is_ready():
+            raise SimulationError(OPERATION_FAILED, f"{what}: the service {client.srv_name} is not available")
+        future = client.call_async(request)
+        wake = Future()
+        future.add_done_callback(lambda _: wake.done() or wake.set_result(True))
+        timer = self.node.create_timer(
+            self.timeout_s,
+            lambda: wake.done() or wake.set_result(False),
+            clock=self._steady,
+            callback_group=self.group,
+        )
+        try:
+            answered = await wake
+        finally:
+            self.node.destroy_timer(timer)
+        if not answered:
+            client.remove_pending_request(future)
+            raise SimulationError(
+                OPERATION_FAILED, f"{what}: {client.srv_name} did not answer within {self.timeout_s:g} s"
+            )
+        return future.result()
+
+    async def device_call(self, fqn: str, service: str, request: Any, what: str) -> Any:
+        """Call a device service whose response is (ok, error); raise OPERATION_FAILED with its error."""
+        response = await self.call(self.clients[(fqn, service)], request, what)
+        if not response.ok:
+            raise SimulationError(OPERATION_FAILED, f"{what}: {fqn}: {response.error}")
+        return response
+
+    async def paused(self) -> bool:
+        """Whether the cell clock is held."""
+        return bool((await self.call(self.paused_client, IsPaused.Request(), "is_paused")).paused)
+
+    async def pause(self, pause: bool) -> None:
+        """Hold or run the cell clock."""
+        client = self.pause_client if pause else self.resume_client
+        response = await self.call(client, Trigger.Request(), "pause" if pause else "resume")
+        if not response.success:
+            raise SimulationError(OPERATION_FAILED, f"{client.srv_name}: {response.message}")
+
+    async def step(self, quanta: int, quantum_ns: int) -> int:
+        """Advance the held clock by ``quanta`` quanta; return the cell time reached (ns)."""
+        total = quanta * quantum_ns
+        request = StepClock.Request(
+            duration=Duration(sec=total // 1_000_000_000, nanosec=total % 1_000_000_000)
+        )
+        # A step takes as long as the cell needs: the timeout scales with it (the clock answers when there).
+        response = await self.call(self.step_client, request, "step")
+        if not response.ok:
+            raise SimulationError(OPERATION_FAILED, f"{self.clock_node}/step: {response.error}")
+        return nanoseconds(response.now)
+
+    async def parameter(self, fqn: str, name: str) -> float:
+        """Return a device's numeric parameter (its client made at start: a new one may lose a reply)."""
+        request = GetParameters.Request(names=[name])
+        response = await self.call(self.clients[(fqn, "get_parameters")], request, f"{fqn} parameter {name}")
+        value = response.values[0]
+        if value.type == ParameterType.PARAMETER_DOUBLE:
+            return float(value.double_value)
+        if value.type == ParameterType.PARAMETER_INTEGER:
+            return float(value.integer_value)
+        raise SimulationError(OPERATION_FAILED, f"{fqn}: parameter {name} is not a number")
+
+    async def lifecycle(self, fqn: str) -> str:
+        """Return the device's primary lifecycle state (unconfigured, inactive, active, ...)."""
+        response = await self.call(self.clients[(fqn, "get_state")], GetState.Request(), f"{fqn} get_state")
+        return str(response.current_state.label)
+
+    async def transition(self, fqn: str, name: str) -> None:
+        """Run one lifecycle transition; a refusal names the device and the transition."""
+        ids = {
+            "configure": Transition.TRANSITION_CONFIGURE,
+            "activate": Transition.TRANSITION_ACTIVATE,
+            "deactivate": Transition.TRANSITION_DEACTIVATE,
+            "cleanup": Transition.TRANSITION_CLEANUP,
+        }
+        request = ChangeState.Request()
+        request.transition.id = ids[name]
+        response = await self.call(self.clients[(fqn, "change_state")], request, f"{fqn} {name}")
+        if not response.success:
+            raise SimulationError(OPERATION_FAILED, f"{fqn}: lifecycle transition {name} refused")
+
+    async def reconfigure(self, fqn: str, activate: bool | None) -> None:
+        """Bring a device back to its configured initial state (cleanup, configure); active again if asked.
+
+        ``activate`` None keeps it as it was; an unconfigured device is left unconfigured (it has no
+        configured state to go back to).
+        """
+        state = await self.lifecycle(fqn)
+        if state == "unconfigured":
+            return
+        was_active = state == "active"
+        if was_active:
+            await self.transition(fqn, "deactivate")
+        await self.transition(fqn, "cleanup")
+        await self.transition(fqn, "configure")
+        device = self.devices[fqn]
+        device.states.clear()
+        device.placed.clear()
+        if activate or (activate is None and was_active):
+            await self.transition(fqn, "activate")
