@@ -95,7 +95,8 @@ def test_spawnable_parts_from_files_and_strings_with_the_standards_codes(tmp_pat
     (tmp_path / "dir.yaml").mkdir()
     assert code_of(read_spawnable, str(tmp_path / "dir.yaml"), "") == results.RESOURCE_PARSE_ERROR
     bombs = "a: &a [x, x, x, x, x, x, x, x, x]\n" + "".join(
-        f"{c}: &{c} [*{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}]\n" for p, c in zip("abcdefgh", "bcdefghi")
+        f"{c}: &{c} [*{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}]\n"
+        for p, c in zip("abcdefgh", "bcdefghi", strict=True)
     )
     assert code_of(read_spawnable, "", bombs) == results.RESOURCE_PARSE_ERROR
     with pytest.raises(SimulationError, match=r"vertices"):
@@ -128,5 +129,7 @@ def test_an_arm_rest_pose_gives_back_its_edge_and_radius() -> None:
             pytest.approx(0.12),
         )
         wrong_height = float(y) + 1e-3
-        assert code_of(arm_rest, float(x), wrong_height, float(theta), part.edge_angle, part.d, offset, "p", 101)
+        assert code_of(
+            arm_rest, float(x), wrong_height, float(theta), part.edge_angle, part.d, offset, "p", 101
+        )
     assert code_of(arm_rest, 0.1, 0.0, 0.123, part.edge_angle, np.asarray(part.d), offset, "pose", 101) == 101
