@@ -295,7 +295,8 @@ def test_launch_real_time_factor_runs_every_device_on_the_cell_clock(ros_client:
         last = ros_harness.collect(ros_client, DeviceStatus, "/throwing_arm/status", count=1, timeout=10)[-1]
     finally:
         summary = launch.stop()
-    assert [n["executable"] for n in summary["nodes"]] == ["cell_clock", "throwing_arm"]
+    # On the cell clock the launch adds the clock and the simulation_interfaces node beside the scene's.
+    assert [n["executable"] for n in summary["nodes"]] == ["cell_clock", "cell_simulation", "throwing_arm"]
     assert summary["real_time_factor"] == 4.0
     throws, before = ros_harness.counters(last)["throws"], ros_harness.counters(first)["throws"]
     # A 0.5 s throw period at 4x: about 8 throws per wall second, far more than at real time (2 per second).

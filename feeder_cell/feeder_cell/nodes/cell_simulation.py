@@ -140,7 +140,7 @@ class SimulationParameters:
         read_only=True,
     )
     call_timeout: float = param(
-        30.0, "wall seconds a device or the clock may take to answer a call", positive
+        30.0, "wall seconds a device or the clock may take to answer a call", positive, read_only=True
     )
 
 

@@ -190,29 +190,40 @@ class CellLink:
         return device.placed.get(name) or device.states.get(name)
 
     # --- calls --------------------------------------------------------------------------------------
-    async def call(self, client: Any, request: Any, what: str) -> Any:
-        """Call a service; raise OPERATION_FAILED naming it when it is not there or does not answer."""
+    async def call(self, client: Any, request: Any, what: str, patient: bool = False) -> Any:
+        """Call a service; raise OPERATION_FAILED naming it when it is not there or does not answer.
+
+        ``patient``: wait as long as the server is still there (checked every ``timeout_s``), for a call
+        that takes as long as the cell needs (a step of many quanta; the clock's own lockstep timeout drops
+        a participant that stops answering, so the step ends).
+        """
         if not client.service_is_ready():
             raise SimulationError(OPERATION_FAILED, f"{what}: the service {client.srv_name} is not available")
         future = client.call_async(request)
+        while not future.done():
+            if not await self._within(future, self.timeout_s) and not (patient and client.service_is_ready()):
+                client.remove_pending_request(future)
+                gone = " (its server went away)" if patient else ""
+                raise SimulationError(
+                    OPERATION_FAILED,
+                    f"{what}: {client.srv_name} did not answer within {self.timeout_s:g} s{gone}",
+                )
+        return future.result()
+
+    async def _within(self, future: Future, timeout_s: float) -> bool:
+        """Wait until ``future`` is done or ``timeout_s`` wall seconds have passed; return whether done."""
         wake = Future()
         future.add_done_callback(lambda _: wake.done() or wake.set_result(True))
         timer = self.node.create_timer(
-            self.timeout_s,
+            timeout_s,
             lambda: wake.done() or wake.set_result(False),
             clock=self._steady,
             callback_group=self.group,
         )
         try:
-            answered = await wake
+            return bool(await wake)
         finally:
             self.node.destroy_timer(timer)
-        if not answered:
-            client.remove_pending_request(future)
-            raise SimulationError(
-                OPERATION_FAILED, f"{what}: {client.srv_name} did not answer within {self.timeout_s:g} s"
-            )
-        return future.result()
 
     async def device_call(self, fqn: str, service: str, request: Any, what: str) -> Any:
         """Call a device service whose response is (ok, error); raise OPERATION_FAILED with its error."""
@@ -238,8 +249,8 @@ class CellLink:
         request = StepClock.Request(
             duration=Duration(sec=total // 1_000_000_000, nanosec=total % 1_000_000_000)
         )
-        # A step takes as long as the cell needs: the timeout scales with it (the clock answers when there).
-        response = await self.call(self.step_client, request, "step")
+        # A step takes as long as the cell needs: waited for while the clock is there.
+        response = await self.call(self.step_client, request, "step", patient=True)
         if not response.ok:
             raise SimulationError(OPERATION_FAILED, f"{self.clock_node}/step: {response.error}")
         return nanoseconds(response.now)
