@@ -12,7 +12,6 @@ is answered INCORRECT_STATE while it runs. Reads answer from what the node has o
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Awaitable, Callable
 
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
@@ -46,15 +45,12 @@ from simulation_interfaces.srv import (
 )
 
 from feeder_cell.simulation import control
-from feeder_cell.simulation.cell_link import KINDS, CellLink, Device
-from feeder_cell.simulation.entities import CATEGORY_OBJECT, Entity, EntityState, device_entity, select
+from feeder_cell.simulation.cell_link import KINDS, CellLink
+from feeder_cell.simulation.entities import Entity
 from feeder_cell.simulation.msgs import accel_tuple, pose_tuple, result_msg, state_msg, twist_tuples
 from feeder_cell.simulation.results import (
     FEATURE_UNSUPPORTED,
     INCORRECT_STATE,
-    NAME_NOT_UNIQUE,
-    NAMESPACE_INVALID,
-    NOT_FOUND,
     OK,
     OPERATION_FAILED,
     SET_INVALID_POSE,
@@ -62,22 +58,13 @@ from feeder_cell.simulation.results import (
     SimulationError,
 )
 from feeder_cell.simulation.spawning import (
-    PART_SUFFIXES,
     SPAWN_FORMAT,
-    arm_rest,
     check_at_rest,
-    check_name,
-    planar_pose,
     read_spawnable,
 )
-from feeder_cell.simulation.spawning import (
-    Spawnable as PartSpawnable,
-)
-from feeder_msgs.srv import ArmLoadPart, ArmPlacePart, MemsPlaceParts, MemsRemovePart, MemsSpawnPart
+from feeder_cell.simulation.world import CellWorld
 from feeder_planner.node_kit import declare_parameters, run_node
-from feeder_planner.node_kit.msg_parts import part_from_msg
 from feeder_planner.parameter_specs import from_values, param, positive, specs_of
-from feeder_planner.throwing.geometry import arm_part
 
 __all__ = ["SimulationParameters", "PARAMETERS", "CellSimulation", "FEATURES", "main"]
 
@@ -114,7 +101,6 @@ UNSUPPORTED = {
     "get_current_world": (GetCurrentWorld, "worlds (the cell's one world is its scene)"),
     "get_available_worlds": (GetAvailableWorlds, "worlds (the cell's one world is its scene)"),
 }
-MAX_SPAWNABLES = 1000
 
 
 @dataclass(frozen=True)
@@ -147,16 +133,6 @@ class SimulationParameters:
 PARAMETERS = specs_of(SimulationParameters)
 
 
-@dataclass(frozen=True)
-class SpawnRecord:
-    """A spawned part: enough to spawn it again after a STATE reset."""
-
-    device: str
-    name: str
-    spawnable: PartSpawnable
-    pose: tuple[float, float, float]  # array: x, y, theta; arm: edge, R, 0
-
-
 class CellSimulation(Node):
     """Serves the standard's simulation services and the SimulateSteps action for the whole cell."""
 
@@ -167,9 +143,7 @@ class CellSimulation(Node):
         self.link = CellLink(self, self.p.clock_node, devices, float(self.p.call_timeout))
         self.quantum_ns = int(round(self.p.quantum * 1e9))
         self.busy = ""  # the request changing the cell now
-        self.stopped = False
-        self.stopped_active: list[str] = []
-        self.spawned: dict[str, SpawnRecord] = {}
+        self.world = CellWorld(self.link, lambda: self.get_clock().now().nanoseconds)
         serve = self._serve
         serve(GetSimulatorFeatures, "get_simulator_features", self._features, changes=False)
         serve(GetSimulationState, "get_simulation_state", self._get_state, changes=False)
@@ -247,7 +221,7 @@ class CellSimulation(Node):
         )
 
     async def _current(self) -> int:
-        if self.stopped:
+        if self.world.stopped:
             return control.STOPPED
         return control.PAUSED if await self.link.paused() else control.PLAYING
 
@@ -259,17 +233,9 @@ class CellSimulation(Node):
             if action in ("pause", "resume"):
                 await self.link.pause(action == "pause")
             elif action == "stop":
-                self.stopped_active = [
-                    fqn for fqn in self.link.devices if await self.link.lifecycle(fqn) == "active"
-                ]
-                for fqn in self.link.devices:
-                    await self.link.reconfigure(fqn, activate=False)
-                self.spawned.clear()
-                self.stopped = True
-            else:  # start
-                for fqn in self.stopped_active:
-                    await self.link.transition(fqn, "activate")
-                self.stopped_active, self.stopped = [], False
+                await self.world.stop()
+            else:
+                await self.world.start()
 
     # --- steps ---------------------------------------------------------------------------------------
     async def _step(self, request: StepSimulation.Request, response: Any) -> None:
@@ -314,59 +280,13 @@ class CellSimulation(Node):
 
     # --- reset ---------------------------------------------------------------------------------------
     async def _reset(self, request: ResetSimulation.Request, response: Any) -> None:
-        reset = control.reset_of_scope(int(request.scope))
-        if reset.state:
-            for fqn in self.link.devices:
-                await self.link.reconfigure(fqn, activate=None)
-            kept = [] if reset.spawned else list(self.spawned.values())
-            self.spawned.clear()
-            for record in kept:
-                await self._spawn_record(record)
-        elif reset.spawned:
-            for name, record in list(self.spawned.items()):
-                if self.link.devices[record.device].kind == "throwing_arm":
-                    await self.link.reconfigure(record.device, activate=None)  # back to its configured part
-                else:
-                    await self.link.device_call(
-                        record.device, "remove_part", MemsRemovePart.Request(name=record.name), "reset"
-                    )
-                del self.spawned[name]
+        await self.world.reset(control.reset_of_scope(int(request.scope)))
 
     # --- entities ------------------------------------------------------------------------------------
-    def entities(self) -> list[Entity]:
-        """Every entity of the cell now: the devices and the parts they hold."""
-        found: list[Entity] = []
-        for device in self.link.devices.values():
-            found.append(device_entity(device.fqn, "device", f"{device.kind} device {device.fqn}"))
-            kind = "array_part" if device.kind == "mems_field_array" else "arm_part"
-            for part in device.parts:
-                name = f"{device.fqn.lstrip('/')}/{part}"
-                spawned = name in self.spawned
-                origin = f"spawned from {self.spawned[name].spawnable.source}" if spawned else "configured"
-                found.append(
-                    Entity(
-                        name,
-                        CATEGORY_OBJECT,
-                        f"part {part} on {device.fqn} ({origin})",
-                        device.fqn,
-                        kind,
-                        part,
-                        spawned,
-                    )
-                )
-        return found
-
-    def entity(self, name: str) -> Entity:
-        """Return the entity named ``name``, or raise NOT_FOUND."""
-        for entity in self.entities():
-            if entity.name == name:
-                return entity
-        raise SimulationError(NOT_FOUND, f"entity: no entity named {name!r} (GetEntities lists them)")
-
     def _selected(self, filters: Any) -> list[Entity]:
         bounded = int(filters.bounds.type) != 0 or len(filters.bounds.points) > 0
         categories = [int(c.category) for c in filters.categories]
-        return select(self.entities(), filters.filter, categories, list(filters.tags.tags), bounded)
+        return self.world.selected(filters.filter, categories, list(filters.tags.tags), bounded)
 
     async def _get_entities(self, request: GetEntities.Request, response: Any) -> None:
         response.entities = [e.name for e in self._selected(request.filters)]
@@ -374,182 +294,43 @@ class CellSimulation(Node):
     async def _get_entities_states(self, request: GetEntitiesStates.Request, response: Any) -> None:
         selected = self._selected(request.filters)
         response.entities = [e.name for e in selected]
-        response.states = [state_msg(self.state_of(e)) for e in selected]
+        response.states = [state_msg(self.world.state_of(e)) for e in selected]
 
     async def _get_entity_state(self, request: GetEntityState.Request, response: Any) -> None:
-        response.state = state_msg(self.state_of(self.entity(request.entity)))
+        response.state = state_msg(self.world.state_of(self.world.entity(request.entity)))
 
     async def _get_entity_info(self, request: GetEntityInfo.Request, response: Any) -> None:
-        entity = self.entity(request.entity)
+        entity = self.world.entity(request.entity)
         response.info = EntityInfo(description=entity.description)
         response.info.category.category = entity.category
 
-    def state_of(self, entity: Entity) -> EntityState:
-        """Return the latest observed state (a device: its base frame's pose in the cell, /tf_static)."""
-        device = self.link.devices[entity.device]
-        if entity.kind == "device":
-            frame = self.link.cell_frames.get(device.base_frame)
-            if frame is None:
-                raise SimulationError(
-                    OPERATION_FAILED,
-                    f"entity: no /tf_static transform of {device.base_frame} seen yet (configure the device)",
-                )
-            return frame
-        state = self.link.state_of(device, entity.local)
-        if state is None:
-            raise SimulationError(
-                OPERATION_FAILED,
-                f"entity: {entity.name}: no state since the device was (re)configured; step once",
-            )
-        return state
-
     # --- setting, spawning, deleting ------------------------------------------------------------------
-    def _frame_checked(self, device: Device, frame_id: str, field: str, code: int) -> None:
-        frame = device.frame_id or device.base_frame
-        if frame_id not in ("", frame):
-            raise SimulationError(
-                code, f"{field}: poses on {device.fqn} are in its frame {frame!r}, got {frame_id!r}"
-            )
-
-    async def _arm_rest(
-        self, device: Device, part: Any, pose: Any, field: str, code: int
-    ) -> tuple[int, float]:
-        position, orientation = pose_tuple(pose)
-        x, y, yaw = planar_pose(position, orientation, field, code)
-        offset = await self.link.parameter(device.fqn, "offset")
-        geometry = arm_part(part)
-        return arm_rest(x, y, yaw, geometry.edge_angle, geometry.d, float(offset), field, code)
-
     async def _set_entity_state(self, request: SetEntityState.Request, response: Any) -> None:
-        entity = self.entity(request.entity)
-        if entity.kind == "device":
-            raise SimulationError(
-                OPERATION_FAILED, f"entity: {entity.name} is fixed in the cell (its cell_pose parameter)"
-            )
         state = request.state
         linear, angular = twist_tuples(state.twist)
         check_at_rest(linear, angular, accel_tuple(state.acceleration))
-        device = self.link.devices[entity.device]
-        self._frame_checked(device, state.header.frame_id, "state.header.frame_id", SET_INVALID_POSE)
-        if entity.kind == "array_part":
-            x, y, theta = planar_pose(*pose_tuple(state.pose), "state.pose", SET_INVALID_POSE)
-            place = MemsPlaceParts.Request(names=[entity.local], x=[x], y=[y], theta=[theta])
-            await self.link.device_call(device.fqn, "place_parts", place, "set_entity_state")
-        else:
-            part = part_from_msg(device.part_documents[entity.local])
-            edge, radius = await self._arm_rest(device, part, state.pose, "state.pose", SET_INVALID_POSE)
-            place_arm = ArmPlacePart.Request(edge=edge, radius=radius)
-            await self.link.device_call(device.fqn, "place_part", place_arm, "set_entity_state")
-        self._placed(device, entity.local, state.pose, frame_id=device.frame_id or device.base_frame)
-
-    def _placed(self, device: Device, name: str, pose: Any, frame_id: str) -> None:
-        position, orientation = pose_tuple(pose)
-        now = self.get_clock().now().nanoseconds
-        device.placed[name] = EntityState(frame_id, now, position, orientation)
-
-    def _device_for_spawn(self, namespace: str) -> Device:
-        if not namespace:
-            arrays = [d for d in self.link.devices.values() if d.kind == "mems_field_array"]
-            if len(arrays) == 1:
-                return arrays[0]
-            raise SimulationError(NAMESPACE_INVALID, "entity_namespace: name the device to spawn onto")
-        wanted = "/" + namespace.strip("/")
-        device = self.link.devices.get(wanted)
-        if device is None or device.kind == "assembly_fixture":
-            holders = [d.fqn for d in self.link.devices.values() if d.kind != "assembly_fixture"]
-            raise SimulationError(
-                NAMESPACE_INVALID,
-                f"entity_namespace: {namespace!r} is no device parts spawn onto ({', '.join(holders)})",
-            )
-        return device
+        frame_id = state.header.frame_id
+        await self.world.set_state(request.entity, frame_id, pose_tuple(state.pose), SET_INVALID_POSE)
 
     async def _spawn(self, request: SpawnEntity.Request, response: Any) -> None:
         spawnable = read_spawnable(request.uri, request.resource_string)
-        device = self._device_for_spawn(request.entity_namespace)
-        name = check_name(request.name or spawnable.part.name)
-        if name in device.parts or f"{device.fqn.lstrip('/')}/{name}" in self.spawned:
-            if not request.allow_renaming:
-                raise SimulationError(
-                    NAME_NOT_UNIQUE, f"name: {device.fqn} already holds a part named {name!r}"
-                )
-            name = next(f"{name}_{k}" for k in range(2, 10_000) if f"{name}_{k}" not in device.parts)
         pose = request.initial_pose
-        self._frame_checked(device, pose.header.frame_id, "initial_pose.header.frame_id", SPAWN_INVALID_POSE)
-        if device.kind == "mems_field_array":
-            at = planar_pose(*pose_tuple(pose.pose), "initial_pose.pose", SPAWN_INVALID_POSE)
-        else:
-            edge, radius = await self._arm_rest(
-                device, spawnable.part, pose.pose, "initial_pose.pose", SPAWN_INVALID_POSE
-            )
-            at = (float(edge), radius, 0.0)
-        record = SpawnRecord(device.fqn, name, spawnable, at)
-        await self._spawn_record(record)
-        self._placed(device, name, pose.pose, frame_id=device.frame_id or device.base_frame)
-        response.entity_name = f"{device.fqn.lstrip('/')}/{name}"
-
-    async def _spawn_record(self, record: SpawnRecord) -> None:
-        device = self.link.devices[record.device]
-        text, source = record.spawnable.text, record.spawnable.source
-        if device.kind == "mems_field_array":
-            x, y, theta = record.pose
-            request: Any = MemsSpawnPart.Request(
-                name=record.name, part_yaml=text, source=source, x=x, y=y, theta=theta
-            )
-            await self.link.device_call(device.fqn, "spawn_part", request, "spawn_entity")
-        else:
-            # The arm holds one part: the one it held before is replaced (and no longer a spawned entity).
-            for key in [k for k, r in self.spawned.items() if r.device == device.fqn]:
-                del self.spawned[key]
-            request = ArmLoadPart.Request(
-                name=record.name,
-                part_yaml=text,
-                source=source,
-                edge=int(record.pose[0]),
-                radius=record.pose[1],
-            )
-            await self.link.device_call(device.fqn, "load_part", request, "spawn_entity")
-        self.spawned[f"{device.fqn.lstrip('/')}/{record.name}"] = record
+        response.entity_name = await self.world.spawn(
+            spawnable,
+            request.name,
+            request.allow_renaming,
+            request.entity_namespace,
+            pose.header.frame_id,
+            pose_tuple(pose.pose),
+            SPAWN_INVALID_POSE,
+        )
 
     async def _delete(self, request: DeleteEntity.Request, response: Any) -> None:
-        entity = self.entity(request.entity)
-        if entity.kind == "device":
-            raise SimulationError(
-                OPERATION_FAILED, f"entity: {entity.name} is a device of the scene; it is not deleted"
-            )
-        if entity.kind == "arm_part":
-            raise SimulationError(
-                OPERATION_FAILED,
-                f"entity: the throwing arm always holds one part: spawn a part onto it to replace "
-                f"{entity.name}",
-            )
-        remove = MemsRemovePart.Request(name=entity.local)
-        await self.link.device_call(entity.device, "remove_part", remove, "delete_entity")
-        self.spawned.pop(entity.name, None)
-        device = self.link.devices[entity.device]
-        if entity.local in device.parts:
-            device.parts.remove(entity.local)
+        await self.world.delete(request.entity)
 
     async def _spawnables(self, request: GetSpawnables.Request, response: Any) -> None:
-        found: list[Spawnable] = []
-        unrecognized: list[str] = []
-        for source in [*self.p.part_directories, *request.sources]:
-            if not source:
-                continue
-            path = Path(source.removeprefix("file://"))
-            files = sorted(path.iterdir()) if path.is_dir() else [path] if path.is_file() else []
-            if not files:
-                unrecognized.append(source)
-            for file in files:
-                if len(found) >= MAX_SPAWNABLES or file.suffix.lower() not in PART_SUFFIXES:
-                    continue
-                try:
-                    part = read_spawnable(str(file), "").part
-                except SimulationError:
-                    continue  # a YAML file that is no part file (a program, a scene) is not spawnable
-                found.append(
-                    Spawnable(uri=f"file://{file.resolve()}", description=f"part {part.name} ({file.name})")
-                )
-        response.spawnables = found
+        found, unrecognized = self.world.spawnables([*self.p.part_directories, *request.sources])
+        response.spawnables = [Spawnable(uri=uri, description=text) for uri, text in found]
         if unrecognized:
             response.result = result_msg(
                 OK, f"sources not found (no directory or file): {', '.join(unrecognized)}"

@@ -1,0 +1,306 @@
+"""The cell as the standard's world: its entities, and stopping, resetting, setting, spawning, deleting.
+
+Rules from ``entities`` and ``spawning``, calls through ``cell_link`` (the devices' own services), so this
+module holds only what connects them: which entities exist now, what a request does to which device,
+and the spawned parts a STATE reset spawns again. Poses arrive as plain tuples (``msgs`` converts them).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+from feeder_cell.simulation.cell_link import CellLink, Device
+from feeder_cell.simulation.control import Reset
+from feeder_cell.simulation.entities import CATEGORY_OBJECT, Entity, EntityState, device_entity, select
+from feeder_cell.simulation.results import (
+    NAME_NOT_UNIQUE,
+    NAMESPACE_INVALID,
+    NOT_FOUND,
+    OPERATION_FAILED,
+    SimulationError,
+)
+from feeder_cell.simulation.spawning import (
+    PART_SUFFIXES,
+    Spawnable,
+    arm_rest,
+    check_name,
+    planar_pose,
+    read_spawnable,
+)
+from feeder_msgs.srv import ArmLoadPart, ArmPlacePart, MemsPlaceParts, MemsRemovePart, MemsSpawnPart
+from feeder_planner.node_kit.msg_parts import part_from_msg
+from feeder_planner.parts import Part
+from feeder_planner.throwing.geometry import arm_part
+
+__all__ = ["CellWorld", "SpawnRecord", "Pose", "MAX_SPAWNABLES", "MAX_FILES_PER_SOURCE"]
+
+Pose = tuple[tuple[float, float, float], tuple[float, float, float, float]]  # position, quaternion x y z w
+MAX_SPAWNABLES = 1000
+# Files looked at per directory GetSpawnables is given: a huge directory is cut, not read whole.
+MAX_FILES_PER_SOURCE = 5000
+
+
+@dataclass(frozen=True)
+class SpawnRecord:
+    """A spawned part: enough to spawn it again after a STATE reset."""
+
+    device: str
+    name: str
+    spawnable: Spawnable
+    pose: tuple[float, float, float]  # array: x, y, theta; arm: edge, R, 0
+
+
+class CellWorld:
+    """The entities of the cell now, and the requests that change them."""
+
+    def __init__(self, link: CellLink, now_ns: Callable[[], int]) -> None:
+        self.link = link
+        self.now_ns = now_ns
+        self.spawned: dict[str, SpawnRecord] = {}
+        self.stopped = False
+        self.stopped_active: list[str] = []
+
+    # --- lifecycle: STOPPED and back, resets ---------------------------------------------------------
+    async def stop(self) -> None:
+        """Reset every device to its configured initial state and hold it inactive (STOPPED)."""
+        self.stopped_active = [fqn for fqn in self.link.devices if await self.link.lifecycle(fqn) == "active"]
+        for fqn in self.link.devices:
+            await self.link.reconfigure(fqn, activate=False)
+        self.spawned.clear()
+        self.stopped = True
+
+    async def start(self) -> None:
+        """Activate the devices ``stop`` held (leaving STOPPED)."""
+        for fqn in self.stopped_active:
+            await self.link.transition(fqn, "activate")
+        self.stopped_active, self.stopped = [], False
+
+    async def reset(self, reset: Reset) -> None:
+        """Reset device state (reconfigure, then spawn the spawned parts again) and/or spawned parts."""
+        if reset.state:
+            for fqn in self.link.devices:
+                await self.link.reconfigure(fqn, activate=None)
+            kept = [] if reset.spawned else list(self.spawned.values())
+            self.spawned.clear()
+            for record in kept:
+                await self._spawn_record(record)
+        elif reset.spawned:
+            for name, record in list(self.spawned.items()):
+                if self.link.devices[record.device].kind == "throwing_arm":
+                    await self.link.reconfigure(record.device, activate=None)  # back to its configured part
+                else:
+                    remove = MemsRemovePart.Request(name=record.name)
+                    await self.link.device_call(record.device, "remove_part", remove, "reset")
+                del self.spawned[name]
+
+    # --- entities ------------------------------------------------------------------------------------
+    def entities(self) -> list[Entity]:
+        """Return every entity of the cell now: the devices and the parts they hold."""
+        found: list[Entity] = []
+        for device in self.link.devices.values():
+            found.append(device_entity(device.fqn, "device", f"{device.kind} device {device.fqn}"))
+            kind = "array_part" if device.kind == "mems_field_array" else "arm_part"
+            for part in self._parts_of(device):
+                name = f"{device.fqn.lstrip('/')}/{part}"
+                record = self.spawned.get(name)
+                origin = f"spawned from {record.spawnable.source}" if record else "configured"
+                description = f"part {part} on {device.fqn} ({origin})"
+                found.append(Entity(name, CATEGORY_OBJECT, description, device.fqn, kind, part, bool(record)))
+        return found
+
+    def _parts_of(self, device: Device) -> list[str]:
+        """Return the device's parts: as its latched topic last said, and what was spawned since."""
+        spawned = [r.name for r in self.spawned.values() if r.device == device.fqn]
+        if device.kind == "throwing_arm" and spawned:
+            return spawned[-1:]  # the arm holds one part: the one spawned last
+        return [*device.parts, *(name for name in spawned if name not in device.parts)]
+
+    def entity(self, name: str) -> Entity:
+        """Return the entity named ``name``, or raise NOT_FOUND."""
+        for entity in self.entities():
+            if entity.name == name:
+                return entity
+        raise SimulationError(NOT_FOUND, f"entity: no entity named {name!r} (GetEntities lists them)")
+
+    def selected(self, pattern: str, categories: list[int], tags: list[str], bounded: bool) -> list[Entity]:
+        """Return the entities the standard's filters select."""
+        return select(self.entities(), pattern, categories, tags, bounded)
+
+    def state_of(self, entity: Entity) -> EntityState:
+        """Return the latest observed state (a device: its base frame's pose in the cell, /tf_static)."""
+        device = self.link.devices[entity.device]
+        if entity.kind == "device":
+            frame = self.link.cell_frames.get(device.base_frame)
+            if frame is None:
+                raise SimulationError(
+                    OPERATION_FAILED,
+                    f"entity: no /tf_static transform of {device.base_frame} seen yet (configure the device)",
+                )
+            return frame
+        state = self.link.state_of(device, entity.local)
+        if state is None:
+            raise SimulationError(
+                OPERATION_FAILED,
+                f"entity: {entity.name}: no state since the device was (re)configured; step once",
+            )
+        return state
+
+    # --- setting, spawning, deleting ------------------------------------------------------------------
+    async def set_state(self, name: str, frame_id: str, pose: Pose, code: int) -> None:
+        """Place a part at rest at ``pose`` (twist and acceleration checked by the caller)."""
+        entity = self.entity(name)
+        if entity.kind == "device":
+            raise SimulationError(
+                OPERATION_FAILED, f"entity: {entity.name} is fixed in the cell (its cell_pose parameter)"
+            )
+        device = self.link.devices[entity.device]
+        self._check_frame(device, frame_id, "state.header.frame_id", code)
+        if entity.kind == "array_part":
+            x, y, theta = planar_pose(*pose, "state.pose", code)
+            place = MemsPlaceParts.Request(names=[entity.local], x=[x], y=[y], theta=[theta])
+            await self.link.device_call(device.fqn, "place_parts", place, "set_entity_state")
+        else:
+            part = part_from_msg(device.part_documents[entity.local])
+            edge, radius = await self._arm_rest(device, part, pose, "state.pose", code)
+            place_arm = ArmPlacePart.Request(edge=edge, radius=radius)
+            await self.link.device_call(device.fqn, "place_part", place_arm, "set_entity_state")
+        self._placed(device, entity.local, pose)
+
+    async def spawn(
+        self,
+        spawnable: Spawnable,
+        name: str,
+        allow_renaming: bool,
+        namespace: str,
+        frame_id: str,
+        pose: Pose,
+        code: int,
+    ) -> str:
+        """Spawn a part onto the device ``namespace`` names; return its entity name."""
+        device = self._device_for_spawn(namespace)
+        name = check_name(name or spawnable.part.name)
+        taken = set(self._parts_of(device)) if device.kind == "mems_field_array" else set()
+        if name in taken:
+            if not allow_renaming:
+                raise SimulationError(
+                    NAME_NOT_UNIQUE, f"name: {device.fqn} already holds a part named {name!r}"
+                )
+            name = next(f"{name}_{k}" for k in range(2, 10_000) if f"{name}_{k}" not in taken)
+        self._check_frame(device, frame_id, "initial_pose.header.frame_id", code)
+        if device.kind == "mems_field_array":
+            at = planar_pose(*pose, "initial_pose.pose", code)
+        else:
+            edge, radius = await self._arm_rest(device, spawnable.part, pose, "initial_pose.pose", code)
+            at = (float(edge), radius, 0.0)
+        await self._spawn_record(SpawnRecord(device.fqn, name, spawnable, at))
+        self._placed(device, name, pose)
+        return f"{device.fqn.lstrip('/')}/{name}"
+
+    async def delete(self, name: str) -> None:
+        """Remove a part from the array (the arm's one part and the devices are not deleted)."""
+        entity = self.entity(name)
+        if entity.kind == "device":
+            raise SimulationError(
+                OPERATION_FAILED, f"entity: {entity.name} is a device of the scene; it is not deleted"
+            )
+        if entity.kind == "arm_part":
+            raise SimulationError(
+                OPERATION_FAILED,
+                f"entity: the throwing arm always holds one part: spawn a part onto it to replace "
+                f"{entity.name}",
+            )
+        remove = MemsRemovePart.Request(name=entity.local)
+        await self.link.device_call(entity.device, "remove_part", remove, "delete_entity")
+        self.spawned.pop(entity.name, None)
+        device = self.link.devices[entity.device]
+        if entity.local in device.parts:
+            device.parts.remove(entity.local)
+
+    @staticmethod
+    def spawnables(sources: list[str]) -> tuple[list[tuple[str, str]], list[str]]:
+        """Return (uri, description) of every part file in ``sources``, and the sources found empty.
+
+        A source is a directory (its part files, at most MAX_FILES_PER_SOURCE looked at) or a file.
+        """
+        found: list[tuple[str, str]] = []
+        unrecognized: list[str] = []
+        for source in filter(None, sources):
+            path = Path(source.removeprefix("file://"))
+            files = (
+                sorted(path.iterdir())[:MAX_FILES_PER_SOURCE]
+                if path.is_dir()
+                else [path]
+                if path.is_file()
+                else []
+            )
+            if not files:
+                unrecognized.append(source)
+            for file in files:
+                if len(found) >= MAX_SPAWNABLES or file.suffix.lower() not in PART_SUFFIXES:
+                    continue
+                try:
+                    part = read_spawnable(str(file), "").part
+                except SimulationError:
+                    continue  # a YAML file that is no part file (a program, a scene) is not spawnable
+                found.append((f"file://{file.resolve()}", f"part {part.name} ({file.name})"))
+        return found, unrecognized
+
+    # --- helpers -------------------------------------------------------------------------------------
+    @staticmethod
+    def _check_frame(device: Device, frame_id: str, field: str, code: int) -> None:
+        frame = device.frame_id or device.base_frame
+        if frame_id not in ("", frame):
+            raise SimulationError(
+                code, f"{field}: poses on {device.fqn} are in its frame {frame!r}, got {frame_id!r}"
+            )
+
+    async def _arm_rest(
+        self, device: Device, part: Part, pose: Pose, field: str, code: int
+    ) -> tuple[int, float]:
+        x, y, yaw = planar_pose(*pose, field, code)
+        offset = await self.link.parameter(device.fqn, "offset")
+        geometry = arm_part(part)
+        return arm_rest(x, y, yaw, geometry.edge_angle, geometry.d, offset, field, code)
+
+    def _placed(self, device: Device, name: str, pose: Pose) -> None:
+        """Remember a pose set or spawned: the entity's state until the device's next sample."""
+        frame = device.frame_id or device.base_frame
+        device.placed[name] = EntityState(frame, self.now_ns(), *pose)
+
+    def _device_for_spawn(self, namespace: str) -> Device:
+        if not namespace:
+            arrays = [d for d in self.link.devices.values() if d.kind == "mems_field_array"]
+            if len(arrays) == 1:
+                return arrays[0]
+            raise SimulationError(NAMESPACE_INVALID, "entity_namespace: name the device to spawn onto")
+        device = self.link.devices.get("/" + namespace.strip("/"))
+        if device is None or device.kind == "assembly_fixture":
+            holders = [d.fqn for d in self.link.devices.values() if d.kind != "assembly_fixture"]
+            raise SimulationError(
+                NAMESPACE_INVALID,
+                f"entity_namespace: {namespace!r} is no device parts spawn onto ({', '.join(holders)})",
+            )
+        return device
+
+    async def _spawn_record(self, record: SpawnRecord) -> None:
+        device = self.link.devices[record.device]
+        text, source = record.spawnable.text, record.spawnable.source
+        request: Any
+        if device.kind == "mems_field_array":
+            x, y, theta = record.pose
+            request = MemsSpawnPart.Request(
+                name=record.name, part_yaml=text, source=source, x=x, y=y, theta=theta
+            )
+            await self.link.device_call(device.fqn, "spawn_part", request, "spawn_entity")
+        else:
+            # The arm holds one part: the one it held before is replaced (and no longer a spawned entity).
+            for key in [k for k, r in self.spawned.items() if r.device == device.fqn]:
+                del self.spawned[key]
+            edge, radius = int(record.pose[0]), record.pose[1]
+            request = ArmLoadPart.Request(
+                name=record.name, part_yaml=text, source=source, edge=edge, radius=radius
+            )
+            await self.link.device_call(device.fqn, "load_part", request, "spawn_entity")
+        self.spawned[f"{device.fqn.lstrip('/')}/{record.name}"] = record
