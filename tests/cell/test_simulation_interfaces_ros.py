@@ -94,12 +94,12 @@ def harness(ros_domain: int, ros_client: Any, tmp_path_factory: pytest.TempPathF
         from simulation_interfaces.srv import GetEntities
 
         deadline = time.monotonic() + 90
-        while True:  # up when the three devices and their parts are listed
+        while True:  # up when the devices are configured: the array's and the arm's parts listed
             assert process.poll() is None, f"launch ended: {process.communicate()[1][-2000:]}"
-            response = harness.call(GetEntities, "get_entities")
-            if len(response.entities) >= 5:
+            names = list(harness.call(GetEntities, "get_entities").entities)
+            if f"{ARRAY}/plus" in names and any(n.startswith(f"{ARM}/") for n in names):
                 break
-            assert time.monotonic() < deadline, f"entities after 90 s: {list(response.entities)}"
+            assert time.monotonic() < deadline, f"entities after 90 s: {names}"
             time.sleep(0.5)
         yield harness
     finally:
@@ -166,6 +166,11 @@ def test_spawn_onto_the_array_and_simulate_steps_until_the_part_has_settled(harn
     )
     listed = harness.ok(GetEntities, "get_entities", filters=objects).entities
     assert f"{ARRAY}/square" in listed and ARRAY not in listed
+    # The fixture's assembly: its grounded bracket a static object, in the assembly frame that tilts.
+    static = EntityFilters(categories=[EntityCategory(category=EntityCategory.CATEGORY_STATIC_OBJECT)])
+    held = harness.ok(GetEntities, "get_entities", filters=static).entities
+    assert held and all(name.startswith("cell/assembly_fixture/") for name in held), held
+    assert harness.state(held[0]).header.frame_id == "cell/assembly"
     info = harness.ok(GetEntityInfo, "get_entity_info", entity=f"{ARRAY}/square").info
     assert info.category.category == EntityCategory.CATEGORY_OBJECT
     start = harness.state(f"{ARRAY}/square")

@@ -283,23 +283,26 @@ class CellSimulation(Node):
         await self.world.reset(control.reset_of_scope(int(request.scope)))
 
     # --- entities ------------------------------------------------------------------------------------
-    def _selected(self, filters: Any) -> list[Entity]:
+    async def _selected(self, filters: Any) -> list[Entity]:
+        await self.world.observe_fixtures()
         bounded = int(filters.bounds.type) != 0 or len(filters.bounds.points) > 0
         categories = [int(c.category) for c in filters.categories]
         return self.world.selected(filters.filter, categories, list(filters.tags.tags), bounded)
 
     async def _get_entities(self, request: GetEntities.Request, response: Any) -> None:
-        response.entities = [e.name for e in self._selected(request.filters)]
+        response.entities = [e.name for e in await self._selected(request.filters)]
 
     async def _get_entities_states(self, request: GetEntitiesStates.Request, response: Any) -> None:
-        selected = self._selected(request.filters)
+        selected = await self._selected(request.filters)
         response.entities = [e.name for e in selected]
         response.states = [state_msg(self.world.state_of(e)) for e in selected]
 
     async def _get_entity_state(self, request: GetEntityState.Request, response: Any) -> None:
+        await self.world.observe_fixtures()
         response.state = state_msg(self.world.state_of(self.world.entity(request.entity)))
 
     async def _get_entity_info(self, request: GetEntityInfo.Request, response: Any) -> None:
+        await self.world.observe_fixtures()
         entity = self.world.entity(request.entity)
         response.info = EntityInfo(description=entity.description)
         response.info.category.category = entity.category

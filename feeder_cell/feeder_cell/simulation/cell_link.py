@@ -129,6 +129,9 @@ class CellLink:
             self.node.create_subscription(
                 PoseStamped, f"{fqn}/part_pose", lambda m, d=device: self._on_part_pose(d, m), STREAM_QOS
             )
+        else:  # the fixture: its bodies are those of the assembly its assembly_file parameter names
+            services |= {"get_parameters": GetParameters}
+            device.frame_id = f"{namespace}/assembly" if namespace else "assembly"
         for name, srv in services.items():
             self.clients[(fqn, name)] = self.node.create_client(
                 srv, f"{fqn}/{name}", callback_group=self.group
@@ -255,8 +258,8 @@ class CellLink:
             raise SimulationError(OPERATION_FAILED, f"{self.clock_node}/step: {response.error}")
         return nanoseconds(response.now)
 
-    async def parameter(self, fqn: str, name: str) -> float:
-        """Return a device's numeric parameter (its client made at start: a new one may lose a reply)."""
+    async def parameter(self, fqn: str, name: str) -> float | str:
+        """Return a device's number or string parameter (the client is made at start: see call)."""
         request = GetParameters.Request(names=[name])
         response = await self.call(self.clients[(fqn, "get_parameters")], request, f"{fqn} parameter {name}")
         value = response.values[0]
@@ -264,7 +267,9 @@ class CellLink:
             return float(value.double_value)
         if value.type == ParameterType.PARAMETER_INTEGER:
             return float(value.integer_value)
-        raise SimulationError(OPERATION_FAILED, f"{fqn}: parameter {name} is not a number")
+        if value.type == ParameterType.PARAMETER_STRING:
+            return str(value.string_value)
+        raise SimulationError(OPERATION_FAILED, f"{fqn}: parameter {name} is neither a number nor a string")
 
     async def lifecycle(self, fqn: str) -> str:
         """Return the device's primary lifecycle state (unconfigured, inactive, active, ...)."""

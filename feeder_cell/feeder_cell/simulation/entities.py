@@ -3,7 +3,8 @@
 Entity names are the device's fully qualified node name without its leading slash, and a part's or a
 body's name under it: ``cell/mems_field_array`` (the device itself, CATEGORY_ROBOT),
 ``cell/mems_field_array/plus`` (a part on the array), ``cell/throwing_arm/triangle`` (the part the arm
-holds), ``cell/assembly_fixture/block`` (a body the fixture holds); parts and bodies are CATEGORY_OBJECT.
+holds), ``cell/assembly_fixture/block`` (a body of the assembly the fixture holds); parts and free bodies
+are CATEGORY_OBJECT, grounded bodies (the bracket) CATEGORY_STATIC_OBJECT.
 A name stays the same for as long as the thing exists, so a harness can keep it between calls.
 """
 
@@ -17,6 +18,7 @@ from feeder_cell.simulation.results import FEATURE_UNSUPPORTED, OPERATION_FAILED
 __all__ = [
     "CATEGORY_OBJECT",
     "CATEGORY_ROBOT",
+    "CATEGORY_STATIC_OBJECT",
     "MAX_FILTER_CHARS",
     "Entity",
     "EntityState",
@@ -25,7 +27,7 @@ __all__ = [
 ]
 
 # simulation_interfaces/msg/EntityCategory
-CATEGORY_OBJECT, CATEGORY_ROBOT = 0, 1
+CATEGORY_OBJECT, CATEGORY_ROBOT, CATEGORY_STATIC_OBJECT = 0, 1, 5
 # A name filter longer than any entity name list could need is refused, not compiled.
 MAX_FILTER_CHARS = 1000
 

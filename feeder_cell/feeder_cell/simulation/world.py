@@ -13,7 +13,14 @@ from typing import Any, Callable
 
 from feeder_cell.simulation.cell_link import CellLink, Device
 from feeder_cell.simulation.control import Reset
-from feeder_cell.simulation.entities import CATEGORY_OBJECT, Entity, EntityState, device_entity, select
+from feeder_cell.simulation.entities import (
+    CATEGORY_OBJECT,
+    CATEGORY_STATIC_OBJECT,
+    Entity,
+    EntityState,
+    device_entity,
+    select,
+)
 from feeder_cell.simulation.results import (
     NAME_NOT_UNIQUE,
     NAMESPACE_INVALID,
@@ -30,6 +37,9 @@ from feeder_cell.simulation.spawning import (
     read_spawnable,
 )
 from feeder_msgs.srv import ArmLoadPart, ArmPlacePart, MemsPlaceParts, MemsRemovePart, MemsSpawnPart
+from feeder_planner.assembly.model import Body
+from feeder_planner.assembly.parameters import load_assembly_parameter
+from feeder_planner.errors import InputError
 from feeder_planner.node_kit.msg_parts import part_from_msg
 from feeder_planner.parts import Part
 from feeder_planner.throwing.geometry import arm_part
@@ -61,6 +71,7 @@ class CellWorld:
         self.spawned: dict[str, SpawnRecord] = {}
         self.stopped = False
         self.stopped_active: list[str] = []
+        self.bodies: dict[str, list[Body]] = {}  # a fixture's assembly bodies, read once (read-only)
 
     # --- lifecycle: STOPPED and back, resets ---------------------------------------------------------
     async def stop(self) -> None:
@@ -96,6 +107,17 @@ class CellWorld:
                 del self.spawned[name]
 
     # --- entities ------------------------------------------------------------------------------------
+    async def observe_fixtures(self) -> None:
+        """Read the assembly of every fixture not read yet (its assembly_file parameter, read-only)."""
+        for device in self.link.devices.values():
+            if device.kind != "assembly_fixture" or device.fqn in self.bodies:
+                continue
+            try:
+                path = await self.link.parameter(device.fqn, "assembly_file")
+                self.bodies[device.fqn] = list(load_assembly_parameter(str(path)).bodies)
+            except (SimulationError, InputError):
+                continue  # not up yet, or no assembly it could load: no bodies listed until it is
+
     def entities(self) -> list[Entity]:
         """Return every entity of the cell now: the devices and the parts they hold."""
         found: list[Entity] = []
@@ -108,6 +130,20 @@ class CellWorld:
                 origin = f"spawned from {record.spawnable.source}" if record else "configured"
                 description = f"part {part} on {device.fqn} ({origin})"
                 found.append(Entity(name, CATEGORY_OBJECT, description, device.fqn, kind, part, bool(record)))
+            for body in self.bodies.get(device.fqn, []):
+                category = CATEGORY_STATIC_OBJECT if body.grounded else CATEGORY_OBJECT
+                held = "grounded" if body.grounded else "free"
+                description = f"body {body.name} ({held}) of the assembly {device.fqn} holds"
+                found.append(
+                    Entity(
+                        f"{device.fqn.lstrip('/')}/{body.name}",
+                        category,
+                        description,
+                        device.fqn,
+                        "fixture_body",
+                        body.name,
+                    )
+                )
         return found
 
     def _parts_of(self, device: Device) -> list[str]:
@@ -139,6 +175,13 @@ class CellWorld:
                     f"entity: no /tf_static transform of {device.base_frame} seen yet (configure the device)",
                 )
             return frame
+        if entity.kind == "fixture_body":
+            # Held in the assembly frame, which tilts with the table on /tf: the centre of mass, static.
+            body = next(b for b in self.bodies[device.fqn] if b.name == entity.local)
+            stamp = self.now_ns()
+            return EntityState(
+                device.frame_id, stamp, (float(body.center[0]), float(body.center[1]), float(body.center[2]))
+            )
         state = self.link.state_of(device, entity.local)
         if state is None:
             raise SimulationError(
@@ -154,6 +197,10 @@ class CellWorld:
         if entity.kind == "device":
             raise SimulationError(
                 OPERATION_FAILED, f"entity: {entity.name} is fixed in the cell (its cell_pose parameter)"
+            )
+        if entity.kind == "fixture_body":
+            raise SimulationError(
+                OPERATION_FAILED, f"entity: {entity.name} is held by the fixture: tilt the fixture"
             )
         device = self.link.devices[entity.device]
         self._check_frame(device, frame_id, "state.header.frame_id", code)
@@ -204,6 +251,10 @@ class CellWorld:
         if entity.kind == "device":
             raise SimulationError(
                 OPERATION_FAILED, f"entity: {entity.name} is a device of the scene; it is not deleted"
+            )
+        if entity.kind == "fixture_body":
+            raise SimulationError(
+                OPERATION_FAILED, f"entity: {entity.name} is a body of the fixture's assembly"
             )
         if entity.kind == "arm_part":
             raise SimulationError(
@@ -260,7 +311,7 @@ class CellWorld:
         self, device: Device, part: Part, pose: Pose, field: str, code: int
     ) -> tuple[int, float]:
         x, y, yaw = planar_pose(*pose, field, code)
-        offset = await self.link.parameter(device.fqn, "offset")
+        offset = float(await self.link.parameter(device.fqn, "offset"))
         geometry = arm_part(part)
         return arm_rest(x, y, yaw, geometry.edge_angle, geometry.d, offset, field, code)
 
