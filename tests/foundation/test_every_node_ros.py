@@ -53,6 +53,7 @@ def test_readme_lists_every_node() -> None:
             ("cell_controller", "feeder_cell"),
             ("opcua_gateway", "feeder_cell"),
             ("cell_clock", "feeder_cell"),
+            ("cell_simulation", "feeder_cell"),
         ]
     )
 
