@@ -129,8 +129,13 @@ def test_the_cell_gives_the_same_run_at_every_pace_quiet_and_loaded(tmp_path: Pa
     # Every sample of the arm's configured rate (100 Hz) in cell time, none dropped: 10 per quantum.
     assert counts["/cell/throwing_arm/joint_states"] >= 100 * (CYCLE_SPAN_S - 1.0)
 
-    runs = [("5", "5", end, False), ("1", "1", START_S + FACTOR_1_SPAN_S, False)]
-    runs += [("max_loaded", "max", end, True), ("5_loaded", "5", end, True)]
+    # Loaded at 5, not also at max: a loaded host changes only when each answer comes, which the paced run
+    # exposes as well (the loaded factor-5 run found the last wall-clock dependence, a MEMS status).
+    runs = [
+        ("5", "5", end, False),
+        ("1", "1", START_S + FACTOR_1_SPAN_S, False),
+        ("5_loaded", "5", end, True),
+    ]
     for name, factor, span_end, loaded in runs:
         # --duration counts wall time from the launch's own bring-up, before the recorder has joined and the
         # clock left its start time: a margin of 4 s.
