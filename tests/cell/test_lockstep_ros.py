@@ -1,8 +1,8 @@
 """The lockstep cell clock with real processes: the same run at every pace, quiet or loaded; a dead device.
 
 The determinism test launches the cell scene (its three devices, planners and the reference controller,
-one production cycle) with a fixed start time and a recorded bag at ``max``, at 5 and at 1, on a quiet
-machine and with a CPU hog on both cores, and compares every bag with the first message by message
+one production cycle) with a fixed start time and a recorded bag at ``max``, at 5 and at 1 on a quiet
+machine, and at 5 with a CPU hog on both cores, and compares every bag with the first message by message
 (``feeder bag-compare``: data fields, header stamps and log times; wall-clock topics and fields
 excepted). The factor-1 run covers a fixed span of cell time only, to keep the wall time modest.
 """
