@@ -224,7 +224,10 @@ class CellClock(Node):
     def _on_answer(self, role: str, msg: Header) -> None:
         barrier = cast(Barrier, self.barrier)
         leave = msg.stamp.sec == LEAVE_SEC
-        barrier.answer(role, msg.frame_id, -1 if leave else _nanoseconds(msg.stamp), leave)
+        # The answer names the node without the leading slash (a frame id has none); the barrier knows it
+        # by its fully qualified name.
+        name = "/" + msg.frame_id.lstrip("/")
+        barrier.answer(role, name, -1 if leave else _nanoseconds(msg.stamp), leave)
         self._pump()
 
     def _on_lockstep_timer(self) -> None:

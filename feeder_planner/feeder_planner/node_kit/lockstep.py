@@ -20,11 +20,11 @@ observe    ``/lockstep/quiet``             ``/lockstep/observed``     take in ev
 A participant runs on sim time and sets its node clock to T as it hears its announcement (``/clock`` itself is
 published at most ``clock_rate`` times per wall second, for the nodes that do not join: they see a faster,
 coarser clock and are not woken once per quantum). An answer is a ``std_msgs/Header``: ``frame_id`` the node's
-fully qualified name, ``stamp`` the cell time it is done with. The first answer joins (any stamp; the node is
-waited for from the next quantum on); ``stamp.sec == -1`` leaves. Answers must be published reliably. A
-participant that does not answer within the clock's ``lockstep_timeout`` (wall seconds) is dropped from the
-lockstep with an ERROR in ``/diagnostics`` naming it. A node that does not join simply sees a faster
-``/clock``.
+fully qualified name without its leading slash (a frame id never starts with one), ``stamp`` the cell time it
+is done with. The first answer joins (any stamp; the node is waited for from the next quantum on);
+``stamp.sec == -1`` leaves. Answers must be published reliably. A participant that does not answer within
+the clock's ``lockstep_timeout`` (wall seconds) is dropped from the lockstep with an ERROR in ``/diagnostics``
+naming it. A node that does not join simply sees a faster ``/clock``.
 
 Why the phases: DDS delivers the messages one process sends to another in order, and a participant
 answers only after it has sent everything the quantum caused. So when a controller sees
@@ -140,7 +140,8 @@ class Participant:
             raise ValueError(f"lockstep role must be one of {', '.join(ROLES)}, got {role!r}")
         self.node = node
         self.role = role
-        self.name = node.get_fully_qualified_name()
+        # The node's fully qualified name without its leading slash: a Header's frame_id never has one.
+        self.name = node.get_fully_qualified_name().lstrip("/")
         self.on_announce = on_announce
         self.hold = hold
         # Called once, after the node clock is set by the first announcement (and before its work): what

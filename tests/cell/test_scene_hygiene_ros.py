@@ -1,0 +1,181 @@
+"""A running scene as an integrator meets it: frame ids tf2 accepts, and every node stopping cleanly.
+
+Each test launches a scene with ``feeder launch`` on a domain of its own and ends it by pid.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any, Iterator
+
+import pytest
+import ros_harness
+
+ROOT = Path(__file__).resolve().parents[2]
+FEEDER = [sys.executable, "-m", "feeder_cell.cli.main", "launch"]
+
+pytestmark = pytest.mark.ros
+
+
+def _env(domain: int) -> dict[str, str]:
+    return dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+
+
+def _node_pids(parent: int) -> list[int]:
+    """Pids of the node processes the launcher started: its children that run with --ros-args."""
+    pids = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            ppid = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
+            cmdline = (entry / "cmdline").read_bytes().decode(errors="replace")
+        except (OSError, IndexError, ValueError):
+            continue
+        if ppid == parent and "--ros-args" in cmdline:
+            pids.append(int(entry.name))
+    return pids
+
+
+def _end(process: subprocess.Popen[str]) -> tuple[str, str]:
+    """Interrupt a launch and return its output (killed if it does not end)."""
+    if process.poll() is None:
+        process.send_signal(signal.SIGINT)
+    try:
+        return process.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        return process.communicate()
+
+
+# --- frame ids --------------------------------------------------------------------------------------
+def bad_frame_ids(message: Any, path: str = "") -> Iterator[str]:
+    """Yield ``path: frame id`` for every frame id in ``message`` that starts with a slash.
+
+    Walks the message by rosidl's introspection (``get_fields_and_field_types``), into nested messages
+    and sequences and arrays of them: every ``std_msgs/Header``'s ``frame_id`` and every
+    ``child_frame_id`` (a tf transform's, an odometry's).
+    """
+    fields = getattr(type(message), "get_fields_and_field_types", None)
+    if fields is None:
+        return
+    for name, type_name in fields().items():
+        value = getattr(message, name)
+        where = f"{path}.{name}" if path else name
+        if isinstance(value, str):
+            header_field = name == "frame_id" and type(message).__name__ == "Header"
+            if (header_field or name == "child_frame_id") and value.startswith("/"):
+                yield f"{where}: {value!r}"
+        elif "/" in type_name and not type_name.startswith(("sequence<", "string")) and "[" not in type_name:
+            yield from bad_frame_ids(value, where)
+        elif "/" in type_name and isinstance(value, (list, tuple)):
+            for index, item in enumerate(value):
+                yield from bad_frame_ids(item, f"{where}[{index}]")
+
+
+def test_the_frame_id_walk_finds_headers_in_arrays_and_tf_children() -> None:
+    from geometry_msgs.msg import TransformStamped
+    from std_msgs.msg import Header
+    from tf2_msgs.msg import TFMessage
+    from visualization_msgs.msg import Marker, MarkerArray
+
+    tf = TFMessage(transforms=[TransformStamped(), TransformStamped()])
+    tf.transforms[1].header.frame_id, tf.transforms[1].child_frame_id = "cell", "/arm"
+    assert list(bad_frame_ids(tf)) == ["transforms[1].child_frame_id: '/arm'"]
+    markers = MarkerArray(markers=[Marker(), Marker()])
+    markers.markers[0].header.frame_id = "/cell/assembly"
+    assert list(bad_frame_ids(markers)) == ["markers[0].header.frame_id: '/cell/assembly'"]
+    assert list(bad_frame_ids(Header(frame_id="/cell/arm"))) == ["frame_id: '/cell/arm'"]
+    assert list(bad_frame_ids(Header(frame_id="cell/arm"))) == []
+
+
+def test_no_published_frame_id_starts_with_a_slash(tmp_path: Path) -> None:
+    """Every topic the cell scene's nodes publish (clock, simulation, devices, planners, controller)."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+
+    from feeder_cell.bag.qos import matching_qos, offered_qos
+    from feeder_cell.bag.types import message_class
+    from feeder_cell.launcher import load_scene
+
+    names = {s.fully_qualified_name for s in load_scene(ROOT / "feeder_cell/scenes/cell.yaml").nodes}
+    names |= {"/cell_clock", "/cell_simulation"}
+    lease = ros_harness.DomainLease()
+    launch = subprocess.Popen(
+        [*FEEDER, str(ROOT / "feeder_cell/scenes/cell.yaml"), "--real-time-factor", "max"]
+        + ["--log-dir", str(tmp_path / "logs"), "--json"],
+        env=_env(lease.domain),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=lease.domain)
+    node = rclpy.create_node("frame_id_probe", context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    seen: dict[str, int] = {}
+    bad: dict[str, str] = {}
+
+    def on_message(topic: str, message: Any) -> None:
+        seen[topic] = seen.get(topic, 0) + 1
+        for found in bad_frame_ids(message):
+            bad.setdefault(topic, found)
+
+    try:
+        subscribed: set[str] = set()
+        deadline = time.monotonic() + 60
+        last_new = time.monotonic()
+        # Until no new topic has appeared for 8 s and the arm has thrown (a whole cycle's topics), or 60 s.
+        while time.monotonic() < deadline and (time.monotonic() - last_new < 8 or not subscribed):
+            assert launch.poll() is None, f"the launch ended early: {launch.communicate()[1][-1500:]}"
+            for name, ns in node.get_node_names_and_namespaces():
+                fqn = f"{ns.rstrip('/')}/{name}"
+                if fqn not in names:
+                    continue
+                for topic, types in node.get_publisher_names_and_types_by_node(name, ns):
+                    if topic in subscribed or topic in ("/rosout", "/parameter_events") or len(types) != 1:
+                        continue
+                    publishers = node.get_publishers_info_by_topic(topic)
+                    if not publishers:
+                        continue
+                    subscribed.add(topic)
+                    last_new = time.monotonic()
+                    node.create_subscription(
+                        message_class(types[0]),
+                        topic,
+                        lambda m, t=topic: on_message(t, m),
+                        matching_qos(*offered_qos(publishers), depth=100),
+                    )
+            for _ in range(20):
+                executor.spin_once(timeout_sec=0.02)
+        out, err = _end(launch)
+    finally:
+        if launch.poll() is None:
+            _end(launch)
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        lease.release()
+    assert bad == {}, f"frame ids with a leading slash: {bad}"
+    # What was walked: the lockstep answers (Header), tf, markers, device streams and statuses.
+    for topic in (
+        "/lockstep/ticked",
+        "/tf_static",
+        "/cell/throwing_arm/status",
+        "/cell/throwing_arm/joint_states",
+        "/cell/mems_field_array/part_states",
+        "/cell/assembly_fixture/joint_states",
+    ):
+        assert seen.get(topic, 0) > 0, f"nothing heard on {topic}: {sorted(seen)}"
+    assert len(seen) >= 25, sorted(seen)
+    summary = json.loads(out)
+    assert all(n["exit_code"] == 0 for n in summary["nodes"]), [
+        (n["name"], n["exit_code"]) for n in summary["nodes"]
+    ]
