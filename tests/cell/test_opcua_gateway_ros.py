@@ -16,9 +16,9 @@ from typing import Any, Awaitable, Callable
 import pytest
 import ros_harness
 from asyncua import Client, ua
-from asyncua.ua.uaerrors import BadUserAccessDenied, UaError
+from asyncua.ua.uaerrors import BadNotWritable, BadUserAccessDenied, UaError
 
-from feeder_cell.gateway import layout
+from feeder_cell.gateway import layout, units
 from feeder_cell.gateway.config import packml_state
 from feeder_cell.gateway.users import hash_password
 from feeder_msgs.msg import DeviceStatus
@@ -327,10 +327,12 @@ def test_bad_arguments_return_bad_codes_naming_the_argument_and_the_gateway_keep
         result = await s.call(arm, "FeedPart", u32(2))
         assert result.StatusCode.value == ua.StatusCodes.BadArgumentsMissing
         assert "Timeout" in result.OutputArguments[0].Value
+        # A wrong type: Bad_InvalidArgument for the call, Bad_TypeMismatch for the argument (OPC 10000-4).
         result = await s.call(arm, "FeedPart", text("three"), dbl(1.0))
-        assert result.StatusCode.value == ua.StatusCodes.BadTypeMismatch and "MaxThrows" in _diagnostic(
+        assert result.StatusCode.value == ua.StatusCodes.BadInvalidArgument and "MaxThrows" in _diagnostic(
             result, 0
         )
+        assert result.InputArgumentResults[0].value == ua.StatusCodes.BadTypeMismatch
         result = await s.call(mems, "RunProgram", text("{steps: []}"), dbl(5.0), dbl(0.0), dbl(0.0))
         assert result.StatusCode.value == ua.StatusCodes.BadInvalidArgument
         assert "Program.steps" in _diagnostic(result, 0)
@@ -352,6 +354,222 @@ def test_bad_arguments_return_bad_codes_naming_the_argument_and_the_gateway_keep
         assert await s.read(arm, "Command.LastStatus") == "Good"
 
     session(gateway, scenario)
+
+
+# --- the status code table of docs/cell.md, one test per row ---------------------------------------------
+
+
+def test_status_code_bad_invalid_state_feed_part_while_the_arm_is_busy_with_another_clients_goal(
+    gateway: str, ros_client: Any
+) -> None:
+    from feeder_msgs.action import FeedPart
+    from feeder_planner.node_kit.action_client import ActionClient
+
+    # Another controller (a ROS client) keeps the arm busy: its sensor stuck false, a goal of many throws.
+    other = ActionClient(ros_client, FeedPart, f"{ARM}/feed_part")
+    assert other.wait_for_server(timeout_sec=30)
+
+    async def scenario(s: Session) -> None:
+        key = KEYS["arm"]
+        await idle(s, key)
+        response = await asyncio.to_thread(
+            ros_harness.inject_fault, ros_client, ARM, "sensor_stuck", state=False
+        )
+        assert response.ok, response.error
+        handle = None
+        deadline = time.monotonic() + 30
+        while handle is None or not handle.accepted:  # a reply may be lost to late discovery: repeat
+            assert time.monotonic() < deadline, "the arm never accepted the other client's goal"
+            future = other.send_goal_async(FeedPart.Goal(max_throws=10_000, timeout=0.0))
+            handle = await asyncio.to_thread(_result_of, future, 5.0)
+        try:
+            await s.wait_for(key, "Status.Busy", lambda v: v is True)
+            goals = await s.read(key, "Command.GoalCount")
+            result = await s.call(key, "FeedPart", u32(3), dbl(5.0))
+            assert result.StatusCode.value == ua.StatusCodes.BadInvalidState, result
+            assert all(code.is_good() for code in result.InputArgumentResults), result
+            assert await s.read(key, "Command.LastStatus") == "BadInvalidState"
+            assert await s.read(key, "Command.GoalCount") == goals
+        finally:
+            await asyncio.to_thread(_result_of, handle.cancel_goal_async(), 10.0)
+            await s.good(key, "Reset")  # clears the injected fault
+        await idle(s, key)
+
+    session(gateway, scenario)
+
+
+def _result_of(future: Any, timeout: float) -> Any:
+    deadline = time.monotonic() + timeout
+    while not future.done():
+        if time.monotonic() > deadline:
+            return None
+        time.sleep(0.02)
+    return future.result()
+
+
+def test_status_code_bad_method_invalid_a_method_called_on_another_devices_object(gateway: str) -> None:
+    async def scenario(s: Session) -> None:
+        arm, mems = KEYS["arm"], KEYS["mems"]
+        await ready(s, arm)
+        goals = await s.read(arm, "Command.GoalCount")
+        request = ua.CallMethodRequest()
+        request.ObjectId = ua.NodeId(mems, s.idx)  # the MEMS array's object, the arm's FeedPart
+        request.MethodId = ua.NodeId(layout.method_id(arm, "FeedPart"), s.idx)
+        request.InputArguments = [u32(1), dbl(1.0)]
+        (result,) = await s.client.uaclient.call([request])
+        assert result.StatusCode.value == ua.StatusCodes.BadMethodInvalid, result
+        assert mems in result.OutputArguments[0].Value and arm in result.OutputArguments[0].Value
+        assert await s.read(arm, "Command.GoalCount") == goals  # nothing ran
+        # Stop and Reset of one device, called on another: refused alike.
+        request.MethodId = ua.NodeId(layout.method_id(arm, "Reset"), s.idx)
+        request.InputArguments = []
+        (result,) = await s.client.uaclient.call([request])
+        assert result.StatusCode.value == ua.StatusCodes.BadMethodInvalid, result
+
+    session(gateway, scenario)
+
+
+def test_status_code_bad_not_writable_writing_a_read_only_variable(gateway: str) -> None:
+    async def scenario(s: Session) -> None:
+        for key, path, variant in (
+            (KEYS["arm"], "Command.Busy", ua.Variant(True, ua.VariantType.Boolean)),
+            (KEYS["arm"], "Status.Counters.throws", ua.Variant(0, ua.VariantType.UInt64)),
+            (KEYS["fixture"], "Signals.TiltX", ua.Variant(0.5, ua.VariantType.Double)),
+        ):
+            with pytest.raises(BadNotWritable):
+                await s.node(key, path).write_value(ua.DataValue(variant))
+        with pytest.raises(BadNotWritable):  # another attribute than Value: its WriteMask is 0
+            await s.node(KEYS["arm"], "Command.Busy").write_attribute(
+                ua.AttributeIds.DisplayName, ua.DataValue(ua.Variant(ua.LocalizedText("Idle")))
+            )
+        assert await s.read(KEYS["arm"], "Command.Busy") is False
+
+    session(gateway, scenario)
+
+
+def test_status_code_bad_type_mismatch_an_argument_of_another_type_in_every_method(gateway: str) -> None:
+    async def scenario(s: Session) -> None:
+        arm, mems, fixture = KEYS["arm"], KEYS["mems"], KEYS["fixture"]
+        for key in KEYS.values():
+            await ready(s, key)
+        goals = {key: await s.read(key, "Command.GoalCount") for key in KEYS.values()}
+        int32, float32 = ua.VariantType.Int32, ua.VariantType.Float
+        for key, method, args, index in (
+            (arm, "FeedPart", [ua.Variant(3, int32), dbl(5.0)], 0),  # Int32 for the UInt32 MaxThrows
+            (arm, "FeedPart", [u32(3), ua.Variant(5, int32)], 1),  # Int32 for the Double Timeout
+            (mems, "RunProgram", [text(RADIAL), ua.Variant(5.0, float32), dbl(0.0), dbl(0.0)], 1),
+            (mems, "RunProgram", [u32(1), dbl(5.0), dbl(0.0), dbl(0.0)], 0),
+            (fixture, "FollowPath", [ua.Variant([0, 0], int32, is_array=True), dbls([])], 0),
+            (fixture, "FollowPath", [dbl(0.1), dbls([])], 0),  # a scalar for an array
+        ):
+            result = await s.call(key, method, *args)
+            assert result.StatusCode.value == ua.StatusCodes.BadInvalidArgument, (method, args, result)
+            codes = [c.value for c in result.InputArgumentResults]
+            assert codes[index] == ua.StatusCodes.BadTypeMismatch, (method, args, result)
+            assert all(c == ua.StatusCodes.Good for i, c in enumerate(codes) if i != index), result
+            assert "expected" in _diagnostic(result, index)
+        for key in KEYS.values():
+            assert await s.read(key, "Command.GoalCount") == goals[key]
+
+    session(gateway, scenario)
+
+
+# --- standard types: units, counters, build info; Busy with the state ---------------------------------
+
+
+def test_engineering_units_uint32_counters_and_build_info(gateway: str) -> None:
+    async def scenario(s: Session) -> None:
+        build = await s.client.get_node(ua.ObjectIds.Server_ServerStatus_BuildInfo).read_value()
+        assert build.ProductName == "feeder opcua_gateway" and build.SoftwareVersion == "0.1.0", build
+        assert "FreeOpcUa" not in f"{build.ProductName} {build.ManufacturerName}"
+        for key, kind in zip(
+            KEYS.values(), ("throwing_arm", "mems_field_array", "assembly_fixture"), strict=True
+        ):
+            for spec in layout.variables(kind):
+                if not spec.unit:
+                    continue
+                node = s.node(key, spec.path)
+                assert (await node.read_type_definition()).Identifier == ua.ObjectIds.BaseAnalogType
+                info = await (await node.get_child("0:EngineeringUnits")).read_value()
+                assert info.NamespaceUri == units.UNECE_NAMESPACE
+                assert info.UnitId == units.unit_id(spec.unit), spec.path
+                assert info.DisplayName.Text == units.UNITS[spec.unit].symbol
+        arm = KEYS["arm"]
+        await s.wait_for(arm, "Status.Counters32.throws", lambda v: v is not None)
+        wide, narrow, values, values32 = await s.client.read_values(
+            [
+                s.node(arm, "Status.Counters.throws"),
+                s.node(arm, "Status.Counters32.throws"),
+                s.node(arm, "Status.CounterValues"),
+                s.node(arm, "Status.CounterValues32"),
+            ]
+        )
+        assert narrow == wide % 2**32 and values32 == [v % 2**32 for v in values]
+        dv = await s.node(arm, "Status.Counters32.throws").read_data_value()
+        assert dv.Value.VariantType == ua.VariantType.UInt32
+
+    session(gateway, scenario)
+
+
+def test_busy_and_the_state_change_in_one_publish_and_last_outcome_cleared_at_the_start(
+    gateway: str, ros_client: Any
+) -> None:
+    async def scenario(s: Session) -> None:
+        key = KEYS["arm"]
+        await idle(s, key)
+        assert await s.run(key, "FeedPart", u32(1), dbl(0.0)) in ("PRESENTED", "MAX_THROWS")
+        response = await asyncio.to_thread(
+            ros_harness.inject_fault, ros_client, ARM, "sensor_stuck", state=False
+        )
+        assert response.ok, response.error
+        publishes: list[tuple[int, Any]] = []  # (sequence number, value) of every notification
+        subscription = await s.client.create_subscription(20, _Ignore())
+        original = subscription.publish_callback
+
+        async def recording(result: ua.PublishResult) -> None:
+            sequence = result.NotificationMessage.SequenceNumber
+            for data in result.NotificationMessage.NotificationData or []:
+                if isinstance(data, ua.DataChangeNotification):
+                    publishes.extend((sequence, item.Value.Value.Value) for item in data.MonitoredItems)
+            await original(result)
+
+        # The client's publish loop calls the callback registered for the subscription: record each
+        # publish's notifications with its sequence number, then hand them on.
+        s.client.uaclient._subscription_callbacks[subscription.subscription_id] = recording
+        await subscription.subscribe_data_change(
+            [s.node(key, p) for p in ("Command.Busy", "Status.PackMLState", "Command.LastOutcome")]
+        )
+        try:
+            await _until(lambda: "Idle" in [v for _, v in publishes], 10, "the initial values")
+            await s.good(key, "FeedPart", u32(10_000), dbl(0.0))
+            await _until(lambda: any(v is True for _, v in publishes), 10, "Command.Busy true")
+            busy_in = next(seq for seq, v in publishes if v is True)
+            together = [v for seq, v in publishes if seq == busy_in]
+            assert "Execute" in together, publishes  # one publish: Busy true and the state Execute
+            assert "" in together or await s.read(key, "Command.LastOutcome") == "", publishes
+            assert await s.read(key, "Command.LastOutcome") == ""
+            assert await s.read(key, "Command.LastOutcomeCode") == 0
+        finally:
+            await subscription.delete()
+            await s.good(key, "Stop")
+            await s.wait_for(key, "Command.Busy", lambda v: v is False)
+            await s.good(key, "Reset")
+        assert await s.read(key, "Command.LastOutcome") == "CANCELED"
+        await idle(s, key)
+
+    session(gateway, scenario)
+
+
+class _Ignore:
+    def datachange_notification(self, node: Any, value: Any, data: Any) -> None:
+        pass
+
+
+async def _until(condition: Callable[[], bool], timeout: float, what: str) -> None:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < deadline, f"{what}: not within {timeout:g} s"
+        await asyncio.sleep(0.02)
 
 
 # --- a whole cycle through OPC UA ------------------------------------------------------------------------

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from feeder_cell.gateway import layout
+from feeder_cell.gateway import layout, units
 from feeder_cell.gateway.arguments import Argument, ArgumentError
 from feeder_cell.gateway.config import (
     check_security,
@@ -167,7 +167,7 @@ def _refused(call: object, *args: object) -> ArgumentError:
 def test_feed_part_arguments() -> None:
     goal = check_feed_part(FEED, [u(5), d(2.5)])
     assert (goal.max_throws, goal.timeout) == (5, 2.5)
-    assert check_feed_part(FEED, [Argument(3, "Int64"), Argument(0, "Int64")]).timeout == 0.0
+    assert check_feed_part(FEED, [u(3), d(0.0)]).timeout == 0.0
     error = _refused(check_feed_part, FEED, [u(0), d(1.0)])
     assert (error.status, error.index) == ("BadInvalidArgument", 0) and "MaxThrows" in error.message
     error = _refused(check_feed_part, FEED, [u(1), d(math.nan)])
@@ -254,3 +254,53 @@ def test_layout_ids_are_unique_per_device() -> None:
         assert {"Status.PackMLState", "Status.FaultCode", "Command.LastOutcome", "Command.Busy"} <= set(paths)
         assert [m.name for m in layout.methods(kind)] == [layout.ACTIONS[kind].name, "Stop", "Reset"]
     assert layout.variable_id("cell.throwing_arm", "Signals.Sensor") == "cell.throwing_arm.Signals.Sensor"
+
+
+def test_argument_types_are_matched_exactly_in_every_method() -> None:
+    # One rule everywhere: the declared built-in type, whatever the value (Int32 3 is not a UInt32, and
+    # Double 3.0 is a Double like any other); an empty array argument may arrive as a Null variant.
+    for args, index in (
+        ([Argument(3, "Int32"), d(1.0)], 0),
+        ([Argument(3, "Int64"), d(1.0)], 0),
+        ([u(3), Argument(3, "Int32")], 1),
+        ([u(3), Argument(3.0, "Float")], 1),
+    ):
+        error = _refused(check_feed_part, FEED, args)
+        assert (error.status, error.index) == ("BadTypeMismatch", index), args
+    assert check_feed_part(FEED, [u(3), d(3.0)]).timeout == 3.0
+    error = _refused(
+        check_run_program,
+        RUN,
+        [
+            Argument("{steps: [{field: {type: radial, center: [0, 0]}}]}", "String"),
+            Argument(5, "Int32"),
+            d(0),
+            d(0),
+        ],
+        "",
+    )
+    assert (error.status, error.index) == (
+        "BadTypeMismatch",
+        1,
+    ) and "expected a Double, got Int32" in error.message
+    error = _refused(check_follow_path, FOLLOW, [Argument([0, 1], "Int32", True), Argument(None, "Null")])
+    assert (error.status, error.index) == ("BadTypeMismatch", 0)
+    assert check_follow_path(FOLLOW, [Argument([3.0, 0.0], "Double", True), Argument(None, "Null")]).tilt == (
+        3.0,
+        0.0,
+    )
+
+
+def test_every_physical_variable_has_a_unece_unit_and_counters_have_uint32_twins() -> None:
+    assert units.unit_id("MTR") == 5067858 and units.unit_id("C81") == 0x433831  # OPC 10000-8 5.6.4.4
+    for kind, counters in layout.COUNTERS.items():
+        specs = {v.path: v for v in layout.variables(kind)}
+        for spec in specs.values():
+            if spec.type in ("Double", "Float"):
+                assert spec.unit in units.UNITS, (kind, spec.path)
+            else:
+                assert not spec.unit, (kind, spec.path)
+        for name in counters:
+            assert specs[layout.counter_path(name)].type == "UInt64"
+            assert specs[layout.counter32_path(name)].type == "UInt32"
+        assert specs["Status.CounterValues32"].type == "UInt32"

@@ -6,6 +6,13 @@ Each kind's own check (``kinds.<kind>``, its profile's ``action.check``) reads i
 returns the kind's goal, or raises ``ArgumentError`` with the OPC UA status code a PLC sees
 (``BadArgumentsMissing``, ``BadTooManyArguments``, ``BadTypeMismatch``, ``BadInvalidArgument``), the
 argument's index and a message naming it.
+
+Types are matched exactly, everywhere: an argument's variant must have the built-in type its Argument
+declares (a UInt32 argument takes a UInt32 variant, not an Int32 or Int64 one; a Double argument takes a
+Double, whatever its value, 3.0 included, and no Float or integer), and an array argument an array of that
+type. The one exception is an empty array argument, which may arrive as an empty (Null) variant. OPC 10000-4
+(5.12.2.4, Call: inputArgumentResults) names Bad_TypeMismatch for an argument of the wrong data type;
+the server reports it in the argument's result under Bad_InvalidArgument for the call.
 """
 
 from __future__ import annotations
@@ -27,8 +34,6 @@ __all__ = [
     "read_string",
 ]
 
-INTEGER_TYPES = ("SByte", "Byte", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64")
-FLOAT_TYPES = ("Float", "Double")
 UINT32_MAX = 2**32 - 1
 
 
@@ -64,34 +69,32 @@ def _scalar(arg: Argument, index: int, name: str) -> object:
     return arg.value
 
 
-def read_integer(arg: Argument, index: int, name: str) -> int:
-    """Read an integer argument (any integer built-in type); ``name`` and ``index`` go into the error."""
+def read_integer(arg: Argument, index: int, name: str, declared: str = "UInt32") -> int:
+    """Read an integer argument of the declared built-in type; ``name`` and ``index`` go into the error."""
     value = _scalar(arg, index, name)
-    if arg.type not in INTEGER_TYPES or isinstance(value, bool):
+    if arg.type != declared or isinstance(value, bool) or not isinstance(value, int):
         raise ArgumentError(
-            "BadTypeMismatch", index, f"{name}: expected an integer (UInt32), got {arg.type} {value!r}"
+            "BadTypeMismatch", index, f"{name}: expected a {declared}, got {arg.type} {value!r}"
         )
-    return int(cast(int, value))  # an integer built-in type's variant holds an int
+    return value
 
 
 def read_number(arg: Argument, index: int, name: str) -> float:
-    """Read a finite number (a float or integer built-in type) as a float."""
+    """Read a finite Double."""
     value = _scalar(arg, index, name)
-    if arg.type not in (*FLOAT_TYPES, *INTEGER_TYPES) or isinstance(value, bool):
-        raise ArgumentError(
-            "BadTypeMismatch", index, f"{name}: expected a number (Double), got {arg.type} {value!r}"
-        )
-    number = float(cast(float, value))  # a number built-in type's variant holds a float or an int
+    if arg.type != "Double" or isinstance(value, bool):
+        raise ArgumentError("BadTypeMismatch", index, f"{name}: expected a Double, got {arg.type} {value!r}")
+    number = float(cast(float, value))  # a Double variant holds a float
     if not math.isfinite(number):
         raise ArgumentError("BadInvalidArgument", index, f"{name}: must be finite, got {value!r}")
     return number
 
 
 def read_numbers(arg: Argument, index: int, name: str) -> tuple[float, ...]:
-    """Read an array of finite numbers; an empty variant (Null) is the empty array."""
+    """Read an array of finite Doubles; an empty variant (Null) is the empty array."""
     if arg.type == "Null" or arg.value is None:
         return ()
-    if not isinstance(arg.value, list) or arg.type not in (*FLOAT_TYPES, *INTEGER_TYPES):
+    if not isinstance(arg.value, list) or arg.type != "Double":
         raise ArgumentError(
             "BadTypeMismatch", index, f"{name}: expected an array of Double, got {arg.type} {arg.value!r}"
         )

@@ -31,6 +31,8 @@ __all__ = [
     "ACTIONS",
     "COUNTERS",
     "counter_path",
+    "counter32_path",
+    "UINT32_MODULUS",
     "variables",
     "methods",
     "variable_id",
@@ -43,8 +45,8 @@ CELL = "Cell"
 DEVICES_FOLDER = "Cell.Devices"
 
 
-def _v(path: str, type_: str, description: str, array: bool = False) -> VariableSpec:
-    return VariableSpec(path, type_, description, array)
+def _v(path: str, type_: str, description: str, array: bool = False, unit: str = "") -> VariableSpec:
+    return VariableSpec(path, type_, description, array, unit)
 
 
 def _one_of(names: list[str]) -> str:
@@ -74,11 +76,19 @@ STATUS = (
     _v("Status.ActiveFaults", "String", "injected faults in force, as name(value)", True),
     _v("Status.CounterNames", "String", "the device's counters, names", True),
     _v("Status.CounterValues", "UInt64", "the device's counters, values in CounterNames' order", True),
+    _v(
+        "Status.CounterValues32",
+        "UInt32",
+        "the device's counters modulo 2^32 (they roll over like a PLC's UInt32 counter), CounterNames' order",
+        True,
+    ),
     _v("Status.BehindRealTime", "Boolean", "the device cannot hold its configured rate or real-time factor"),
-    _v("Status.ConfiguredRate", "Double", "Hz of the device's main stream, configured"),
-    _v("Status.AchievedRate", "Double", "Hz of the device's main stream, achieved"),
-    _v("Status.ConfiguredRealTimeFactor", "Double", "simulated seconds per wall second asked for"),
-    _v("Status.AchievedRealTimeFactor", "Double", "simulated seconds per wall second achieved"),
+    _v("Status.ConfiguredRate", "Double", "Hz of the device's main stream, configured", unit="HTZ"),
+    _v("Status.AchievedRate", "Double", "Hz of the device's main stream, achieved", unit="HTZ"),
+    _v(
+        "Status.ConfiguredRealTimeFactor", "Double", "simulated seconds per wall second asked for", unit="C62"
+    ),
+    _v("Status.AchievedRealTimeFactor", "Double", "simulated seconds per wall second achieved", unit="C62"),
 )
 
 COMMAND = (
@@ -107,6 +117,9 @@ ACTIONS: Mapping[str, MethodSpec] = {kind: profile.action.method for kind, profi
 COUNTERS: Mapping[str, tuple[str, ...]] = {kind: profile.counter_names for kind, profile in KINDS.items()}
 
 
+UINT32_MODULUS = 2**32
+
+
 def counter_path(name: str) -> str:
     """Return the variable path of a counter a kind shows: one UInt64 variable each under Status.Counters.
 
@@ -116,14 +129,27 @@ def counter_path(name: str) -> str:
     return f"Status.Counters.{name}"
 
 
+def counter32_path(name: str) -> str:
+    """Return the path of a counter's UInt32 twin (Status.Counters32): the count modulo 2^32.
+
+    For PLCs without 64-bit integers: a UInt32 that rolls over, so that the difference of two reads
+    (in UInt32 arithmetic) is the count between them as long as fewer than 2^32 happened.
+    """
+    return f"Status.Counters32.{name}"
+
+
 def variables(kind: str) -> tuple[VariableSpec, ...]:
     """Return every variable of a device object of ``kind``, in browse order."""
     profile = KINDS[kind]
     counters = tuple(_v(counter_path(c.name), "UInt64", c.description) for c in profile.counters)
+    counters32 = tuple(
+        _v(counter32_path(c.name), "UInt32", f"{c.description} (modulo 2^32)") for c in profile.counters
+    )
     return (
         *IDENTITY,
         *STATUS,
         *counters,
+        *counters32,
         *profile.signals,
         *COMMAND,
         *profile.action.feedback,

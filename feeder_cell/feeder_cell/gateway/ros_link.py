@@ -33,7 +33,7 @@ from std_srvs.srv import Trigger
 
 from feeder_cell.gateway.config import DeviceEntry, packml_state
 from feeder_cell.gateway.kinds import KINDS
-from feeder_cell.gateway.layout import RESET, STOP, counter_path
+from feeder_cell.gateway.layout import RESET, STOP, UINT32_MODULUS, counter32_path, counter_path
 from feeder_cell.gateway.server import GatewayServer
 from feeder_cell.gateway.spec import Goal, KindProfile, StreamLink, Value, Values
 from feeder_msgs.msg import DeviceStatus
@@ -66,11 +66,15 @@ class DeviceLink:
     action: ActionClient  # the kind's long action
     state: int | None = None  # last DeviceStatus state
     ready: bool = False
+    busy: bool = False  # last DeviceStatus busy
     state_name: str = ""
     fault_text: str = ""
     heard: float = -math.inf  # monotonic time of the last status
     online: bool = False
     goal: ClientGoalHandle | None = None
+    # The goal's Command.Busy is set: with the first status that shows the device executing (or at once
+    # when the status already did), so that Command.Busy and the PackML state change in one publish.
+    busy_shown: bool = False
     goals: int = 0
     results: int = 0
     rejections: list[tuple[float, str]] = field(default_factory=list)  # (monotonic, /rosout text)
@@ -129,17 +133,21 @@ class RosLink:
         self.server.post(link.entry.key, path, value, stamp_ns)
 
     def _post_all(self, link: DeviceLink, values: Values, stamp_ns: int = 0) -> None:
-        for path, value in values.items():
-            self._post(link, path, value, stamp_ns)
+        self.server.post_all(link.entry.key, values, stamp_ns)
 
     def _on_status(self, link: DeviceLink, msg: DeviceStatus) -> None:
         stamp = _ns(msg.header.stamp)
+        executing = _executing(int(msg.state), bool(msg.busy))
         with link.lock:
             link.state, link.ready, link.state_name = int(msg.state), bool(msg.ready), msg.state_name
+            link.busy = bool(msg.busy)
             link.fault_text = msg.fault_text
             back = not link.online and link.heard > -math.inf
             link.heard = time.monotonic()
             link.online = True
+            show_busy = link.goal is not None and not link.busy_shown and executing
+            if show_busy:
+                link.busy_shown = True
         if back:
             self.node.get_logger().info(f"{link.entry.node}: reporting again ({msg.state_name})")
         packml, code = packml_state(int(msg.state))
@@ -156,6 +164,7 @@ class RosLink:
             "Status.ActiveFaults": list(msg.active_faults),
             "Status.CounterNames": list(msg.counter_names),
             "Status.CounterValues": [int(v) for v in msg.counter_values],
+            "Status.CounterValues32": [int(v) % UINT32_MODULUS for v in msg.counter_values],
             "Status.BehindRealTime": bool(msg.behind_real_time),
             "Status.ConfiguredRate": float(msg.configured_rate),
             "Status.AchievedRate": float(msg.achieved_rate),
@@ -166,6 +175,9 @@ class RosLink:
         for name, value in zip(msg.counter_names, msg.counter_values, strict=False):
             if name in known:
                 values[counter_path(name)] = int(value)
+                values[counter32_path(name)] = int(value) % UINT32_MODULUS
+        if show_busy:
+            values["Command.Busy"] = True
         self._post_all(link, values, stamp)
 
     def _arrival_stamp(self, info: Any) -> int:
@@ -211,9 +223,10 @@ class RosLink:
                 self.node.get_logger().warning(
                     f"{link.entry.node}: no ~/status for {now - link.heard:.1f} s: offline (PackML Undefined)"
                 )
-                self._post(link, "Status.Online", False)
-                self._post(link, "Status.PackMLState", "Undefined")
-                self._post(link, "Status.PackMLStateCode", 0)
+                self._post_all(
+                    link,
+                    {"Status.Online": False, "Status.PackMLState": "Undefined", "Status.PackMLStateCode": 0},
+                )
             if lost:
                 self._finish(
                     link, "LOST", 0, "the device stopped reporting and its action server left the graph"
@@ -306,9 +319,20 @@ class RosLink:
             link.goal = handle
             link.goals += 1
             goals = link.goals
-        self._post(link, "Command.Busy", True)
-        self._post(link, "Command.Action", method)
-        self._post(link, "Command.GoalCount", goals)
+            # The device's status already shows it executing (the MEMS array while parts move): Busy now;
+            # else with the status that shows it (_on_status), in the same publish as the state change.
+            link.busy_shown = link.state is not None and _executing(link.state, link.busy)
+            busy = link.busy_shown
+        values: Values = {
+            "Command.Action": method,
+            "Command.GoalCount": goals,
+            "Command.LastOutcome": "",  # cleared: the new goal has none yet
+            "Command.LastOutcomeCode": 0,
+            "Command.Result.FaultCode": 0,
+        }
+        if busy:
+            values["Command.Busy"] = True
+        self._post_all(link, values)
         handle.get_result_async().add_done_callback(lambda f: self._on_result(link, handle, f))
         return "Good", f"{method} goal accepted; Command.Busy shows it executing, Command.LastOutcome its end"
 
@@ -322,6 +346,7 @@ class RosLink:
                     reason = link.rejections[-1][1].split("goal rejected:", 1)[1].strip()
                     break
             await asyncio.sleep(0.05)
+        heard = bool(reason)
         if not reason:
             with link.lock:
                 last = link.diagnosed_rejection
@@ -330,8 +355,11 @@ class RosLink:
                 if last
                 else "no reason received"
             )
-        # The kit's reasons for the device's state name it; anything else is about the goal's contents.
-        state = "device is " in reason or "goal is executing" in reason
+        # The kit's reasons for the device's state name it; anything else is about the goal's contents,
+        # unless the device reported itself busy or not ready (then the reason, if any, came too late).
+        with link.lock:
+            not_free = link.busy or not link.ready
+        state = "device is " in reason or "goal is executing" in reason or (not heard and not_free)
         return (
             "BadInvalidState" if state else "BadInvalidArgument"
         ), f"{method} rejected by the device: {reason}"
@@ -350,19 +378,36 @@ class RosLink:
         except Exception as error:  # noqa: BLE001 - reported in the variables, the gateway keeps serving
             self._finish(link, "LOST", 0, f"no result: {type(error).__name__}: {error}")
             return
-        self._post_all(link, link.profile.action.result_values(result))
-        self._post(link, "Command.Result.FaultCode", int(result.fault_code))
-        self._finish(link, result.outcome_name, int(result.outcome), result.message)
+        values = {
+            **link.profile.action.result_values(result),
+            "Command.Result.FaultCode": int(result.fault_code),
+        }
+        self._finish(link, result.outcome_name, int(result.outcome), result.message, values)
 
-    def _finish(self, link: DeviceLink, outcome: str, code: int, message: str) -> None:
+    def _finish(
+        self, link: DeviceLink, outcome: str, code: int, message: str, result: Values | None = None
+    ) -> None:
+        """Post a goal's end in one publish: its result variables, outcome, ResultCount and Busy false."""
         with link.lock:
             link.results += 1
             results = link.results
-        self._post(link, "Command.LastOutcome", outcome)
-        self._post(link, "Command.LastOutcomeCode", code)
-        self._post(link, "Command.LastMessage", message)
-        self._post(link, "Command.ResultCount", results)
-        self._post(link, "Command.Busy", False)
+            link.busy_shown = False
+        self._post_all(
+            link,
+            {
+                **(result or {}),
+                "Command.LastOutcome": outcome,
+                "Command.LastOutcomeCode": code,
+                "Command.LastMessage": message,
+                "Command.ResultCount": results,
+                "Command.Busy": False,
+            },
+        )
+
+
+def _executing(state: int, busy: bool) -> bool:
+    """Whether a DeviceStatus shows the device executing (RUNNING, PackML Execute, or busy)."""
+    return busy or state == DeviceStatus.RUNNING
 
 
 def _remedy(state: int, fault_text: str) -> str:

@@ -13,7 +13,10 @@ ROS-free. It runs on an asyncio loop (the main thread of the node process). Two 
 A Bad call returns its status code, the bad argument's own status in InputArgumentResults with the
 message in that argument's InputArgumentDiagnosticInfos (AdditionalInfo), the message as the Message
 output argument, and the message in the device's Command.LastMessage (a PLC that reads no diagnostics
-reads that variable).
+reads that variable). The codes are those OPC 10000-4 gives each case (docs/cell.md: the status code
+table): an argument of the wrong data type is Bad_InvalidArgument for the call with Bad_TypeMismatch for
+the argument; a method called on an object it is not a component of, Bad_MethodInvalid; a write to any
+of the gateway's variables (all read-only), Bad_NotWritable.
 """
 
 from __future__ import annotations
@@ -21,9 +24,10 @@ from __future__ import annotations
 import asyncio
 import logging
 import threading
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Mapping
 from dataclasses import dataclass
 from datetime import datetime, timezone
+from importlib import metadata
 from pathlib import Path
 from typing import Protocol, cast
 
@@ -34,13 +38,21 @@ from asyncua.crypto.validator import CertificateValidator, CertificateValidatorO
 from asyncua.server.internal_server import InternalServer
 from asyncua.server.user_managers import UserManager
 
-from feeder_cell.gateway import arguments, layout
+from feeder_cell.gateway import arguments, layout, units
 from feeder_cell.gateway.config import DeviceEntry, Endpoint, SecurityConfig
 from feeder_cell.gateway.kinds import KINDS
 from feeder_cell.gateway.spec import ArgumentSpec, CallContext, Goal, MethodSpec, Value
 from feeder_cell.gateway.users import Users
 
-__all__ = ["Handler", "GatewayServer", "GatewayUsers", "POLICY_TYPES"]
+__all__ = ["Handler", "GatewayServer", "GatewayUsers", "POLICY_TYPES", "PRODUCT_NAME", "product_version"]
+
+PRODUCT_NAME = "feeder opcua_gateway"
+PRODUCT_URI = "urn:feeder"
+MANUFACTURER = "the feeder project"
+PACKAGE = "feeder_cell"
+# Argument-level codes of OPC 10000-4 (5.12.2.4, Call, inputArgumentResults): the call's own code is then
+# Bad_InvalidArgument, and the argument's result carries the specific code.
+_ARGUMENT_CODES = ("BadTypeMismatch", "BadOutOfRange")
 
 POLICY_TYPES = {
     "None": ua.SecurityPolicyType.NoSecurity,
@@ -142,6 +154,9 @@ class GatewayServer:
         server.set_endpoint(self.endpoint.url)
         server.set_server_name("feeder cell OPC UA gateway")
         await server.set_application_uri(layout.APPLICATION_URI)
+        version, built = product_version()
+        await server.set_build_info(PRODUCT_URI, MANUFACTURER, PRODUCT_NAME, version, version, built)
+        self._refuse_writes(server)
         server.set_security_policy([POLICY_TYPES[p] for p in self.security.policies])
         tokens: list[type] = []
         if self.security.allow_anonymous:
@@ -200,6 +215,8 @@ class GatewayServer:
                     ua.DataValue(ua.Variant(ua.ValueRank.OneDimension, ua.VariantType.Int32)),
                 )
             await self._describe(node, spec.description)
+            if spec.unit:
+                await self._engineering_units(node, vid, spec.unit)
             self._types[vid] = vtype
             if not spec.path.startswith(_OWN_PREFIXES):
                 await server.write_attribute_value(
@@ -226,6 +243,61 @@ class GatewayServer:
             path = child
         return parents[path]
 
+    async def _engineering_units(self, node: Node, vid: str, code: str) -> None:
+        """Make the variable a BaseAnalogType with its EngineeringUnits property (OPC 10000-8, 5.3.2)."""
+        unit = units.UNITS[code]
+        info = ua.EUInformation(
+            NamespaceUri=cast(ua.String, units.UNECE_NAMESPACE),
+            UnitId=cast(ua.Int32, units.unit_id(code)),
+            DisplayName=ua.LocalizedText(unit.symbol),
+            Description=ua.LocalizedText(unit.name),
+        )
+        await node.add_property(
+            self._id(f"{vid}.EngineeringUnits"),
+            ua.QualifiedName("EngineeringUnits", 0),
+            ua.Variant(info, ua.VariantType.ExtensionObject),
+            datatype=_node_id(ua.ObjectIds.EUInformation),
+        )
+        has_type = _node_id(ua.ObjectIds.HasTypeDefinition)
+        await node.delete_reference(_node_id(ua.ObjectIds.BaseDataVariableType), has_type)
+        await node.add_reference(_node_id(ua.ObjectIds.BaseAnalogType), has_type, bidirectional=False)
+
+    @staticmethod
+    def _refuse_writes(server: Server) -> None:
+        """Answer a write to a node whose AccessLevel (or WriteMask) forbids it with Bad_NotWritable.
+
+        asyncua answers Bad_UserAccessDenied for both; OPC 10000-4 (5.11.4.4, Write) keeps that for a
+        node the user may not write although the node itself is writable. Every gateway variable is
+        read-only (AccessLevel CurrentRead, WriteMask 0), so every client write is Bad_NotWritable.
+        """
+        service = server.iserver.attribute_service
+        write = service.write
+        aspace = server.iserver.aspace
+
+        def writable(item: ua.WriteValue) -> bool:
+            if item.AttributeId != ua.AttributeIds.Value:
+                mask = aspace.read_attribute_value(item.NodeId, ua.AttributeIds.WriteMask)
+                return bool(
+                    mask.StatusCode is not None
+                    and mask.StatusCode.is_good()
+                    and mask.Value
+                    and mask.Value.Value
+                )
+            level = aspace.read_attribute_value(item.NodeId, ua.AttributeIds.AccessLevel)
+            if level.StatusCode is None or not level.StatusCode.is_good() or level.Value is None:
+                return True  # an unknown node: asyncua's own answer (Bad_NodeIdUnknown)
+            return bool(int(level.Value.Value) & (1 << ua.AccessLevel.CurrentWrite))
+
+        async def refuse_read_only(params: ua.WriteParameters, user: User = _ADMIN) -> list[ua.StatusCode]:
+            codes = await write(params, user)
+            for i, item in enumerate(params.NodesToWrite):
+                denied = codes[i].value == ua.StatusCodes.BadUserAccessDenied
+                if denied and item.NodeId in aspace and not writable(item):
+                    codes[i] = _status_code(ua.StatusCodes.BadNotWritable)
+            return codes
+
+        service.write = refuse_read_only  # type: ignore[method-assign]
+
     @staticmethod
     async def _describe(node: Node, text: str) -> None:
         await node.write_attribute(
@@ -236,12 +308,22 @@ class GatewayServer:
     # --- values ----------------------------------------------------------------------------------
     def post(self, key: str, path: str, value: Value, stamp_ns: int = 0) -> None:
         """Set a device variable (any thread); written on the loop's next turn unless unchanged."""
-        vid = layout.variable_id(key, path)
+        self.post_all(key, {path: value}, stamp_ns)
+
+    def post_all(self, key: str, values: Mapping[str, Value], stamp_ns: int = 0) -> None:
+        """Set several variables of a device together (any thread): one flush writes them all.
+
+        They are pending together under one lock, so no flush writes some of them without the others,
+        and the flush writes them without yielding to the loop between them: a subscription's next
+        publish carries all of their changes (Command.Busy with the state that shows the goal, say).
+        """
         with self._lock:
-            if self._written.get(vid, _UNSET) == value and vid not in self._pending:
-                return
-            self._pending[vid] = _Pending(value, stamp_ns)
-            if self._scheduled or self._loop is None:
+            for path, value in values.items():
+                vid = layout.variable_id(key, path)
+                if self._written.get(vid, _UNSET) == value and vid not in self._pending:
+                    continue
+                self._pending[vid] = _Pending(value, stamp_ns)
+            if self._scheduled or self._loop is None or not self._pending:
                 return
             self._scheduled = True
         self._loop.call_soon_threadsafe(self._start_flush)
@@ -287,8 +369,22 @@ class GatewayServer:
 
     # --- methods ---------------------------------------------------------------------------------
     def _method(self, device: DeviceEntry, spec: MethodSpec) -> Callable[..., Awaitable[ua.CallMethodResult]]:
+        own = self._id(device.key)
+
         async def call(parent: ua.NodeId, *variants: ua.Variant) -> ua.CallMethodResult:
             count = len(variants)
+            if parent != own:
+                # OPC 10000-4 5.12.2.4: the method is not a component of the object it was called on.
+                return self._result(
+                    device,
+                    spec,
+                    count,
+                    "BadMethodInvalid",
+                    f"{spec.name} of {device.key} is not a method of {parent.to_string()}; "
+                    f"call it on {own.to_string()}",
+                    -1,
+                    post=False,
+                )
             try:
                 goal = self._check(device, spec, [_from_variant(v) for v in variants])
             except arguments.ArgumentError as error:
@@ -313,22 +409,36 @@ class GatewayServer:
         return None
 
     def _result(
-        self, device: DeviceEntry, spec: MethodSpec, count: int, status: str, message: str, index: int
+        self,
+        device: DeviceEntry,
+        spec: MethodSpec,
+        count: int,
+        status: str,
+        message: str,
+        index: int,
+        post: bool = True,
     ) -> ua.CallMethodResult:
-        self.post(device.key, "Command.LastStatus", status)
-        self.post(device.key, "Command.LastMessage", message)
+        # An argument-level code (Bad_TypeMismatch) goes into the argument's result; the call's is then
+        # Bad_InvalidArgument (OPC 10000-4 5.12.2.4).
+        argument_status = status
+        if status in _ARGUMENT_CODES and 0 <= index < count:
+            status = "BadInvalidArgument"
+        if post:  # not for a call on another object: that device's command channel was not addressed
+            self.post_all(device.key, {"Command.LastStatus": status, "Command.LastMessage": message})
         code = _status_code(getattr(ua.StatusCodes, status, ua.StatusCodes.BadInternalError))
         result = ua.CallMethodResult()
         result.StatusCode = code
         result.OutputArguments = [ua.Variant(message, ua.VariantType.String)]
         result.InputArgumentResults = [_status_code(ua.StatusCodes.Good) for _ in range(count)]
         if code.is_bad():
-            self.log.warning("%s.%s: %s: %s", device.key, spec.name, status, message)
+            self.log.warning("%s.%s: %s: %s", device.key, spec.name, argument_status, message)
             result.InputArgumentDiagnosticInfos = [ua.DiagnosticInfo() for _ in range(count)]
             targets = [index] if 0 <= index < count else list(range(count))
             for i in targets:
                 if index >= 0:
-                    result.InputArgumentResults[i] = code
+                    result.InputArgumentResults[i] = _status_code(
+                        getattr(ua.StatusCodes, argument_status, ua.StatusCodes.BadInternalError)
+                    )
                 result.InputArgumentDiagnosticInfos[i] = ua.DiagnosticInfo(
                     AdditionalInfo=cast(ua.String, message)
                 )
@@ -336,6 +446,7 @@ class GatewayServer:
 
 
 _UNSET = object()
+_ADMIN = User(role=UserRole.Admin)  # asyncua's default for a write without a session (the server's own)
 # Initial values other than the type's zero: no status heard yet is PackML Undefined (code 0).
 _INITIAL: dict[str, Value] = {"Status.PackMLState": "Undefined"}
 
@@ -367,3 +478,15 @@ def _from_variant(variant: object) -> arguments.Argument:
     return arguments.Argument(
         value, variant.VariantType.name, isinstance(value, list) or bool(variant.is_array)
     )
+
+
+def product_version() -> tuple[str, datetime]:
+    """Return the gateway's package version and build date (the installed package metadata's time)."""
+    try:
+        distribution = metadata.distribution(PACKAGE)
+    except metadata.PackageNotFoundError:
+        return "unknown", datetime.fromtimestamp(Path(__file__).stat().st_mtime, tz=timezone.utc)
+    files = [f for f in distribution.files or () if f.name in ("METADATA", "PKG-INFO")]
+    located = Path(str(distribution.locate_file(files[0]))) if files else Path(__file__)
+    stamp = located.stat().st_mtime if located.exists() else Path(__file__).stat().st_mtime
+    return str(distribution.version), datetime.fromtimestamp(stamp, tz=timezone.utc)

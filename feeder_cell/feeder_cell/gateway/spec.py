@@ -52,6 +52,9 @@ class VariableSpec:
     type: str  # asyncua VariantType name: Boolean, Byte, Int32, UInt32, UInt64, Double, String
     description: str
     array: bool = False
+    # A physical quantity's unit, as its UN/CEFACT common code (units.UNITS: C81 radian, MTR metre, SEC
+    # second, HTZ hertz, C62 one): the variable's EngineeringUnits property. Empty: not a physical quantity.
+    unit: str = ""
 
 
 @dataclass(frozen=True)

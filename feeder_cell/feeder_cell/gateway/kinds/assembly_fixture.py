@@ -115,14 +115,28 @@ PROFILE = KindProfile(
     counters=COUNTERS,
     signals=(
         VariableSpec(
-            "Signals.TiltX", "Double", "tilt_x joint angle as the encoders read it (~/joint_states), rad"
+            "Signals.TiltX",
+            "Double",
+            "tilt_x joint angle as the encoders read it (~/joint_states), rad",
+            unit="C81",
         ),
-        VariableSpec("Signals.TiltY", "Double", "tilt_y joint angle as the encoders read it, rad"),
         VariableSpec(
-            "Signals.Gravity", "Double", "unit gravity direction, assembly frame (~/stability)", array=True
+            "Signals.TiltY", "Double", "tilt_y joint angle as the encoders read it, rad", unit="C81"
+        ),
+        VariableSpec(
+            "Signals.Gravity",
+            "Double",
+            "unit gravity direction, assembly frame (~/stability)",
+            array=True,
+            unit="C62",
         ),
         VariableSpec("Signals.Stable", "Boolean", "the assembly is potentially stable at this gravity"),
-        VariableSpec("Signals.StabilityMargin", "Double", "rad to the stable region's boundary (> 0 inside)"),
+        VariableSpec(
+            "Signals.StabilityMargin",
+            "Double",
+            "rad to the stable region's boundary (> 0 inside)",
+            unit="C81",
+        ),
         VariableSpec("Signals.Moving", "Boolean", "a commanded path is being executed"),
     ),
     streams=(
@@ -142,13 +156,19 @@ PROFILE = KindProfile(
         action_type=FollowPath,
         action_name="follow_path",
         feedback=(
-            VariableSpec("Command.Feedback.Progress", "Double", "0..1 of the planned path's duration"),
+            VariableSpec(
+                "Command.Feedback.Progress", "Double", "0..1 of the planned path's duration", unit="C62"
+            ),
             VariableSpec("Command.Feedback.Stable", "Boolean", "stable now"),
-            VariableSpec("Command.Feedback.Margin", "Double", "rad, stability margin now"),
+            VariableSpec("Command.Feedback.Margin", "Double", "rad, stability margin now", unit="C81"),
         ),
         result=(
             VariableSpec(
-                "Command.Result.Tilt", "Double", "(tilt_x, tilt_y) where the fixture stopped, rad", array=True
+                "Command.Result.Tilt",
+                "Double",
+                "(tilt_x, tilt_y) where the fixture stopped, rad",
+                array=True,
+                unit="C81",
             ),
             VariableSpec(
                 "Command.Result.FirstUnstableSample",

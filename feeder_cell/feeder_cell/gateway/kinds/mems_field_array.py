@@ -144,9 +144,14 @@ PROFILE = KindProfile(
             "Double",
             "orientation theta of each part, rad in [0, 2 pi)",
             array=True,
+            unit="C81",
         ),
         VariableSpec(
-            "Signals.PartPositions", "Double", "centroid (x, y) of each part, m, flattened pairs", array=True
+            "Signals.PartPositions",
+            "Double",
+            "centroid (x, y) of each part, m, flattened pairs",
+            array=True,
+            unit="MTR",
         ),
     ),
     streams=(StreamLink("part_states", MemsPartStates, _parts),),
@@ -174,13 +179,16 @@ PROFILE = KindProfile(
         action_type=RunProgram,
         action_name="run_program",
         feedback=(
-            VariableSpec("Command.Feedback.Time", "Double", "s of node clock since the program started"),
+            VariableSpec(
+                "Command.Feedback.Time", "Double", "s of node clock since the program started", unit="SEC"
+            ),
             VariableSpec("Command.Feedback.Settled", "Boolean", "per part: settled", array=True),
             VariableSpec(
                 "Command.Feedback.EquilibriumDistance",
                 "Double",
                 "per part: rad to the nearest predicted equilibrium",
                 array=True,
+                unit="C81",
             ),
         ),
         result=(
@@ -196,6 +204,7 @@ PROFILE = KindProfile(
                 "Double",
                 "per part: rad to that equilibrium",
                 array=True,
+                unit="C81",
             ),
         ),
         feedback_values=_feedback,
