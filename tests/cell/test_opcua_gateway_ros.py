@@ -19,7 +19,7 @@ from asyncua import Client, ua
 from asyncua.ua.uaerrors import BadNotWritable, BadUserAccessDenied, UaError
 
 from feeder_cell.gateway import layout, units
-from feeder_cell.gateway.config import packml_state
+from feeder_cell.gateway.config import PACKML_STATES, packml_state
 from feeder_cell.gateway.users import hash_password
 from feeder_msgs.msg import DeviceStatus
 
@@ -474,6 +474,54 @@ def test_status_code_bad_type_mismatch_an_argument_of_another_type_in_every_meth
     session(gateway, scenario)
 
 
+# --- PackML: the enumeration, warnings apart from faults ----------------------------------------------
+
+
+def test_the_packml_state_code_is_an_enumeration_with_enum_values(gateway: str) -> None:
+    async def scenario(s: Session) -> None:
+        node = s.node(KEYS["arm"], "Status.PackMLStateCode")
+        dtype = s.client.get_node(await node.read_data_type())
+        assert (await dtype.read_browse_name()).Name == layout.PACKML_STATE_TYPE
+        supertype = await dtype.get_parent()  # HasSubtype from Enumeration
+        assert supertype.nodeid == ua.NodeId(ua.ObjectIds.Enumeration)
+        entries = await (await dtype.get_child("0:EnumValues")).read_value()
+        names = {int(e.Value): e.DisplayName.Text for e in entries}
+        assert names == {number: name for number, name, _ in PACKML_STATES}
+        definition = await dtype.read_data_type_definition()
+        assert {int(f.Value): f.Name for f in definition.Fields} == names
+        # The value and the name agree, through the enumeration.
+        for key in KEYS.values():
+            await ready(s, key)
+            code, name = await s.client.read_values(
+                [s.node(key, "Status.PackMLStateCode"), s.node(key, "Status.PackMLState")]
+            )
+            assert names[code] == name
+
+    session(gateway, scenario)
+
+
+def test_a_non_stopping_fault_is_a_warning_not_a_fault(gateway: str, ros_client: Any) -> None:
+    async def scenario(s: Session) -> None:
+        key = KEYS["fixture"]
+        await idle(s, key)
+        response = await asyncio.to_thread(
+            ros_harness.inject_fault, ros_client, FIXTURE, "rate_limit", indices=[1], value=0.25
+        )
+        assert response.ok, response.error
+        try:
+            assert await s.wait_for(key, "Status.WarningCode", lambda v: v == 302) == 302
+            assert "rate_limit" in await s.read(key, "Status.WarningText")
+            assert await s.read(key, "Status.FaultCode") == 0
+            assert await s.read(key, "Status.FaultText") == ""
+            assert await s.read(key, "Status.PackMLState") == "Idle"
+        finally:
+            await s.good(key, "Reset")
+        await s.wait_for(key, "Status.WarningCode", lambda v: v == 0)
+        assert await s.read(key, "Status.ActiveFaults") == []
+
+    session(gateway, scenario)
+
+
 # --- standard types: units, counters, build info; Busy with the state ---------------------------------
 
 
@@ -642,7 +690,9 @@ def test_stop_ends_a_long_goal_and_the_device_is_commandable_after_reset(
     session(gateway, scenario)
 
 
-def test_a_device_that_stops_reporting_goes_offline(launch_node: Callable[..., Any]) -> None:
+def test_an_unconfigured_device_is_not_stopped_and_one_that_stops_reporting_goes_offline(
+    launch_node: Callable[..., Any], ros_client: Any
+) -> None:
     namespace = "/gw_offline"
     arm = launch_node(
         "feeder_sim",
@@ -650,6 +700,7 @@ def test_a_device_that_stops_reporting_goes_offline(launch_node: Callable[..., A
         DEVICES["throwing_arm"],
         namespace=namespace,
         wait_topics=(f"{namespace}/throwing_arm/status",),
+        lifecycle="unconfigured",
     )
     url = f"opc.tcp://127.0.0.1:{free_port()}"
     launch_node("feeder_cell", "opcua_gateway", {"endpoint": url, "devices": [f"{namespace}/throwing_arm"]})
@@ -658,7 +709,16 @@ def test_a_device_that_stops_reporting_goes_offline(launch_node: Callable[..., A
 
     async def scenario(s: Session) -> None:
         await s.wait_for(key, "Status.Online", lambda v: v is True)
+        # Unconfigured is its own PackML value (the gateway's 100), not Stopped: Reset would not help.
+        assert await s.wait_for(key, "Status.PackMLState", lambda v: v == "Unconfigured") == "Unconfigured"
+        assert await s.read(key, "Status.PackMLStateCode") == 100
+        assert await s.read(key, "Status.StateName") == "UNCONFIGURED"
+        result = await s.call(key, "FeedPart", u32(1), dbl(0.0))
+        assert result.StatusCode.value == ua.StatusCodes.BadInvalidState
+        assert "configure" in result.OutputArguments[0].Value
+        assert await asyncio.to_thread(ros_harness.bring_to, ros_client, arm, "active") == "active"
         await idle(s, key)
+        assert await s.read(key, "Status.PackMLStateCode") == 4
         await asyncio.to_thread(arm.stop)
         await s.wait_for(key, "Status.Online", lambda v: v is False, timeout=15)
         assert await s.read(key, "Status.PackMLState") == "Undefined"

@@ -10,8 +10,10 @@ import pytest
 from feeder_cell.gateway import layout, units
 from feeder_cell.gateway.arguments import Argument, ArgumentError
 from feeder_cell.gateway.config import (
+    PACKML_STATES,
     check_security,
     is_loopback,
+    is_warning,
     packml_state,
     parse_device_entry,
     parse_devices,
@@ -119,7 +121,7 @@ def test_security_combinations_name_the_parameter(tmp_path: Path) -> None:
 def test_packml_mapping() -> None:
     names = {state: packml_state(state) for state in range(6)}
     assert names == {
-        0: ("Stopped", 2),
+        0: ("Unconfigured", 100),  # not Stopped: Reset does not help, the lifecycle must configure it
         1: ("Idle", 4),
         2: ("Execute", 6),
         3: ("Suspended", 5),
@@ -128,6 +130,32 @@ def test_packml_mapping() -> None:
     }
     assert packml_state(None) == ("Undefined", 0)
     assert packml_state(17) == ("Undefined", 0)
+    # The enumeration: ISA-TR88.00.02 StateCurrent numbers 0..17 (OPC 30050's StateNumbers), plus the
+    # gateway's own Unconfigured outside that range; every mapped state is one of its entries.
+    numbers = {number: name for number, name, _ in PACKML_STATES}
+    assert [numbers[n] for n in (0, 1, 2, 4, 5, 6, 9, 15, 17)] == [
+        "Undefined",
+        "Clearing",
+        "Stopped",
+        "Idle",
+        "Suspended",
+        "Execute",
+        "Aborted",
+        "Resetting",
+        "Complete",
+    ]
+    assert sorted(numbers) == [*range(18), 100]
+    for name, number in names.values():
+        assert numbers[number] == name
+
+
+def test_warnings_are_codes_of_an_operational_device_faults_the_others() -> None:
+    idle, running, paused, fault, stopped, unconfigured = 1, 2, 3, 4, 5, 0
+    for state in (idle, running, paused):
+        assert is_warning(state, 2) and is_warning(state, 302)
+        assert not is_warning(state, 0)
+    for state in (fault, stopped, unconfigured):
+        assert not is_warning(state, 101) and not is_warning(state, 1)
 
 
 # --- users --------------------------------------------------------------------------------------------

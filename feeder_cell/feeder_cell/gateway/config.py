@@ -18,7 +18,10 @@ from feeder_planner.errors import InputError
 __all__ = [
     "POLICIES",
     "PACKML",
+    "PACKML_STATES",
     "PACKML_UNDEFINED",
+    "PACKML_UNCONFIGURED",
+    "is_warning",
     "DeviceEntry",
     "Endpoint",
     "SecurityConfig",
@@ -33,12 +36,44 @@ __all__ = [
 # Security policies a client may use, as the parameter security_policies names them.
 POLICIES = ("None", "Basic256Sha256_Sign", "Basic256Sha256_SignAndEncrypt")
 
-# feeder_msgs/DeviceStatus state -> (PackML state name, PackML StateCurrent number, ISA-TR88.00.02).
-# UNCONFIGURED shows as Stopped: not producing and not commandable; unlike a device STOPPED, Reset does
+# The PackML states the gateway's PackMLStateEnumeration DataType lists: (number, name, meaning). The
+# numbers are ISA-TR88.00.02's PackTags StateCurrent (0 Undefined, 1..17), which are also the StateNumber of
+# each state of OPC 30050's PackML state machine types (not OPC 30060's StateEnumeration, 0 Stopped ...
+# 16 Unholding). Unconfigured (100) is the gateway's own, outside TR88's range: a device whose ROS
+# lifecycle is unconfigured is neither Stopped (Reset does not bring it to Idle) nor unknown.
+PACKML_STATES: tuple[tuple[int, str, str], ...] = (
+    (0, "Undefined", "no current status from the device (never heard, or its 1 Hz heartbeat missed)"),
+    (1, "Clearing", "clearing a fault, on the way from Aborted to Stopped"),
+    (2, "Stopped", "stationary, not producing; Reset brings it to Idle"),
+    (3, "Starting", "on the way from Idle to Execute"),
+    (4, "Idle", "ready: a command starts it"),
+    (5, "Suspended", "held by a condition outside the device (the cell paused it)"),
+    (6, "Execute", "executing a command or moving"),
+    (7, "Stopping", "on the way to Stopped"),
+    (8, "Aborting", "on the way to Aborted"),
+    (9, "Aborted", "stopped by a fault; Reset clears it once its cause is gone"),
+    (10, "Holding", "on the way to Held"),
+    (11, "Held", "held by an operator or an internal condition"),
+    (12, "Unholding", "on the way from Held back to Execute"),
+    (13, "Suspending", "on the way to Suspended"),
+    (14, "Unsuspending", "on the way from Suspended back to Execute"),
+    (15, "Resetting", "on the way from Stopped or Complete to Idle"),
+    (16, "Completing", "finishing a command"),
+    (17, "Complete", "a command finished; Reset brings it to Idle"),
+    (
+        100,
+        "Unconfigured",
+        "not PackML: the device's lifecycle is unconfigured; it must be configured and activated",
+    ),
+)
+PACKML_UNCONFIGURED = ("Unconfigured", 100)
+
+# feeder_msgs/DeviceStatus state -> (PackML state name, number in PACKML_STATES).
+# UNCONFIGURED is Unconfigured: not producing and not commandable, and unlike a device STOPPED, Reset does
 # not bring it to Idle (it needs the lifecycle configure and activate). PAUSED (lifecycle inactive, the
 # physics frozen by the cell controller) is Suspended: held by a condition outside the device.
 PACKML: dict[int, tuple[str, int]] = {
-    0: ("Stopped", 2),  # UNCONFIGURED
+    0: PACKML_UNCONFIGURED,  # UNCONFIGURED
     1: ("Idle", 4),  # IDLE
     2: ("Execute", 6),  # RUNNING
     3: ("Suspended", 5),  # PAUSED
@@ -209,6 +244,16 @@ def check_security(
     return SecurityConfig(
         chosen, certificate_file, private_key_file, allow_anonymous, users_file, trusted_certificates_dir
     )
+
+
+def is_warning(state: int, fault_code: int) -> bool:
+    """Whether a DeviceStatus fault code is a warning: reported while the device stays operational.
+
+    A device in IDLE, RUNNING or PAUSED with a non-zero code has a non-stopping fault (behind real time,
+    a too stiff time step, an axis rate limit): a warning, shown in Status/WarningCode. In UNCONFIGURED
+    (a failed configuration), FAULT or STOPPED the code is a fault: Status/FaultCode.
+    """
+    return fault_code != 0 and state in (1, 2, 3)  # IDLE, RUNNING, PAUSED
 
 
 def packml_state(state: int | None) -> tuple[str, int]:

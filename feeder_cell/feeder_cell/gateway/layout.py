@@ -21,6 +21,7 @@ from feeder_cell.gateway.spec import MethodSpec, VariableSpec
 
 __all__ = [
     "NAMESPACE_URI",
+    "PACKML_STATE_TYPE",
     "APPLICATION_URI",
     "CELL",
     "DEVICES_FOLDER",
@@ -42,11 +43,14 @@ __all__ = [
 NAMESPACE_URI = "urn:feeder:cell"
 APPLICATION_URI = "urn:feeder:cell:opcua_gateway"
 CELL = "Cell"
+PACKML_STATE_TYPE = "PackMLStateEnumeration"  # the DataType's browse name and string NodeId
 DEVICES_FOLDER = "Cell.Devices"
 
 
-def _v(path: str, type_: str, description: str, array: bool = False, unit: str = "") -> VariableSpec:
-    return VariableSpec(path, type_, description, array, unit)
+def _v(
+    path: str, type_: str, description: str, array: bool = False, unit: str = "", data_type: str = ""
+) -> VariableSpec:
+    return VariableSpec(path, type_, description, array, unit, data_type)
 
 
 def _one_of(names: list[str]) -> str:
@@ -68,11 +72,23 @@ STATUS = (
         "the device's state name: UNCONFIGURED, IDLE, RUNNING, PAUSED, FAULT, STOPPED",
     ),
     _v("Status.PackMLState", "String", "PackML state name (docs/cell.md: the mapping table)"),
-    _v("Status.PackMLStateCode", "Int32", "PackML StateCurrent number (ISA-TR88.00.02; 0 Undefined)"),
+    _v(
+        "Status.PackMLStateCode",
+        "Int32",
+        "PackML state (PackMLStateEnumeration: ISA-TR88.00.02 StateCurrent numbers, 0 Undefined; "
+        "100 Unconfigured, the gateway's own)",
+        data_type=PACKML_STATE_TYPE,
+    ),
     _v("Status.Ready", "Boolean", "the device accepts commands"),
     _v("Status.Busy", "Boolean", "the device is executing a command"),
-    _v("Status.FaultCode", "UInt32", "DeviceStatus fault code (0 none; docs/cell.md)"),
+    _v("Status.FaultCode", "UInt32", "DeviceStatus fault code of a stopping fault (0 none; docs/cell.md)"),
     _v("Status.FaultText", "String", "what the fault is and what clears it"),
+    _v(
+        "Status.WarningCode",
+        "UInt32",
+        "DeviceStatus fault code of a non-stopping fault: the device stays operational (0 none)",
+    ),
+    _v("Status.WarningText", "String", "what the warning is"),
     _v("Status.ActiveFaults", "String", "injected faults in force, as name(value)", True),
     _v("Status.CounterNames", "String", "the device's counters, names", True),
     _v("Status.CounterValues", "UInt64", "the device's counters, values in CounterNames' order", True),

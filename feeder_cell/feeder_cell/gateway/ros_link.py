@@ -31,7 +31,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.task import Task
 from std_srvs.srv import Trigger
 
-from feeder_cell.gateway.config import DeviceEntry, packml_state
+from feeder_cell.gateway.config import DeviceEntry, is_warning, packml_state
 from feeder_cell.gateway.kinds import KINDS
 from feeder_cell.gateway.layout import RESET, STOP, UINT32_MODULUS, counter32_path, counter_path
 from feeder_cell.gateway.server import GatewayServer
@@ -151,6 +151,8 @@ class RosLink:
         if back:
             self.node.get_logger().info(f"{link.entry.node}: reporting again ({msg.state_name})")
         packml, code = packml_state(int(msg.state))
+        # A code the device reports while it stays operational is a warning, not a fault.
+        warning = is_warning(int(msg.state), int(msg.fault_code))
         values: Values = {
             "Status.Online": True,
             "Status.State": int(msg.state),
@@ -159,8 +161,10 @@ class RosLink:
             "Status.PackMLStateCode": code,
             "Status.Ready": bool(msg.ready),
             "Status.Busy": bool(msg.busy),
-            "Status.FaultCode": int(msg.fault_code),
-            "Status.FaultText": msg.fault_text,
+            "Status.FaultCode": 0 if warning else int(msg.fault_code),
+            "Status.FaultText": "" if warning else msg.fault_text,
+            "Status.WarningCode": int(msg.fault_code) if warning else 0,
+            "Status.WarningText": msg.fault_text if warning else "",
             "Status.ActiveFaults": list(msg.active_faults),
             "Status.CounterNames": list(msg.counter_names),
             "Status.CounterValues": [int(v) for v in msg.counter_values],

@@ -39,7 +39,7 @@ from asyncua.server.internal_server import InternalServer
 from asyncua.server.user_managers import UserManager
 
 from feeder_cell.gateway import arguments, layout, units
-from feeder_cell.gateway.config import DeviceEntry, Endpoint, SecurityConfig
+from feeder_cell.gateway.config import PACKML_STATES, DeviceEntry, Endpoint, SecurityConfig
 from feeder_cell.gateway.kinds import KINDS
 from feeder_cell.gateway.spec import ArgumentSpec, CallContext, Goal, MethodSpec, Value
 from feeder_cell.gateway.users import Users
@@ -192,6 +192,7 @@ class GatewayServer:
         return ua.QualifiedName(name, self.idx)
 
     async def _build(self, server: Server) -> None:
+        await self._packml_enumeration(server)
         cell = await server.nodes.objects.add_object(self._id(layout.CELL), self._name("Cell"))
         folder = await cell.add_folder(self._id(layout.DEVICES_FOLDER), self._name("Devices"))
         for device in self.devices:
@@ -217,6 +218,11 @@ class GatewayServer:
             await self._describe(node, spec.description)
             if spec.unit:
                 await self._engineering_units(node, vid, spec.unit)
+            if spec.data_type:
+                await node.write_attribute(
+                    ua.AttributeIds.DataType,
+                    ua.DataValue(ua.Variant(self._id(spec.data_type), ua.VariantType.NodeId)),
+                )
             self._types[vid] = vtype
             if not spec.path.startswith(_OWN_PREFIXES):
                 await server.write_attribute_value(
@@ -242,6 +248,45 @@ class GatewayServer:
                 parents[child] = await parents[path].add_folder(self._id(f"{key}.{child}"), self._name(name))
             path = child
         return parents[path]
+
+    async def _packml_enumeration(self, server: Server) -> None:
+        """Add the PackMLStateEnumeration DataType: an Enumeration subtype with EnumValues (OPC 10000-3).
+
+        Its numbers are not contiguous (Unconfigured is 100), so it carries EnumValues, not EnumStrings,
+        and its DataTypeDefinition (an EnumDefinition) for clients that build types from it.
+        """
+        name = layout.PACKML_STATE_TYPE
+        dtype = await server.nodes.enum_data_type.add_data_type(self._id(name), self._name(name))
+        await self._describe(dtype, "PackML state: ISA-TR88.00.02 StateCurrent numbers; 100 Unconfigured")
+        definition = ua.EnumDefinition()
+        values = []
+        for number, state, meaning in PACKML_STATES:
+            definition.Fields.append(
+                ua.EnumField(
+                    Value=cast(ua.Int64, number),
+                    DisplayName=ua.LocalizedText(state),
+                    Description=ua.LocalizedText(meaning),
+                    Name=cast(ua.String, state),
+                )
+            )
+            values.append(
+                ua.EnumValueType(
+                    Value=cast(ua.Int64, number),
+                    DisplayName=ua.LocalizedText(state),
+                    Description=ua.LocalizedText(meaning),
+                )
+            )
+        await dtype.write_data_type_definition(definition)
+        prop = await dtype.add_property(
+            self._id(f"{name}.EnumValues"),
+            ua.QualifiedName("EnumValues", 0),
+            ua.Variant(values, ua.VariantType.ExtensionObject),
+            datatype=_node_id(ua.ObjectIds.EnumValueType),
+        )
+        await prop.write_attribute(
+            ua.AttributeIds.ValueRank,
+            ua.DataValue(ua.Variant(ua.ValueRank.OneDimension, ua.VariantType.Int32)),
+        )
 
     async def _engineering_units(self, node: Node, vid: str, code: str) -> None:
         """Make the variable a BaseAnalogType with its EngineeringUnits property (OPC 10000-8, 5.3.2)."""

@@ -55,6 +55,9 @@ class VariableSpec:
     # A physical quantity's unit, as its UN/CEFACT common code (units.UNITS: C81 radian, MTR metre, SEC
     # second, HTZ hertz, C62 one): the variable's EngineeringUnits property. Empty: not a physical quantity.
     unit: str = ""
+    # The name of a DataType of the gateway's namespace the variable's DataType attribute names (an
+    # enumeration: the values are Int32). Empty: the built-in type's own DataType.
+    data_type: str = ""
 
 
 @dataclass(frozen=True)
