@@ -460,5 +460,9 @@ def start_node(
             stdin=subprocess.DEVNULL,
             env=dict(os.environ, PYTHONUNBUFFERED="1"),
             preexec_fn=_die_with_parent,
+            # Its own session: Ctrl-C in a terminal signals the launch's process group, and the launch ends
+            # each node by pid in order; a node that got the SIGINT too would end first and be reported
+            # as having died early (exit 1). The nodes still die with the launch (_die_with_parent).
+            start_new_session=True,
         )
     return NodeProcess(spec, process, log_path)

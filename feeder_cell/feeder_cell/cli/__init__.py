@@ -12,6 +12,7 @@ SUBCOMMAND_MODULES = (
     "feeder_cell.cli.launch",
     "feeder_cell.cli.lifecycle",
     "feeder_cell.cli.clock",
+    "feeder_cell.cli.calls",
     "feeder_cell.cli.equilibria",
     "feeder_cell.cli.throwing",
     "feeder_cell.cli.assembly",

@@ -44,7 +44,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one ``feeder`` subcommand; return its exit status (1 failed, 2 bad input, 3 not certified)."""
-    parser = build_parser()
+    try:
+        parser = build_parser()
+    except KeyboardInterrupt:  # Ctrl-C while the subcommands' modules are imported
+        sys.stderr.write("feeder: interrupted\n")
+        return EXIT_INTERRUPTED
     args = parser.parse_args(argv)
     try:
         return int(args.handler(args) or EXIT_OK)
