@@ -1,7 +1,8 @@
-"""The cell: several instances in namespaces that never cross, one clock held and stepped in lockstep.
+"""The cell: several instances in namespaces that never cross; a launch on the cell clock keeps its pace.
 
-Everything runs as real node processes over DDS. The scene tests go through `feeder launch`, as a user
-would; the clock tests drive `cell_clock` and the devices directly with use_sim_time.
+Everything runs as real node processes over DDS, through `feeder launch`, as a user would. Stepping a
+held clock by exact quanta, and the same run again after a reset, is the simulation_interfaces harness's
+(tests/cell/test_simulation_interfaces_ros.py); the same run at every pace the lockstep test's.
 """
 
 from __future__ import annotations
@@ -165,102 +166,6 @@ def test_two_arms_and_two_arrays_in_namespaces_never_cross(ros_client: Any, tmp_
         + [f"{ns}/field_equilibria_planner" for ns in ARRAYS]
     )
     assert all(n["lifecycle"] in ("active", "unmanaged") and not n["died_early"] for n in summary["nodes"])
-
-
-step_clock = ros_harness.step_clock
-
-
-START_NS = 10**18  # the held cell clock's start: 1e9 s, well away from 0 (an unset clock)
-
-
-def on_the_held_clock(msg: Any) -> bool:
-    """Whether a message is stamped at the held clock's start (the parameter passes through a float)."""
-    return abs(_stamp(msg) - START_NS) < 1_000
-
-
-def lockstep_run(ros_client: Any, launch_node: Any, seed: int, steps: int) -> list[tuple[Any, ...]]:
-    """Part states of a paused-and-stepped cell, one message per clock step, as comparable tuples."""
-    from feeder_msgs.msg import DeviceStatus, MemsPartStates
-    from feeder_planner.node_kit import LATCHED
-
-    clock = launch_node(
-        "feeder_cell",
-        "cell_clock",
-        {"start_paused": True, "start_time": START_NS / 1e9},
-        wait_services=("/cell_clock/step",),
-    )
-    received: list[Any] = []
-    arrived = threading.Condition()
-
-    def on_states(msg: Any) -> None:
-        with arrived:
-            received.append(msg)
-            arrived.notify_all()
-
-    # Subscribed before the array starts: its first tick, at the held clock's start, must not be missed.
-    sub = ros_client.create_subscription(MemsPartStates, "/mems_field_array/part_states", on_states, 100)
-    array = launch_node(
-        "feeder_sim",
-        "mems_field_array",
-        {
-            "use_sim_time": True,
-            "part_files": [str(EXAMPLES / "mems/bracket.yaml")],
-            "fidelity": "array",
-            "array_size": [60, 60],
-            "seed": seed,
-            "publish_rate": 20.0,
-            "inject_faults": ["dead_cells=0.2"],
-            "fault_seed": seed,
-        },
-        wait_topics=("/mems_field_array/part_states",),
-    )
-    try:
-        # Lockstep starts once the device has heard the held clock (its status heartbeat is stamped with
-        # the clock's start): a step sent before that would be a step it never saw.
-        heard = ros_harness.collect(
-            ros_client,
-            DeviceStatus,
-            "/mems_field_array/status",
-            duration=10.0,
-            qos=LATCHED,
-            stop=lambda m: _stamp(m) == START_NS,
-        )
-        assert heard and _stamp(heard[-1]) == START_NS, f"the array never ran on the held clock: {heard[-1:]}"
-        rows = []
-        for _ in range(steps):
-            now = step_clock(ros_client, 0.05)
-            with arrived:
-                assert arrived.wait_for(
-                    lambda now=now: any(_stamp(m) == now for m in received), timeout=30
-                ), f"no part state stamped {now} ns; got {[_stamp(m) for m in received[-3:]]}"
-                msg = next(m for m in received if _stamp(m) == now)
-            rows.append(
-                (_stamp(msg), *[(p.name, p.pose.position.x, p.pose.position.y, p.theta) for p in msg.parts])
-            )
-        return rows
-    finally:
-        ros_client.destroy_subscription(sub)
-        array.stop()
-        clock.stop()
-
-
-_stamp = ros_harness.stamp_ns
-
-
-@pytest.mark.ros
-def test_a_paused_clock_steps_the_cell_in_lockstep_and_runs_repeat_message_by_message(
-    ros_client: Any, launch_node: Any
-) -> None:
-    first = lockstep_run(ros_client, launch_node, seed=11, steps=12)
-    second = lockstep_run(ros_client, launch_node, seed=11, steps=12)
-    other = lockstep_run(ros_client, launch_node, seed=12, steps=12)
-    assert first == second
-    # The stamps are the stepped clock's, 50 ms apart, from the clock's start time (not from 0).
-    stamps = [row[0] for row in first]
-    assert stamps[0] >= 10**18 and all(b - a == 50_000_000 for a, b in zip(stamps, stamps[1:], strict=False))
-    # The part really moves under the stepped clock, and another seed gives another run.
-    assert first[0][1:] != first[-1][1:]
-    assert first != other
 
 
 @pytest.mark.ros
