@@ -8,15 +8,22 @@ text when it publishes one).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
-from typing import Any, Literal
+from dataclasses import dataclass, field
+from typing import Any, Callable, Literal
 
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
 
 from feeder_planner.errors import FeederError, InputError
 
-__all__ = ["TRANSITIONS", "TransitionName", "LifecycleClient", "LifecycleError", "path_to"]
+__all__ = [
+    "TRANSITIONS",
+    "TransitionName",
+    "LifecycleClient",
+    "LifecycleError",
+    "LifecycleInterruptedError",
+    "path_to",
+]
 
 TransitionName = Literal["configure", "activate", "deactivate", "cleanup", "shutdown"]
 
@@ -67,6 +74,10 @@ class LifecycleError(FeederError):
     """A node refused a transition or did not answer in time."""
 
 
+class LifecycleInterruptedError(LifecycleError):
+    """The caller's ``keep_going`` turned false while waiting (a stop signal, the node's process gone)."""
+
+
 def path_to(current: str, target: str) -> list[str]:
     """Return the transitions that take a node from primary state ``current`` to ``target``."""
     if current == target:
@@ -84,6 +95,9 @@ class LifecycleClient:
     node: Any  # the rclpy node the clients live on
     executor: Any  # spun here while waiting; None when another thread already spins the node
     target: str
+    # Checked while waiting: false ends the wait at once (LifecycleInterruptedError; `feeder launch` passes
+    # "no stop signal and the node's process alive", so a dead node or Ctrl-C never costs CALL_TIMEOUT_S).
+    keep_going: Callable[[], bool] = field(default=lambda: True)
 
     def __post_init__(self) -> None:
         self._get = self.node.create_client(GetState, f"{self.target}/get_state")
@@ -104,6 +118,10 @@ class LifecycleClient:
         return self._get.service_is_ready()
 
     def _wait(self, seconds: float) -> None:
+        if not self.keep_going():
+            raise LifecycleInterruptedError(
+                f"{self.target}: interrupted while waiting for its lifecycle services"
+            )
         if self.executor is None:
             time.sleep(seconds)
         else:
@@ -111,8 +129,13 @@ class LifecycleClient:
 
     def _call(self, client: Any, request: Any, what: str, resend: bool) -> Any:
         """Call and wait (bounded); with ``resend``, send again every RESEND_S until one reply arrives."""
-        if not client.wait_for_service(timeout_sec=CALL_TIMEOUT_S):
-            raise LifecycleError(f"{self.target}: no lifecycle service ({what}) after {CALL_TIMEOUT_S:.0f} s")
+        deadline = time.monotonic() + CALL_TIMEOUT_S
+        while not client.service_is_ready():
+            if time.monotonic() > deadline:
+                raise LifecycleError(
+                    f"{self.target}: no lifecycle service ({what}) after {CALL_TIMEOUT_S:.0f} s"
+                )
+            self._wait(0.05)
         futures = [client.call_async(request)]
         deadline = time.monotonic() + CALL_TIMEOUT_S
         next_send = time.monotonic() + RESEND_S
@@ -142,6 +165,8 @@ class LifecycleClient:
             request.transition.id = TRANSITIONS[transition]
         try:
             response = self._call(self._change, request, transition, resend=False)
+        except LifecycleInterruptedError:
+            raise
         except LifecycleError:
             # No reply: the reply may be what was lost. The node's state tells whether the transition ran.
             state = self.get_state()

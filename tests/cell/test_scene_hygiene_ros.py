@@ -179,3 +179,93 @@ def test_no_published_frame_id_starts_with_a_slash(tmp_path: Path) -> None:
     assert all(n["exit_code"] == 0 for n in summary["nodes"]), [
         (n["name"], n["exit_code"]) for n in summary["nodes"]
     ]
+
+
+# --- stopping ---------------------------------------------------------------------------------------
+DEVICES = ("/mems_field_array", "/throwing_arm", "/assembly_fixture")
+PLANNERS = ("/field_equilibria_planner", "/throw_planner", "/stable_region_planner")
+
+
+def _wait_until_running(node: Any, executor: Any, launch: subprocess.Popen[str], timeout: float) -> None:
+    """Wait until the demo scene runs: each device ready (its latched status) and each planner serving."""
+    from feeder_msgs.msg import DeviceStatus
+    from feeder_planner.node_kit import LATCHED
+
+    ready: dict[str, bool] = {}
+    subscriptions = [
+        node.create_subscription(
+            DeviceStatus, f"{d}/status", lambda m, d=d: ready.__setitem__(d, bool(m.ready)), LATCHED
+        )
+        for d in DEVICES
+    ]
+
+    def serving(planner: str) -> bool:
+        names = {n for n, _ in node.get_service_names_and_types()}
+        return any(n.startswith(f"{planner}/") and "parameter" not in n for n in names)
+
+    deadline = time.monotonic() + timeout
+    try:
+        while not (all(ready.get(d) for d in DEVICES) and all(serving(p) for p in PLANNERS)):
+            assert launch.poll() is None, launch.communicate()[1][-1500:]
+            assert time.monotonic() < deadline, f"scene not running after {timeout} s: {ready}"
+            executor.spin_once(timeout_sec=0.1)
+    finally:
+        for subscription in subscriptions:
+            node.destroy_subscription(subscription)
+
+
+def test_every_node_of_a_running_scene_stops_with_exit_code_0_three_times(tmp_path: Path) -> None:
+    """Ctrl-C on a running demo scene: SIGINT to the launch and every node at once, then the launch's own.
+
+    The demo scene has every kind of node (the devices, and the planners on multi-threaded executors). A
+    node still cleaning up when the second SIGINT came ended by that signal (-2; node_kit.runner).
+    """
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+
+    lease = ros_harness.DomainLease()
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=lease.domain)
+    node = rclpy.create_node("stop_probe", context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    try:
+        for run in range(3):
+            launch = subprocess.Popen(
+                [
+                    *FEEDER,
+                    str(ROOT / "feeder_cell/scenes/demo.yaml"),
+                    "--log-dir",
+                    str(tmp_path / f"logs{run}"),
+                ]
+                + ["--json"],
+                env=_env(lease.domain),
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+                start_new_session=True,  # its own process group, as a terminal's Ctrl-C reaches it
+            )
+            try:
+                _wait_until_running(node, executor, launch, 90)
+                time.sleep(1.0)  # running: the arm throws, the field planner predicts
+                pids = _node_pids(launch.pid)
+                os.killpg(launch.pid, signal.SIGINT)
+                # ... and the launch's own SIGINT reaching a node while it cleans up, sooner than the
+                # launch sends it (it stops one node after another): at 0.05, 0.1, 0.15 s.
+                time.sleep(0.05 * (run + 1))
+                for pid in pids:
+                    try:
+                        os.kill(pid, signal.SIGINT)
+                    except ProcessLookupError:
+                        pass
+                out, err = launch.communicate(timeout=60)
+            finally:
+                if launch.poll() is None:
+                    _end(launch)
+            codes = {n["name"]: n["exit_code"] for n in json.loads(out)["nodes"]}
+            assert len(codes) == 6 and all(code == 0 for code in codes.values()), f"run {run}: {codes}"
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        lease.release()

@@ -18,7 +18,7 @@ from feeder_cell.launcher import (
     load_scene,
     start_node,
 )
-from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError
+from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError, LifecycleInterruptedError
 from feeder_cell.ros_session import with_node
 from feeder_planner.errors import FeederError, InputError
 
@@ -119,21 +119,33 @@ def _configuration_error(node: Any, executor: Any, target: str) -> str:
     return seen[-1].fault_text if seen else ""
 
 
+def _while_alive(process: NodeProcess, keep_going: Callable[[], bool]) -> Callable[[], bool]:
+    return lambda: keep_going() and process.alive()
+
+
 def bring_up(
-    node: Any, executor: Any, processes: list[NodeProcess], between: Callable[[], object] | None = None
+    node: Any,
+    executor: Any,
+    processes: list[NodeProcess],
+    between: Callable[[], object] | None = None,
+    keep_going: Callable[[], bool] = lambda: True,
 ) -> dict[str, str]:
     """Bring every managed node to its scene's lifecycle target, in scene order; return the states.
 
     A node without lifecycle services is left as it is ("unmanaged"), and so is one already at or past
     its target, or in a transition (another client of the scene is moving it). A refused transition
-    stops the launch with the node's own reason.
+    stops the launch with the node's own reason. A stop signal (``keep_going`` false) ends the bring-up
+    at once, and a node whose process has ended is left ("exited") at once too, never waited for: the
+    launch's loop decides what its death means (in lockstep the clock drops it and the cell goes on).
     """
     states: dict[str, str] = {}
     for process in processes:
+        if not keep_going():
+            break
         if between is not None:
             between()  # e.g. the recorder's discovery: the scene is running while it is brought up
         target = process.spec.fully_qualified_name
-        client = LifecycleClient(node, executor, target)
+        client = LifecycleClient(node, executor, target, keep_going=_while_alive(process, keep_going))
         try:
             if not client.is_managed():
                 states[target] = "unmanaged"
@@ -145,6 +157,10 @@ def bring_up(
                 states[target] = state
                 continue
             states[target] = client.bring_to(process.spec.lifecycle)
+        except LifecycleInterruptedError:
+            if not keep_going():
+                break
+            states[target] = "exited"
         except LifecycleError as error:
             reason = _configuration_error(node, executor, target)
             raise FeederError(f"{error}{': ' + reason if reason else ''}") from None
@@ -233,7 +249,7 @@ def _launch(args: argparse.Namespace) -> int:
                 # Recording starts before the bring-up, which takes a while: a controller in the scene
                 # is working already.
                 discover = recorder.discover if recorder and observer is None else None
-                states = bring_up(node, executor, processes, discover)
+                states = bring_up(node, executor, processes, discover, keep_going)
             started = time.monotonic()
             next_discovery = 0.0
             while keep_going() and (args.duration is None or time.monotonic() - started < args.duration):

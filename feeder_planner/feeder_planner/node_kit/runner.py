@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import time
 from pathlib import Path
 from typing import Callable, TypeVar
@@ -19,6 +20,8 @@ from feeder_planner.node_kit.names import EXIT_DUPLICATE_NAME, DuplicateNameErro
 __all__ = ["build_node", "run_node", "profiled"]
 
 EXIT_BAD_CONFIGURATION = 2
+# Wall seconds a stopping node waits for the callbacks still running on its executor's threads.
+STOP_WAIT_S = 2.0
 
 NodeType = TypeVar("NodeType", bound=Node)
 
@@ -90,9 +93,42 @@ def run_node(factory: Callable[[], Node], name: str, args: list[str] | None = No
     finally:
         if namesakes:
             code = EXIT_DUPLICATE_NAME
+        _ignore_stop_signals()
         executor.shutdown(timeout_sec=1.0)
+        _wait_for_running_callbacks(executor, STOP_WAIT_S)
         node.destroy_node()
         rclpy.try_shutdown()
         dump_profile()
     if code:
         raise SystemExit(code)
+
+
+def _ignore_stop_signals() -> None:
+    """Let the clean-up run to its end: a second SIGINT or SIGTERM while stopping is ignored.
+
+    Ctrl-C reaches a node and its launcher together, and the launcher then sends its own SIGINT: that
+    second signal raised KeyboardInterrupt inside the clean-up (``destroy_node``; rclpy chains its handler
+    to Python's). The clean-up stopped half way, rclpy was not shut down, and the process ended by the
+    signal (exit -2), or, with handles left half destroyed for the interpreter's exit to free in any order,
+    by signal 11. A node that hangs while stopping is still ended by its launcher's SIGKILL.
+    """
+    for number in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(number, signal.SIG_IGN)
+
+
+def _wait_for_running_callbacks(executor: Executor, timeout_s: float) -> None:
+    """Wait (at most ``timeout_s``) for the callbacks a multi-threaded executor still runs on its threads.
+
+    rclpy 7.1's ``Executor.shutdown`` does not wait for them (it tests its own shutdown flag after setting
+    it), so ``destroy_node`` could free a service or publisher a worker thread was still answering or
+    publishing on (a planner stopped in the middle of a request).
+    """
+    if not isinstance(executor, MultiThreadedExecutor):
+        return  # a single-threaded executor runs its callbacks on this thread: none is running now
+    running = list(getattr(executor, "_futures", []))  # the Tasks handed to the thread pool
+    deadline = time.monotonic() + timeout_s
+    while any(not task.done() for task in running) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    pool = getattr(executor, "_executor", None)
+    if pool is not None:
+        pool.shutdown(wait=False, cancel_futures=True)
