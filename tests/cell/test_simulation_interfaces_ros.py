@@ -143,10 +143,17 @@ def test_a_step_advances_cell_time_by_exactly_one_quantum_each(harness: Harness)
 
 
 def test_spawn_onto_the_array_and_simulate_steps_until_the_part_has_settled(harness: Harness) -> None:
+    from action_msgs.msg import GoalStatus
     from rclpy.action import ActionClient
     from simulation_interfaces.action import SimulateSteps
     from simulation_interfaces.msg import EntityCategory, EntityFilters
-    from simulation_interfaces.srv import GetEntities, GetEntityInfo, GetSpawnables, SpawnEntity
+    from simulation_interfaces.srv import (
+        GetEntities,
+        GetEntitiesStates,
+        GetEntityInfo,
+        GetSpawnables,
+        SpawnEntity,
+    )
 
     spawnables = harness.ok(GetSpawnables, "get_spawnables").spawnables
     assert any(s.uri.endswith("examples/mems/plus.yaml") for s in spawnables), [s.uri for s in spawnables]
@@ -195,7 +202,23 @@ def test_spawn_onto_the_array_and_simulate_steps_until_the_part_has_settled(harn
             settled = True
             break
     assert moved and settled, f"the spawned square did not settle: {state}"
+    # A long goal is canceled between two steps: CANCELED, with how far it got.
+    feedback = []
+    handle = _wait(
+        steps.send_goal_async(SimulateSteps.Goal(steps=100_000), feedback_callback=feedback.append)
+    )
+    deadline = time.monotonic() + 30
+    while not feedback and time.monotonic() < deadline:
+        time.sleep(0.05)
+    _wait(handle.cancel_goal_async())
+    canceled = _wait(handle.get_result_async())
+    assert canceled.status == GoalStatus.STATUS_CANCELED, canceled
+    assert "canceled after" in canceled.result.result.error_message
     steps.destroy()
+    # Every part of the array with its state in one call.
+    array = harness.ok(GetEntitiesStates, "get_entities_states", filters=EntityFilters(filter=f"^{ARRAY}/"))
+    assert len(array.entities) == len(array.states) >= 2
+    assert all(s.header.frame_id == "cell/mems_array" for s in array.states)
 
 
 def test_the_arms_part_is_placed_with_set_entity_state_at_a_rest_pose(harness: Harness) -> None:
