@@ -37,6 +37,7 @@ from enum import IntEnum
 from typing import Any, Generic, Mapping, Protocol, Sequence, TypeVar
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from lifecycle_msgs.msg import State, Transition, TransitionEvent
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.action import ActionServer
 from rclpy.clock import Clock, ClockType, JumpThreshold
@@ -139,6 +140,9 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         self, node_name: str, parameters: type[P], extra: Sequence[ParameterSpec] = (), *, rate: float = 1.0
     ) -> None:
         super().__init__(node_name)
+        # ~/transition_event as rcl_lifecycle offers it (reliable, volatile, depth 10), published here with
+        # the stamp and the transition (rcl_lifecycle's own notification carries neither; it is not sent).
+        self._transition_events = self.create_publisher(TransitionEvent, "~/transition_event", 10)
         self.parameters = parameters
         self.specs = {spec.name: spec for spec in device_parameter_specs(parameters, extra)}
         # Declared now, validated at configure: a bad value fails the transition, not the process.
@@ -630,6 +634,53 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         super().destroy_node()
         # Likewise the lifecycle state machine and its ~/transition_event publisher (rclpy keeps them).
         self._state_machine.destroy_when_not_in_use()
+
+    def _LifecycleNodeMixin__change_state(self, transition_id: int) -> TransitionCallbackReturn:  # noqa: N802
+        """Run a transition as rclpy does, publishing each step's TransitionEvent with stamp and transition.
+
+        rcl_lifecycle's notification on ``~/transition_event`` carries only the start and goal states
+        (``timestamp`` 0, ``transition`` {0, ""}), so a recorded bring-up said neither when nor which
+        transition. The steps are the same as rclpy's (the transition, the callback, its outcome, and on
+        ERROR the error processing), each triggered without rcl's notification and published here.
+        """
+        callbacks = LifecycleNodeMixin._LifecycleNodeMixin__execute_callback
+        initial = self._state_machine.current_state
+        initial_state = LifecycleState(state_id=initial[0], label=initial[1])
+        self._transition_step(transition_id=transition_id)
+        code = callbacks(self, self._state_machine.current_state[0], initial_state)
+        self._transition_step(label=code.to_label())
+        if code == TransitionCallbackReturn.ERROR:
+            error_code = callbacks(self, self._state_machine.current_state[0], initial_state)
+            self._transition_step(label=error_code.to_label())
+        return code
+
+    def _transition_step(self, transition_id: int | None = None, label: str = "") -> None:
+        """Trigger one transition of the state machine (by id or by label) and publish its event."""
+        machine = self._state_machine
+        start = machine.current_state
+        taken = next(
+            (
+                t
+                for t in machine.available_transitions
+                if (t[0] == transition_id if label == "" else t[1] == label)
+            ),
+            None,
+        )
+        if transition_id is not None:
+            machine.trigger_transition_by_id(transition_id, False)
+        else:
+            machine.trigger_transition_by_label(label, False)
+        goal = machine.current_state
+        event = TransitionEvent()
+        # The node clock (cell time on the cell clock); wall time while a sim-time node has no /clock yet.
+        now = self.get_clock().now().nanoseconds
+        event.timestamp = now if now > 0 else time.time_ns()
+        event.transition = Transition(
+            id=taken[0] if taken else (transition_id or 0), label=taken[1] if taken else label
+        )
+        event.start_state = State(id=start[0], label=start[1])
+        event.goal_state = State(id=goal[0], label=goal[1])
+        self._transition_events.publish(event)
 
     def _LifecycleNodeMixin__on_change_state(self, request: Any, response: Any) -> Any:  # noqa: N802
         """Refuse a transition the present state does not have, instead of dying of it.

@@ -890,6 +890,10 @@ def test_each_lifecycle_transition_is_served_and_published_at_once(healthy: Cell
         assert sent <= stamp <= answered, (transition, sent, stamp, answered)
         event = since(events, event_mark, lambda e, primary=primary: e.goal_state.label == primary)
         assert event.start_state.label == TRANSITION_STATES[transition], event
+        # Each event carries its stamp and its transition (rcl_lifecycle's own carry neither).
+        assert sent <= event.timestamp <= answered and event.transition.label == "transition_success", event
+        started = since(events, event_mark, lambda e, t=transition: e.transition.label == t)
+        assert started.goal_state.label == TRANSITION_STATES[transition] and started.transition.id > 0
         if primary == "inactive":
             assert not changed.ready and not changed.busy
             response = cell.trigger(case, "stop")

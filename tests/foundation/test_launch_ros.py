@@ -48,6 +48,36 @@ def test_scene_runs_its_nodes_records_them_and_ends_them(ros_domain: int, tmp_pa
     # Only the models the scene names run: nothing of the other devices is on the graph.
     assert not any(name.startswith(("/throwing_arm", "/assembly_fixture")) for name in topics)
     assert (bag / "metadata.yaml").is_file()
+    # Recorded from before the first lifecycle transition: the device's bring-up is in the bag, each
+    # transition event with its stamp and transition (rcl_lifecycle's own carry neither).
+    events = _recorded(bag, "/mems_field_array/transition_event")
+    steps = [(e.transition.label, e.start_state.label, e.goal_state.label) for e in events]
+    assert steps == [
+        ("configure", "unconfigured", "configuring"),
+        ("transition_success", "configuring", "inactive"),
+        ("activate", "inactive", "activating"),
+        ("transition_success", "activating", "active"),
+    ]
+    assert [e.transition.id for e in events] == [1, 10, 3, 30]
+    stamps = [e.timestamp for e in events]
+    assert stamps == sorted(stamps) and abs(stamps[0] - time.time_ns()) < 600e9
+    assert _recorded(bag, "/mems_field_array/status")[0].state_name == "UNCONFIGURED"
+
+
+def _recorded(bag: Path, topic: str) -> list:
+    """The messages of ``topic`` in a bag, in log time order."""
+    from mcap.reader import make_reader
+    from rclpy.serialization import deserialize_message
+
+    from feeder_cell.bag.types import message_class
+
+    messages = []
+    for path in sorted(bag.glob("*.mcap")):
+        with open(path, "rb") as handle:
+            for schema, channel, message in make_reader(handle).iter_messages(log_time_order=True):
+                if channel.topic == topic:
+                    messages.append(deserialize_message(message.data, message_class(schema.name)))
+    return messages
 
 
 def test_bad_scene_file_names_the_field(tmp_path: Path) -> None:

@@ -119,6 +119,28 @@ def _configuration_error(node: Any, executor: Any, target: str) -> str:
     return seen[-1].fault_text if seen else ""
 
 
+# Before a node's first transition the recorder's new readers must have matched their writers: a
+# transition event (volatile) published before the match is lost. The most it waits (wall s), and the
+# settle after the readers' side matched, for the writers' side (as the lockstep observer's).
+RECORDER_MATCH_TIMEOUT_S = 2.0
+RECORDER_MATCH_SETTLE_S = 0.2
+
+
+def _discover_matched(recorder: Any, node: Any, executor: Any, keep_going: Callable[[], bool]) -> None:
+    """Subscribe the recorder to the topics there are now and wait until its new readers have matched."""
+    if not recorder.discover():
+        return
+    deadline = time.monotonic() + RECORDER_MATCH_TIMEOUT_S
+    while keep_going() and time.monotonic() < deadline:
+        subscriptions = recorder.subscriptions()
+        if all(s.get_publisher_count() >= node.count_publishers(n) for n, s in subscriptions.items()):
+            settled = time.monotonic() + RECORDER_MATCH_SETTLE_S
+            while keep_going() and time.monotonic() < settled:
+                executor.spin_once(timeout_sec=0.02)
+            return
+        executor.spin_once(timeout_sec=0.02)
+
+
 def _while_alive(process: NodeProcess, keep_going: Callable[[], bool]) -> Callable[[], bool]:
     return lambda: keep_going() and process.alive()
 
@@ -248,7 +270,12 @@ def _launch(args: argparse.Namespace) -> int:
             if keep_going():
                 # Recording starts before the bring-up, which takes a while: a controller in the scene
                 # is working already.
-                discover = recorder.discover if recorder and observer is None else None
+                discover = None
+                if recorder and observer is None:
+
+                    def discover() -> None:
+                        _discover_matched(recorder, node, executor, keep_going)
+
                 states = bring_up(node, executor, processes, discover, keep_going)
             started = time.monotonic()
             next_discovery = 0.0
