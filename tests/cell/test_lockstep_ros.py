@@ -128,6 +128,7 @@ def test_the_cell_gives_the_same_run_at_every_pace_quiet_and_loaded(tmp_path: Pa
         assert counts.get(topic, 0) > 0, f"{topic} not recorded: {sorted(counts)}"
     # Every sample of the arm's configured rate (100 Hz) in cell time, none dropped: 10 per quantum.
     assert counts["/cell/throwing_arm/joint_states"] >= 100 * (CYCLE_SPAN_S - 1.0)
+    assert_bring_up_recorded(reference)
 
     # Loaded at 5, not also at max: a loaded host changes only when each answer comes, which the paced run
     # exposes as well (the loaded factor-5 run found the last wall-clock dependence, a MEMS status).
@@ -147,6 +148,28 @@ def test_the_cell_gives_the_same_run_at_every_pace_quiet_and_loaded(tmp_path: Pa
             _, bag = _launch(tmp_path, name, factor, *extra)
         difference, _ = _compare(reference, bag, span_end)
         assert not difference, f"factor {name} differs from max: {difference}"
+
+
+def assert_bring_up_recorded(bag: Path) -> None:
+    """Each device's bring-up is in the bag from its first transition, each event stamped (cell time)."""
+    from mcap.reader import make_reader
+    from rclpy.serialization import deserialize_message
+
+    from feeder_cell.bag.types import message_class
+
+    events: dict[str, list[Any]] = {}
+    for path in sorted(bag.glob("*.mcap")):
+        with open(path, "rb") as handle:
+            for schema, channel, message in make_reader(handle).iter_messages(log_time_order=True):
+                if channel.topic.endswith("/transition_event"):
+                    decoded = deserialize_message(message.data, message_class(schema.name))
+                    events.setdefault(channel.topic, []).append(decoded)
+    for device in ("mems_field_array", "throwing_arm", "assembly_fixture"):
+        recorded = events.get(f"/cell/{device}/transition_event", [])
+        assert recorded, f"no transition event of {device} recorded: {sorted(events)}"
+        first = recorded[0]
+        assert (first.transition.label, first.start_state.label) == ("configure", "unconfigured"), first
+        assert all(e.timestamp >= START_S * 1e9 for e in recorded), [e.timestamp for e in recorded]
 
 
 def _pid_of(executable: str, domain: int) -> int | None:
