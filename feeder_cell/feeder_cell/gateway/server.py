@@ -39,6 +39,7 @@ from asyncua.server.internal_server import InternalServer
 from asyncua.server.user_managers import UserManager
 
 from feeder_cell.gateway import arguments, layout, units
+from feeder_cell.gateway.alarms import Alarms
 from feeder_cell.gateway.config import PACKML_STATES, DeviceEntry, Endpoint, SecurityConfig
 from feeder_cell.gateway.kinds import KINDS
 from feeder_cell.gateway.spec import ArgumentSpec, CallContext, Goal, MethodSpec, Value
@@ -144,6 +145,8 @@ class GatewayServer:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._flushing: asyncio.Task[None] | None = None
         self._flush_lock = asyncio.Lock()
+        self.alarms: Alarms | None = None
+        self._alarm_lock = asyncio.Lock()
 
     # --- start and stop --------------------------------------------------------------------------
     async def start(self) -> None:
@@ -193,6 +196,8 @@ class GatewayServer:
 
     async def _build(self, server: Server) -> None:
         await self._packml_enumeration(server)
+        self.alarms = Alarms(server, self.idx, self.log)
+        await self.alarms.setup()
         cell = await server.nodes.objects.add_object(self._id(layout.CELL), self._name("Cell"))
         folder = await cell.add_folder(self._id(layout.DEVICES_FOLDER), self._name("Devices"))
         for device in self.devices:
@@ -229,6 +234,8 @@ class GatewayServer:
                     node.nodeid,
                     ua.DataValue(StatusCode=_status_code(ua.StatusCodes.BadWaitingForInitialData)),
                 )
+        if self.alarms is not None:
+            await self.alarms.add_device(key, obj)
         self.post(key, "Kind", device.kind)
         self.post(key, "NodeName", device.node)
         for spec_m in layout.methods(device.kind):
@@ -394,6 +401,7 @@ class GatewayServer:
                 pending, self._pending = self._pending, {}
                 for vid, item in pending.items():
                     self._written[vid] = item.value
+                changes = self._alarm_changes(pending)
             now = cast(ua.DateTime, datetime.now(timezone.utc))
             for vid, item in pending.items():
                 dv = ua.DataValue(
@@ -403,6 +411,38 @@ class GatewayServer:
                     ServerTimestamp=now,
                 )
                 await self.server.write_attribute_value(self._id(vid), dv)
+            # The alarms follow the values, in flush order, but outside the flush lock: the next values
+            # are not held up by the events.
+            await self._alarm_lock.acquire()
+        try:
+            await self._update_alarms(changes)
+        finally:
+            self._alarm_lock.release()
+
+    def _alarm_changes(self, pending: Mapping[str, _Pending]) -> list[tuple[str, str, int, str, int]]:
+        """Return (key, condition, code, text, stamp) of each device whose fault or warning changed."""
+        changes = []
+        for device in self.devices:
+            for name in ("Fault", "Warning"):
+                code_vid = layout.variable_id(device.key, f"Status.{name}Code")
+                text_vid = layout.variable_id(device.key, f"Status.{name}Text")
+                item = pending.get(code_vid) or pending.get(text_vid)
+                if item is None:
+                    continue
+                code = cast(int, self._written.get(code_vid, 0))
+                text = str(self._written.get(text_vid, ""))
+                changes.append((device.key, name, int(code), text, item.stamp_ns))
+        return changes
+
+    async def _update_alarms(self, changes: list[tuple[str, str, int, str, int]]) -> None:
+        """Raise or clear the devices' Fault and Warning conditions (alarms.py)."""
+        if self.alarms is None:
+            return
+        for key, name, code, text, stamp_ns in changes:
+            try:
+                await self.alarms.update(key, name, code, text, _stamp(stamp_ns))
+            except Exception:  # noqa: BLE001 - an alarm's failure must not stop the values
+                self.log.exception("%s: the %s alarm failed", key, name)
 
     def read(self, key: str, path: str) -> Value | None:
         """Return the last value set of a variable (for the handler's own bookkeeping)."""
