@@ -99,6 +99,20 @@ def test_a_fault_is_raised_acknowledged_and_cleared_and_a_warning_is_a_lower_sev
             assert raised.Retain is True
             assert (await on_server.next()).EventId == raised.EventId
 
+            # ConditionRefresh sends the retained condition again to the subscription on Server.
+            refresh = ua.CallMethodRequest()
+            refresh.ObjectId = ua.NodeId(ua.ObjectIds.ConditionType)
+            refresh.MethodId = ua.NodeId(ua.ObjectIds.ConditionType_ConditionRefresh)
+            refresh.InputArguments = [ua.Variant(sub_server.subscription_id, ua.VariantType.UInt32)]
+            assert (await client.uaclient.call([refresh]))[0].StatusCode.is_good()
+            assert (await on_server.next()).EventId == raised.EventId
+            # Enable, Disable and AddComment are not supported.
+            for method in (ua.ObjectIds.ConditionType_Disable, ua.ObjectIds.ConditionType_Enable):
+                request = ua.CallMethodRequest()
+                request.ObjectId, request.MethodId = raised.NodeId, ua.NodeId(method)
+                result = (await client.uaclient.call([request]))[0]
+                assert result.StatusCode.value == ua.StatusCodes.BadNotSupported
+
             # A stale EventId is refused, the current one acknowledges; a second acknowledge is refused.
             stale = await _acknowledge(client, type("E", (), {"NodeId": raised.NodeId, "EventId": b"x"}), "")
             assert stale.StatusCode.value == ua.StatusCodes.BadEventIdUnknown

@@ -121,6 +121,10 @@ class Alarms:
     async def setup(self) -> None:
         """Make the Server object a notifier and link the Acknowledge (and Enable, Disable) methods."""
         await self.server.nodes.server.set_event_notifier([ua.EventNotifier.SubscribeToEvents])
+        # asyncua's ConditionRefresh (and its RefreshStart/RefreshEnd events, Severity 1) is off by default.
+        iserver = self.server.iserver
+        iserver.bind_condition_methods = 1
+        await iserver.setup_condition_methods()
         for method, name in (
             (ua.ObjectIds.AcknowledgeableConditionType_Acknowledge, "Acknowledge"),
             (ua.ObjectIds.ConditionType_Enable, "Enable"),
