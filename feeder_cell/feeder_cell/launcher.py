@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import dataclasses
 import os
 import re
 import signal
@@ -234,6 +235,41 @@ def scene_copy(scene: Path, folder: Path, overrides: dict[str, dict[str, Paramet
     path = folder / scene.name
     path.write_text(yaml.safe_dump(document))
     return path
+
+
+def with_overrides(scene: Scene, assignments: list[str]) -> Scene:
+    """Return ``scene`` with parameters set from ``NODE.PARAM=VALUE`` texts (``feeder launch --set``).
+
+    NODE is a node's name in the scene (``cell_controller``) or its fully qualified name; VALUE is YAML (a
+    number, a string, a list); a path parameter (``*_file``) is taken relative to the working directory.
+    The result is checked against the nodes' declarations as the scene file is; errors name ``--set``.
+    """
+    nodes = list(scene.nodes)
+    for text in assignments:
+        target, equals, value_text = text.partition("=")
+        node_name, dot, name = target.strip().rpartition(".")
+        if not (equals and dot and node_name and name):
+            raise InputError("--set", f"expected NODE.PARAM=VALUE, got {text!r}")
+        matches = [i for i, n in enumerate(nodes) if node_name in (n.node_name, n.fully_qualified_name)]
+        if len(matches) != 1:
+            known = ", ".join(n.node_name for n in nodes)
+            raise InputError(
+                "--set", f"{node_name!r} names {len(matches)} nodes of the scene (its nodes: {known})"
+            )
+        try:
+            value = yaml.safe_load(value_text)
+        except yaml.YAMLError as error:
+            raise InputError("--set", f"{text!r}: the value is not YAML ({type(error).__name__})") from None
+        _parameter(name, value, "--set")
+        spec = nodes[matches[0]]
+        resolved = _resolve_path(name, value, Path.cwd())
+        nodes[matches[0]] = dataclasses.replace(spec, parameters={**spec.parameters, name: resolved})
+    changed = dataclasses.replace(scene, nodes=tuple(nodes))
+    try:
+        check_declared_parameters(changed)
+    except InputError as error:
+        raise InputError("--set", str(error)) from None
+    return changed
 
 
 def joins_lockstep(package: str, executable: str) -> bool:

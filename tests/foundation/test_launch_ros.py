@@ -239,3 +239,24 @@ def test_a_device_that_fails_to_configure_stops_the_launch_with_its_reason(
     assert result.returncode == 1
     assert result.stderr.count("\n") == 1, result.stderr
     assert "configure refused" in result.stderr and "missing.yaml" in result.stderr
+
+
+def test_set_overrides_a_parameter_for_the_run_and_names_set_when_refused() -> None:
+    from feeder_cell.launcher import load_scene, with_overrides
+    from feeder_planner.errors import InputError
+
+    scene = load_scene(ROOT / "feeder_cell/scenes/cell.yaml")
+    changed = with_overrides(scene, ["cell_controller.cycles=1", "/cell/throwing_arm.release_speed=5.0"])
+    by_name = {n.node_name: n.parameters for n in changed.nodes}
+    assert by_name["cell_controller"]["cycles"] == 1 and by_name["throwing_arm"]["release_speed"] == 5.0
+    assert {n.node_name: n.parameters for n in scene.nodes}["cell_controller"]["cycles"] == 3  # a copy
+    for bad, problem in (
+        ("cell_controller.cycles=one", "is declared integer"),
+        ("cell_controller.cycles=-1", ">= 0"),
+        ("nobody.cycles=1", "names 0 nodes"),
+        ("cell_controller.cycles", "NODE.PARAM=VALUE"),
+        ("cell_controller.cycles=[1, a]", "one type"),
+    ):
+        with pytest.raises(InputError, match=problem) as caught:
+            with_overrides(scene, [bad])
+        assert caught.value.field.startswith("--set"), caught.value

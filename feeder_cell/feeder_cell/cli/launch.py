@@ -17,6 +17,7 @@ from feeder_cell.launcher import (
     joins_lockstep,
     load_scene,
     start_node,
+    with_overrides,
 )
 from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError, LifecycleInterruptedError
 from feeder_cell.ros_session import with_node
@@ -192,7 +193,7 @@ def bring_up(
 
 
 def _launch(args: argparse.Namespace) -> int:
-    scene = load_scene(args.scene)
+    scene = with_overrides(load_scene(args.scene), args.set) if args.set else load_scene(args.scene)
     if args.duration is not None and args.duration <= 0:
         raise InputError("--duration", f"must be > 0 seconds, got {args.duration}")
     if not (args.quantum > 0):
@@ -426,6 +427,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default="drop",
         help="drop: the cell goes on without the participant (an ERROR in /diagnostics names it); "
         "stop: the clock holds where it is (default drop)",
+    )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NODE.PARAM=VALUE",
+        help="set a node's parameter for this run, over the scene file's (NODE: its name, e.g. "
+        "cell_controller.cycles=1; VALUE: YAML); checked against the node's declarations; repeatable",
     )
     parser.add_argument("--log-dir", help="where node logs go (default: a new temporary folder)")
     add_json_flag(parser)
