@@ -54,7 +54,7 @@ def _sequence(bag: Path) -> list[tuple[int, int]]:
 
 
 @pytest.mark.ros
-@pytest.mark.parametrize("moment", [0.6, 1.8, 5.0])
+@pytest.mark.parametrize("moment", [0.6, 5.0])  # within the first flush interval, and after several
 def test_kill_9_loses_at_most_the_flush_interval(
     ros_domain: int, ros_client: Any, tmp_path: Path, moment: float
 ) -> None:

@@ -16,7 +16,7 @@ from typing import Any, Callable
 
 import pytest
 
-CLIENTS = 10
+CLIENTS = 6
 RESEND_S = 0.5  # the pattern's resend interval: far above an answer's few ms, far below a lost one
 ANSWER_TIMEOUT_S = 10.0
 

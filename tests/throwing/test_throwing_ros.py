@@ -120,7 +120,7 @@ def test_sensor_at_planned_radius_reads_true_only_on_goal_edge_and_every_cycle(
     executor.add_node(listener)
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()
-    burn_in, wanted = 30, 200  # about 20 throws a goal-edge visit here: at least 10 complete visits
+    burn_in, wanted = 30, 120  # about 20 throws a goal-edge visit here: at least 5 complete visits
     rest_reads = []  # (edge at rest, readings while at rest)
     try:
         sim = launch_node(

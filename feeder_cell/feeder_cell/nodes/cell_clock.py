@@ -205,7 +205,7 @@ class CellClock(Node):
         self.announced_wall = time.monotonic()
         self.quanta = 0
         self.announcers: dict[str, Publisher] = {
-            role: self.create_publisher(Clock, ANNOUNCE_TOPIC[role], LOCKSTEP_QOS) for role in ROLES
+            role: self.create_publisher(Header, ANNOUNCE_TOPIC[role], LOCKSTEP_QOS) for role in ROLES
         }
         self.clock_wall = 0.0  # wall time /clock was last published
         self.held_published_ns = -1  # the held time last published on /clock
@@ -254,7 +254,7 @@ class CellClock(Node):
 
     def _announce(self, role: str) -> None:
         self.announced_wall = time.monotonic()
-        self.announcers[role].publish(Clock(clock=to_time(self.now_ns)))
+        self.announcers[role].publish(Header(stamp=to_time(self.now_ns)))
         if role == "tick" and self.announced_wall - self.clock_wall >= 1.0 / self.p.clock_rate:
             self.clock_wall = self.announced_wall
             self.publish()

@@ -9,12 +9,12 @@ seed gives the same run at any pace. Each quantum T has three phases, one per ro
 role       the clock announces T on        the participant answers    what the participant does before
 =========  ==============================  =========================  ========================================
 tick       ``/lockstep/tick``              ``/lockstep/ticked``       simulate up to T and publish every
-           (rosgraph_msgs/Clock)                                      sample up to T (devices)
+           (std_msgs/Header)                                          sample up to T (devices)
 react      ``/lockstep/settled``           ``/lockstep/reacted``      decide on what every tick participant
-           (rosgraph_msgs/Clock)                                      produced up to T, send its requests and
+           (std_msgs/Header)                                          produced up to T, send its requests and
                                                                       wait for their answers (controllers)
 observe    ``/lockstep/quiet``             ``/lockstep/observed``     take in everything the quantum produced
-           (rosgraph_msgs/Clock)                                      (recorders)
+           (std_msgs/Header)                                          (recorders)
 =========  ==============================  =========================  ========================================
 
 A participant runs on sim time and sets its node clock to T as it hears its announcement (``/clock`` itself is
@@ -25,6 +25,12 @@ is done with. The first answer joins (any stamp; the node is waited for from the
 ``stamp.sec == -1`` leaves. Answers must be published reliably. A participant that does not answer within
 the clock's ``lockstep_timeout`` (wall seconds) is dropped from the lockstep with an ERROR in ``/diagnostics``
 naming it. A node that does not join simply sees a faster ``/clock``.
+
+Announcements and answers are ``std_msgs/Header`` (``stamp`` T), an unbounded type on purpose: Fast DDS
+delivers a bounded type (``rosgraph_msgs/Clock``) between processes of one host by data sharing, a path of
+its own, so an announcement could overtake the samples a device sent before its answer (a recorder then
+logged a joint state one quantum late: seen once in CI); unbounded types all take the shared-memory
+transport, where what reaches one process arrives in the order it was sent.
 
 Why the phases: DDS delivers the messages one process sends to another in order, and a participant
 answers only after it has sent everything the quantum caused. So when a controller sees
@@ -52,7 +58,6 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
 from rclpy.timer import Timer
-from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Header
 
 __all__ = [
@@ -114,8 +119,8 @@ def drain(executor: Executor, tasks_only: bool = False) -> None:
             return
 
 
-def _nanoseconds(msg: Clock) -> int:
-    return int(msg.clock.sec) * NANOSECONDS + int(msg.clock.nanosec)
+def _nanoseconds(msg: Header) -> int:
+    return int(msg.stamp.sec) * NANOSECONDS + int(msg.stamp.nanosec)
 
 
 class Participant:
@@ -153,7 +158,7 @@ class Participant:
         self._announced = threading.Condition()
         self.drained_ns = -1  # the last T after which the spinning thread drained (``hold`` mode)
         self._answer = node.create_publisher(Header, ANSWER_TOPIC[role], LOCKSTEP_QOS)
-        node.create_subscription(Clock, ANNOUNCE_TOPIC[role], self._on_message, LOCKSTEP_QOS)
+        node.create_subscription(Header, ANNOUNCE_TOPIC[role], self._on_message, LOCKSTEP_QOS)
         # Join, and again until the first announcement comes: a message sent before the clock's reader
         # has matched this writer is lost (volatile), and react and observe announcements start only
         # once every expected participant has joined.
@@ -162,7 +167,7 @@ class Participant:
             JOIN_PERIOD_S, lambda: self.send(0), clock=RclClock(clock_type=ClockType.STEADY_TIME)
         )
 
-    def _on_message(self, msg: Clock) -> None:
+    def _on_message(self, msg: Header) -> None:
         if self._joining is not None:
             self.node.destroy_timer(self._joining)
             self._joining = None
