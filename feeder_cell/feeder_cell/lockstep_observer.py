@@ -14,6 +14,7 @@ from __future__ import annotations
 import time
 from typing import Any, Callable
 
+from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.executors import Executor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -87,6 +88,7 @@ class RecordingObserver:
         keep_going: Callable[[], bool],
         nodes: list[tuple[str, str]],
         timeout_s: float = 30.0,
+        participants: tuple[str, ...] = (),
     ) -> None:
         """Subscribe to every topic of the scene's ``nodes`` (name, namespace), wait until matched, join.
 
@@ -99,6 +101,22 @@ class RecordingObserver:
         deadline = time.monotonic() + timeout_s
         while keep_going() and not self.recorder.clock_started() and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.01)
+        # The other participants join at the end of their construction, their publishers made: until each
+        # has (the clock's /diagnostics lists its members, once a second), a node's list of publishers may
+        # look settled while it is still being built (a status topic taken up after the bring-up it
+        # reports: only its latched last message recorded).
+        joined: set[str] = set()
+
+        def on_diagnostics(msg: DiagnosticArray) -> None:
+            for status in msg.status:
+                if status.name.endswith(": lockstep"):
+                    members = next((v.value for v in status.values if v.key == "participants"), "")
+                    joined.update(m.rsplit(" (", 1)[0].strip() for m in members.split(", ") if m)
+
+        diagnostics = self.node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
+        while keep_going() and time.monotonic() < deadline and not set(participants) <= joined:
+            executor.spin_once(timeout_sec=0.01)
+        self.node.destroy_subscription(diagnostics)
         stable_since, seen = time.monotonic(), self._publishers(nodes)
         while keep_going() and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.01)

@@ -120,7 +120,7 @@ def test_sensor_at_planned_radius_reads_true_only_on_goal_edge_and_every_cycle(
     executor.add_node(listener)
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()
-    burn_in, wanted = 30, 120  # about 20 throws a goal-edge visit here: at least 5 complete visits
+    burn_in, wanted = 30, 150  # about 20 throws a goal-edge visit here: at least 5 complete visits
     rest_reads = []  # (edge at rest, readings while at rest)
     try:
         sim = launch_node(
@@ -201,7 +201,7 @@ def test_sensor_at_planned_radius_reads_true_only_on_goal_edge_and_every_cycle(
             visits.append(current)
             current = []
     complete = visits[1:]  # the first visit may be cut by the burn-in
-    assert len(complete) >= 10
+    assert len(complete) >= 5  # wanted throws at about 20 a visit
     assert all(any(any(r) for r in visit) for visit in complete), [
         v for v in complete if not any(any(r) for r in v)
     ][:3]

@@ -266,7 +266,10 @@ def _launch(args: argparse.Namespace) -> int:
                 # Subscribed to every topic the scene's nodes made at start-up before the clock's join
                 # completes (it waits for the recorder): the recording starts at the start time.
                 observer.start(
-                    executor, keep_going, [(p.spec.node_name, p.spec.namespace) for p in processes]
+                    executor,
+                    keep_going,
+                    [(p.spec.node_name, p.spec.namespace) for p in processes],
+                    participants=tuple(s.fully_qualified_name for s in participants),
                 )
             if keep_going():
                 # Recording starts before the bring-up, which takes a while: a controller in the scene
