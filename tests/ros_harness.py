@@ -353,3 +353,19 @@ def step_clock(client: Any, seconds: float, clock: str = "/cell_clock") -> int:
     response = call_service(client, StepClock, f"{clock}/step", request)
     assert response.ok, response.error
     return int(response.now.sec) * 10**9 + int(response.now.nanosec)
+
+
+def launched_node_pids(parent: int) -> list[int]:
+    """Pids of the node processes a launcher started: its children that run with --ros-args (from /proc)."""
+    pids = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            ppid = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
+            cmdline = (entry / "cmdline").read_bytes().decode(errors="replace")
+        except (OSError, IndexError, ValueError):
+            continue
+        if ppid == parent and "--ros-args" in cmdline:
+            pids.append(int(entry.name))
+    return pids

@@ -27,20 +27,7 @@ def _env(domain: int) -> dict[str, str]:
     return dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
 
 
-def _node_pids(parent: int) -> list[int]:
-    """Pids of the node processes the launcher started: its children that run with --ros-args."""
-    pids = []
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            ppid = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
-            cmdline = (entry / "cmdline").read_bytes().decode(errors="replace")
-        except (OSError, IndexError, ValueError):
-            continue
-        if ppid == parent and "--ros-args" in cmdline:
-            pids.append(int(entry.name))
-    return pids
+_node_pids = ros_harness.launched_node_pids
 
 
 def _end(process: subprocess.Popen[str]) -> tuple[str, str]:

@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 
 import pytest
+import ros_harness
 
 ROOT = Path(__file__).resolve().parents[2]
 FEEDER = [sys.executable, "-m", "feeder_cell.cli.main"]
@@ -91,20 +92,7 @@ def test_bad_scene_file_names_the_field(tmp_path: Path) -> None:
     assert "nodes[0].executable" in result.stderr and str(scene) in result.stderr
 
 
-def _node_pids(parent: int) -> list[int]:
-    """Pids of the node processes the launcher started: its children that run with --ros-args."""
-    pids = []
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            ppid = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
-            cmdline = (entry / "cmdline").read_bytes().decode(errors="replace")
-        except (OSError, IndexError, ValueError):
-            continue
-        if ppid == parent and "--ros-args" in cmdline:
-            pids.append(int(entry.name))
-    return pids
+_node_pids = ros_harness.launched_node_pids
 
 
 def _alive(pid: int) -> bool:
