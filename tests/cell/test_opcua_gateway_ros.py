@@ -772,8 +772,10 @@ def test_stop_ends_a_long_goal_and_the_device_is_commandable_after_reset(
         )
         assert response.ok, response.error
         await s.good(arm, "FeedPart", u32(10_000), dbl(0.0))
+        # The previous test's goal left Throws above 0: acceptance clears it, so this is the new goal's.
+        assert await s.read(arm, "Command.Feedback.Throws") == 0
         await s.wait_for(arm, "Command.Feedback.Throws", lambda n: n >= 1)
-        assert await s.read(arm, "Command.Busy") is True
+        await s.wait_for(arm, "Command.Busy", lambda v: v is True)
         assert "Stop" in await s.good(arm, "Stop")
         await s.wait_for(arm, "Command.ResultCount", lambda n: n == results + 1)
         assert await s.read(arm, "Command.Busy") is False

@@ -333,6 +333,8 @@ class RosLink:
             "Command.LastOutcome": "",  # cleared: the new goal has none yet
             "Command.LastOutcomeCode": 0,
             "Command.Result.FaultCode": 0,
+            # The previous goal's progress would read as this one's until the first feedback arrives.
+            **link.profile.action.feedback_values(link.profile.action.action_type.Feedback()),
         }
         if busy:
             values["Command.Busy"] = True
