@@ -89,17 +89,19 @@ WRAPPER
 chmod +x "$VENV/bin/feeder.new"
 mv -f "$VENV/bin/feeder.new" "$VENV/bin/feeder"
 
-# --- 6. The official Foxglove client the bridge tests drive (npm, pinned by tests/js/package-lock.json). -
-# Not fatal: without it only those tests fail, and they name the cause (npm-ci.log keeps npm's words).
+# --- 6. The clients the tests drive: Foxglove's for the bridge, node-opcua's for the OPC UA gateway. ---
+# npm, pinned by tests/js/package-lock.json. Not fatal: without them only those tests fail, and they name
+# the cause (npm-ci.log keeps npm's words).
 JS="$ROOT/tests/js"
 js_hash=$(sha256sum "$JS/package-lock.json" | cut -d' ' -f1)
 if [ "$(cat "$JS/node_modules/.feeder-stamp" 2>/dev/null)" != "$js_hash" ]; then
-  say "installing the bridge tests' Foxglove client from the npm registry (tests/js, npm ci)"
+  say "installing the tests' Foxglove and node-opcua clients from the npm registry (tests/js, npm ci)"
   if (cd "$JS" && timeout 300 npm ci --no-audit --no-fund --fetch-retries=1 --fetch-timeout=60000) \
       >"$JS/npm-ci.log" 2>&1; then
     echo "$js_hash" > "$JS/node_modules/.feeder-stamp"
   else
-    say "WARNING: npm ci in tests/js failed (tests/js/npm-ci.log); the bridge's official-client tests will fail"
+    say "WARNING: npm ci in tests/js failed (tests/js/npm-ci.log); the bridge's official-client tests" \
+      "and the OPC UA security test will fail"
   fi
 fi
 say "ready. Enter the environment with: source env.sh"

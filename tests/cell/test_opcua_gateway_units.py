@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 import pytest
 
 from feeder_cell.gateway import layout, units
 from feeder_cell.gateway.arguments import Argument, ArgumentError
+from feeder_cell.gateway.certificates import CERTIFICATE_NAME, KEY_NAME, ensure_certificate, thumbprints
 from feeder_cell.gateway.config import (
     PACKML_STATES,
     check_security,
@@ -18,6 +20,7 @@ from feeder_cell.gateway.config import (
     parse_device_entry,
     parse_devices,
     parse_endpoint,
+    security_warnings,
 )
 from feeder_cell.gateway.kinds.assembly_fixture import check_follow_path
 from feeder_cell.gateway.kinds.mems_field_array import check_run_program
@@ -102,20 +105,135 @@ def test_anonymous_on_a_non_loopback_endpoint_is_refused_unless_allowed_explicit
         _security("opc.tcp://0.0.0.0:4840")
     assert str(error.value).startswith("parameter allow_anonymous:")
     assert "allow_anonymous_remote" in str(error.value)
-    assert _security("opc.tcp://0.0.0.0:4840", allow_anonymous_remote=True)
+    assert _security("opc.tcp://0.0.0.0:4840", allow_anonymous_remote=True, allow_insecure_remote=True)
 
 
 def test_security_combinations_name_the_parameter(tmp_path: Path) -> None:
     with pytest.raises(InputError, match=r"parameter security_policies\[0\]: unknown policy 'Basic128'"):
         _security("opc.tcp://127.0.0.1:1", policies=["Basic128"])
-    with pytest.raises(InputError, match="parameter certificate_file: is required"):
-        _security("opc.tcp://127.0.0.1:1", policies=["Basic256Sha256_SignAndEncrypt"])
+    with pytest.raises(InputError, match="parameter certificate_file: is required with private_key_file"):
+        _security("opc.tcp://127.0.0.1:1", policies=[SECURE], private_key_file=str(tmp_path / "key.pem"))
+    with pytest.raises(InputError, match="parameter private_key_file: is required with certificate_file"):
+        _security("opc.tcp://127.0.0.1:1", policies=[SECURE], certificate_file=str(tmp_path / "cert.der"))
+    # Neither: the node makes (or reuses) a self-signed certificate in pki_dir.
+    assert _security("opc.tcp://127.0.0.1:1", policies=[SECURE]).makes_certificate  # type: ignore[attr-defined]
+    with pytest.raises(InputError, match="parameter pki_dir: is used only when a Basic256Sha256 policy"):
+        _security("opc.tcp://127.0.0.1:1", pki_dir=str(tmp_path))
     with pytest.raises(InputError, match="parameter allow_anonymous: is false and no users_file"):
         _security("opc.tcp://127.0.0.1:1", allow_anonymous=False)
     with pytest.raises(InputError, match="parameter users_file: cannot read"):
         _security("opc.tcp://127.0.0.1:1", users_file=str(tmp_path / "missing.yaml"))
     with pytest.raises(InputError, match="parameter trusted_certificates_dir: applies to the Basic256Sha256"):
         _security("opc.tcp://127.0.0.1:1", trusted_certificates_dir=str(tmp_path))
+
+
+SECURE = "Basic256Sha256_SignAndEncrypt"
+REMOTE = "opc.tcp://10.1.2.3:4840"
+
+
+def _users_file(tmp_path: Path) -> str:
+    path = tmp_path / "users.yaml"
+    path.write_text(f"users:\n  plc: {hash_password('x', iterations=1)}\n")
+    return str(path)
+
+
+def test_off_loopback_none_is_refused_unless_allowed_explicitly(tmp_path: Path) -> None:
+    users = _users_file(tmp_path)
+    for policies in (["None"], ["None", SECURE]):
+        with pytest.raises(InputError) as error:
+            _security(REMOTE, policies=policies, allow_anonymous=False, users_file=users)
+        assert str(error.value).startswith("parameter security_policies: offers None")
+        assert "allow_insecure_remote" in str(error.value) and "\n" not in str(error.value)
+    config = _security(REMOTE, allow_anonymous=False, users_file=users, allow_insecure_remote=True)
+    assert config.insecure_remote  # type: ignore[attr-defined]
+    # On loopback None stays the default, and nothing is said about it.
+    assert not _security("opc.tcp://127.0.0.1:4840").insecure_remote  # type: ignore[attr-defined]
+
+
+def test_off_loopback_sign_alone_is_not_enough_beside_sign_and_encrypt_it_is(tmp_path: Path) -> None:
+    users = _users_file(tmp_path)
+    with pytest.raises(InputError, match="parameter security_policies: offers no encryption"):
+        _security(REMOTE, policies=["Basic256Sha256_Sign"], allow_anonymous=False, users_file=users)
+    for policies in ([SECURE], ["Basic256Sha256_Sign", SECURE]):
+        config = _security(REMOTE, policies=policies, allow_anonymous=False, users_file=users)
+        assert config.remote and not config.insecure_remote  # type: ignore[attr-defined]
+        assert config.makes_certificate  # type: ignore[attr-defined]
+
+
+def test_off_loopback_sessions_need_users_or_explicit_anonymous(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="parameter allow_anonymous: is false and no users_file"):
+        _security(REMOTE, policies=[SECURE], allow_anonymous=False)
+    with pytest.raises(
+        InputError, match="parameter allow_anonymous: anonymous clients are allowed on a loop"
+    ):
+        _security(REMOTE, policies=[SECURE], users_file=_users_file(tmp_path))
+    assert _security(REMOTE, policies=[SECURE], allow_anonymous_remote=True).allow_anonymous  # type: ignore[attr-defined]
+    # A host name is not provably loopback: it is held to the same rules.
+    with pytest.raises(InputError, match="parameter allow_anonymous"):
+        _security("opc.tcp://plc-gateway:4840", policies=[SECURE])
+
+
+def test_each_explicit_opt_out_is_a_warning_naming_its_parameter(tmp_path: Path) -> None:
+    endpoint = parse_endpoint(REMOTE)
+    quiet = _security(REMOTE, policies=[SECURE], allow_anonymous=False, users_file=_users_file(tmp_path))
+    assert security_warnings(endpoint, quiet) == []  # type: ignore[arg-type]
+    loud = _security(REMOTE, allow_anonymous_remote=True, allow_insecure_remote=True)
+    warnings = security_warnings(endpoint, loud)  # type: ignore[arg-type]
+    assert [w.split(":", 1)[0] for w in warnings] == [
+        "parameter allow_anonymous_remote",
+        "parameter allow_insecure_remote",
+    ]
+    plain = _security(
+        REMOTE, allow_anonymous=False, users_file=_users_file(tmp_path), allow_insecure_remote=True
+    )
+    assert any(
+        w.startswith("parameter users_file: passwords cross") for w in security_warnings(endpoint, plain)
+    )  # type: ignore[arg-type]
+    assert (
+        security_warnings(parse_endpoint("opc.tcp://127.0.0.1:1"), _security("opc.tcp://127.0.0.1:1")) == []
+    )  # type: ignore[arg-type]
+
+
+def test_the_certificate_is_made_once_then_reused_and_a_bad_folder_names_pki_dir(tmp_path: Path) -> None:
+    from cryptography import x509
+
+    pki = tmp_path / "pki"
+    made = ensure_certificate(str(pki), layout.APPLICATION_URI, "10.1.2.3")
+    assert made.created and Path(made.certificate_file) == pki / CERTIFICATE_NAME
+    assert os.stat(made.private_key_file).st_mode & 0o077 == 0
+    der = (pki / CERTIFICATE_NAME).read_bytes()
+    assert (made.sha1, made.sha256) == thumbprints(der) and len(made.sha1.split(":")) == 20
+    certificate = x509.load_der_x509_certificate(der)
+    names = certificate.extensions.get_extension_for_class(x509.SubjectAlternativeName).value
+    assert names.get_values_for_type(x509.UniformResourceIdentifier) == [layout.APPLICATION_URI]
+    assert "10.1.2.3" in [str(a) for a in names.get_values_for_type(x509.IPAddress)]
+    assert certificate.public_key().key_size == 2048  # type: ignore[union-attr]
+    again = ensure_certificate(str(pki), layout.APPLICATION_URI, "10.1.2.3")
+    assert not again.created and again.sha256 == made.sha256 and (pki / CERTIFICATE_NAME).read_bytes() == der
+    with pytest.raises(
+        InputError, match="parameter pki_dir: .* is for urn:feeder:cell:opcua_gateway, not urn:other"
+    ):
+        ensure_certificate(str(pki), "urn:other", "10.1.2.3")
+    (pki / KEY_NAME).unlink()
+    with pytest.raises(InputError, match=f"parameter pki_dir: has {CERTIFICATE_NAME} without {KEY_NAME}"):
+        ensure_certificate(str(pki), layout.APPLICATION_URI, "10.1.2.3")
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    with pytest.raises(InputError, match="parameter pki_dir: cannot use"):
+        ensure_certificate(str(blocker / "pki"), layout.APPLICATION_URI, "10.1.2.3")
+
+
+def test_without_a_none_endpoint_a_channel_without_a_client_certificate_gets_no_session() -> None:
+    from feeder_cell.gateway.server import GatewayUsers
+
+    users = Users({"plc": hash_password("line-7", iterations=1)})
+    secure_only = GatewayUsers(users, allow_anonymous=True, secure_only=True)
+    assert secure_only.get_user(None, "plc", "line-7", certificate=b"client certificate") is not None  # type: ignore[arg-type]
+    assert secure_only.get_user(None, certificate=b"client certificate") is not None  # type: ignore[arg-type]
+    # asyncua lets a None channel through whatever the policies; without a certificate nobody gets in.
+    assert secure_only.get_user(None, "plc", "line-7", certificate=None) is None  # type: ignore[arg-type]
+    assert secure_only.get_user(None, certificate=None) is None  # type: ignore[arg-type]
+    assert GatewayUsers(users, allow_anonymous=True).get_user(None, "plc", "line-7") is not None  # type: ignore[arg-type]
 
 
 def test_packml_mapping() -> None:

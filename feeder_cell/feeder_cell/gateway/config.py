@@ -30,11 +30,15 @@ __all__ = [
     "parse_endpoint",
     "is_loopback",
     "check_security",
+    "security_warnings",
     "packml_state",
 ]
 
 # Security policies a client may use, as the parameter security_policies names them.
 POLICIES = ("None", "Basic256Sha256_Sign", "Basic256Sha256_SignAndEncrypt")
+# The policy a non-loopback endpoint must offer (and the only kind it may offer, Sign beside it aside):
+# without encryption anyone on the cell network reads every value, and with None also commands the cell.
+SECURE_POLICY = "Basic256Sha256_SignAndEncrypt"
 
 # The PackML states the gateway's PackMLStateEnumeration DataType lists: (number, name, meaning). The
 # numbers are ISA-TR88.00.02's PackTags StateCurrent (0 Undefined, 1..17), which are also the StateNumber of
@@ -172,7 +176,11 @@ def is_loopback(host: str) -> bool:
 
 @dataclass(frozen=True)
 class SecurityConfig:
-    """Checked security settings: policies, the server's certificate and key, and who may log in."""
+    """Checked security settings: policies, the server's certificate and key, and who may log in.
+
+    Empty certificate and key files with a Basic256Sha256 policy mean the node makes (or reuses) a
+    self-signed certificate in ``pki_dir`` before the server starts (``certificates.ensure_certificate``).
+    """
 
     policies: tuple[str, ...]
     certificate_file: str
@@ -180,6 +188,14 @@ class SecurityConfig:
     allow_anonymous: bool
     users_file: str
     trusted_certificates_dir: str = ""  # empty: any client certificate opens a secure channel
+    pki_dir: str = ""  # empty: certificates.default_pki_dir()
+    remote: bool = False  # the endpoint is not a loopback address
+    insecure_remote: bool = False  # remote, offering None or no encryption, by allow_insecure_remote
+
+    @property
+    def makes_certificate(self) -> bool:
+        """Whether the server's certificate is made (or reused) in pki_dir rather than given."""
+        return any(p != "None" for p in self.policies) and not self.certificate_file
 
 
 def _readable(path: str, field: str) -> None:
@@ -196,11 +212,16 @@ def check_security(
     allow_anonymous_remote: bool,
     users_file: str,
     trusted_certificates_dir: str = "",
+    allow_insecure_remote: bool = False,
+    pki_dir: str = "",
 ) -> SecurityConfig:
     """Check the security parameters against each other and the endpoint; errors name the parameter.
 
-    Anonymous clients are allowed on a loopback endpoint only, unless ``allow_anonymous_remote`` says so
-    explicitly: a gateway bound to a factory network must not take commands from anyone by default.
+    On a loopback endpoint anything goes (the default: None, anonymous). On any other endpoint (0.0.0.0
+    and host names included: they are not provably loopback) a gateway bound to a factory network must
+    not take commands from anyone by default: it must offer Basic256Sha256_SignAndEncrypt and not None,
+    and log users in with passwords; anonymous sessions need ``allow_anonymous_remote``, and None or a
+    Sign-only server ``allow_insecure_remote``, each explicit and logged as a warning at start.
     """
     chosen = tuple(p.strip() for p in policies if p.strip())
     if not chosen:
@@ -213,15 +234,30 @@ def check_security(
             )
     if len(set(chosen)) != len(chosen):
         raise InputError("parameter security_policies", f"lists a policy twice: {list(chosen)}")
-    if any(p != "None" for p in chosen):
-        for name, path in (("certificate_file", certificate_file), ("private_key_file", private_key_file)):
-            if not path:
-                raise InputError(f"parameter {name}", "is required by the Basic256Sha256 security policies")
-            _readable(path, f"parameter {name}")
+    secure = any(p != "None" for p in chosen)
+    if secure:
+        # Both or neither: one file alone is a half-configured server, never silently completed.
+        pair = (("certificate_file", certificate_file), ("private_key_file", private_key_file))
+        for (name, path), (other, given) in zip(pair, reversed(pair), strict=True):
+            if not path and given:
+                raise InputError(
+                    f"parameter {name}",
+                    f"is required with {other} (leave both empty to have a self-signed certificate "
+                    "made in pki_dir)",
+                )
+        for name, path in pair:
+            if path:
+                _readable(path, f"parameter {name}")
+    if pki_dir and (not secure or certificate_file):
+        raise InputError(
+            "parameter pki_dir",
+            "is used only when a Basic256Sha256 policy is served without certificate_file and "
+            "private_key_file",
+        )
     if users_file:
         _readable(users_file, "parameter users_file")
     if trusted_certificates_dir:
-        if all(p == "None" for p in chosen):
+        if not secure:
             raise InputError(
                 "parameter trusted_certificates_dir",
                 "applies to the Basic256Sha256 policies only, and security_policies has none",
@@ -234,16 +270,66 @@ def check_security(
         raise InputError(
             "parameter allow_anonymous", "is false and no users_file is given: no client could log in"
         )
-    if allow_anonymous and not allow_anonymous_remote and not is_loopback(endpoint.host):
+    remote = not is_loopback(endpoint.host)
+    if remote and allow_anonymous and not allow_anonymous_remote:
         raise InputError(
             "parameter allow_anonymous",
             f"anonymous clients are allowed on a loopback endpoint only, and {endpoint.url} is not one; "
-            "set allow_anonymous false (with a users_file), or allow_anonymous_remote true to allow "
-            "anonymous access from the network explicitly",
+            f"set allow_anonymous false with a users_file (and security_policies [{SECURE_POLICY}]), "
+            "or allow_anonymous_remote true to allow anonymous access from the network explicitly",
+        )
+    insecure = "None" in chosen or SECURE_POLICY not in chosen
+    if remote and insecure and not allow_insecure_remote:
+        what = (
+            "offers None (no signature, no encryption)"
+            if "None" in chosen
+            else "offers no encryption (Basic256Sha256_Sign alone)"
+        )
+        raise InputError(
+            "parameter security_policies",
+            f"{what} on {endpoint.url}, which is not a loopback endpoint; serve [{SECURE_POLICY}] "
+            "(a self-signed certificate is made in pki_dir if none is given), or set "
+            "allow_insecure_remote true to allow it explicitly",
         )
     return SecurityConfig(
-        chosen, certificate_file, private_key_file, allow_anonymous, users_file, trusted_certificates_dir
+        chosen,
+        certificate_file,
+        private_key_file,
+        allow_anonymous,
+        users_file,
+        trusted_certificates_dir,
+        pki_dir,
+        remote,
+        remote and insecure,
     )
+
+
+def security_warnings(endpoint: Endpoint, security: SecurityConfig) -> list[str]:
+    """Return the WARNING lines a start with these settings logs: each explicit weakening, named."""
+    warnings: list[str] = []
+    if not security.remote:
+        return warnings
+    if security.allow_anonymous:
+        warnings.append(
+            f"parameter allow_anonymous_remote: anonymous clients may open sessions on {endpoint.url} "
+            "from the network, and read and command the cell"
+        )
+    if security.insecure_remote:
+        weak = [p for p in security.policies if p != SECURE_POLICY]
+        warnings.append(
+            f"parameter allow_insecure_remote: {endpoint.url} offers {', '.join(weak)} to the network: "
+            + (
+                "anyone who reaches it can read and command the cell unencrypted"
+                if "None" in weak
+                else "values cross the network unencrypted"
+            )
+        )
+    if security.users_file and security.policies == ("None",):
+        warnings.append(
+            "parameter users_file: passwords cross the network in plain text on a non-loopback endpoint "
+            f"with security_policies [None]; add {SECURE_POLICY}"
+        )
+    return warnings
 
 
 def is_warning(state: int, fault_code: int) -> bool:

@@ -75,11 +75,17 @@ class Handler(Protocol):
 
 
 class GatewayUsers(UserManager):
-    """Who may open a session: anonymous (when allowed) and the users file's names with their passwords."""
+    """Who may open a session: anonymous (when allowed) and the users file's names with their passwords.
 
-    def __init__(self, users: Users | None, allow_anonymous: bool) -> None:
+    With ``secure_only`` (the server offers no None endpoint) a session on a channel without a client
+    certificate is refused whoever asks: asyncua accepts a None channel whatever the policies (for
+    GetEndpoints) and would create and activate sessions on it, unsigned and unencrypted.
+    """
+
+    def __init__(self, users: Users | None, allow_anonymous: bool, secure_only: bool = False) -> None:
         self.users = users
         self.allow_anonymous = allow_anonymous
+        self.secure_only = secure_only
 
     def get_user(
         self,
@@ -89,6 +95,8 @@ class GatewayUsers(UserManager):
         certificate: object = None,
     ) -> User | None:
         """Return the session's user, or None (BadUserAccessDenied)."""
+        if self.secure_only and not certificate:
+            return None  # a None channel: only a secured one carries the client's certificate
         if username is None and password is None:
             return User(role=UserRole.User, name="anonymous") if self.allow_anonymous else None
         if self.users is not None and self.users.check(username, password):
@@ -152,7 +160,8 @@ class GatewayServer:
     async def start(self) -> None:
         """Build the address space and listen on the endpoint (OSError when it cannot bind)."""
         self._loop = asyncio.get_running_loop()
-        server = Server(user_manager=GatewayUsers(self.users, self.security.allow_anonymous))
+        secure_only = "None" not in self.security.policies
+        server = Server(user_manager=GatewayUsers(self.users, self.security.allow_anonymous, secure_only))
         await server.init()
         server.set_endpoint(self.endpoint.url)
         server.set_server_name("feeder cell OPC UA gateway")

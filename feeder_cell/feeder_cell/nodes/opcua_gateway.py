@@ -5,11 +5,14 @@ and method calls live in ``feeder_cell.gateway.server`` and the ROS side in ``fe
 The asyncua server runs on an asyncio loop in the main thread; rclpy spins in a background thread (see
 the ROS link's docstring for the hand-offs). A bad parameter is one FATAL line naming it and exit code 2;
 an endpoint that cannot be bound, exit code 2 naming the endpoint. SIGINT or SIGTERM stops it cleanly.
+Off loopback it is secure by default (``config.check_security``): Basic256Sha256_SignAndEncrypt with a
+certificate made on first start (``certificates``) and users with passwords, or a start refused.
 """
 
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import logging
 import signal
 import threading
@@ -19,12 +22,14 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
+from feeder_cell.gateway import layout
+from feeder_cell.gateway.certificates import default_pki_dir, ensure_certificate
 from feeder_cell.gateway.config import (
     DeviceEntry,
     check_security,
-    is_loopback,
     parse_devices,
     parse_endpoint,
+    security_warnings,
 )
 from feeder_cell.gateway.kinds import KINDS
 from feeder_cell.gateway.ros_link import RosLink
@@ -68,10 +73,23 @@ PARAMETERS = (
         read_only=True,
     ),
     ParameterSpec(
-        "certificate_file", "", "server certificate (DER or PEM), required by Basic256Sha256", read_only=True
+        "certificate_file",
+        "",
+        "server certificate (DER or PEM) for Basic256Sha256; empty: a self-signed one made in pki_dir",
+        read_only=True,
     ),
     ParameterSpec(
-        "private_key_file", "", "server private key (PEM), required by Basic256Sha256", read_only=True
+        "private_key_file",
+        "",
+        "server private key (PEM) of certificate_file; empty: made with it in pki_dir",
+        read_only=True,
+    ),
+    ParameterSpec(
+        "pki_dir",
+        "",
+        "folder where the self-signed certificate and key are made on first start and reused; empty: "
+        "$ROS_HOME/feeder/opcua_pki (~/.ros/feeder/opcua_pki)",
+        read_only=True,
     ),
     ParameterSpec(
         "trusted_certificates_dir",
@@ -86,7 +104,14 @@ PARAMETERS = (
     ParameterSpec(
         "allow_anonymous_remote",
         False,
-        "also accept anonymous sessions on a non-loopback endpoint (explicitly; refused otherwise)",
+        "also accept anonymous sessions on a non-loopback endpoint (explicitly, logged; refused otherwise)",
+        read_only=True,
+    ),
+    ParameterSpec(
+        "allow_insecure_remote",
+        False,
+        "allow security policy None, or Sign without SignAndEncrypt, on a non-loopback endpoint "
+        "(explicitly, logged; refused otherwise)",
         read_only=True,
     ),
     ParameterSpec(
@@ -125,8 +150,21 @@ def _build(node: Node, executor: SingleThreadedExecutor) -> tuple[GatewayServer,
         p["allow_anonymous_remote"],
         p["users_file"],
         p["trusted_certificates_dir"],
+        p["allow_insecure_remote"],
+        p["pki_dir"],
     )
     users = load_users(security.users_file) if security.users_file else None
+    if security.makes_certificate:
+        made = ensure_certificate(security.pki_dir, layout.APPLICATION_URI, endpoint.host)
+        security = dataclasses.replace(
+            security, certificate_file=made.certificate_file, private_key_file=made.private_key_file
+        )
+        # The thumbprint is what an operator compares when a PLC asks whether to trust this server.
+        node.get_logger().info(
+            f"{'made a self-signed' if made.created else 'reusing the'} server certificate "
+            f"{made.certificate_file} (key {made.private_key_file}; pki_dir "
+            f"{security.pki_dir or default_pki_dir()}): SHA-1 {made.sha1}, SHA-256 {made.sha256}"
+        )
     logger = logging.getLogger(NODE_NAME)
     holder: dict[str, RosLink] = {}
 
@@ -152,12 +190,8 @@ async def _serve(node: Node, server: GatewayServer) -> int:
             f"parameter endpoint: cannot listen on {server.endpoint.url}: {error.strerror or error}"
         )
         return EXIT_BAD_CONFIGURATION
-    security = server.security
-    if server.users is not None and security.policies == ("None",) and not is_loopback(server.endpoint.host):
-        node.get_logger().warning(
-            "parameter users_file: passwords cross the network in plain text on a non-loopback endpoint "
-            "with security_policies [None]; add Basic256Sha256_SignAndEncrypt"
-        )
+    for warning in security_warnings(server.endpoint, server.security):
+        node.get_logger().warning(warning)
     names = ", ".join(d.node for d in server.devices) or "no devices"
     node.get_logger().info(
         f"OPC UA server on {server.endpoint.url} ({', '.join(server.security.policies)}; "

@@ -1,0 +1,130 @@
+// node-opcua's client against the feeder OPC UA gateway: what a third-party PLC-side stack sees.
+//
+// Usage: node opcua_secure_client.js '{"url": ..., "user": ..., "password": ..., "pki": ..., "key": ...}'
+// Prints one JSON line (node-opcua's own log lines go before it): the endpoints GetEndpoints lists, and
+// for each attempt whether a session opened (and what it read) or the error that refused it. The test
+// judges; this script only reports. node-opcua refuses on its side to send a token or use an endpoint the
+// server does not list; tests/cell/scripts/opcua_raw_probe.py sends those anyway.
+"use strict";
+
+const crypto = require("crypto");
+
+const {
+  OPCUAClient,
+  MessageSecurityMode,
+  SecurityPolicy,
+  AttributeIds,
+  UserTokenType,
+} = require("node-opcua-client");
+// The client's own certificate store: node-opcua-client's dependency, at the version it was locked with.
+const { OPCUACertificateManager } = require(
+  require.resolve("node-opcua-certificate-manager", { paths: [require.resolve("node-opcua-client")] }),
+);
+
+const NAMESPACE_URI = "urn:feeder:cell";
+const PRODUCT_NAME = "ns=0;i=2261"; // Server/ServerStatus/BuildInfo/ProductName
+const NAMESPACE_ARRAY = "ns=0;i=2255";
+
+function errorText(error) {
+  return String((error && (error.message || error)) || "unknown").split("\n")[0];
+}
+
+async function attempt(args, certificateManager, mode, policy, identity) {
+  const client = OPCUAClient.create({
+    applicationName: "feeder-test-plc",
+    securityMode: mode,
+    securityPolicy: policy,
+    // false: ask for the channel and the session even when no endpoint offers them, so a refusal
+    // is the server's, not this client's.
+    endpointMustExist: false,
+    connectionStrategy: { maxRetry: 0, initialDelay: 100, maxDelay: 200 },
+    requestedSessionTimeout: 60000,
+    clientCertificateManager: certificateManager,
+  });
+  const outcome = { ok: false };
+  try {
+    await client.connect(args.url);
+  } catch (error) {
+    outcome.stage = "connect";
+    outcome.error = errorText(error);
+    return outcome;
+  }
+  try {
+    const session = await client.createSession(identity);
+    try {
+      const namespaces = (await session.read({ nodeId: NAMESPACE_ARRAY, attributeId: AttributeIds.Value }))
+        .value.value;
+      const index = namespaces.indexOf(NAMESPACE_URI);
+      const product = await session.read({ nodeId: PRODUCT_NAME, attributeId: AttributeIds.Value });
+      const online = await session.read({
+        nodeId: `ns=${index};s=${args.key}.Status.Online`,
+        attributeId: AttributeIds.Value,
+      });
+      outcome.ok = true;
+      outcome.product_name = product.value.value;
+      outcome.online_status = online.statusCode.name;
+      outcome.online = online.value.value;
+    } finally {
+      await session.close();
+    }
+  } catch (error) {
+    outcome.stage = "session";
+    outcome.error = errorText(error);
+  } finally {
+    await client.disconnect();
+  }
+  return outcome;
+}
+
+async function endpoints(args, certificateManager) {
+  const client = OPCUAClient.create({
+    applicationName: "feeder-test-plc",
+    endpointMustExist: false,
+    connectionStrategy: { maxRetry: 0, initialDelay: 100, maxDelay: 200 },
+    clientCertificateManager: certificateManager,
+  });
+  await client.connect(args.url);
+  try {
+    return (await client.getEndpoints()).map((e) => ({
+      mode: MessageSecurityMode[e.securityMode],
+      policy: e.securityPolicyUri.split("#").pop(),
+      tokens: (e.userIdentityTokens || []).map((t) => UserTokenType[t.tokenType]),
+      server_certificate_sha256: e.serverCertificate
+        ? crypto.createHash("sha256").update(e.serverCertificate).digest("hex")
+        : "",
+    }));
+  } finally {
+    await client.disconnect();
+  }
+}
+
+async function main() {
+  const args = JSON.parse(process.argv[2]);
+  // Its own PKI in the test's folder: a fresh client certificate, the server's accepted on first sight
+  // (the gateway's trust list is what the test exercises, not this client's).
+  const certificateManager = new OPCUACertificateManager({
+    rootFolder: args.pki,
+    automaticallyAcceptUnknownCertificate: true,
+  });
+  await certificateManager.initialize();
+  const user = { type: UserTokenType.UserName, userName: args.user, password: args.password };
+  const wrong = { type: UserTokenType.UserName, userName: args.user, password: `${args.password}-wrong` };
+  const anonymous = { type: UserTokenType.Anonymous };
+  const secure = [MessageSecurityMode.SignAndEncrypt, SecurityPolicy.Basic256Sha256];
+  const none = [MessageSecurityMode.None, SecurityPolicy.None];
+  const report = { endpoints: await endpoints(args, certificateManager) };
+  report.secure_user = await attempt(args, certificateManager, ...secure, user);
+  report.secure_anonymous = await attempt(args, certificateManager, ...secure, anonymous);
+  report.secure_wrong_password = await attempt(args, certificateManager, ...secure, wrong);
+  report.none_user = await attempt(args, certificateManager, ...none, user);
+  await certificateManager.dispose();
+  process.stdout.write(JSON.stringify(report) + "\n");
+}
+
+main().then(
+  () => process.exit(0),
+  (error) => {
+    process.stdout.write(JSON.stringify({ error: errorText(error) }) + "\n");
+    process.exit(1);
+  },
+);
