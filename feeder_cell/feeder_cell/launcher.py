@@ -73,7 +73,7 @@ class Scene:
 
 
 def scene_from_mapping(document: dict[str, Any], base_dir: Path) -> Scene:
-    """Parse a scene; relative ``*_file`` parameter paths are resolved against the scene file's folder."""
+    """Parse a scene; relative ``*_file(s)`` and ``*_dir`` parameter paths are taken from its folder."""
     nodes_value = required(document, "nodes")
     if not isinstance(nodes_value, list) or not nodes_value:
         raise InputError("nodes", "expected a non-empty list of nodes")
@@ -353,7 +353,7 @@ def _resolve_path(key: str, value: ParameterValue, base_dir: Path) -> ParameterV
             else item
         )
 
-    if key.endswith("_file"):
+    if key.endswith(("_file", "_dir")):
         return value if isinstance(value, list) else resolve(value)
     if key.endswith("_files") and isinstance(value, list):
         return [resolve(item) for item in value]

@@ -4,7 +4,8 @@ Every simulator node is a ``ManagedDevice``: a lifecycle node (``rclpy.lifecycle
 ``lifecycle_msgs`` services and transition events) that publishes a latched ``~/status``
 (feeder_msgs/DeviceStatus) on every change and as a 1 Hz heartbeat, a ``diagnostic_msgs/DiagnosticArray``
 on ``/diagnostics`` at 1 Hz (diagnostic_updater conventions), serves ``~/stop``, ``~/reset``
-(std_srvs/Trigger) and ``~/inject_fault`` (feeder_msgs/InjectFault), and applies or refuses every
+(std_srvs/Trigger), ``~/abort`` and ``~/clear`` (std_srvs/Trigger: PackML's Abort and Clear, for the
+OPC UA gateway's PLC) and ``~/inject_fault`` (feeder_msgs/InjectFault), and applies or refuses every
 parameter change (read-only parameters are declared read-only; the others are validated and applied).
 
 The kit owns the loop, as ros2_control's framework does; a device implements what is its own:
@@ -167,6 +168,8 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         serve(self, Trigger, "~/stop", self._on_stop)
         serve(self, Trigger, "~/reset", self._on_reset)
+        serve(self, Trigger, "~/abort", self._on_abort)
+        serve(self, Trigger, "~/clear", self._on_clear)
         serve(self, InjectFault, "~/inject_fault", self._on_inject_fault)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         # Under use_sim_time the node clock reads 0 until the first /clock arrives; the device's model
@@ -724,6 +727,40 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         self.reset_device()
         self.publish_status()
         response.success, response.message = True, f"reset: {self.state().name}"
+        return response
+
+    def _on_abort(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        """PackML Abort: halt at once and enter FAULT (code FAULT_ABORTED) until ~/clear or ~/reset."""
+        if self.lifecycle != "active":
+            response.success, response.message = False, f"abort refused: device is {self.state().name}"
+            return response
+        self.stop_device()
+        self.model_fault = (
+            DeviceStatus.FAULT_ABORTED,
+            "aborted by command (~/abort); ~/clear stops it, ~/reset returns it to IDLE",
+        )
+        self.get_logger().warning("aborted by command")
+        self.publish_status()
+        response.success, response.message = True, "aborted"
+        return response
+
+    def _on_clear(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        """PackML Clear (Aborted -> Clearing -> Stopped): clear every fault and leave the device STOPPED.
+
+        Unlike ~/reset, which goes on to IDLE, so that a PLC that clears a fault still resets the machine
+        before it runs again, as PackML's state machine has it.
+        """
+        if self.lifecycle != "active" or self.stopping_fault() is None:
+            response.success = False
+            response.message = f"clear refused: device is {self.state().name} (clear applies in FAULT)"
+            return response
+        for name in list(self.faults):
+            self.clear_fault(name)
+        self.faults.clear()
+        self.model_fault = None
+        self.stopped = True
+        self.publish_status()
+        response.success, response.message = True, f"cleared: {self.state().name}"
         return response
 
     def _on_inject_fault(

@@ -267,8 +267,8 @@ def test_a_stop_over_ros_shows_as_a_data_change_and_the_reset_method_clears_it(
         assert abs(source.timestamp() * 1e9 - ros_harness.stamp_ns(stopped)) < 1e3
         message = await s.good(KEYS["arm"], "Reset")
         assert "IDLE" in message
-        value, _, _ = await asyncio.wait_for(changes.get(), 5)
-        assert value == "Idle"
+        # PackML's way out of Stopped: Resetting while the device resets, then Idle.
+        assert [(await asyncio.wait_for(changes.get(), 5))[0] for _ in range(2)] == ["Resetting", "Idle"]
         await subscription.delete()
 
     session(gateway, scenario)
@@ -293,10 +293,16 @@ def test_a_motor_fault_shows_in_the_variables_refuses_commands_and_reset_clears_
         assert "motor_fault" in await s.read(key, "Status.ActiveFaults")
         result = await s.call(key, "FeedPart", u32(3), dbl(5.0))
         assert result.StatusCode.value == ua.StatusCodes.BadInvalidState
-        assert "FAULT" in result.OutputArguments[0].Value and "Reset" in result.OutputArguments[0].Value
+        assert "FAULT" in result.OutputArguments[0].Value and "Clear" in result.OutputArguments[0].Value
         assert await s.read(key, "Command.LastStatus") == "BadInvalidState"
+        # PackML: Aborted -> Clearing -> Stopped -> Resetting -> Idle; no Reset straight out of Aborted.
+        result = await s.call(key, "Reset")
+        assert result.StatusCode.value == ua.StatusCodes.BadInvalidState, result
+        assert "Aborted" in result.OutputArguments[0].Value and "Clear" in result.OutputArguments[0].Value
+        await s.good(key, "Clear")
+        await s.wait_for(key, "Status.PackMLState", lambda v: v == "Stopped")
+        assert await s.read(key, "Status.FaultCode") == 0
         await s.good(key, "Reset")
-        await s.wait_for(key, "Status.FaultCode", lambda v: v == 0)
         await idle(s, key)
         assert await s.read(key, "Status.ActiveFaults") == []
 
@@ -392,7 +398,8 @@ def test_status_code_bad_invalid_state_feed_part_while_the_arm_is_busy_with_anot
             assert await s.read(key, "Command.GoalCount") == goals
         finally:
             await asyncio.to_thread(_result_of, handle.cancel_goal_async(), 10.0)
-            await s.good(key, "Reset")  # clears the injected fault
+            message = await s.good(key, "ClearFault", ua.Variant("", ua.VariantType.String))  # every one
+            assert "active faults: none" in message, message
         await idle(s, key)
 
     session(gateway, scenario)
@@ -594,10 +601,12 @@ def test_a_device_fault_raises_an_alarm_a_warning_a_lower_one_and_both_clear(
         assert (await _acknowledge(s, raised, "seen by the PLC")).StatusCode.is_good()
         acked, _ = await events.next(arm_id, "Fault", lambda e: bool(getattr(e, "AckedState/Id")))
         assert _active(acked) and acked.Retain is True
-        await s.good(arm, "Reset")
+        await s.good(arm, "Clear")
         cleared, _ = await events.next(arm_id, "Fault", lambda e: not _active(e))
         assert cleared.SourceNode == ua.NodeId(arm, s.idx)
         assert cleared.Retain is False  # acknowledged and inactive
+        await s.wait_for(arm, "Status.PackMLState", lambda v: v == "Stopped")
+        await s.good(arm, "Reset")
 
         response = await asyncio.to_thread(
             ros_harness.inject_fault, ros_client, FIXTURE, "rate_limit", indices=[1], value=0.25
@@ -1000,3 +1009,29 @@ async def _wait_for_endpoints(url: str, timeout: float = 30.0) -> None:
             if time.monotonic() > deadline:
                 raise AssertionError(f"no OPC UA server on {url} within {timeout:.0f} s") from None
             await asyncio.sleep(0.2)
+
+
+def test_abort_clear_reset_and_suspend_unsuspend_follow_packml(gateway: str) -> None:
+    async def scenario(s: Session) -> None:
+        fixture = KEYS["fixture"]
+        await idle(s, fixture)
+        result = await s.call(fixture, "Clear")  # Clear applies in Aborted only
+        assert result.StatusCode.value == ua.StatusCodes.BadInvalidState
+        assert "Aborted" in result.OutputArguments[0].Value
+        await s.good(fixture, "Abort")
+        await s.wait_for(fixture, "Status.PackMLState", lambda v: v == "Aborted")
+        assert await s.read(fixture, "Status.FaultCode") == DeviceStatus.FAULT_ABORTED
+        assert "abort" in (await s.read(fixture, "Status.FaultText")).lower()
+        await s.good(fixture, "Clear")
+        await s.wait_for(fixture, "Status.PackMLState", lambda v: v == "Stopped")
+        await s.good(fixture, "Reset")
+        await idle(s, fixture)
+        await s.good(fixture, "Suspend")
+        await s.wait_for(fixture, "Status.PackMLState", lambda v: v == "Suspended")
+        result = await s.call(fixture, "FollowPath", dbls([0.1, 0.0]), dbls([]))
+        assert result.StatusCode.value == ua.StatusCodes.BadInvalidState
+        assert "Unsuspend" in result.OutputArguments[0].Value
+        await s.good(fixture, "Unsuspend")
+        await idle(s, fixture)
+
+    session(gateway, scenario)

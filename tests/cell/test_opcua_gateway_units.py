@@ -269,10 +269,11 @@ def test_packml_mapping() -> None:
 
 def test_warnings_are_codes_of_an_operational_device_faults_the_others() -> None:
     idle, running, paused, fault, stopped, unconfigured = 1, 2, 3, 4, 5, 0
-    for state in (idle, running, paused):
+    # A stopped device behind real time (code 2) is not faulted: stopping faults put it in FAULT.
+    for state in (idle, running, paused, stopped):
         assert is_warning(state, 2) and is_warning(state, 302)
         assert not is_warning(state, 0)
-    for state in (fault, stopped, unconfigured):
+    for state in (fault, unconfigured):
         assert not is_warning(state, 101) and not is_warning(state, 1)
 
 
@@ -398,7 +399,11 @@ def test_layout_ids_are_unique_per_device() -> None:
         paths = [v.path for v in layout.variables(kind)]
         assert len(paths) == len(set(paths))
         assert {"Status.PackMLState", "Status.FaultCode", "Command.LastOutcome", "Command.Busy"} <= set(paths)
-        assert [m.name for m in layout.methods(kind)] == [layout.ACTIONS[kind].name, "Stop", "Reset"]
+        names = [m.name for m in layout.methods(kind)]
+        assert names[0] == layout.ACTIONS[kind].name
+        common = ["Stop", "Reset", "Clear", "Abort", "Suspend", "Unsuspend", "Unconfigure"]
+        assert names[-9:] == [*common, "InjectFault", "ClearFault"]
+        assert len(names) == len(set(names))
     assert layout.variable_id("cell.throwing_arm", "Signals.Sensor") == "cell.throwing_arm.Signals.Sensor"
 
 

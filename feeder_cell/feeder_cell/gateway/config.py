@@ -335,11 +335,12 @@ def security_warnings(endpoint: Endpoint, security: SecurityConfig) -> list[str]
 def is_warning(state: int, fault_code: int) -> bool:
     """Whether a DeviceStatus fault code is a warning: reported while the device stays operational.
 
-    A device in IDLE, RUNNING or PAUSED with a non-zero code has a non-stopping fault (behind real time,
-    a too stiff time step, an axis rate limit): a warning, shown in Status/WarningCode. In UNCONFIGURED
-    (a failed configuration), FAULT or STOPPED the code is a fault: Status/FaultCode.
+    A stopping fault puts the device in FAULT, and a failed configuration leaves it UNCONFIGURED with code
+    1: those codes are faults (Status/FaultCode). In any other state (IDLE, RUNNING, PAUSED, STOPPED) a
+    non-zero code is a non-stopping fault (behind real time, a too stiff time step, an axis rate limit):
+    a warning, shown in Status/WarningCode. A STOPPED device that falls behind real time is not faulted.
     """
-    return fault_code != 0 and state in (1, 2, 3)  # IDLE, RUNNING, PAUSED
+    return fault_code != 0 and state not in (0, 4)  # UNCONFIGURED, FAULT
 
 
 def packml_state(state: int | None) -> tuple[str, int]:

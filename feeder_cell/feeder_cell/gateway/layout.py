@@ -16,8 +16,9 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
+from feeder_cell.gateway.commands import COMMANDS, FAULT_SERVICES
 from feeder_cell.gateway.kinds import KINDS
-from feeder_cell.gateway.spec import MethodSpec, VariableSpec
+from feeder_cell.gateway.spec import MethodSpec, ServiceLink, VariableSpec
 
 __all__ = [
     "NAMESPACE_URI",
@@ -36,6 +37,7 @@ __all__ = [
     "UINT32_MODULUS",
     "variables",
     "methods",
+    "service",
     "variable_id",
     "method_id",
 ]
@@ -124,8 +126,8 @@ COMMAND = (
     _v("Command.Result.FaultCode", "UInt32", "fault_code of the last result (0 unless its outcome is FAULT)"),
 )
 
-STOP = MethodSpec("Stop", "halt the device at once (~/stop): STOPPED; an executing goal ends")
-RESET = MethodSpec("Reset", "clear faults and a stop (~/reset): back to IDLE")
+STOP = COMMANDS["Stop"].method
+RESET = COMMANDS["Reset"].method
 
 # One facet of every kind, by kind, for the readers that want it across kinds (the tests, the docs); the
 # profiles in kinds.KINDS are the one definition.
@@ -174,8 +176,25 @@ def variables(kind: str) -> tuple[VariableSpec, ...]:
 
 
 def methods(kind: str) -> tuple[MethodSpec, ...]:
-    """Return the methods of a device object of ``kind``: its action's, then Stop and Reset."""
-    return (KINDS[kind].action.method, STOP, RESET)
+    """Return the methods of a device object of ``kind``, in browse order.
+
+    Its action's, its services', then every kind's: the PackML commands, InjectFault and ClearFault.
+    """
+    profile = KINDS[kind]
+    return (
+        profile.action.method,
+        *(link.method for link in profile.services),
+        *(command.method for command in COMMANDS.values()),
+        *(link.method for link in FAULT_SERVICES),
+    )
+
+
+def service(kind: str, name: str) -> ServiceLink | None:
+    """Return the service link behind method ``name`` of a ``kind`` device object, or None."""
+    for link in (*KINDS[kind].services, *FAULT_SERVICES):
+        if link.method.name == name:
+            return link
+    return None
 
 
 def variable_id(key: str, path: str) -> str:

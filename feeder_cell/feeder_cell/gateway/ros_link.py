@@ -7,8 +7,9 @@ coroutine to the executor (``Executor.create_task`` is thread-safe), which sends
 the goal in the executor's own thread (rclpy's action client is not safe to call from a second thread), and
 the result comes back to the loop by ``call_soon_threadsafe``. Every wait is bounded by ``call_timeout``.
 
-What a device kind has of its own (its topics, its action, the variables its feedback and result set) is
-read from its profile (``kinds.KINDS``); this module only runs them.
+What a device kind has of its own (its topics, its action, the variables its feedback and result set, its
+service methods) is read from its profile (``kinds.KINDS``), and the PackML commands every device has
+from ``commands.COMMANDS``; this module only runs them.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from dataclasses import dataclass, field
 from typing import Any, Coroutine
 
 from diagnostic_msgs.msg import DiagnosticArray
+from lifecycle_msgs.srv import ChangeState
 from rcl_interfaces.msg import Log
 from rclpy.action.client import ClientGoalHandle
 from rclpy.client import Client
@@ -31,9 +33,18 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.task import Task
 from std_srvs.srv import Trigger
 
-from feeder_cell.gateway.config import DeviceEntry, is_warning, packml_state
+from feeder_cell.gateway.commands import (
+    COMMANDS,
+    FAULT_SERVICES,
+    LIFECYCLE,
+    TRIGGERS,
+    Command,
+    cancels_goal,
+    plan,
+)
+from feeder_cell.gateway.config import PACKML_STATES, DeviceEntry, is_warning, packml_state
 from feeder_cell.gateway.kinds import KINDS
-from feeder_cell.gateway.layout import RESET, STOP, UINT32_MODULUS, counter32_path, counter_path
+from feeder_cell.gateway.layout import UINT32_MODULUS, counter32_path, counter_path
 from feeder_cell.gateway.server import GatewayServer
 from feeder_cell.gateway.spec import Goal, KindProfile, StreamLink, Value, Values
 from feeder_msgs.msg import DeviceStatus
@@ -61,8 +72,9 @@ class DeviceLink:
 
     entry: DeviceEntry
     profile: KindProfile
-    stop: Client  # ~/stop (std_srvs/Trigger)
-    reset: Client  # ~/reset (std_srvs/Trigger)
+    triggers: dict[str, Client]  # commands.TRIGGERS: ~/stop, ~/reset, ~/clear, ~/abort (std_srvs/Trigger)
+    change_state: Client  # ~/change_state (lifecycle_msgs/srv/ChangeState)
+    services: dict[str, Client]  # method name -> the client of its ServiceLink
     action: ActionClient  # the kind's long action
     state: int | None = None  # last DeviceStatus state
     ready: bool = False
@@ -106,8 +118,12 @@ class RosLink:
         link = DeviceLink(
             entry,
             profile,
-            stop=node.create_client(Trigger, f"{name}/stop"),
-            reset=node.create_client(Trigger, f"{name}/reset"),
+            triggers={t: node.create_client(Trigger, f"{name}/{t}") for t in TRIGGERS},
+            change_state=node.create_client(ChangeState, f"{name}/change_state"),
+            services={
+                s.method.name: node.create_client(s.service_type, f"{name}/{s.service_name}")
+                for s in (*profile.services, *FAULT_SERVICES)
+            },
             action=ActionClient(node, action.action_type, f"{name}/{action.action_name}"),
         )
         node.create_subscription(DeviceStatus, f"{name}/status", lambda m: self._on_status(link, m), LATCHED)
@@ -240,8 +256,11 @@ class RosLink:
     async def call(self, device: DeviceEntry, method: str, goal: Goal | None) -> tuple[str, str]:
         """Run a checked method call on the device; return (status code name, message)."""
         link = self.links[device.key]
-        if method in (STOP.name, RESET.name):
-            return await self._in_ros(self._trigger(link, method))
+        command = COMMANDS.get(method)
+        if command is not None:
+            return await self._command(link, command)
+        if method in link.services:
+            return await self._in_ros(self._service(link, method, goal))
         with link.lock:
             state, ready, online, name, text = (
                 link.state,
@@ -289,22 +308,76 @@ class RosLink:
         except asyncio.TimeoutError:
             return "BadTimeout", f"the device did not answer within {self.call_timeout:g} s"
 
-    async def _trigger(self, link: DeviceLink, method: str) -> tuple[str, str]:
-        client = link.stop if method == STOP.name else link.reset
+    async def _command(self, link: DeviceLink, command: Command) -> tuple[str, str]:
+        """Run a PackML command: its plan for the device's state, the transient state shown meanwhile."""
+        name = command.method.name
+        with link.lock:
+            state, online = link.state, link.online
+        if state is None or not online:
+            return "BadInvalidState", f"{name} refused: {link.entry.node} reports no status (is it running?)"
+        row = plan(command, state)
+        if isinstance(row, str):
+            return "BadInvalidState", row
+        if row.transient:
+            self._post_all(link, _packml_values(row.transient))
+        status, message = await self._in_ros(self._calls(link, name, row.calls))
+        if cancels_goal(command):
+            with link.lock:
+                goal = link.goal
+            if goal is not None:  # the device halted; do not leave the goal running behind it
+                await self._in_ros(self._cancel(goal))
+        if status != "Good" and row.transient:
+            with link.lock:
+                shown = link.state
+            self._post_all(link, _packml_values(packml_state(shown)[0]))  # nothing changed: say so
+        return status, message
+
+    async def _calls(self, link: DeviceLink, method: str, calls: tuple[str, ...]) -> tuple[str, str]:
+        """Make a command's device calls in order; the first refusal ends it (executor thread)."""
+        said: list[str] = []
+        for call in calls:
+            if call in LIFECYCLE:
+                client = link.change_state
+                request = ChangeState.Request()
+                request.transition.id = LIFECYCLE[call]
+            else:
+                client, request = link.triggers[call], Trigger.Request()
+            if not client.service_is_ready():
+                return (
+                    "BadCommunicationError",
+                    f"{method}: {client.srv_name} is not available (is the device running?)",
+                )
+            response = await client.call_async(request)
+            text = getattr(response, "message", "") or ("done" if response.success else "refused")
+            said.append(f"{call}: {text}")
+            if not response.success:
+                return "BadInvalidState", f"{method}: {'; '.join(said)}"
+        return "Good", f"{method}: {'; '.join(said)}"
+
+    async def _cancel(self, goal: ClientGoalHandle) -> tuple[str, str]:
+        goal.cancel_goal_async()
+        return "Good", ""
+
+    async def _service(self, link: DeviceLink, method: str, call: Goal | None) -> tuple[str, str]:
+        """Call a service method's device service; the device's answer decides the status (executor)."""
+        client = link.services[method]
+        if call is None:
+            raise TypeError(f"{method}: not a checked call")
         if not client.service_is_ready():
             return (
                 "BadCommunicationError",
                 f"{method}: {client.srv_name} is not available (is the device running?)",
             )
-        response = await client.call_async(Trigger.Request())
-        if method == STOP.name:
-            with link.lock:
-                goal = link.goal
-            if goal is not None:  # the device halted; do not leave the goal running behind it
-                goal.cancel_goal_async()
-        if not response.success:
-            return "BadInvalidState", f"{method}: {response.message}"
-        return "Good", f"{method}: {response.message}"
+        response = await client.call_async(call.message())
+        ok = bool(getattr(response, "ok", getattr(response, "success", False)))
+        text = str(getattr(response, "error", "") or getattr(response, "message", ""))
+        if ok:
+            faults = getattr(response, "active_faults", None)
+            extra = f"; active faults: {', '.join(faults) or 'none'}" if faults is not None else ""
+            return "Good", f"{method}: done{extra}"
+        # The device names its state when that is why ("device is FAULT"); else the request was bad.
+        code = "BadInvalidState" if "device is " in text or "busy" in text else "BadInvalidArgument"
+        return code, f"{method} refused by the device: {text}"
 
     async def _send_goal(self, link: DeviceLink, method: str, goal: Goal | None) -> tuple[str, str]:
         client: ActionClient = link.action
@@ -411,6 +484,12 @@ class RosLink:
         )
 
 
+def _packml_values(name: str) -> Values:
+    """Return the two PackML variables of a state, by name."""
+    number = next(n for n, state, _ in PACKML_STATES if state == name)
+    return {"Status.PackMLState": name, "Status.PackMLStateCode": number}
+
+
 def _executing(state: int, busy: bool) -> bool:
     """Whether a DeviceStatus shows the device executing (RUNNING, PackML Execute, or busy)."""
     return busy or state == DeviceStatus.RUNNING
@@ -419,7 +498,9 @@ def _executing(state: int, busy: bool) -> bool:
 def _remedy(state: int, fault_text: str) -> str:
     """Return what brings a device that is not ready back, as the refusal's parenthesis."""
     if state == DeviceStatus.FAULT:
-        return f" ({fault_text}; Reset clears it)"
+        return f" ({fault_text}; Clear, then Reset)"
     if state == DeviceStatus.STOPPED:
-        return " (Reset returns it to IDLE)"
-    return " (not active: its lifecycle must configure and activate it)"
+        return " (Reset returns it to Idle)"
+    if state == DeviceStatus.PAUSED:
+        return " (Suspended: Unsuspend resumes it)"
+    return " (Unconfigured: Reset brings it up)"

@@ -70,7 +70,7 @@ class Handler(Protocol):
     """What executes a checked method call (the ROS link, ``ros_link.RosLink``)."""
 
     async def call(self, device: DeviceEntry, method: str, goal: Goal | None) -> tuple[str, str]:
-        """Run ``method`` on ``device`` with a checked goal (None: Stop, Reset); return (status, message)."""
+        """Run ``method`` on ``device`` with a checked call (None: a PackML command); (status, message)."""
         ...
 
 
@@ -499,7 +499,10 @@ class GatewayServer:
         action = KINDS[device.kind].action
         if spec.name == action.method.name:
             return action.check(spec, args, self.context)
-        arguments.check_count(spec, args)  # Stop, Reset: no arguments, no goal
+        link = layout.service(device.kind, spec.name)
+        if link is not None:
+            return link.check(spec, args, self.context)
+        arguments.check_count(spec, args)  # the PackML commands: no arguments, no goal
         return None
 
     def _result(

@@ -11,7 +11,10 @@ A ``KindProfile`` is everything the gateway knows of one device kind:
   ``Status/Counters/<name>`` variable each, described by the declaration;
 - ``signals`` and ``streams``: the ``Signals/...`` variables and the device topics that set them;
 - ``action``: the long action behind the kind's method (its OPC UA method and arguments, the argument
-  check, the ROS action, and the ``Command/Feedback/...`` and ``Command/Result/...`` variables it sets).
+  check, the ROS action, and the ``Command/Feedback/...`` and ``Command/Result/...`` variables it sets);
+- ``services``: the kind's short commands, each one device service call (the arm's ``PlacePart``).
+
+The commands every kind has (PackML's, fault injection) are ``commands.COMMANDS``, in the same types.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ __all__ = [
     "Convert",
     "StreamLink",
     "ActionLink",
+    "ServiceLink",
     "KindProfile",
 ]
 
@@ -99,10 +103,13 @@ class CallContext:
 
 
 class Goal(Protocol):
-    """A checked call of a kind's action method: the kind's own dataclass, which builds its goal message."""
+    """A checked method call: the kind's own dataclass, which builds its ROS message.
+
+    For an action method the action's Goal, for a service method (``ServiceLink``) the service's Request.
+    """
 
     def message(self) -> Any:
-        """Return the ROS action's Goal message (untyped: a generated message class)."""
+        """Return the ROS message (untyped: a generated message class)."""
         ...
 
 
@@ -140,6 +147,20 @@ class ActionLink:
 
 
 @dataclass(frozen=True)
+class ServiceLink:
+    """A method that is one call of a device service, answered when the device answers.
+
+    The response is read by the project's two conventions: ``ok``/``error`` (feeder_msgs services) or
+    ``success``/``message`` (std_srvs/Trigger). ``check`` returns a call whose ``message()`` is the request.
+    """
+
+    method: MethodSpec
+    check: Check
+    service_type: Any  # the ROS service class
+    service_name: str  # under the device's node: place_part is /cell/throwing_arm/place_part
+
+
+@dataclass(frozen=True)
 class KindProfile:
     """Everything the gateway knows of one device kind; ``kinds.KINDS`` maps the kind's name to it."""
 
@@ -147,6 +168,7 @@ class KindProfile:
     signals: tuple[VariableSpec, ...]  # Signals.* variables, in browse order
     streams: tuple[StreamLink, ...]  # the topics that set them
     action: ActionLink
+    services: tuple[ServiceLink, ...] = ()
 
     @property
     def counter_names(self) -> tuple[str, ...]:

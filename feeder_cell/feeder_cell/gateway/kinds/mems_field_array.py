@@ -1,4 +1,7 @@
-"""The MEMS field array as the gateway shows it: its parts, RunProgram (~/run_program) and its counters."""
+"""The MEMS field array as the gateway shows it: its parts, its methods and its counters.
+
+Methods: RunProgram (~/run_program), LoadProgram (~/set_program), PlaceParts (~/place_parts: a new batch).
+"""
 
 from __future__ import annotations
 
@@ -13,12 +16,14 @@ from feeder_cell.gateway.spec import (
     ArgumentSpec,
     KindProfile,
     MethodSpec,
+    ServiceLink,
     StreamLink,
     Values,
     VariableSpec,
 )
 from feeder_msgs.action import RunProgram
 from feeder_msgs.msg import FieldProgram, FieldSpec, MemsPartStates
+from feeder_msgs.srv import FieldSetProgram, MemsPlaceParts
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import load_yaml_mapping, yaml_mapping_from_text
 from feeder_planner.mems import ProgramStep, program_from_mapping
@@ -26,7 +31,7 @@ from feeder_planner.node_kit.msg_fields import fill_field_spec
 from feeder_planner.node_kit.request_limits import MAX_YAML_CHARS
 from feeder_sim.mems.counters import COUNTERS
 
-__all__ = ["PROFILE", "RunProgramGoal", "check_run_program", "resolve_program"]
+__all__ = ["PROFILE", "RunProgramGoal", "check_run_program", "check_load_program", "resolve_program"]
 
 
 @dataclass(frozen=True)
@@ -45,6 +50,43 @@ class RunProgramGoal:
         return RunProgram.Goal(
             program=program, timeout=self.timeout, tolerance=self.tolerance, dwell=self.dwell
         )
+
+
+@dataclass(frozen=True)
+class LoadProgramCall:
+    """A checked LoadProgram call: the program the array runs from now on (no goal watches it)."""
+
+    name: str
+    steps: tuple[ProgramStep, ...]
+
+    def message(self) -> Any:
+        """Return the ~/set_program request."""
+        steps = [fill_field_spec(FieldSpec(), s) for s in self.steps]
+        return FieldSetProgram.Request(program=FieldProgram(name=self.name, steps=steps))
+
+
+def check_load_program(spec: MethodSpec, args: list[Argument], program_dir: str) -> LoadProgramCall:
+    """Check LoadProgram(Program): a program file of program_dir by name, or inline YAML."""
+    check_count(spec, args)
+    try:
+        name, steps = resolve_program(read_string(args[0], 0, "Program"), program_dir)
+    except InputError as error:
+        raise ArgumentError("BadInvalidArgument", 0, str(error)) from None
+    return LoadProgramCall(name, steps)
+
+
+@dataclass(frozen=True)
+class NewBatchCall:
+    """PlaceParts: every part back to its initial pose (a new batch arrives on the array)."""
+
+    def message(self) -> Any:
+        """Return the ~/place_parts request."""
+        return MemsPlaceParts.Request(reset=True)
+
+
+def _check_new_batch(spec: MethodSpec, args: list[Argument]) -> NewBatchCall:
+    check_count(spec, args)
+    return NewBatchCall()
 
 
 def resolve_program(text: str, program_dir: str) -> tuple[str, tuple[ProgramStep, ...]]:
@@ -209,5 +251,27 @@ PROFILE = KindProfile(
         ),
         feedback_values=_feedback,
         result_values=_result,
+    ),
+    services=(
+        ServiceLink(
+            MethodSpec(
+                "PlaceParts",
+                "infeed: a new batch, every part back to its initial pose (~/place_parts reset)",
+            ),
+            lambda spec, args, _context: _check_new_batch(spec, args),
+            MemsPlaceParts,
+            "place_parts",
+        ),
+        ServiceLink(
+            MethodSpec(
+                "LoadProgram",
+                "load a field program by name (a file in program_dir) or inline YAML; it runs from now "
+                "on, no goal watches it (~/set_program); RunProgram runs one and waits for the parts",
+                (ArgumentSpec("Program", "String", "a file in program_dir, or inline YAML starting with {"),),
+            ),
+            lambda spec, args, context: check_load_program(spec, args, context.program_dir),
+            FieldSetProgram,
+            "set_program",
+        ),
     ),
 )

@@ -1,4 +1,7 @@
-"""The throwing arm as the gateway shows it: its sensor bit, FeedPart (~/feed_part) and its counters."""
+"""The throwing arm as the gateway shows it: its sensor bit, its methods and its counters.
+
+Methods: FeedPart (~/feed_part) and PlacePart (~/place_part: the infeed of a new part).
+"""
 
 from __future__ import annotations
 
@@ -14,14 +17,16 @@ from feeder_cell.gateway.spec import (
     ArgumentSpec,
     KindProfile,
     MethodSpec,
+    ServiceLink,
     StreamLink,
     Values,
     VariableSpec,
 )
 from feeder_msgs.action import FeedPart
+from feeder_msgs.srv import ArmPlacePart
 from feeder_sim.throwing.counters import COUNTERS
 
-__all__ = ["PROFILE", "FeedPartGoal", "check_feed_part"]
+__all__ = ["PROFILE", "FeedPartGoal", "PlacePartCall", "check_feed_part", "check_place_part"]
 
 
 @dataclass(frozen=True)
@@ -48,6 +53,28 @@ def check_feed_part(spec: MethodSpec, args: list[Argument]) -> FeedPartGoal:
             "BadInvalidArgument", 1, f"Timeout: must be >= 0 s (0: no limit), got {timeout!r}"
         )
     return FeedPartGoal(max_throws, timeout)
+
+
+@dataclass(frozen=True)
+class PlacePartCall:
+    """A checked PlacePart call: the infeed puts a new part at rest on a hull edge at a throw radius."""
+
+    edge: int
+    radius: float
+
+    def message(self) -> Any:
+        """Return the ~/place_part request."""
+        return ArmPlacePart.Request(edge=self.edge, radius=self.radius)
+
+
+def check_place_part(spec: MethodSpec, args: list[Argument]) -> PlacePartCall:
+    """Check PlacePart(Edge, Radius); the device checks the edge against the part and the radius's range."""
+    check_count(spec, args)
+    edge = read_integer(args[0], 0, "Edge", "Int32")
+    radius = read_number(args[1], 1, "Radius")
+    if radius <= 0:
+        raise ArgumentError("BadInvalidArgument", 1, f"Radius: must be > 0 m, got {radius!r}")
+    return PlacePartCall(edge, radius)
 
 
 def _sensor(msg: Any) -> Values:
@@ -109,5 +136,20 @@ PROFILE = KindProfile(
         ),
         feedback_values=_feedback,
         result_values=_result,
+    ),
+    services=(
+        ServiceLink(
+            MethodSpec(
+                "PlacePart",
+                "infeed: a new part at rest on hull edge Edge at throw radius Radius (~/place_part)",
+                (
+                    ArgumentSpec("Edge", "Int32", "stable hull edge of the part"),
+                    ArgumentSpec("Radius", "Double", "m from the arm's axis, > 0, in the throw map's domain"),
+                ),
+            ),
+            lambda spec, args, _context: check_place_part(spec, args),
+            ArmPlacePart,
+            "place_part",
+        ),
     ),
 )
