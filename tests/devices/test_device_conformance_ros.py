@@ -630,6 +630,8 @@ class Cell:
 KIT_SERVICES = (
     (Trigger, "stop"),
     (Trigger, "reset"),
+    (Trigger, "abort"),
+    (Trigger, "clear"),
     (InjectFault, "inject_fault"),
     (SetParameters, "set_parameters"),
     (GetParameters, "get_parameters"),
@@ -837,7 +839,7 @@ def test_a_bad_runtime_parameter_fails_configure_naming_it_and_once_fixed_the_de
     rate = (len(stamps) - 1) / (stamps[-1] - stamps[0])
     assert 0.6 < rate < 1.5 and max(np.diff(stamps)) < 3.0, (rate, np.diff(stamps))
     refused_naming_the_state(cell, case, "UNCONFIGURED")
-    for service in ("stop", "reset"):
+    for service in ("stop", "reset", "abort", "clear"):
         response = cell.trigger(case, service)
         assert not response.success and "UNCONFIGURED" in response.message, response.message
     response = cell.inject(case, next(iter(case.faults)))
@@ -962,6 +964,18 @@ def test_stop_halts_the_device_and_reset_returns_it_to_ready_clearing_every_faul
     response = cell.trigger(case, "reset")
     assert response.success and response.message.startswith("reset: "), response.message
     assert response.message[len("reset: ") :] in READY
+    assert cell.status(case, lambda s: s.state_name in READY).ready
+    # PackML's Abort and Clear: ~/abort halts into FAULT (code 4), ~/clear leaves it STOPPED, not ready
+    response = cell.trigger(case, "clear")
+    assert not response.success and "applies in FAULT" in response.message, response.message
+    assert cell.trigger(case, "abort").success
+    aborted = cell.status(case, lambda s: s.state_name == "FAULT")
+    assert aborted.fault_code == DeviceStatus.FAULT_ABORTED and not aborted.ready
+    refused_naming_the_state(cell, case, "FAULT")
+    assert cell.trigger(case, "clear").success
+    cleared = cell.status(case, lambda s: s.state_name == "STOPPED")
+    assert cleared.fault_code == 0 and not cleared.ready
+    assert cell.trigger(case, "reset").success
     assert cell.status(case, lambda s: s.state_name in READY).ready
     # ~/reset clears every injected fault too, a stopping one included
     for name, fault in case.faults.items():
