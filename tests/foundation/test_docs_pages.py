@@ -45,5 +45,15 @@ def test_the_readme_is_short_and_its_tables_narrow() -> None:
     # every page the README's map names exists, and every reference page has a table of contents
     for page in re.findall(r"\]\((docs/[\w.]+\.md)\)", "\n".join(lines)):
         assert (ROOT / page).is_file(), page
-    for page in ("nodes", "cli", "bags", "setup", "benchmarks", "troubleshooting"):
-        assert "Contents:" in (ROOT / "docs" / f"{page}.md").read_text(), page
+    for page in sorted((ROOT / "docs").glob("*.md")):
+        text = page.read_text()
+        assert "Contents:" in text, page.name
+        # every contents link lands on a heading of the page (GitHub's anchors: lower case, spaces to
+        # dashes, punctuation other than - and _ dropped)
+        anchors = {
+            re.sub(r"[^\w\- ]", "", h.strip().lower()).replace(" ", "-")
+            for h in re.findall(r"^#{2,4} (.+)$", text, re.MULTILINE)
+        }
+        toc = text.split("Contents:", 1)[1].split("\n## ", 1)[0]
+        missing = [a for a in re.findall(r"\]\(#([^)]+)\)", toc) if a not in anchors]
+        assert missing == [], f"{page.name}: contents links without a heading: {missing}"
