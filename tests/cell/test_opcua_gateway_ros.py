@@ -254,7 +254,8 @@ def test_a_stop_over_ros_shows_as_a_data_change_and_the_reset_method_clears_it(
                 changes.put_nowait((value, time.monotonic(), data.monitored_item.Value.SourceTimestamp))
 
         subscription = await s.client.create_subscription(20, Handler())
-        await subscription.subscribe_data_change(s.node(KEYS["arm"], "Status.PackMLState"))
+        # A queue: the transient Resetting and the Idle after it may fall into one publishing interval.
+        await subscription.subscribe_data_change(s.node(KEYS["arm"], "Status.PackMLState"), queuesize=10)
         assert (await asyncio.wait_for(changes.get(), 10))[0] == "Idle"  # the initial value
         started = time.monotonic()
         response = await asyncio.to_thread(ros_harness.trigger, ros_client, ARM, "stop")

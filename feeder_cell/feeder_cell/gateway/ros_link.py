@@ -320,6 +320,7 @@ class RosLink:
             return "BadInvalidState", row
         if row.transient:
             self._post_all(link, _packml_values(row.transient))
+            await self.server.flush_now()
         status, message = await self._in_ros(self._calls(link, name, row.calls))
         if cancels_goal(command):
             with link.lock:

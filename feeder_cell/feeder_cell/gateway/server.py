@@ -389,6 +389,14 @@ class GatewayServer:
             self._scheduled = True
         self._loop.call_soon_threadsafe(self._start_flush)
 
+    async def flush_now(self) -> None:
+        """Write what is pending before the caller goes on (on the loop).
+
+        A PackML command's transient state (Clearing) must be written before the device calls that end
+        it: posted only, the device's answer (Stopped) could be pending with it and replace it unseen.
+        """
+        await self._flush()
+
     def _schedule(self) -> None:
         with self._lock:
             if self._scheduled or not self._pending:
