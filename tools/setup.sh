@@ -56,10 +56,20 @@ fi
 # --- 4. Build the colcon workspace when any package source changed. -----------------------------
 # --symlink-install makes Python edits live, so a .py file counts by its path only (a new module needs
 # no rebuild either, but costs nothing to count); setup.py, package.xml and interfaces count whole.
-src_hash=$(cd "$ROOT" && find feeder_msgs standard_interfaces feeder_planner feeder_device feeder_sim feeder_cell -type f \
+# The interfaces' generators: only those the Python nodes use (C, Python, the C typesupports; the C++
+# headers and C++ typesupports, which only C++ nodes would use, are left out: tools/cmake/
+# python_only_interfaces.cmake says how). FEEDER_CXX_INTERFACES=1 builds them all, as a plain
+# `colcon build` on a full ROS 2 install does.
+python_only=ON
+if [ "${FEEDER_CXX_INTERFACES:-0}" = 1 ]; then python_only=OFF; fi
+cmake_args=(-DBUILD_TESTING=OFF -DPython3_EXECUTABLE="$VENV/bin/python"
+            -DCMAKE_PROJECT_INCLUDE="$ROOT/tools/cmake/python_only_interfaces.cmake"
+            -DFEEDER_PYTHON_ONLY_INTERFACES=$python_only)
+src_hash=$( { cd "$ROOT" && printf '%s\n' "${cmake_args[@]}" && cat tools/cmake/*.cmake && \
+             find feeder_msgs standard_interfaces feeder_planner feeder_device feeder_sim feeder_cell -type f \
              -not -path '*/__pycache__/*' -not -name '*.pyc' \
-             \( \( -name '*.py' -not -name setup.py -printf '%p\n' \) -o -printf '%p %s %T@\n' \) \
-           | sort | sha256sum | cut -d' ' -f1)
+             \( \( -name '*.py' -not -name setup.py -printf '%p\n' \) -o -printf '%p %s %T@\n' \) | sort; } \
+           | sha256sum | cut -d' ' -f1)
 # A package whose install is gone (removed by hand, or a new link in ros_ws/src) is built again too.
 missing=""
 for package in "$WS"/src/*; do
@@ -72,8 +82,15 @@ if [ -n "$missing" ] || [ "$(cat "$WS/install/.feeder-build-stamp" 2>/dev/null)"
     # shellcheck source=/dev/null
     source "$VENV/feeder-env.sh"
     cd "$WS"
+    # colcon runs make with -j<cores> -l<cores>; the load limit lags (a 1-minute average), so after two
+    # packages built side by side make ran one job at a time for a minute and more while a core idled.
+    # Jobs without a load limit, unless MAKEFLAGS already sets either.
+    case " ${MAKEFLAGS:-} " in
+      *" -j"*|*" --jobs"*|*" -l"*|*" --load-average"*) ;;
+      *) export MAKEFLAGS="${MAKEFLAGS:+$MAKEFLAGS }-j$(nproc 2>/dev/null || echo 2)" ;;
+    esac
     colcon --log-base log build --symlink-install --event-handlers console_direct- \
-      --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE="$VENV/bin/python" >"$WS/build.log" 2>&1 \
+      --cmake-args "${cmake_args[@]}" >"$WS/build.log" 2>&1 \
       || { tail -n 40 "$WS/build.log" >&2; exit 1; }
   ) || die "colcon build failed (full log: ros_ws/build.log)"
   echo "$src_hash" > "$WS/install/.feeder-build-stamp"
