@@ -140,13 +140,14 @@ def test_controller_brings_the_cell_up_and_completes_n_cycles(
 def test_sensor_stuck_false_ends_the_feed_by_max_throws_then_reset_recovers(
     cell: dict[str, Any], launch_node: Callable[..., Any], listen: Callable[..., Any], ros_client: Any
 ) -> None:
-    run_controller(launch_node, "ctl_stuck", cycles=3, max_retries=2, feed_max_throws=15)
+    # Two cycles: the fault comes in the second, after a whole cycle ran clean.
+    run_controller(launch_node, "ctl_stuck", cycles=2, max_retries=2, feed_max_throws=15)
     cell_status(listen, "ctl_stuck").wait(lambda m: m.cycle >= 2, timeout=CYCLE_WALL_S + 30, current=True)
     response = inject(ros_client, ARM, "sensor_stuck", state=False)
     assert response.ok, response.error
-    status = finished(listen, "ctl_stuck", 3)
+    status = finished(listen, "ctl_stuck", 2)
     assert status.state == "FINISHED", status
-    assert (status.cycles_completed, status.parts_presented) == (3, 3)
+    assert (status.cycles_completed, status.parts_presented) == (2, 2)
     # The feed after the injection ended by max throws; ~/reset cleared the stuck sensor; it recovered.
     assert status.faults_seen >= 1 and status.faults_handled == status.faults_seen
     assert "FEED: MAX_THROWS" in status.last_fault or "FEED: TIMEOUT" in status.last_fault

@@ -240,12 +240,17 @@ def test_a_device_killed_mid_run_is_dropped_from_the_lockstep_and_the_cell_goes_
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=domain)
     node = Node("lockstep_kill_probe", context=context)
-    seen: dict[str, Any] = {"clock": 0, "errors": [], "arm": None}
+    seen: dict[str, Any] = {"clock": 0, "errors": [], "arm": None, "joined": False}
 
     def on_diagnostics(msg: DiagnosticArray) -> None:
         for status in msg.status:
-            if status.name.endswith("cell_clock: lockstep") and status.level == DiagnosticStatus.ERROR:
+            if not status.name.endswith("cell_clock: lockstep"):
+                continue
+            if status.level == DiagnosticStatus.ERROR:
                 seen["errors"].append((status.message, seen["clock"]))
+            members = next((v.value for v in status.values if v.key == "participants"), "")
+            if "cell/throwing_arm (" in members:
+                seen["joined"] = True
 
     node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 50)
     node.create_subscription(
@@ -273,6 +278,9 @@ def test_a_device_killed_mid_run_is_dropped_from_the_lockstep_and_the_cell_goes_
         # Past the launch's own start-up (a node dying in it ends the launch): 4 s of cell time at 2.
         running_from = seen["clock"]
         spin_until(lambda: seen["clock"] > running_from + 4 * 10**9, 60, "4 s of cell time with the arm up")
+        # Killed only once the clock lists it as joined: an arm up but not yet heard (its first answers
+        # sent before the clock's reader matched its writer, on a loaded host) is dropped as "did not join".
+        spin_until(lambda: seen["joined"], 60, "the arm among the clock's lockstep participants")
         pid = _pid_of("throwing_arm", domain)
         assert pid is not None, "no throwing_arm process on the test's domain"
         os.kill(pid, signal.SIGKILL)

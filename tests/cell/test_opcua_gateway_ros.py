@@ -731,43 +731,6 @@ async def _until(condition: Callable[[], bool], timeout: float, what: str) -> No
 # --- a whole cycle through OPC UA ------------------------------------------------------------------------
 
 
-def test_a_cycle_driven_by_method_calls(gateway: str) -> None:
-    async def scenario(s: Session) -> None:
-        arm, mems, fixture = KEYS["arm"], KEYS["mems"], KEYS["fixture"]
-        for key in KEYS.values():
-            await ready(s, key)
-        goals = await s.read(mems, "Command.GoalCount")
-        outcome = await s.run(mems, "RunProgram", text(RADIAL), dbl(20.0), dbl(0.0), dbl(0.0))
-        assert outcome in ("SETTLED", "TIMEOUT"), await s.read(mems, "Command.LastMessage")
-        assert await s.read(mems, "Command.GoalCount") == goals + 1
-        assert await s.read(mems, "Command.Action") == "RunProgram"
-        assert await s.read(mems, "Command.Feedback.Time") > 0
-        assert len(await s.read(mems, "Command.Result.Equilibrium")) == 1
-        assert (await s.read(mems, "Command.Result.Settled")) is (outcome == "SETTLED")
-        outcome = await s.run(arm, "FeedPart", u32(30), dbl(60.0))
-        assert outcome in ("PRESENTED", "MAX_THROWS"), await s.read(arm, "Command.LastMessage")
-        throws = await s.read(arm, "Command.Result.Throws")
-        assert throws >= 1 and await s.read(arm, "Command.Feedback.Throws") == throws
-        assert outcome == "PRESENTED" or throws == 30
-        assert await s.wait_for(arm, "Status.Counters.feed_goals", lambda n: n >= 1) >= 1
-        names, values = await s.client.read_values(
-            [s.node(arm, "Status.CounterNames"), s.node(arm, "Status.CounterValues")]
-        )
-        assert dict(zip(names, values, strict=True))["throws"] >= throws
-        if outcome == "PRESENTED":
-            assert await s.read(arm, "Command.Result.SensorAtRest") is True
-        outcome = await s.run(fixture, "FollowPath", dbls([0.1, 0.0, 0.0, 0.0]), dbls([]))
-        assert outcome == "REACHED", await s.read(fixture, "Command.LastMessage")
-        assert await s.read(fixture, "Command.LastOutcomeCode") == 1
-        assert 0 < await s.read(fixture, "Command.Feedback.Progress") <= 1
-        assert await s.read(fixture, "Command.Result.FirstUnstableSample") == -1
-        assert await s.read(fixture, "Command.Result.Tilt") == pytest.approx([0.0, 0.0], abs=1e-6)
-        for key in KEYS.values():
-            await ready(s, key)
-
-    session(gateway, scenario)
-
-
 def test_stop_ends_a_long_goal_and_the_device_is_commandable_after_reset(
     gateway: str, ros_client: Any
 ) -> None:

@@ -185,8 +185,15 @@ def _in_order(seen: list[str], expected: list[str]) -> bool:
 
 async def _cycle(plc: Plc, number: int, fault: bool) -> None:
     await plc.good(MEMS, "PlaceParts")
+    goals = await plc.read(MEMS, "Command.GoalCount")
     outcome = await plc.run(MEMS, "RunProgram", text("orient_combined"), dbl(45.0), dbl(1e-4), dbl(0.0))
     assert outcome == "SETTLED", f"cycle {number}: {await plc.read(MEMS, 'Command.LastMessage')}"
+    # The goal's variables: its count and action, its last feedback and its result (one part, settled).
+    assert await plc.read(MEMS, "Command.GoalCount") == goals + 1
+    assert await plc.read(MEMS, "Command.Action") == "RunProgram"
+    assert await plc.read(MEMS, "Command.Feedback.Time") > 0
+    assert len(await plc.read(MEMS, "Command.Result.Equilibrium")) == 1
+    assert await plc.read(MEMS, "Command.Result.Settled") is True
     await plc.good(ARM, "PlacePart", i32(2), dbl(0.12))
     if fault:
         mark = len(plc.states.seen[ARM])
@@ -210,8 +217,15 @@ async def _cycle(plc: Plc, number: int, fault: bool) -> None:
         await plc.good(ARM, "PlacePart", i32(2), dbl(0.12))  # the infeed again, after the stop
     outcome = await plc.run(ARM, "FeedPart", u32(40), dbl(60.0))
     assert outcome == "PRESENTED", f"cycle {number}: {await plc.read(ARM, 'Command.LastMessage')}"
+    throws = await plc.read(ARM, "Command.Result.Throws")
+    assert throws >= 1 and await plc.read(ARM, "Command.Feedback.Throws") == throws
+    assert await plc.read(ARM, "Command.Result.SensorAtRest") is True
     assert await plc.run(FIXTURE, "FollowPath", dbls([]), dbls(TILT)) == "REACHED"
     assert await plc.run(FIXTURE, "FollowPath", dbls([]), dbls(HOME)) == "REACHED"
+    assert await plc.read(FIXTURE, "Command.LastOutcomeCode") == 1
+    assert 0 < await plc.read(FIXTURE, "Command.Feedback.Progress") <= 1
+    assert await plc.read(FIXTURE, "Command.Result.FirstUnstableSample") == -1
+    assert await plc.read(FIXTURE, "Command.Result.Tilt") == pytest.approx([0.0, 0.0], abs=1e-6)
 
 
 def test_a_plc_brings_the_cell_up_runs_three_cycles_recovers_a_fault_and_brings_it_down(
