@@ -719,15 +719,19 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         if self.lifecycle not in ("active", "inactive"):
             response.success, response.message = False, f"reset refused: device is {self.state().name}"
             return response
-        for name in list(self.faults):
-            self.clear_fault(name)
-        self.faults.clear()
-        self.model_fault = None
+        self._clear_every_fault()
         self.stopped = False
         self.reset_device()
         self.publish_status()
         response.success, response.message = True, f"reset: {self.state().name}"
         return response
+
+    def _clear_every_fault(self) -> None:
+        """Clear the injected faults (each hook told) and the model's own: what reset and clear share."""
+        for name in list(self.faults):
+            self.clear_fault(name)
+        self.faults.clear()
+        self.model_fault = None
 
     def _on_abort(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         """PackML Abort: halt at once and enter FAULT (code FAULT_ABORTED) until ~/clear or ~/reset."""
@@ -754,10 +758,7 @@ class ManagedDevice(LifecycleNode, Generic[P]):
             response.success = False
             response.message = f"clear refused: device is {self.state().name} (clear applies in FAULT)"
             return response
-        for name in list(self.faults):
-            self.clear_fault(name)
-        self.faults.clear()
-        self.model_fault = None
+        self._clear_every_fault()
         self.stopped = True
         self.publish_status()
         response.success, response.message = True, f"cleared: {self.state().name}"
