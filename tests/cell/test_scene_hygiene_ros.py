@@ -160,7 +160,7 @@ def test_no_published_frame_id_starts_with_a_slash(tmp_path: Path) -> None:
         "/cell/mems_field_array/part_states",
         "/cell/assembly_fixture/joint_states",
     ):
-        assert seen.get(topic, 0) > 0, f"nothing heard on {topic}: {sorted(seen)}"
+        assert seen.get(topic, 0) > 0, f"nothing heard on {topic}: {sorted(seen)}; launch:\n{err[-3000:]}"
     assert len(seen) >= 25, sorted(seen)
     summary = json.loads(out)
     assert all(n["exit_code"] == 0 for n in summary["nodes"]), [
@@ -256,3 +256,48 @@ def test_every_node_of_a_running_scene_stops_with_exit_code_0_three_times(tmp_pa
         node.destroy_node()
         rclpy.try_shutdown(context=context)
         lease.release()
+
+
+@pytest.mark.parametrize(
+    "module", ["feeder_sim.nodes.throwing_arm", "feeder_planner.nodes.stable_region_planner"]
+)
+def test_a_node_stops_with_exit_code_0_under_stop_signals_from_its_start(module: str, tmp_path: Path) -> None:
+    """SIGINT and SIGTERM every 5 ms from the node's construction until it is gone: exit 0, no traceback.
+
+    The signals reach the node while it builds itself, spins, cleans up and exits (node_kit.runner
+    StopRequest). With rclpy's own handlers a signal raised KeyboardInterrupt in the construction (exit -2
+    and a traceback) or in the clean-up; a Python handler left installed ended the interpreter's exit by
+    the signal (exit -2). A single-threaded device and a multi-threaded planner. (rcl's debug log says
+    when rclpy is up, the construction's start; before it a signal is Python's, as in any program.)
+    """
+    lease = ros_harness.DomainLease()
+    log = tmp_path / "node.log"
+    with log.open("w") as sink:
+        process = subprocess.Popen(
+            [sys.executable, "-m", module, "--ros-args", "-r", "__ns:=/storm", "--log-level", "rcl:=debug"],
+            env=_env(lease.domain),
+            stdout=sink,
+            stderr=subprocess.STDOUT,
+        )
+    try:
+        deadline = time.monotonic() + 60
+        while "Initializing node" not in log.read_text() and process.poll() is None:
+            assert time.monotonic() < deadline, "the node never started its construction"
+            time.sleep(0.005)
+        signals = 0
+        while process.poll() is None and time.monotonic() < deadline:
+            try:
+                process.send_signal(signal.SIGTERM if signals % 3 == 2 else signal.SIGINT)
+            except ProcessLookupError:
+                break
+            signals += 1
+            time.sleep(0.005)
+        process.wait(timeout=30)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+        lease.release()
+    out = log.read_text()
+    assert "Traceback" not in out, out[-3000:]
+    assert process.returncode == 0, f"exit {process.returncode} after {signals} signals:\n{out[-3000:]}"

@@ -235,8 +235,13 @@ class Participant:
             self.send(now_ns)
 
     # --- the spin loop --------------------------------------------------------------------------
-    def spin(self, executor: Executor, poll_s: float = 0.1) -> None:
-        """Spin the executor, draining and answering after every callback that announced a time."""
-        while rclpy.ok(context=self.node.context):
+    def spin(
+        self, executor: Executor, poll_s: float = 0.1, stopped: Callable[[], bool] = lambda: False
+    ) -> None:
+        """Spin the executor, draining and answering after every callback that announced a time.
+
+        Ends when the context shuts down or ``stopped()`` (looked at every ``poll_s`` at the latest).
+        """
+        while rclpy.ok(context=self.node.context) and not stopped():
             executor.spin_once(timeout_sec=poll_s)
             self.answer_pending(executor)

@@ -11,24 +11,85 @@ from typing import Callable, TypeVar
 import rclpy
 from rclpy.executors import Executor, ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+from rclpy.task import Future
 
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit.introspection import configure_service_introspection
 from feeder_planner.node_kit.lockstep import Participant
 from feeder_planner.node_kit.names import EXIT_DUPLICATE_NAME, DuplicateNameError, watch_for_namesake
 
-__all__ = ["build_node", "run_node", "profiled"]
+__all__ = ["StopRequest", "build_node", "run_node", "profiled"]
 
 EXIT_BAD_CONFIGURATION = 2
 # Wall seconds a stopping node waits for the callbacks still running on its executor's threads.
 STOP_WAIT_S = 2.0
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+# Wall seconds between the spin loop's looks at a stop request: a signal's Python handler runs only once
+# the main thread is back from rcl_wait, so this bounds how long a stop waits on an idle node.
+STOP_POLL_S = 0.1
+
+
+class StopRequest:
+    """SIGINT and SIGTERM as one request to stop, taken by a Python handler that never raises.
+
+    rclpy 7.1's own handlers made a node's stop a race it sometimes lost with signal 11 (the demo scene's
+    Ctrl-C reaches each node two or three times: the terminal, the launcher, the test):
+    - a signal raised KeyboardInterrupt wherever the main thread was: in the node's construction, or,
+      arriving again before the clean-up could ignore it, inside ``destroy_node``, leaving handles half
+      destroyed for the interpreter's exit to free in any order;
+    - its deferred-signal thread shuts every context down (rcl_shutdown) and triggers the executors'
+      signal guard conditions while the main thread destroys the node and those guard conditions
+      (fixed upstream in ros2/rclpy#1353, after 7.1).
+    Here a signal only completes ``future``; the spin loop sees it and ends, and the clean-up runs on
+    the main thread alone, whatever more signals come. Install it before ``rclpy.init``, and init rclpy
+    with ``SignalHandlerOptions.NO`` (``build_node(stop=...)`` does both, in that order).
+    """
+
+    def __init__(self) -> None:
+        self.future: Future = Future()
+
+    def install(self) -> "StopRequest":
+        """Take SIGINT and SIGTERM from now on (Python's default SIGINT handler raises; this one does not)."""
+        for number in STOP_SIGNALS:
+            signal.signal(number, self._on_signal)
+        return self
+
+    @property
+    def requested(self) -> bool:
+        """Whether a stop signal has come."""
+        return self.future.done()
+
+    def ignore_from_now(self) -> None:
+        """Ignore the stop signals from now on: the stop is under way.
+
+        At the interpreter's exit Python resets a handler it installed to the default, which would end
+        the process by the signal (exit -2) when the launcher's SIGINT comes late.
+        """
+        for number in STOP_SIGNALS:
+            signal.signal(number, signal.SIG_IGN)
+
+    def _on_signal(self, number: int, _frame: object) -> None:
+        if not self.future.done():
+            self.future.set_result(number)
+
 
 NodeType = TypeVar("NodeType", bound=Node)
 
 
-def build_node(factory: Callable[[], NodeType], name: str, args: list[str] | None = None) -> NodeType:
-    """Init rclpy and build one node: a bad configuration is a FATAL log naming the field, and exit 2."""
-    rclpy.init(args=args)
+def build_node(
+    factory: Callable[[], NodeType], name: str, args: list[str] | None = None, stop: StopRequest | None = None
+) -> NodeType:
+    """Init rclpy and build one node: a bad configuration is a FATAL log naming the field, and exit 2.
+
+    With ``stop``, it takes the stop signals (installed first: one during construction is kept for the
+    spin loop) and rclpy installs none of its own; without, rclpy's handlers end the context on a signal.
+    """
+    if stop is not None:
+        stop.install()
+    rclpy.init(
+        args=args, signal_handler_options=SignalHandlerOptions.NO if stop else SignalHandlerOptions.ALL
+    )
     try:
         node = factory()
         configure_service_introspection(node)  # after the factory: every service and client exists
@@ -70,10 +131,13 @@ def run_node(factory: Callable[[], Node], name: str, args: list[str] | None = No
     ``threads`` > 1 spins a multi-threaded executor: a planner whose services have their own callback
     groups (``services.serve(own_group=True)``) then serves a long request beside its other work. A
     namesake in the graph at start-up ends the node with exit 1 (node_kit.names). A node with a lockstep
-    participant (its ``lockstep`` attribute) spins through it: drained before every answer.
+    participant (its ``lockstep`` attribute) spins through it: drained before every answer. SIGINT and
+    SIGTERM, however many and whenever they come, end the spin once (``StopRequest``); a node that hangs
+    while stopping is still ended by its launcher's SIGKILL.
     """
     dump_profile = profiled(name)
-    node = build_node(factory, name, args)
+    stop = StopRequest()
+    node = build_node(factory, name, args, stop)
     executor: Executor = (
         MultiThreadedExecutor(num_threads=threads) if threads > 1 else SingleThreadedExecutor()
     )
@@ -83,17 +147,18 @@ def run_node(factory: Callable[[], Node], name: str, args: list[str] | None = No
     participant = getattr(node, "lockstep", None)
     try:
         if isinstance(participant, Participant):
-            participant.spin(executor)
+            participant.spin(executor, STOP_POLL_S, lambda: stop.requested)
         else:
-            executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
+            while not stop.requested and rclpy.ok(context=node.context):
+                executor.spin_once(timeout_sec=STOP_POLL_S)
+    except ExternalShutdownException:
         pass
     except DuplicateNameError:
         code = EXIT_DUPLICATE_NAME
     finally:
         if namesakes:
             code = EXIT_DUPLICATE_NAME
-        _ignore_stop_signals()
+        stop.ignore_from_now()
         executor.shutdown(timeout_sec=1.0)
         _wait_for_running_callbacks(executor, STOP_WAIT_S)
         node.destroy_node()
@@ -101,19 +166,6 @@ def run_node(factory: Callable[[], Node], name: str, args: list[str] | None = No
         dump_profile()
     if code:
         raise SystemExit(code)
-
-
-def _ignore_stop_signals() -> None:
-    """Let the clean-up run to its end: a second SIGINT or SIGTERM while stopping is ignored.
-
-    Ctrl-C reaches a node and its launcher together, and the launcher then sends its own SIGINT: that
-    second signal raised KeyboardInterrupt inside the clean-up (``destroy_node``; rclpy chains its handler
-    to Python's). The clean-up stopped half way, rclpy was not shut down, and the process ended by the
-    signal (exit -2), or, with handles left half destroyed for the interpreter's exit to free in any order,
-    by signal 11. A node that hangs while stopping is still ended by its launcher's SIGKILL.
-    """
-    for number in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(number, signal.SIG_IGN)
 
 
 def _wait_for_running_callbacks(executor: Executor, timeout_s: float) -> None:
