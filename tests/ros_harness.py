@@ -248,12 +248,23 @@ class Listener:
             return self.messages[mark:]
 
     def wait(
-        self, accept: Callable[[Any], bool] = lambda m: True, timeout: float = 30.0, current: bool = False
+        self,
+        accept: Callable[[Any], bool] = lambda m: True,
+        timeout: float = 30.0,
+        current: bool = False,
+        after: int | None = None,
     ) -> Any:
-        """Return the first message from now on that ``accept`` takes; ``current``: the latest counts too."""
+        """Return the first message from now on that ``accept`` takes.
+
+        ``current``: the latest counts too; ``after``: every message since that mark (``count``) counts,
+        for a wait on what a call caused that may have arrived before the call returned.
+        """
         deadline = time.monotonic() + timeout
         with self.arrived:
-            index = max(0, len(self.messages) - 1) if current else len(self.messages)
+            if after is not None:
+                index = after
+            else:
+                index = max(0, len(self.messages) - 1) if current else len(self.messages)
             while True:
                 while index < len(self.messages):
                     msg = self.messages[index]

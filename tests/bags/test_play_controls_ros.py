@@ -94,7 +94,7 @@ def test_paused_start_play_next_and_burst(
     mark = out.count()
     assert _call(ros_client, PlayNext, "play_next").success
     assert _call(ros_client, Burst, "burst", num_messages=4).actually_burst == 4
-    out.wait(lambda m: m.data == "4", timeout=30)
+    out.wait(lambda m: m.data == "4", timeout=30, after=mark)  # the burst may be in before the call returns
     assert [m.data for m in out.since(mark)] == ["0", "1", "2", "3", "4"]
     # /clock holds the stamp of the last message played while paused.
     listen(Clock, "/clock").wait(lambda m: _clock_ns(m) == stamps[4], timeout=30)

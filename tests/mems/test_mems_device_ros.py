@@ -528,5 +528,7 @@ def test_fault_power_loss_removes_the_field_and_stops_the_device(array, listen) 
     array.status(lambda s: s.state_name == "FAULT")
     assert array.trigger("reset").success
     report = array.status(lambda s: s.ready)
-    assert list(report.active_faults) == [] and report.fault_code == 0
+    # No fault is left; a loaded host may report the non-stopping code 2 (behind real time) meanwhile.
+    assert list(report.active_faults) == []
+    assert report.fault_code in (0, DeviceStatus.FAULT_BEHIND_REAL_TIME), report.fault_text
     wrench_at(array, FORCE[1] * AREA)

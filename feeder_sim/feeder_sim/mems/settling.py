@@ -53,6 +53,7 @@ __all__ = [
     "PredictedEquilibrium",
     "Prediction",
     "predict",
+    "Predictions",
     "Match",
     "match",
     "equilibrium_summary",
@@ -224,6 +225,27 @@ def predict(part: Part, field: Field, method: str = "auto") -> Prediction:
     if not stable:  # pragma: no cover - U has a minimum for delta < 1, so a certified answer has one
         return Prediction((), "no predicted equilibria: the planner found no stable one")
     return Prediction(stable)
+
+
+class Predictions:
+    """Each part's prediction in a field, computed once per (part index, field).
+
+    Keyed by the part's index in the scene's bodies, which a removal shifts: ``clear`` when the parts change.
+    """
+
+    def __init__(self) -> None:
+        self._known: dict[tuple[int, Field], Prediction] = {}
+
+    def of(self, parts: Sequence[Part], field: Field) -> list[Prediction]:
+        """Return the prediction of every part in ``field``, in the order of ``parts``."""
+        for index, part in enumerate(parts):
+            if (index, field) not in self._known:
+                self._known[(index, field)] = predict(part, field)
+        return [self._known[(index, field)] for index in range(len(parts))]
+
+    def clear(self) -> None:
+        """Forget every prediction."""
+        self._known.clear()
 
 
 @dataclass(frozen=True)

@@ -1,13 +1,10 @@
 """ROS 2 node: the simulated MEMS field array, a managed device (thin adapter around feeder_sim.mems).
 
-An adapter (docs/devices.md): the model is ``feeder_sim.mems`` (the scene built by ``configure``, placing
-by ``placing``, the run-program goal of ``program_goal``, the faults of ``faults``), the parameters
-``mems.parameters``, the counters ``mems.counters``, the faults as the kit declares them
-``mems.fault_specs``, the messages ``feeder_sim.node_kit.msg_mems``; the device kit (``feeder_device``)
-owns the lifecycle, the tick, the streams and the goal runner. Time (node clock; whole ``time_step``
-steps per tick, at most ``max_steps_per_tick``, the rest dropped and counted) and the stiff-step warning
-FAULT_TIME_STEP: docs/mems.md, "Time". Parts spawned and removed at runtime (``mems.spawning``):
-docs/mems.md, "Parts at runtime".
+An adapter (docs/devices.md): model ``feeder_sim.mems`` (``configure``, ``placing``, ``program_goal``,
+``faults``; parameters, counters and fault specs beside them), messages ``node_kit.msg_mems``, part
+services ``node_kit.mems_parts``; the device kit owns lifecycle, tick, streams and goal runner. Time
+(whole ``time_step`` steps per tick, at most ``max_steps_per_tick``, the rest dropped and counted), the
+stiff-step warning and parts at runtime: docs/mems.md, "Time" and "Parts at runtime".
 """
 
 from __future__ import annotations
@@ -26,7 +23,6 @@ from feeder_planner.errors import InputError
 from feeder_planner.mems import Field, ProgramStep
 from feeder_planner.node_kit import LATCHED, STREAM_DEPTH, run_node, service_guard
 from feeder_planner.node_kit.msg_fields import program_from_msg
-from feeder_planner.node_kit.request_limits import MAX_NAMES, MAX_YAML_CHARS, check_count, check_text
 from feeder_planner.node_kit.services import serve
 from feeder_planner.node_kit.viz import VIZ_PARAMETERS, DeviceViz, Drawing
 from feeder_sim.mems import Grid, Scene
@@ -36,17 +32,16 @@ from feeder_sim.mems.drawing import ArrayDrawing
 from feeder_sim.mems.fault_specs import fault_specs
 from feeder_sim.mems.faults import ArrayFaults
 from feeder_sim.mems.parameters import BASE_FRAME, NANOSECONDS, MemsParameters, max_steps_per_tick
-from feeder_sim.mems.placing import place_parts, placement_reach
 from feeder_sim.mems.program_goal import ProgramGoal
 from feeder_sim.mems.settling import (
-    Prediction,
+    Predictions,
     check_timeout,
     holding_start,
     holding_step,
-    predict,
     settling_criterion,
 )
 from feeder_sim.mems.spawning import ArrayParts
+from feeder_sim.node_kit.mems_parts import ArrayPartServices
 from feeder_sim.node_kit.msg_mems import (
     RunProgramGoal,
     cell_forces_msg,
@@ -79,9 +74,10 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         super().__init__(NODE_NAME, MemsParameters, VIZ_PARAMETERS, rate=20.0)
         self._forget()
         serve(self, FieldSetProgram, "~/set_program", service_guard(self)(self._on_set_program))
-        serve(self, MemsPlaceParts, "~/place_parts", service_guard(self)(self._on_place_parts))
-        serve(self, MemsSpawnPart, "~/spawn_part", service_guard(self)(self._on_spawn_part))
-        serve(self, MemsRemovePart, "~/remove_part", service_guard(self)(self._on_remove_part))
+        parts = ArrayPartServices(self)
+        serve(self, MemsPlaceParts, "~/place_parts", service_guard(self)(parts.on_place_parts))
+        serve(self, MemsSpawnPart, "~/spawn_part", service_guard(self)(parts.on_spawn_part))
+        serve(self, MemsRemovePart, "~/remove_part", service_guard(self)(parts.on_remove_part))
         serve_goal(self, RunProgram, "~/run_program", self._validate_run_program, self._start_run_program)
         self.viz = DeviceViz(self, self.drawing)
 
@@ -97,7 +93,7 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         self.array_drawing = ArrayDrawing()
         self.last_activity: tuple[bool, int, bool, bool] | None = None
         self.program_stamp = 0
-        self.predictions: dict[tuple[int, Field], Prediction] = {}
+        self.predictions = Predictions()
 
     # --- configure / activate / cleanup -----------------------------------------------------------
     def configure_device(self, p: MemsParameters) -> None:
@@ -304,72 +300,13 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         self.publish_program()
         self.publish_cells()
 
-    def _on_place_parts(
-        self, request: MemsPlaceParts.Request, response: MemsPlaceParts.Response
-    ) -> MemsPlaceParts.Response:
-        """Put named parts at requested poses at rest, or reset: the array as configured (docs/mems.md)."""
-        self.require_ready("place_parts")
-        assert self.scene is not None  # ready implies configured
-        parts = self.array_parts
-        assert parts is not None
-        if request.reset:
-            if self.goals and not parts.as_configured():
-                raise DeviceError(
-                    "place_parts reset refused: a ~/run_program goal is executing, and the reset would take "
-                    "spawned parts off the array or bring removed ones back; cancel the goal first"
-                )
-            if parts.reset():
-                self.parts_changed()
-        else:
-            check_count(len(request.names), MAX_NAMES, "names", "names")
-            reach = placement_reach(self.p.array_size, float(self.p.pitch))
-            coordinates = (list(request.x), list(request.y), list(request.theta))
-            place_parts(self.scene, self.names, (list(request.names), *coordinates), reach)
-        self.count.add("placements")
-        self.publish_status()
-        return response
-
-    def _on_spawn_part(
-        self, request: MemsSpawnPart.Request, response: MemsSpawnPart.Response
-    ) -> MemsSpawnPart.Response:
-        """Add a part at rest at a pose; it moves with the field from the next tick (docs/mems.md)."""
-        self.require_ready("spawn_part")
-        if self.goals:
-            raise DeviceError("spawn_part refused: a ~/run_program goal is executing; cancel it first")
-        assert self.array_parts is not None  # ready implies configured
-        check_text(request.part_yaml, MAX_YAML_CHARS, "part_yaml")
-        reach = placement_reach(self.p.array_size, float(self.p.pitch))
-        pose = (request.x, request.y, request.theta)
-        entry = self.array_parts.spawn(request.name, request.part_yaml, request.source, pose, reach)
-        self.parts_changed()
-        self.count.add("spawned")
-        source = f" from {entry.source}" if entry.source else ""
-        self.get_logger().info(
-            f"spawn_part: {entry.name!r}{source} at x {pose[0]:.6g} m, y {pose[1]:.6g} m, "
-            f"theta {pose[2]:.6g} rad"
-        )
-        self.publish_status()
-        response.name = entry.name
-        return response
-
-    def _on_remove_part(
-        self, request: MemsRemovePart.Request, response: MemsRemovePart.Response
-    ) -> MemsRemovePart.Response:
-        """Take a part (configured or spawned) off the array by name."""
-        self.require_ready("remove_part")
-        if self.goals:
-            raise DeviceError("remove_part refused: a ~/run_program goal is executing; cancel it first")
-        assert self.array_parts is not None  # ready implies configured
-        entry = self.array_parts.remove(request.name)
-        self.parts_changed()
-        self.count.add("removed")
-        self.get_logger().info(f"remove_part: {entry.name!r} taken off the array")
-        self.publish_status()
-        return response
+    def goal_executing(self) -> bool:
+        """Whether a ~/run_program goal executes (the part services refuse most changes then)."""
+        return bool(self.goals)
 
     def parts_changed(self) -> None:
         """After a spawn, a removal or a reset that changed the parts: forget per-index work, republish."""
-        self.predictions.clear()  # keyed by the index of a part, which a removal shifts
+        self.predictions.clear()
         self.publish_parts()
 
     # --- ~/run_program --------------------------------------------------------------------------------
@@ -394,19 +331,11 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         self.install_program(program)
         self.count.add("program_goals")
         field = program[holding_step(program)].field
-        predictions = [self.prediction(i, field) for i in range(len(scene.bodies))]
+        predictions = self.predictions.of([body.part for body in scene.bodies], field)
         machine = ProgramGoal(
             scene, self.names, criterion, timeout, self.program_stamp, holding_start(program)
         )
         return RunProgramGoal(self, machine, predictions)
-
-    def prediction(self, index: int, field: Field) -> Prediction:
-        """Return the planner's stable equilibria of part ``index`` in ``field`` (computed once per field)."""
-        assert self.scene is not None
-        key = (index, field)
-        if key not in self.predictions:
-            self.predictions[key] = predict(self.scene.bodies[index].part, field)
-        return self.predictions[key]
 
 
 def main(args: list[str] | None = None) -> None:

@@ -1,21 +1,12 @@
 """ROS 2 node: the simulated throwing arm with a one-bit proximity sensor, a managed device.
 
-An adapter (docs/devices.md): the model is ``feeder_sim.throwing`` (the arm, its faults, the throw cycle
-of ``cycle``, the feed goal of ``feeding``), the parameters ``throwing.parameters``, the counters
-``throwing.counters``; the device kit (``feeder_device``) owns the lifecycle, the tick, the streams and
-the goal runner. Streams and services are private names (``~/sensor``, ``~/command``...), stamped with
-the node clock (``use_sim_time`` honoured). The simulated time advances at each tick by the elapsed
-node-clock time, at most MAX_TICK_PERIODS sensor periods per tick: a node that cannot keep up lags
-visibly in its status, never silently.
-
-``~/feed_part`` (feeder_msgs/FeedPart) throws until the one-bit sensor reads true with the part at rest,
-decided by ``feeder_sim.throwing.feeding`` from what the device itself delivers; its throws go through
-the same queue, period and motion as ``~/command throw``. While a goal executes, ``~/command throw`` and
-``start``, ``~/place_part`` and ``~/load_part`` are refused, ``~/command stop`` ends the goal after the
-throw in flight (CANCELED), and ``~/stop`` lands the throw at once and ends the goal (CANCELED, aborted).
-
-``~/load_part`` replaces the part the arm holds (``throwing.loading``); the latched ``~/part`` says which
-part that is (its name and outline, the configured part's from configure on): docs/throwing.md.
+An adapter (docs/devices.md): model ``feeder_sim.throwing`` (the arm, its faults, the throw ``cycle``, the
+feed goal of ``feeding``, the part ``loading``; parameters, counters and fault specs beside them), messages
+``node_kit.msg_throwing``; the device kit owns lifecycle, tick, streams and goal runner. Each tick advances
+the simulated time by the elapsed node-clock time, at most MAX_TICK_PERIODS sensor periods: a node that
+cannot keep up lags visibly in its status, never silently. While ``~/feed_part`` executes, ``~/command
+throw`` and ``start``, ``~/place_part`` and ``~/load_part`` are refused, ``~/command stop`` ends it after
+the throw in flight, and ``~/stop`` at once (docs/throwing.md).
 """
 
 from __future__ import annotations
@@ -35,9 +26,9 @@ from feeder_msgs.msg import DeviceStatus, ThrowEvent
 from feeder_msgs.msg import Part as PartMsg
 from feeder_msgs.srv import ArmCommand, ArmLoadPart, ArmPlacePart
 from feeder_planner.node_kit import EVENT_DEPTH, LATCHED, STREAM_DEPTH, run_node, service_guard
-from feeder_planner.node_kit.request_limits import MAX_YAML_CHARS, check_text
 from feeder_planner.node_kit.services import serve
 from feeder_planner.node_kit.viz import DeviceViz, Drawing, viz_parameters
+from feeder_sim.node_kit.arm_parts import ArmPartServices
 from feeder_sim.node_kit.msg_throwing import (
     FeedPartGoal,
     held_part_msg,
@@ -50,8 +41,8 @@ from feeder_sim.throwing.counters import COUNTERS
 from feeder_sim.throwing.cycle import Pose, Shown, ThrowCycle, ns
 from feeder_sim.throwing.drawing import ArmDrawing
 from feeder_sim.throwing.fault_specs import fault_specs
-from feeder_sim.throwing.feeding import FeedGoal, check_feed_goal
-from feeder_sim.throwing.loading import HeldPart, configured_part, load_arm_part
+from feeder_sim.throwing.feeding import FeedGoal, check_feed_goal, rest_window_ns
+from feeder_sim.throwing.loading import HeldPart, configured_part
 from feeder_sim.throwing.parameters import BASE_FRAME, ArmParameters, configure_arm
 
 __all__ = ["PARAMETERS", "FAULTS", "ThrowingArmNode", "main"]
@@ -79,8 +70,9 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         guard = service_guard(self)
         # Served from the start; refused unless the device is ready (require_ready names the state).
         serve(self, ArmCommand, "~/command", guard(self._on_command))
-        serve(self, ArmPlacePart, "~/place_part", guard(self._on_place_part))
-        serve(self, ArmLoadPart, "~/load_part", guard(self._on_load_part))
+        parts = ArmPartServices(self)
+        serve(self, ArmPlacePart, "~/place_part", guard(parts.on_place_part))
+        serve(self, ArmLoadPart, "~/load_part", guard(parts.on_load_part))
         serve_goal(self, FeedPart, "~/feed_part", self._validate_feed_part, self._start_feed_part)
         self.viz = DeviceViz(self, self.drawing)
 
@@ -135,9 +127,9 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
     def apply_parameter(self, name: str, p: ArmParameters) -> None:
         """Apply a runtime parameter to the running arm (the read-only ones never get here)."""
         if name == "release_speed":
-            self._cycle().arm.set_release_speed(float(p.release_speed))
+            self.model_cycle().arm.set_release_speed(float(p.release_speed))
         elif name == "dynamic_step":
-            self._cycle().arm.dynamic_step = float(p.dynamic_step)
+            self.model_cycle().arm.dynamic_step = float(p.dynamic_step)
         # period, motion_fraction, sensor_radius and sensing_height are read from self.p at each tick,
         # which the kit updates once this returns.
 
@@ -146,7 +138,7 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
 
         A feed goal ends at once: CANCELED (aborted, not asked by its client), its last throw reported.
         """
-        cycle = self._cycle()
+        cycle = self.model_cycle()
         cycle.cancel_commands()
         if cycle.motion is not None:
             outcome, cycle.motion = cycle.motion.outcome, None
@@ -157,12 +149,12 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
 
     def reset_device(self) -> None:
         """Back to IDLE, except that a part that is off the arm (or faulted) still needs ~/place_part."""
-        self._cycle().cancel_commands()
+        self.model_cycle().cancel_commands()
         self._require_part_again()
 
     def apply_fault(self, fault: ActiveFault) -> None:
         """Check the magnitudes and put the fault into effect on the model (a stopping one halts throws)."""
-        cycle = self._cycle()
+        cycle = self.model_cycle()
         cycle.faults.inject(fault.spec.name, fault.value, fault.state, fault.indices, fault.seed)
         if fault.spec.stops_device:
             cycle.cancel_commands()
@@ -172,7 +164,7 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
 
     def clear_fault(self, name: str) -> None:
         """Take the fault out of effect; a part lost stays lost (FAULT_PART_LOST) until ~/place_part."""
-        self._cycle().faults.clear(name)
+        self.model_cycle().faults.clear(name)
         self._require_part_again()
 
     def _require_part_again(self) -> None:
@@ -183,7 +175,8 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
                 f"{self.arm.faulted} (~/place_part puts it back)",
             )
 
-    def _cycle(self) -> ThrowCycle:
+    def model_cycle(self) -> ThrowCycle:
+        """Return the throw cycle (DeviceError naming the state when unconfigured)."""
         if self.cycle is None:
             raise DeviceError(f"device is {self.state().name}: no arm model (configure it first)")
         return self.cycle
@@ -193,7 +186,7 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         """Queue throws, or start or stop throwing every period (refused unless the device is ready)."""
         command = parse_command(request.command)
         self.require_ready(f"command {command}")
-        cycle = self._cycle()
+        cycle = self.model_cycle()
         if self.feed is not None:
             # The goal owns the queue: extra throws would be neither its own nor a command's.
             if command != "stop":
@@ -209,56 +202,6 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         self.publish_status()
         return response
 
-    def _on_place_part(
-        self, request: ArmPlacePart.Request, response: ArmPlacePart.Response
-    ) -> ArmPlacePart.Response:
-        """Put the part at rest at (edge, R), ending any throw being shown; this ends FAULT_PART_LOST."""
-        self._require_place_ready()
-        if self.feed is not None:
-            raise DeviceError("place_part refused: a ~/feed_part goal is executing (cancel it first)")
-        self._cycle().place(request.edge, request.radius, self.p.arm_length)
-        self.faults.pop("part_lost", None)
-        self.model_fault = None
-        self.publish_status()
-        return response
-
-    def _on_load_part(
-        self, request: ArmLoadPart.Request, response: ArmLoadPart.Response
-    ) -> ArmLoadPart.Response:
-        """Replace the part the arm holds, at rest at (edge, R); ends FAULT_PART_LOST (docs/throwing.md)."""
-        self._require_place_ready("load_part")
-        if self.feed is not None:
-            raise DeviceError("load_part refused: a ~/feed_part goal is executing (cancel it first)")
-        cycle = self._cycle()
-        if cycle.running or cycle.pending:
-            raise DeviceError(
-                f"load_part refused: ~/command keeps the arm busy ({cycle.doing()}); ~/command stop first"
-            )
-        check_text(request.part_yaml, MAX_YAML_CHARS, "part_yaml")
-        start = (int(request.edge), float(request.radius))
-        held = load_arm_part(cycle, request.part_yaml, request.name, request.source, start, self.p.arm_length)
-        self.held = held
-        self.shown = None  # the last pose shown was the former part's
-        self.faults.pop("part_lost", None)
-        self.model_fault = None
-        self.count.add("parts_loaded")
-        source = f" from {held.source}" if held.source else ""
-        self.get_logger().info(
-            f"load_part: {held.name!r}{source} on edge {cycle.arm.edge} at R {cycle.arm.radius:.6g} m"
-        )
-        self.publish_part()
-        self.publish_status()
-        response.name = held.name
-        return response
-
-    def _require_place_ready(self, what: str = "place_part") -> None:
-        """Accept ~/place_part when ready, or in FAULT when every cause is a part lost (placing ends it)."""
-        fault = self.stopping_fault()
-        others = [f for f in self.faults.values() if f.spec.stops_device and f.spec.name != "part_lost"]
-        lost_only = fault is not None and fault[0] == DeviceStatus.FAULT_PART_LOST and not others
-        if not (lost_only and self.active and not self.stopped):
-            self.require_ready(what)
-
     def publish_part(self) -> None:
         """Publish the part the arm holds (latched): its name, its outline in its file's order and unit."""
         if self.held is not None:
@@ -267,7 +210,7 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
     # --- the main stream ------------------------------------------------------------------------------
     def tick(self, now_ns: int) -> float:
         """Advance the simulated time, the shown throw or the next one; publish sensor, joint, part pose."""
-        cycle = self._cycle()
+        cycle = self.model_cycle()
         self.simulated += min(self.elapsed_ns(now_ns), ns(MAX_TICK_PERIODS / self.p.sensor_rate))
         t = self.simulated
         in_flight = cycle.motion is not None
@@ -285,7 +228,7 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
 
     def _throw(self, now_ns: int, t: int) -> None:
         """Throw once; show it over the motion window, or report a fault at once (FAULT_PART_LOST)."""
-        outcome = self._cycle().throw(t)
+        outcome = self.model_cycle().throw(t)
         self.count.add("throws")
         if self.feed is not None:
             self.feed.throw_started()
@@ -301,7 +244,7 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
 
     def _publish_sensor(self, pose: Pose | None) -> None:
         """Publish the sensor bit (at rest, or for the pose shown in flight) as the faults deliver it."""
-        cycle = self._cycle()
+        cycle = self.model_cycle()
         reading = cycle.arm.sensor(self.p.sensor_radius, self.p.sensing_height, pose)
         delivered = cycle.faults.sensor(reading)
         if delivered is not None:
@@ -314,12 +257,12 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         """Publish the arm joint state, and the part pose in the arm frame while the part is on the arm."""
         self.shown = (shown.pose, shown.joint)
         self.pub_joint.publish(joint_state_msg(now_ns, shown))
-        if self._cycle().arm.on_arm:  # else nothing on the arm to locate
+        if self.model_cycle().arm.on_arm:  # else nothing on the arm to locate
             self.pub_pose.publish(part_pose_msg(now_ns, self.frame_id, shown.pose))
 
     def _publish_event(self, now_ns: int, outcome: ThrowOutcome) -> None:
         """Publish the throw event: states before and after, kind, fault, the (true) sensor at rest."""
-        sensor_at_rest = bool(self._cycle().arm.sensor(self.p.sensor_radius, self.p.sensing_height))
+        sensor_at_rest = bool(self.model_cycle().arm.sensor(self.p.sensor_radius, self.p.sensing_height))
         index = self.count["throws"]
         ev = throw_event_msg(now_ns, self.frame_id, index, outcome, sensor_at_rest, self.p.fidelity)
         if ev.sensor_at_rest and not ev.fault:
@@ -342,7 +285,7 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
     def _validate_feed_part(self, goal: FeedPart.Goal) -> None:
         """Refuse a bad goal naming the field, or a goal while ~/command keeps the arm busy."""
         check_feed_goal(int(goal.max_throws), float(goal.timeout))
-        cycle = self._cycle()
+        cycle = self.model_cycle()
         if cycle.busy:
             raise DeviceError(
                 f"~/feed_part goal refused: ~/command keeps the arm busy ({cycle.doing()}); "
@@ -353,7 +296,10 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         """Start an accepted goal's machine at the node clock's now."""
         request = check_feed_goal(int(handle.request.max_throws), float(handle.request.timeout))
         feed: FeedGoal[ThrowEvent] = FeedGoal(
-            request, self.get_clock().now().nanoseconds, self._rest_window_ns(), *self.ground_truth()
+            request,
+            self.get_clock().now().nanoseconds,
+            rest_window_ns(self.p.period, self.p.motion_fraction, self.p.sensor_rate),
+            *self.ground_truth(),
         )
         self.count.add("feed_goals")
         self.get_logger().info(
@@ -361,21 +307,9 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         )
         return FeedPartGoal(self, feed, handle)
 
-    def _rest_window_ns(self) -> int:
-        """Return the longest wait (ns) for a delivered sensor sample once the part is at rest.
-
-        The rest time between throws less one sample: an unread bit then asks for the next throw in
-        time for it to start a period after the last one, as if the bit had been read.
-        """
-        rest = self.p.period * (1.0 - self.p.motion_fraction) - 1.0 / self.p.sensor_rate
-        return ns(max(rest, 0.0))
-
     def ground_truth(self) -> tuple[int, float]:
-        """Return (edge, R) of the part at rest, or (-1, NaN) when it is not on the arm (for logging)."""
-        arm = self.arm
-        if arm is None or not arm.on_arm:
-            return -1, math.nan
-        return arm.edge, arm.radius
+        """Return (edge, R) of the part at rest, or (-1, NaN) off the arm or unconfigured (for logging)."""
+        return self.arm.ground_truth() if self.arm is not None else (-1, math.nan)
 
 
 def main(args: list[str] | None = None) -> None:

@@ -137,6 +137,10 @@ class ThrowingArm:
         self.part = part
         self.place(edge, radius)
 
+    def ground_truth(self) -> tuple[int, float]:
+        """Return (edge, R) of the part at rest, or (-1, NaN) when it is not on the arm (for logging)."""
+        return (self.edge, self.radius) if self.on_arm else (-1, math.nan)
+
     def lose_part(self, reason: str) -> None:
         """Take the part off the arm (it fell off): nothing is sensed or thrown until ``place``."""
         self.on_arm = False

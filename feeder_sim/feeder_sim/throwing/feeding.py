@@ -39,6 +39,7 @@ from feeder_planner.errors import InputError
 from feeder_planner.limits import MAX_GOAL_TIMEOUT
 
 __all__ = [
+    "rest_window_ns",
     "OUTCOME_CODES",
     "FeedRequest",
     "check_feed_goal",
@@ -82,6 +83,16 @@ def check_feed_goal(max_throws: object, timeout: object) -> FeedRequest:
     if timeout > MAX_GOAL_TIMEOUT:
         raise InputError("timeout", f"must be at most {MAX_GOAL_TIMEOUT:.6g} s (a year), got {timeout!r}")
     return FeedRequest(int(max_throws), float(timeout))
+
+
+def rest_window_ns(period: float, motion_fraction: float, sensor_rate: float) -> int:
+    """Return the longest wait (ns) for a delivered sensor sample once the part is at rest.
+
+    The rest time between throws less one sample: an unread bit then asks for the next throw in time
+    for it to start a period after the last one, as if the bit had been read.
+    """
+    rest = period * (1.0 - motion_fraction) - 1.0 / sensor_rate
+    return int(round(max(rest, 0.0) * 1e9))
 
 
 @dataclass(frozen=True)
