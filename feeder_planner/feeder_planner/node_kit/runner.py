@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import signal
+import threading
 import time
 from pathlib import Path
 from typing import Callable, TypeVar
@@ -25,8 +26,7 @@ EXIT_BAD_CONFIGURATION = 2
 # Wall seconds a stopping node waits for the callbacks still running on its executor's threads.
 STOP_WAIT_S = 2.0
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
-# Wall seconds between the spin loop's looks at a stop request: a signal's Python handler runs only once
-# the main thread is back from rcl_wait, so this bounds how long a stop waits on an idle node.
+# Wall seconds between a lockstep participant's looks at a stop request (it polls for its answers anyway).
 STOP_POLL_S = 0.1
 
 
@@ -41,9 +41,13 @@ class StopRequest:
     - its deferred-signal thread shuts every context down (rcl_shutdown) and triggers the executors'
       signal guard conditions while the main thread destroys the node and those guard conditions
       (fixed upstream in ros2/rclpy#1353, after 7.1).
-    Here a signal only completes ``future``; the spin loop sees it and ends, and the clean-up runs on
-    the main thread alone, whatever more signals come. Install it before ``rclpy.init``, and init rclpy
-    with ``SignalHandlerOptions.NO`` (``build_node(stop=...)`` does both, in that order).
+    Here a signal only completes ``future``; the spin loop (``executor.spin_until_future_complete``)
+    sees it and ends, and the clean-up runs on the main thread alone, whatever more signals come. A Python
+    handler runs only once the main thread is back from rcl_wait, so the signal also reaches a thread of
+    its own through ``signal.set_wakeup_fd``, which completes the future at once and so wakes an idle
+    executor. (A poll, ``spin_once(timeout_sec)`` in a loop, leaks: rclpy 7.1 makes a timeout timer per
+    call and never destroys it.) Install it before ``rclpy.init``, and init rclpy with
+    ``SignalHandlerOptions.NO`` (``build_node(stop=...)`` does both, in that order).
     """
 
     def __init__(self) -> None:
@@ -51,9 +55,26 @@ class StopRequest:
 
     def install(self) -> "StopRequest":
         """Take SIGINT and SIGTERM from now on (Python's default SIGINT handler raises; this one does not)."""
+        read_end, write_end = os.pipe()
+        os.set_blocking(write_end, False)  # set_wakeup_fd's requirement: a signal never blocks on it
+        signal.set_wakeup_fd(write_end)
+        threading.Thread(target=self._watch, args=(read_end,), name="stop-signals", daemon=True).start()
         for number in STOP_SIGNALS:
             signal.signal(number, self._on_signal)
         return self
+
+    def _watch(self, read_end: int) -> None:
+        """Complete the future from the first signal byte Python's C handler writes (any thread's)."""
+        while True:
+            data = os.read(read_end, 64)
+            if not data:
+                return
+            if any(number in data for number in STOP_SIGNALS):
+                self._complete(data[0])
+
+    def _complete(self, number: int) -> None:
+        if not self.future.done():
+            self.future.set_result(number)
 
     @property
     def requested(self) -> bool:
@@ -70,8 +91,7 @@ class StopRequest:
             signal.signal(number, signal.SIG_IGN)
 
     def _on_signal(self, number: int, _frame: object) -> None:
-        if not self.future.done():
-            self.future.set_result(number)
+        self._complete(number)
 
 
 NodeType = TypeVar("NodeType", bound=Node)
@@ -149,8 +169,7 @@ def run_node(factory: Callable[[], Node], name: str, args: list[str] | None = No
         if isinstance(participant, Participant):
             participant.spin(executor, STOP_POLL_S, lambda: stop.requested)
         else:
-            while not stop.requested and rclpy.ok(context=node.context):
-                executor.spin_once(timeout_sec=STOP_POLL_S)
+            executor.spin_until_future_complete(stop.future)
     except ExternalShutdownException:
         pass
     except DuplicateNameError:
