@@ -69,8 +69,9 @@ class StopRequest:
             data = os.read(read_end, 64)
             if not data:
                 return
-            if any(number in data for number in STOP_SIGNALS):
-                self._complete(data[0])
+            for number in data:
+                if number in STOP_SIGNALS:
+                    self._complete(number)
 
     def _complete(self, number: int) -> None:
         if not self.future.done():
@@ -108,7 +109,8 @@ def build_node(
     if stop is not None:
         stop.install()
     rclpy.init(
-        args=args, signal_handler_options=SignalHandlerOptions.NO if stop else SignalHandlerOptions.ALL
+        args=args,
+        signal_handler_options=SignalHandlerOptions.NO if stop is not None else SignalHandlerOptions.ALL,
     )
     try:
         node = factory()
