@@ -3,12 +3,13 @@ SHELL := /bin/bash
 .DEFAULT_GOAL := help
 ENV := source ./env.sh &&
 
-.PHONY: help setup gate demo test bench shell clean
+.PHONY: help setup gate demo test bench stress shell clean
 
 help:
 	@echo "make demo   set up (if needed), then run the demo: doctor, the three devices, a recorded bag"
 	@echo "make test   set up (if needed), then run the whole test suite"
 	@echo "make bench  set up (if needed), then run the benchmarks (table on stdout, plots in bench/results)"
+	@echo "make stress Ctrl-C at 20 random moments of each long command's and own-main node's life, under load"
 	@echo "make gate   only the lint and type gate (ruff, mypy), which make test runs first"
 	@echo "make setup  only the idempotent setup (.venv, pinned ROS 2 Jazzy wheels, colcon build)"
 	@echo "make shell  a bash shell inside the environment (same as 'source env.sh')"
@@ -28,6 +29,9 @@ test: setup gate
 bench: setup
 	@if [ -f requirements-bench.txt ]; then .venv/bin/python -m pip install --quiet -r requirements-bench.txt; fi
 	@$(ENV) python bench/run.py $(BENCH_ARGS)
+
+stress: setup
+	@$(ENV) FEEDER_STOP_MOMENTS=20 python -m pytest tests/foundation/test_stop_signals_ros.py
 
 shell: setup
 	@bash --rcfile <(echo 'source ~/.bashrc 2>/dev/null; source ./env.sh; PS1="(feeder) $$PS1"')

@@ -22,11 +22,11 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
-            "feeder = feeder_cell.cli.main:main",
-            "cell_clock = feeder_cell.nodes.cell_clock:main",
-            "cell_controller = feeder_cell.nodes.cell_controller:main",
-            "cell_simulation = feeder_cell.nodes.cell_simulation:main",
-            "opcua_gateway = feeder_cell.nodes.opcua_gateway:main",
+            "feeder = feeder_cell.cli.main:run",
+            "cell_clock = feeder_cell.nodes:cell_clock_main",
+            "cell_controller = feeder_cell.nodes:cell_controller_main",
+            "cell_simulation = feeder_cell.nodes:cell_simulation_main",
+            "opcua_gateway = feeder_cell.nodes:opcua_gateway_main",
         ],
     },
 )

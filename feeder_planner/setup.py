@@ -21,9 +21,9 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
-            "field_equilibria_planner = feeder_planner.nodes.field_equilibria_planner:main",
-            "throw_planner = feeder_planner.nodes.throw_planner:main",
-            "stable_region_planner = feeder_planner.nodes.stable_region_planner:main",
+            "field_equilibria_planner = feeder_planner.nodes:field_equilibria_planner_main",
+            "throw_planner = feeder_planner.nodes:throw_planner_main",
+            "stable_region_planner = feeder_planner.nodes:stable_region_planner_main",
         ],
     },
 )

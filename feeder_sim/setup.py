@@ -18,9 +18,9 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
-            "mems_field_array = feeder_sim.nodes.mems_field_array:main",
-            "throwing_arm = feeder_sim.nodes.throwing_arm:main",
-            "assembly_fixture = feeder_sim.nodes.assembly_fixture:main",
+            "mems_field_array = feeder_sim.nodes:mems_field_array_main",
+            "throwing_arm = feeder_sim.nodes:throwing_arm_main",
+            "assembly_fixture = feeder_sim.nodes:assembly_fixture_main",
         ],
     },
 )

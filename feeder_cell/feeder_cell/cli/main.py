@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import atexit
 import importlib
+import os
+import signal
 import sys
 from typing import NoReturn, Sequence
 
@@ -42,8 +45,37 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+_ctrl_c = {"requested": False}
+
+
+def _on_ctrl_c(_number: int, _frame: object) -> None:
+    _ctrl_c["requested"] = True
+    raise KeyboardInterrupt
+
+
+def take_ctrl_c() -> None:
+    """Make SIGINT raise KeyboardInterrupt here, whatever disposition the command inherited, and remember it.
+
+    A shell without job control starts a background command (`cmd &`, a CI script's job) with SIGINT
+    ignored, and Python then installs no handler of its own: `kill -INT` of a long `throw-design` was
+    lost, and it ran to its end with exit 0. A command that documents Ctrl-C (one line, exit 130) takes
+    it explicitly, as rclpy's nodes and `ros2 bag` do. Python swallows an exception raised inside a
+    finalizer or an import lock's callback ("Exception ignored in"), so the request is also kept:
+    long work looks at it between items (``check_ctrl_c``). Subcommands that run a node install their
+    own handlers on top (ros_session.with_node).
+    """
+    signal.signal(signal.SIGINT, _on_ctrl_c)
+
+
+def check_ctrl_c() -> None:
+    """Raise KeyboardInterrupt if Ctrl-C came, even if its first KeyboardInterrupt was swallowed."""
+    if _ctrl_c["requested"]:
+        raise KeyboardInterrupt
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one ``feeder`` subcommand; return its exit status (1 failed, 2 bad input, 3 not certified)."""
+    take_ctrl_c()
     try:
         parser = build_parser()
     except KeyboardInterrupt:  # Ctrl-C while the subcommands' modules are imported
@@ -51,7 +83,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERRUPTED
     args = parser.parse_args(argv)
     try:
-        return int(args.handler(args) or EXIT_OK)
+        code = int(args.handler(args) or EXIT_OK)
+        if code != EXIT_INTERRUPTED:
+            check_ctrl_c()  # a Ctrl-C whose KeyboardInterrupt was swallowed still ends the command as one
+        return code
     except InputError as error:
         sys.stderr.write(f"feeder {args.command}: {error}\n")
         return EXIT_BAD_INPUT
@@ -66,5 +101,24 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERRUPTED
 
 
+def run() -> NoReturn:
+    """Run the ``feeder`` program: :func:`main`, then exit with its status (130 after Ctrl-C, exactly).
+
+    CPython ends a process by SIGINT itself (status -2, whatever ``sys.exit`` said) once a
+    KeyboardInterrupt has escaped any code it ran through its ``PyRun_*`` entry points, even when an
+    outer ``except`` caught it afterwards: an import that Ctrl-C interrupted did that, and 1 in 3
+    interrupted commands ended -2. After Ctrl-C the exit handlers run and the process exits with 130
+    directly; every other status goes through ``sys.exit``.
+    """
+    code = main()
+    if code == EXIT_INTERRUPTED:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # the status is decided: a late Ctrl-C changes nothing
+        sys.stdout.flush()
+        sys.stderr.flush()
+        atexit._run_exitfuncs()  # what the interpreter's own exit would run (dask, logging, temp dirs)
+        os._exit(code)
+    sys.exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

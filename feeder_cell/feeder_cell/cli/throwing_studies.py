@@ -10,7 +10,7 @@ from typing import Callable, TypeVar
 import numpy as np
 
 from feeder_cell.cli.common import emit, finite_float
-from feeder_cell.cli.main import EXIT_INTERRUPTED
+from feeder_cell.cli.main import EXIT_INTERRUPTED, check_ctrl_c
 from feeder_planner.errors import InputError
 from feeder_planner.parts import Part
 from feeder_planner.throwing.geometry import arm_part
@@ -87,6 +87,7 @@ def run_with_progress(name: str, work: Callable[[Callable[[int, int], None]], T]
 
     def progress(done: int, total: int) -> None:
         state["done"], state["total"] = done, total
+        check_ctrl_c()
         elapsed = time.monotonic() - start
         if elapsed >= PROGRESS_AFTER and done < total:
             sys.stderr.write(

@@ -15,6 +15,12 @@ real-time factor) and on the wall clock (``wall_timeout``, so a held ``/clock`` 
 Threads: rclpy spins on a background thread (answers, results, status messages); the cycle runs as a
 plain loop in the main thread and waits on futures. That keeps the cycle readable top to bottom.
 
+Stopping: SIGINT and SIGTERM only complete a stop request (``node_kit.runner.StopRequest``, as for every
+other node); the context stays valid, so no call in flight fails under the main thread. Every wait looks at
+the request (``stopping``) and ends the cycle with ShutdownError; the clean-up then publishes the last
+status, leaves the lockstep and destroys the node on the main thread alone. Exit 0, whichever phase the
+signal came in (construction, bring-up, a cycle, the clean-up).
+
 Lockstep (``lockstep: true``, which ``feeder launch --real-time-factor`` sets): the controller is a react
 participant of the cell clock (``feeder_planner.node_kit.lockstep``). Its cycle starts at the first
 ``/lockstep/settled`` time and holds the clock while it works; a wait for a result lets the clock go
@@ -34,13 +40,14 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException, ShutdownException, SingleThreadedExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
+from rclpy.task import Future
 from std_srvs.srv import Trigger
 
 from feeder_cell.controller import CellMachine, Outcome, State, Transition
-from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError
+from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError, LifecycleInterruptedError
 from feeder_msgs.action import FeedPart, FollowPath, RunProgram
 from feeder_msgs.msg import CellStatus, DeviceStatus, FieldProgram, FieldSpec
 from feeder_msgs.srv import ArmPlacePart, MemsPlaceParts, StablePath
@@ -61,7 +68,7 @@ from feeder_planner.node_kit import (
 from feeder_planner.node_kit.action_client import ActionClient
 from feeder_planner.node_kit.lockstep import Participant
 from feeder_planner.node_kit.msg_fields import fill_field_spec
-from feeder_planner.node_kit.runner import build_node, profiled
+from feeder_planner.node_kit.runner import StopRequest, build_node, profiled
 
 __all__ = ["PARAMETERS", "CellController", "main"]
 
@@ -204,8 +211,9 @@ class ShutdownError(FeederError):
 class CellController(Node):
     """Bring the cell up, run production cycles, handle faults by the machine's policy, report."""
 
-    def __init__(self) -> None:
+    def __init__(self, stop: StopRequest | None = None) -> None:
         super().__init__(NODE_NAME)
+        self.stop_request = stop
         self.p = declare_parameters(self, PARAMETERS)
         for name in ("fixture_route", "fixture_home"):
             self.p[name] = [float(v) for v in self.p[name]]
@@ -231,7 +239,10 @@ class CellController(Node):
         self.place_part = self.create_client(ArmPlacePart, f"{self.devices['arm']}/place_part")
         self.resets = {k: self.create_client(Trigger, f"{n}/reset") for k, n in self.devices.items()}
         self.safe_path = self.create_client(StablePath, f"{planner}/safe_path")
-        self.lifecycle = {k: LifecycleClient(self, None, n) for k, n in self.devices.items()}
+        self.lifecycle = {
+            k: LifecycleClient(self, None, n, keep_going=lambda: not self.stopping())
+            for k, n in self.devices.items()
+        }
         self.status_pub = self.create_publisher(CellStatus, "~/status", LATCHED)
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -267,11 +278,13 @@ class CellController(Node):
         }
         try:
             if self.lockstep is not None:
-                self.settled_ns = self.lockstep.wait_announcement(-1, self.p["wall_timeout"])
+                self.settled_ns = self.lockstep.wait_announcement(-1, self.p["wall_timeout"], self.stopping)
+                self._check_stop()
                 if self.settled_ns < 0:
                     self.on_transition(self.machine.stop("the lockstep cell clock never settled a time"))
                     return EXIT_STOPPED
             while not self.machine.finished:
+                self._check_stop()
                 state, started = self.machine.state, self.now()
                 outcome = work[state]()
                 self.step_times[state.value] = self.step_times.get(state.value, 0.0) + self.now() - started
@@ -317,6 +330,8 @@ class CellController(Node):
                 try:
                     client.bring_to("active")
                     break
+                except LifecycleInterruptedError:
+                    raise ShutdownError("shutdown") from None
                 except LifecycleError as error:
                     # Someone else (a launcher, an operator) may be moving the same device: look again.
                     if attempt + 1 < BRING_UP_ATTEMPTS and self._moved_elsewhere(client):
@@ -329,9 +344,11 @@ class CellController(Node):
 
     def _moved_elsewhere(self, client: LifecycleClient) -> bool:
         """Return whether a refused transition was a race (the device moved on), not a failed configure."""
-        time.sleep(BRING_UP_SETTLE_S)
+        self._sleep(BRING_UP_SETTLE_S)
         try:
             return client.get_state() in ("inactive", "active")
+        except LifecycleInterruptedError:
+            raise ShutdownError("shutdown") from None
         except LifecycleError:
             return False
 
@@ -414,6 +431,36 @@ class CellController(Node):
         """Node-clock seconds (the cell clock under use_sim_time)."""
         return self.get_clock().now().nanoseconds * 1e-9
 
+    def stopping(self) -> bool:
+        """Whether a stop was requested (a signal), or the context ended under the node."""
+        requested = self.stop_request is not None and self.stop_request.requested
+        return requested or not rclpy.ok(context=self.context)
+
+    def _check_stop(self) -> None:
+        if self.stopping():
+            raise ShutdownError("shutdown")
+
+    def _sleep(self, seconds: float) -> None:
+        """Sleep ``seconds`` of wall time, looking at the stop request every POLL_S."""
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            self._check_stop()
+            time.sleep(min(POLL_S, max(deadline - time.monotonic(), 0.0)))
+
+    def _wait_until(self, ready: Callable[[], bool]) -> bool:
+        """Wait (``answer_timeout`` wall s) until ``ready()``, looking at the stop request every POLL_S.
+
+        Not rclpy's wait_for_service / wait_for_server: they look only at the context, which a stop
+        request leaves valid, so Ctrl-C would wait out the whole timeout.
+        """
+        deadline = time.monotonic() + self.p["answer_timeout"]
+        while not ready():
+            self._check_stop()
+            if time.monotonic() > deadline:
+                return ready()
+            time.sleep(POLL_S)
+        return True
+
     def wait(self, future: Any, sim_timeout: float) -> bool:
         """Wait for a future: at most ``sim_timeout`` s of node clock and ``wall_timeout`` s of wall clock.
 
@@ -423,15 +470,17 @@ class CellController(Node):
         sim_deadline = self.now() + sim_timeout
         wall_deadline = time.monotonic() + self.p["wall_timeout"]
         while not future.done():
-            if not rclpy.ok(context=self.context):
-                raise ShutdownError("shutdown")
+            self._check_stop()
             if time.monotonic() > wall_deadline or self.now() > sim_deadline:
                 return False
             if self.lockstep is None:
                 time.sleep(POLL_S)
                 continue
             self.lockstep.release(self.settled_ns)
-            settled = self.lockstep.wait_announcement(self.settled_ns, wall_deadline - time.monotonic())
+            settled = self.lockstep.wait_announcement(
+                self.settled_ns, wall_deadline - time.monotonic(), self.stopping
+            )
+            self._check_stop()
             if settled < 0:
                 return False
             self.settled_ns = settled
@@ -443,15 +492,14 @@ class CellController(Node):
         future.add_done_callback(lambda _: done.set())
         deadline = time.monotonic() + self.p["answer_timeout"]
         while not done.wait(POLL_S):
-            if not rclpy.ok(context=self.context):
-                raise ShutdownError("shutdown")
+            self._check_stop()
             if time.monotonic() > deadline:
                 return future.done()
         return True
 
     def call(self, key: str, client: Any, request: Any) -> Any:
         """Call a device service; an answer with ok false or none in time becomes an Outcome."""
-        if not client.wait_for_service(timeout_sec=self.p["answer_timeout"]):
+        if not self._wait_until(client.service_is_ready):
             return Outcome("NO_ANSWER", 0, f"service {client.srv_name} not available")
         future = client.call_async(request)
         if not self.wait_wall(future):
@@ -466,7 +514,7 @@ class CellController(Node):
     def action(self, key: str, client: ActionClient, action: str, goal: Any, goal_timeout: float) -> Any:
         """Send a goal and wait for its result (bounded); a rejection or no result becomes an Outcome."""
         name = f"{self.devices[key]}/{action}"
-        if not client.wait_for_server(timeout_sec=self.p["answer_timeout"]):
+        if not self._wait_until(client.server_is_ready):
             return Outcome("NO_ANSWER", 0, f"action {name} not available")
         sent = client.send_goal_async(goal)
         if not self.wait_wall(sent):
@@ -495,8 +543,7 @@ class CellController(Node):
             status = self.status.get(key)
             if status is not None and status.ready:
                 return Outcome("DONE")
-            if not rclpy.ok(context=self.context):
-                raise ShutdownError("shutdown")
+            self._check_stop()
             time.sleep(POLL_S)
         status = self.status.get(key)
         if status is None:
@@ -515,6 +562,7 @@ class CellController(Node):
         # Under use_sim_time the node clock reads 0 until the first /clock: cycle times start after.
         deadline = time.monotonic() + self.p["answer_timeout"]
         while self.now() <= 0.0:
+            self._check_stop()
             if time.monotonic() > deadline:
                 return Outcome("NO_ANSWER", 0, "no /clock (use_sim_time is set)")
             time.sleep(POLL_S)
@@ -625,20 +673,24 @@ class CellController(Node):
 def main(args: list[str] | None = None) -> None:
     """Run the controller: spin on a thread, run the cycles here; exit 0 FINISHED or shut down, 1 STOPPED."""
     dump_profile = profiled(NODE_NAME)
-    node = build_node(CellController, NODE_NAME, args)
+    stop = StopRequest()
+    node = build_node(lambda: CellController(stop), NODE_NAME, args, stop)
     executor = SingleThreadedExecutor()
     executor.add_node(node)
+    # Completed by the clean-up: the spinning thread serves answers until then (a stop request leaves the
+    # context valid), and no polling spin (rclpy 7.1 leaks a timer per spin_once with a timeout).
+    spun_out: Future = Future()
 
     def spin() -> None:
         try:
             if node.lockstep is not None:
-                node.lockstep.spin(executor)
+                node.lockstep.spin(executor, stopped=spun_out.done)
             else:
-                executor.spin()
-        except (KeyboardInterrupt, ExternalShutdownException):
+                executor.spin_until_future_complete(spun_out)
+        except (ExternalShutdownException, ShutdownException):
             pass
 
-    spinner = threading.Thread(target=spin, daemon=True)
+    spinner = threading.Thread(target=spin, name="rclpy", daemon=True)
     spinner.start()
     code = EXIT_STOPPED
     try:
@@ -646,19 +698,20 @@ def main(args: list[str] | None = None) -> None:
         if node.lockstep is not None:
             node.lockstep.leave()  # the clock goes on without a controller that has stopped deciding
         if not node.p["exit_when_done"]:
-            while rclpy.ok():  # keep serving the latched status until Ctrl-C
-                time.sleep(0.1)
-    except KeyboardInterrupt:
-        code = EXIT_SHUT_DOWN
+            while not node.stopping():  # keep serving the latched status until Ctrl-C
+                time.sleep(POLL_S)
+            code = EXIT_SHUT_DOWN
     finally:
-        if rclpy.ok():
+        stop.ignore_from_now()
+        if rclpy.ok(context=node.context):
             try:
                 node.publish_status()
                 if node.lockstep is not None:
                     node.lockstep.leave()
             except rclpy_implementation.RCLError:
-                pass  # Ctrl-C shut the context down between the check and the publish: nothing to tell
+                pass  # the context ended under the node (an external shutdown): nothing to tell
         # The spinning thread must be gone before the node is destroyed and the process exits.
+        spun_out.set_result(True)
         executor.shutdown(timeout_sec=2.0)
         spinner.join(timeout=5.0)
         node.destroy_node()

@@ -12,9 +12,9 @@ certificate made on first start (``certificates``) and users with passwords, or 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import dataclasses
 import logging
-import signal
 import threading
 
 import rclpy
@@ -38,6 +38,7 @@ from feeder_cell.gateway.spec import Goal
 from feeder_cell.gateway.users import load_users
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit import ParameterSpec, declare_parameters, positive
+from feeder_planner.node_kit.runner import StopRequest
 
 __all__: list[str] = []
 
@@ -178,11 +179,18 @@ def _build(node: Node, executor: SingleThreadedExecutor) -> tuple[GatewayServer,
     return server, ros
 
 
-async def _serve(node: Node, server: GatewayServer) -> int:
+async def _serve(node: Node, server: GatewayServer, stop_request: StopRequest) -> int:
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(signum, stop.set)
+
+    def wake(_: object) -> None:
+        # From the signal handler or the stop watcher's thread, possibly as the loop closes.
+        with contextlib.suppress(RuntimeError):
+            loop.call_soon_threadsafe(stop.set)
+
+    stop_request.future.add_done_callback(wake)
+    if stop_request.requested:
+        return 0  # stopped while it was being built: nothing was served
     try:
         await server.start()
     except OSError as error:
@@ -223,8 +231,12 @@ def _log_to_stderr() -> None:
 
 
 def main(args: list[str] | None = None) -> None:
-    """Run the opcua_gateway node until SIGINT or SIGTERM."""
-    # The asyncio loop owns the signals: rclpy's handlers would end the context under a running server.
+    """Run the opcua_gateway node until SIGINT or SIGTERM (exit 0, whichever phase the signal came in)."""
+    # The stop signals only complete a stop request (node_kit.runner.StopRequest, as for every other
+    # node), taken from before rclpy's start: rclpy's handlers would end the context under a running
+    # server, and Python's would raise KeyboardInterrupt wherever the main thread was (the build, the
+    # clean-up). The asyncio loop hears the request through a done callback.
+    stop = StopRequest().install()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     _log_to_stderr()
     node = rclpy.create_node(NODE_NAME)
@@ -234,6 +246,7 @@ def main(args: list[str] | None = None) -> None:
         server, _ros = _build(node, executor)
     except InputError as error:
         node.get_logger().fatal(f"bad configuration: {error}")
+        stop.ignore_from_now()
         node.destroy_node()
         rclpy.try_shutdown()
         raise SystemExit(EXIT_BAD_CONFIGURATION) from None
@@ -248,8 +261,9 @@ def main(args: list[str] | None = None) -> None:
     thread.start()
     code = 1
     try:
-        code = asyncio.run(_serve(node, server))
+        code = asyncio.run(_serve(node, server, stop))
     finally:
+        stop.ignore_from_now()
         executor.shutdown(timeout_sec=2.0)
         thread.join(timeout=5.0)
         node.destroy_node()

@@ -47,6 +47,7 @@ answering; ``run_node`` uses it for a node that has a participant.
 from __future__ import annotations
 
 import threading
+import time
 from typing import Callable
 
 import rclpy
@@ -75,6 +76,8 @@ ROLES = ("tick", "react", "observe")
 ANNOUNCE_TOPIC = {"tick": "/lockstep/tick", "react": "/lockstep/settled", "observe": "/lockstep/quiet"}
 ANSWER_TOPIC = {"tick": "/lockstep/ticked", "react": "/lockstep/reacted", "observe": "/lockstep/observed"}
 LEAVE_SEC = -1
+# Wall seconds between a holding thread's looks at its stop request while it waits for an announcement.
+STOP_LOOK_S = 0.05
 # Reliable and deep: an answer lost or overwritten would hold the whole cell until the timeout.
 LOCKSTEP_QOS = QoSProfile(
     depth=100,
@@ -223,10 +226,21 @@ class Participant:
             pass  # the context ended between the check and the publish: the clock's timeout drops it
 
     # --- a holding participant (its decisions run on another thread) ----------------------------
-    def wait_announcement(self, after_ns: int, timeout_s: float) -> int:
-        """Block until an announcement later than ``after_ns`` has been drained; return it (-1: timeout)."""
+    def wait_announcement(
+        self, after_ns: int, timeout_s: float, stopped: Callable[[], bool] = lambda: False
+    ) -> int:
+        """Block until an announcement later than ``after_ns`` has been drained; return it (-1: timeout).
+
+        Also -1 as soon as ``stopped()`` (looked at every STOP_LOOK_S): a stop request must not wait out
+        the clock's silence, which a stopping cell makes likely.
+        """
+        deadline = time.monotonic() + timeout_s
         with self._announced:
-            self._announced.wait_for(lambda: self.drained_ns > after_ns, timeout=timeout_s)
+            while self.drained_ns <= after_ns and not stopped():
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    break
+                self._announced.wait(min(remaining, STOP_LOOK_S))
             return self.drained_ns if self.drained_ns > after_ns else -1
 
     def release(self, now_ns: int) -> None:

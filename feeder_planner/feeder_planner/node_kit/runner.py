@@ -15,6 +15,7 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 
+from feeder_planner.entry_points import STOP_SIGNALS, held_signal
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit.introspection import configure_service_introspection
 from feeder_planner.node_kit.lockstep import Participant
@@ -25,7 +26,6 @@ __all__ = ["StopRequest", "build_node", "run_node", "profiled"]
 EXIT_BAD_CONFIGURATION = 2
 # Wall seconds a stopping node waits for the callbacks still running on its executor's threads.
 STOP_WAIT_S = 2.0
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 # Wall seconds between a lockstep participant's looks at a stop request (it polls for its answers anyway).
 STOP_POLL_S = 0.1
 
@@ -61,6 +61,9 @@ class StopRequest:
         threading.Thread(target=self._watch, args=(read_end,), name="stop-signals", daemon=True).start()
         for number in STOP_SIGNALS:
             signal.signal(number, self._on_signal)
+        held = held_signal()  # one that came while the console script imported the node (entry_points)
+        if held is not None:
+            self._complete(held)
         return self
 
     def _watch(self, read_end: int) -> None:

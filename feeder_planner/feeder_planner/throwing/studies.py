@@ -10,10 +10,12 @@ run give the same numbers for the same seed.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import signal
 import time
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, Iterator
 
 import numpy as np
 
@@ -21,6 +23,9 @@ from feeder_planner.errors import FeederError, InputError
 from feeder_planner.throwing.design import Design, DesignRow, check_grid, evaluate
 from feeder_planner.throwing.geometry import ArmPart
 from feeder_planner.throwing.sensor import check_sensing_height
+
+if TYPE_CHECKING:
+    from dask.distributed import Client, LocalCluster
 
 __all__ = ["RobustPoint", "RobustStudy", "perturbed_designs", "robust_study", "MAX_PERTURBED", "MAX_WORKERS"]
 
@@ -219,6 +224,20 @@ def robust_study(
     )
 
 
+@contextlib.contextmanager
+def _stop_signals_blocked() -> Iterator[None]:
+    """Block SIGINT in this thread (and in the threads and processes it starts) while the block runs.
+
+    A SIGINT that comes meanwhile stays pending and is delivered (KeyboardInterrupt) as the block ends.
+    SIGTERM stays unblocked: the nanny ends its workers with it.
+    """
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
 def _on_dask(
     part: ArmPart,
     goal_edge: int,
@@ -233,18 +252,23 @@ def _on_dask(
     from dask.distributed import Client, LocalCluster, as_completed
 
     begin = time.perf_counter()
-    cluster = None
-    if scheduler is None:
-        cluster = LocalCluster(
-            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
-        )
-        client = Client(cluster)
-    else:
-        try:
-            client = Client(scheduler, timeout=CONNECT_TIMEOUT)
-        except (OSError, TimeoutError, ValueError) as error:
-            raise FeederError(f"cannot reach the Dask scheduler at {scheduler!r}: {error}") from None
+    cluster: LocalCluster | None = None
+    client: Client | None = None
     try:
+        # Ctrl-C (KeyboardInterrupt) inside a LocalCluster's start left it half made, and distributed's
+        # own exit handler then failed on it with a traceback: the start runs with the stop signals
+        # blocked, and one that came meanwhile is raised here, where the finally below closes it all.
+        with _stop_signals_blocked():
+            if scheduler is None:
+                cluster = LocalCluster(
+                    n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+                )
+                client = Client(cluster)
+            else:
+                try:
+                    client = Client(scheduler, timeout=CONNECT_TIMEOUT)
+                except (OSError, TimeoutError, ValueError) as error:
+                    raise FeederError(f"cannot reach the Dask scheduler at {scheduler!r}: {error}") from None
         client.wait_for_workers(1 if scheduler is not None else workers, timeout=WORKERS_TIMEOUT)
         startup = time.perf_counter() - begin
         start = time.perf_counter()
@@ -261,6 +285,7 @@ def _on_dask(
                 progress(done, len(tasks))
         return [r for r in results if r is not None], startup, time.perf_counter() - start
     finally:
-        client.close()
+        if client is not None:
+            client.close()
         if cluster is not None:
             cluster.close()

@@ -1,0 +1,154 @@
+"""Ctrl-C at random moments of a life, under load: the nodes with a main of their own and the long commands.
+
+Each subject is started, gets one SIGINT at a moment drawn at random from its life, and must end cleanly:
+- the cell controller and the OPC UA gateway (their own mains, on node_kit.runner.StopRequest; started
+  by their console scripts as `ros2 run` and `feeder launch` do, so the signal may come while they still
+  import): exit 0, no traceback;
+- `feeder throw-design` (a grid, and the robust study on a Dask LocalCluster) and `feeder limit-set` with
+  many starts: exit 130 within 2 s, the documented "interrupted" line, nothing on stdout, no traceback.
+  Each runs with SIGINT ignored on entry as well, the way a shell without job control starts a
+  background command (a CI job): the command takes Ctrl-C explicitly (cli.main.take_ctrl_c).
+
+Moments are drawn from 0.1 s after the start (the interpreter's own start and the setuptools script
+loader come first, before any project code can take a signal, as in any Python program) to the end of
+the subject's first few seconds, which covers its imports, construction, bring-up or first work, and
+its steady state. Two busy processes load both cores meanwhile. FEEDER_STOP_MOMENTS sets how many
+moments per subject (`make stress`: 20, the acceptance check; `make test`: 3).
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Callable, Iterator
+
+import numpy as np
+import pytest
+import ros_harness
+
+from feeder_cell.launcher import resolve_executable
+
+ROOT = Path(__file__).resolve().parents[2]
+MOMENTS = int(os.environ.get("FEEDER_STOP_MOMENTS", "3"))
+EARLIEST_S = 0.1
+CLI_STOP_S = 2.0  # a long command ends within this of Ctrl-C (issue 33)
+NODE_STOP_S = 10.0  # a node's clean-up (a bounded executor shutdown, the server's stop) ends within this
+TRIANGLE = str(ROOT / "examples/throwing/triangle.yaml")
+DESIGN = ["--gravity", "-966", "--mu", "0.5", "--goal-edge", "1"]
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+def _grid(offsets: int, speeds: int) -> list[str]:
+    return [
+        "--offsets",
+        *(f"{v:.3f}" for v in np.linspace(-0.8, -0.1, offsets)),
+        "--release-speeds",
+        *(f"{v:.1f}deg" for v in np.linspace(250, 400, speeds)),
+    ]
+
+
+FEEDER = [sys.executable, "-m", "feeder_cell.cli.main"]
+COMMANDS: dict[str, tuple[list[str], float]] = {
+    # name: (argv, the end of the window the moments are drawn from, s after the start)
+    "throw-design": ([*FEEDER, "throw-design", TRIANGLE, *_grid(40, 40), *DESIGN], 4.0),
+    "limit-set": (
+        [*FEEDER, "limit-set", TRIANGLE, "--offset", "-0.5", "--release-speed", "320deg", *DESIGN]
+        + ["--starts-per-edge", "2000", "--throws", "400"],
+        4.0,
+    ),
+    "throw-design --robust on Dask": (
+        [*FEEDER, "throw-design", TRIANGLE, *_grid(6, 6), *DESIGN]
+        + ["--robust", "40", "--speed-sigma", "0.03", "--workers", "2"],
+        8.0,
+    ),
+}
+
+
+@pytest.fixture(scope="module")
+def load() -> Iterator[None]:
+    """Two busy processes, one per core, for the module's life; ended by pid."""
+    burners = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
+    yield
+    for burner in burners:
+        burner.kill()
+        burner.wait()
+
+
+def _moments(seed: str, end_s: float) -> list[float]:
+    rng = random.Random(f"{seed}-{os.getpid()}-{time.time_ns()}")
+    return sorted(rng.uniform(EARLIEST_S, end_s) for _ in range(MOMENTS))
+
+
+def _interrupt(
+    argv: list[str], at_s: float, env: dict[str, str], ignore_sigint: bool, bound_s: float
+) -> tuple[int, str, str, float]:
+    """Start ``argv``, SIGINT it ``at_s`` after the start; return (exit code, stdout, stderr, s to end)."""
+    preexec: Callable[[], object] | None = (
+        (lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) if ignore_sigint else None
+    )
+    process = subprocess.Popen(
+        argv, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=preexec
+    )
+    try:
+        time.sleep(at_s)
+        process.send_signal(signal.SIGINT)
+        sent = time.monotonic()
+        out, err = process.communicate(timeout=bound_s + 30)
+        return process.returncode, out, err, time.monotonic() - sent
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+
+
+@pytest.mark.parametrize("inherited", ["default", "ignored"])
+@pytest.mark.parametrize("name", list(COMMANDS))
+def test_a_long_command_ends_within_2_s_of_ctrl_c_at_any_moment(
+    name: str, inherited: str, load: None
+) -> None:
+    argv, end_s = COMMANDS[name]
+    env = dict(os.environ)
+    failures = []
+    for at_s in _moments(name + inherited, end_s):
+        code, out, err, took = _interrupt(argv, at_s, env, inherited == "ignored", CLI_STOP_S)
+        # A command that finished before the signal (none should in the window) would exit 0 with output.
+        clean = code == 130 and out == "" and "Traceback" not in err and "interrupted" in err
+        if not clean or took > CLI_STOP_S:
+            failures.append(f"at {at_s:.2f} s: exit {code} after {took:.2f} s, stderr {err[-400:]!r}")
+    assert not failures, f"{len(failures)} of {MOMENTS} unclean ends:\n" + "\n".join(failures)
+
+
+NODES = {
+    "cell_controller": [],  # no devices: it constructs, then brings up (waits for lifecycle services)
+    "opcua_gateway": ["--ros-args", "-p", f"endpoint:=opc.tcp://127.0.0.1:{_free_port()}"],
+}
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize("name", list(NODES))
+def test_a_node_with_its_own_main_ends_with_exit_0_on_ctrl_c_at_any_moment(name: str, load: None) -> None:
+    executable = str(resolve_executable("feeder_cell", name))
+    lease = ros_harness.DomainLease()
+    env = dict(os.environ, ROS_DOMAIN_ID=str(lease.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    failures = []
+    try:
+        for at_s in _moments(name, 4.0):
+            code, out, err, took = _interrupt([executable, *NODES[name]], at_s, env, False, NODE_STOP_S)
+            if code != 0 or "Traceback" in out + err or took > NODE_STOP_S:
+                failures.append(
+                    f"at {at_s:.2f} s: exit {code} after {took:.2f} s, output {(out + err)[-600:]!r}"
+                )
+    finally:
+        lease.release()
+    assert not failures, f"{len(failures)} of {MOMENTS} unclean ends:\n" + "\n".join(failures)
