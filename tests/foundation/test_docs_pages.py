@@ -57,3 +57,60 @@ def test_the_readme_is_short_and_its_tables_narrow() -> None:
         toc = text.split("Contents:", 1)[1].split("\n## ", 1)[0]
         missing = [a for a in re.findall(r"\]\(#([^)]+)\)", toc) if a not in anchors]
         assert missing == [], f"{page.name}: contents links without a heading: {missing}"
+
+
+def _blocks(text: str) -> list[str]:
+    """Return a page's paragraphs and lists (code blocks left out), whitespace normalised."""
+    text = re.sub(r"```.*?```", "", text, flags=re.S)
+    # Generated tables (docs/nodes.md's per-node parameter tables) and the line that heads each repeat
+    # by design, and a picture's alt text says what its caption says.
+    text = re.sub(r"<!--.*?-->", "", text, flags=re.S)
+    raw = [b for b in re.split(r"\n\s*\n", text) if b.strip()]
+    table = [bool(re.search(r"^\s*[|!]", b, flags=re.M)) for b in raw]
+    return [
+        " ".join(b.split())
+        for k, b in enumerate(raw)
+        if not table[k] and not (k + 1 < len(raw) and raw[k + 1].lstrip().startswith("|"))
+    ]
+
+
+def repeated_blocks(text: str) -> list[str]:
+    """Return the paragraphs or lists a page holds more than once (a pasted contents list, issue 35)."""
+    seen: set[str] = set()
+    out = []
+    for block in _blocks(text):
+        if block in seen and len(block) > 40:
+            out.append(block[:80])
+        seen.add(block)
+    return out
+
+
+def repeated_phrases(text: str, words: int = 9) -> list[str]:
+    """Return runs of ``words`` words that two different paragraphs of a page share (a said-twice)."""
+    where: dict[tuple[str, ...], int] = {}
+    out = []
+    for k, block in enumerate(_blocks(text)):
+        tokens = re.findall(r"[\w`'/.-]+", block.lower())
+        for i in range(len(tokens) - words + 1):
+            key = tuple(tokens[i : i + words])
+            if where.setdefault(key, k) != k:
+                out.append(" ".join(key))
+    return out
+
+
+def test_no_page_repeats_a_paragraph_or_its_contents_list() -> None:
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    for page in pages:
+        assert not repeated_blocks(page.read_text()), (page.name, repeated_blocks(page.read_text()))
+    # and the check can fail: a contents list pasted twice, a paragraph said twice in other words
+    listed = "- [Conventions](#conventions)\n- [Names](#names)\n- [Worked example](#worked-example)\n"
+    assert repeated_blocks(f"Contents:\n\n{listed}\n{listed}")
+    said = "It draws every planner step's result and the recorded run's timeline into the folder."
+    assert repeated_phrases(f"{said}\n\nThen {said.lower()}")
+
+
+def test_the_readme_says_what_make_demo_produced_once() -> None:
+    readme = (ROOT / "README.md").read_text()
+    section = readme.split("## What `make demo` produced", 1)[1].split("\n## ", 1)[0]
+    assert not repeated_phrases(section, words=6), repeated_phrases(section, words=6)
+    assert section.count("draws") == 1
