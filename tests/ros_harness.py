@@ -122,15 +122,22 @@ class ClientNode:
 
     def __init__(self, name: str = "feeder_test_client") -> None:
         import rclpy
-        from rclpy.executors import MultiThreadedExecutor
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.task import Future
 
         self._rclpy = rclpy
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
         self.node = rclpy.create_node(name, context=self.context)
-        self.executor = MultiThreadedExecutor(num_threads=2, context=self.context)
+        # Single-threaded: with rclpy 7.1's MultiThreadedExecutor (two threads) this client stopped taking
+        # messages for 1-3 s at a time (the replay test's /clock and data arrived in floods, 1 run in 6,
+        # while a subscriber in another process got the same stream without a gap); single-threaded, 12
+        # of 12 runs got every message on time. Nothing in the tests waits inside a callback.
+        self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
-        self._stopping = False
+        # Completed by close(): the spin waits on it, with no timeout. A loop of spin_once(timeout_sec)
+        # makes rclpy 7.1 create a timeout timer per call that it never destroys.
+        self._stop = Future()
         self._thread = threading.Thread(target=self._spin, daemon=True)
         self._thread.start()
 
@@ -139,9 +146,9 @@ class ClientNode:
         # (InvalidHandle); that one wait is lost, not the client: keep spinning until shutdown.
         from rclpy.executors import ExternalShutdownException
 
-        while self.context.ok() and not self._stopping:
+        while self.context.ok() and not self._stop.done():
             try:
-                self.executor.spin_once(timeout_sec=0.1)
+                self.executor.spin_until_future_complete(self._stop)
             except (ExternalShutdownException, KeyboardInterrupt):
                 return
             except Exception as error:  # noqa: BLE001 - reported, then the client keeps serving
@@ -151,7 +158,7 @@ class ClientNode:
                     print(f"ros_harness: client executor: {type(error).__name__}: {error}", file=sys.stderr)
 
     def close(self) -> None:
-        self._stopping = True
+        self._stop.set_result(True)
         self._thread.join(timeout=5.0)
         self.executor.shutdown(timeout_sec=2.0)
         # destroy_node leaves waitables (action clients) alive, and they keep the node and its DDS

@@ -56,6 +56,16 @@ def start_recorder(bag: Path, *args: str) -> subprocess.Popen:
     )
 
 
+def start_player(bag: Path, *args: str) -> subprocess.Popen:
+    """Start ``feeder play BAG ARGS --json``."""
+    return subprocess.Popen(
+        [*FEEDER, "play", str(bag), *args, "--json"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
 def end(process: subprocess.Popen, sig: int = signal.SIGKILL) -> None:
     """End a process by pid (a no-op if it has ended) and reap it."""
     if process.poll() is None:

@@ -14,11 +14,13 @@ import signal
 import threading
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import bag_procs as bp
 import pytest
+import ros_harness
 import rosbag2_fields
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 START_S, FACTOR = 1000.0, 5.0
@@ -31,6 +33,8 @@ TOLERANCE_NS = 400_000_000
 def test_record_in_cell_time_and_replay_it_with_the_clock(ros_client: Any, tmp_path: Path) -> None:
     from rosgraph_msgs.msg import Clock
     from std_msgs.msg import String
+
+    from feeder_msgs.srv import Resume
 
     bag = tmp_path / "cell"
     cell = bp.start_script("bag_cell_clock.py", "3", str(START_S), str(FACTOR))
@@ -68,18 +72,40 @@ def test_record_in_cell_time_and_replay_it_with_the_clock(ros_client: Any, tmp_p
         with lock:
             replayed.append((time.monotonic(), int(msg.data)))
 
+    # DDS matches the two ends of a topic independently: the player's publishers can count this client's
+    # subscriptions while these subscriptions have not matched the player's publishers yet, and what a
+    # volatile reader has not matched it never receives (the first 0.7 s of the replay went missing in
+    # 1 run of 2, before this client waited for its own side). So the player starts paused, and resumes
+    # once both subscriptions have matched its publishers (their own `matched` events).
+    matched: dict[str, int] = {}
+
+    def on_matched(topic: str) -> Callable[[Any], None]:
+        return lambda status: matched.__setitem__(topic, status.current_count)
+
     reliable = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
     subscriptions = [
-        ros_client.create_subscription(Clock, "/clock", on_clock, reliable),
-        ros_client.create_subscription(String, "/cell_time", on_data, reliable),
-    ]
-    try:
-        done = bp.run_feeder(
-            "play", str(bag), "--clock", "100", "--rate", "2", "--wait-for-subscribers", "10", timeout=120
+        ros_client.create_subscription(
+            msg_type,
+            topic,
+            callback,
+            reliable,
+            event_callbacks=SubscriptionEventCallbacks(matched=on_matched(topic)),
         )
-        assert done.returncode == 0, done.stderr
+        for msg_type, topic, callback in ((Clock, "/clock", on_clock), (String, "/cell_time", on_data))
+    ]
+    player = bp.start_player(
+        bag, "--clock", "100", "--rate", "2", "--start-paused", "--node-name", "sim_player"
+    )
+    try:
+        bp.wait_until(
+            lambda: matched.get("/clock", 0) > 0 and matched.get("/cell_time", 0) > 0, 30, "matched"
+        )
+        ros_harness.call_service(ros_client, Resume, "/sim_player/resume", Resume.Request())
+        out, err = player.communicate(timeout=120)
+        assert player.returncode == 0, err
         time.sleep(0.5)
     finally:
+        bp.end(player)
         for subscription in subscriptions:
             ros_client.destroy_subscription(subscription)
     with lock:

@@ -38,6 +38,10 @@ MAX_WORKERS = 64
 # and for the workers to be there (a LocalCluster's start in a few seconds here).
 CONNECT_TIMEOUT = 10
 WORKERS_TIMEOUT = 60
+# The worker processes' own logging: a study's task errors reach the client as exceptions, so what a
+# worker logs itself is the cluster's shutdown (a heartbeat to a scheduler that has closed, logged with
+# its traceback when Ctrl-C ends a study), which is not the user's business.
+QUIET_WORKERS = {"DASK_LOGGING__DISTRIBUTED": "critical"}
 
 
 @dataclass(frozen=True)
@@ -261,7 +265,11 @@ def _on_dask(
         with _stop_signals_blocked():
             if scheduler is None:
                 cluster = LocalCluster(
-                    n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+                    n_workers=workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                    env=QUIET_WORKERS,
                 )
                 client = Client(cluster)
             else:
