@@ -145,8 +145,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         type=finite_float,
         default=0.0,
         metavar="SECONDS",
-        help="before playing, wait up to SECONDS until every topic has a subscriber (default 0: "
-        "wait 0.5 s for discovery and start)",
+        help="before playing, wait up to SECONDS until every topic's publisher has matched a subscriber "
+        "(the publisher's side: a subscriber may match a moment later; for a lossless start use "
+        "--start-paused and ~/resume, docs/bags.md) (default 0: wait 0.5 s for discovery and start)",
     )
     player.add_argument(
         "--clock",
