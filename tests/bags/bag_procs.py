@@ -46,24 +46,24 @@ def wait_for_line(process: subprocess.Popen, line: str, timeout: float) -> None:
                 return
 
 
-def start_recorder(bag: Path, *args: str) -> subprocess.Popen:
-    """Start ``feeder record BAG ARGS --json``."""
+def _start_feeder(command: str, bag: Path, args: tuple[str, ...]) -> subprocess.Popen:
+    """Start ``feeder COMMAND BAG ARGS --json`` with stdout and stderr piped."""
     return subprocess.Popen(
-        [*FEEDER, "record", str(bag), *args, "--json"],
+        [*FEEDER, command, str(bag), *args, "--json"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
     )
+
+
+def start_recorder(bag: Path, *args: str) -> subprocess.Popen:
+    """Start ``feeder record BAG ARGS --json``."""
+    return _start_feeder("record", bag, args)
 
 
 def start_player(bag: Path, *args: str) -> subprocess.Popen:
     """Start ``feeder play BAG ARGS --json``."""
-    return subprocess.Popen(
-        [*FEEDER, "play", str(bag), *args, "--json"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    return _start_feeder("play", bag, args)
 
 
 def end(process: subprocess.Popen, sig: int = signal.SIGKILL) -> None:
