@@ -49,11 +49,6 @@ def attractor_lines(result: LimitSet, unit: float) -> list[str]:
             f"attractor search: {result.unconverged} of {result.starts} starts did not recur within "
             f"{result.throws} throws (raise --throws)"
         )
-    if result.growing:
-        lines.append(
-            f"  {len(result.growing)} of them still widened the radius range of edge(s) "
-            f"{result.growing_edges}: a range read now would be too narrow"
-        )
     for k, a in enumerate(result.attractors):
         kind = f"periodic, cycle {a.cycle}" if a.periodic else "quasi-periodic"
         if a.pattern and not a.periodic:

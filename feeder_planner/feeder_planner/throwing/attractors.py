@@ -50,7 +50,6 @@ from feeder_planner.throwing.tolerances import (
     QUASI_WINDOWS,
     RESOLUTION_SPAN_SHARE,
     SOJOURN_FACTOR,
-    TAIL_GAPS,
 )
 
 __all__ = [
@@ -62,8 +61,6 @@ __all__ = [
     "stretch",
     "confirms",
     "settled",
-    "growing",
-    "tail_start",
     "iterate_to_attractor",
     "Attractor",
     "group_attractors",
@@ -73,11 +70,6 @@ __all__ = [
     "blocks",
     "round_pattern",
 ]
-
-# Relative rounding of a radius after a chain of throws: a periodic orbit converged to rounding repeats
-# its radii to a few ulps (1e-16 relative) per throw; 1e-9 is far above that and far below any
-# physical difference of radii.
-ROUNDING = 1e-9
 
 # The violations an attractor reports (toe_stub is refused outright: such a start leaves the domain).
 REPORTED = ("lift_off", "slip", "off_arm")
@@ -105,9 +97,7 @@ class Search:
     ``edge``, ``radius``, ``jog``, ``flags`` (bit k: ASSUMPTIONS[k]) have one column per throw;
     ``end[b]`` is the last state of row b; ``tail[b]`` and ``tail_end[b]`` the first and last states of
     its confirmed tail (-1: the row did not converge); ``escaped[b]``: a throw left the domain;
-    ``width``: the rows' resolution unit; ``stretches[b]``: what row b's confirmed tail shows;
-    ``growing[b]``: the edges whose radius range row b's last n/2 states were still widening when the
-    throws ran out (row b unconverged: a longer run would report a wider range, issue 35).
+    ``width``: the rows' resolution unit; ``stretches[b]``: what row b's confirmed tail shows.
     """
 
     edge: np.ndarray
@@ -121,7 +111,6 @@ class Search:
     window: int
     tail_end: np.ndarray
     stretches: dict[int, Stretch] = field(default_factory=dict)
-    growing: dict[int, list[int]] = field(default_factory=dict)
 
     @property
     def converged(self) -> np.ndarray:
@@ -258,8 +247,6 @@ def _confirm(
         beyond = (mine < low_new[k] - tol) | (mine > high_new[k] + tol)
         if beyond.sum() > max(1, OUTSIDE_SHARE * mine.size):
             return None
-    if growing(edge, radius, width):
-        return None
     visits, lengths = _visits(edge, jog)
     key = cycle_key(visits)
     if key is not None:
@@ -270,62 +257,6 @@ def _confirm(
     if cycle_key(_visits(edge[recent:], jog[recent:])[0]) is None:
         return edges, low, high, None
     return None
-
-
-def growing(edge: np.ndarray, radius: np.ndarray, width: np.ndarray) -> list[int]:
-    """Return the edges whose radius range a tail's recent half (its last N of 2N states) still widens.
-
-    The forward limit set is the same from any later state on (Theorem IV.3), so a tail's older half
-    reaches its range as the recent half does. A range the recent states push beyond the older half's,
-    to the resolution and by more than OUTSIDE_SHARE of them (the mirror of ``_confirm``'s test of a
-    transient in the older half), is still growing: the part has not yet reached its attractor's
-    extremes, and a range read now would be silently too narrow (issue 35). An edge the older half never
-    visits is ``_confirm``'s business, not a growing range.
-    """
-    recent = len(edge) - len(edge) // 2
-    edges, low, high = _ranges(edge, radius)
-    older = np.isin(edges, edge[:recent])
-    if not older.any():
-        return []
-    edges_old, low_old, high_old = _ranges(edge[:recent], radius[:recent])
-    out = []
-    for k, e in enumerate(edges[older]):
-        j = int(np.flatnonzero(edges == e)[0])
-        tol = resolution(float(width[e]), float(low[j]), float(high[j]))
-        if low_old[k] - low[j] <= tol and high[j] - high_old[k] <= tol:
-            continue
-        mine = radius[recent:][edge[recent:] == e]
-        beyond = (mine < low_old[k] - tol) | (mine > high_old[k] + tol)
-        if beyond.sum() > max(1, OUTSIDE_SHARE * mine.size):
-            out.append(int(e))
-    return out
-
-
-def tail_start(edge: np.ndarray, radius: np.ndarray, stay: int, first: int) -> int:
-    """Return where a confirmed row's tail begins: its stay (``settled``) without the approach to it.
-
-    ``edge``/``radius``: the row's run, states 0..n; the tail confirmed over states ``first``..n, and
-    the run kept to it, to the resolution, from ``stay`` on. The attractor is the forward limit set
-    (Theorem IV.3): the closure of the states the run keeps visiting. The confirmed states fill it; an
-    older state of the stay that lies beyond their range on its edge by more than TAIL_GAPS mean gaps
-    between them (span / states; at least the resolution unit ``width[e]``) is not a visit of that
-    closure but the transient's approach, which the resolution band of ``settled`` let in (issue 35:
-    a first landing 3.9 mm below a quasi-periodic tail's 159.3 mm made the range's low end). The tail
-    begins after the last such state, so the ranges, pattern, throws per round and transient of an
-    attractor come from its visits only.
-    """
-    if stay >= first:
-        return stay
-    e_tail, r_tail = edge[first:], radius[first:]
-    edges, low, high = _ranges(e_tail, r_tail)
-    counts = np.bincount(np.searchsorted(edges, e_tail), minlength=len(edges))
-    e_old, r_old = edge[stay:first], radius[stay:first]
-    outside = ~np.isin(e_old, edges)
-    for k, e in enumerate(edges):
-        gap = max(TAIL_GAPS * float(high[k] - low[k]) / int(counts[k]), ROUNDING * float(high[k]))
-        outside |= (e_old == e) & ((r_old < low[k] - gap) | (r_old > high[k] + gap))
-    out = np.flatnonzero(outside)
-    return stay if out.size == 0 else stay + int(out[-1]) + 1
 
 
 def _drifting(radius: np.ndarray, visits: np.ndarray, lengths: np.ndarray, p: int) -> bool:
@@ -496,7 +427,6 @@ def iterate_to_attractor(
     tail = np.full(starts, -1, dtype=np.int64)
     tail_end = np.full(starts, -1, dtype=np.int64)
     tails: dict[int, Stretch] = {}
-    grows: dict[int, list[int]] = {}
     escaped = np.zeros(starts, dtype=bool)
     running = np.full(starts, throws > 0)
     while running.any():
@@ -525,15 +455,9 @@ def iterate_to_attractor(
             sl = slice(first, n + 1)
             found = _confirm(edge[b, sl], radius[b, sl], jog[b, sl], rows.width[b], QUASI_WINDOWS * w)
             if found is None:
-                if n == throws and tail[b] < 0:
-                    # The throws ran out: say which ranges were still widening (not read as they stand).
-                    widening = growing(edge[b, sl], radius[b, sl], rows.width[b])
-                    if widening:
-                        grows[int(b)] = widening
                 continue
             stay = settled(edge[b, : n + 1], radius[b, : n + 1], jog[b, : n + 1], first, rows.width[b], found)
             if stay >= 0:
-                stay = tail_start(edge[b, : n + 1], radius[b, : n + 1], stay, first)
                 tail[b], tail_end[b] = stay, n
                 tails[int(b)] = stretch(edge[b, stay : n + 1], radius[b, stay : n + 1], jog[b, stay : n + 1])
         for g in np.unique(owner[due]):
@@ -544,7 +468,7 @@ def iterate_to_attractor(
                 running[confirmed] = small & (end[confirmed] < throws) & ~escaped[confirmed]
         if progress is not None:
             progress(starts - int(running.sum()), starts)
-    return Search(edge, radius, jog, flags, end, tail, escaped, rows.width, w, tail_end, tails, grows)
+    return Search(edge, radius, jog, flags, end, tail, escaped, rows.width, w, tail_end, tails)
 
 
 @dataclass(frozen=True)
@@ -555,10 +479,8 @@ class Attractor:
     at most MAX_MOTIF edges) as [edge, min, max]: how many visits that edge gets in the block, over
     the rounds seen. ``throws_per_round`` is (min, mean, max); ``basin`` the fraction of all starts whose
     confirmed tails are this attractor. ``longest_transient`` (and ``median_transient``): over those
-    starts, the throws before the confirmed tail (``tail_start``: the run keeps to the attractor's
-    edges, cycle and the closure of its radii from there on); the tails, and so everything above,
-    exclude them. ``edge_radius_ranges``: per edge, the lowest and highest radius of the members'
-    tails, the closure of the attractor's visits as far as the tails show it (issue 35).
+    starts, the throws before the state stays inside the attractor for good, on its edges and within
+    each edge's radius range to the resolution; the tails, and so everything above, exclude them.
     ``violations``: the fraction of its throws that break each assumption (REPORTED).
     """
 
@@ -736,6 +658,18 @@ def group_attractors(search: Search, rows: np.ndarray | None = None) -> list[Att
     return sorted(found, key=lambda a: (-a.basin, a.edges))
 
 
+def _transient(search: Search, b: int, ranges: dict[int, tuple[float, float]]) -> int:
+    """Return the throws row b took before its states stayed inside ``ranges`` (edges and radii) for good."""
+    e = search.edge[b, : search.end[b] + 1]
+    r = search.radius[b, : search.end[b] + 1]
+    inside = np.zeros(len(e), dtype=bool)
+    for edge, (lo, hi) in ranges.items():
+        tol = resolution(float(search.width[b, edge]), lo, hi)
+        inside |= (e == edge) & (r >= lo - tol) & (r <= hi + tol)
+    outside = np.flatnonzero(~inside)
+    return int(outside[-1]) + 1 if outside.size else 0
+
+
 def _describe(
     search: Search, group: list[int], total: int, tails: dict[int, Stretch], key: tuple[int, ...] | None
 ) -> Attractor:
@@ -746,8 +680,7 @@ def _describe(
             old = ranges.get(e)
             ranges[e] = (lo, hi) if old is None else (min(old[0], lo), max(old[1], hi))
     ranges = dict(sorted(ranges.items()))
-    # The transient is what comes before the confirmed tail (``tail_start``): from tail throws only.
-    transients = [int(search.tail[b]) for b in group]
+    transients = [_transient(search, b, ranges) for b in group]
     counts = np.zeros(len(ASSUMPTIONS))
     n_throws = 0
     seqs = []

@@ -55,17 +55,12 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Trajectories:
-    """States after each throw: edge[b, n], radius[b, n], jog[b, n] (jog[:, 0] is meaningless), escaped[b].
-
-    From the attractor search also ``tail[b]``..``tail_end[b]``, row b's confirmed tail (-1: none).
-    """
+    """States after each throw: edge[b, n], radius[b, n], jog[b, n] (jog[:, 0] is meaningless), escaped[b]."""
 
     edge: np.ndarray
     radius: np.ndarray
     jog: np.ndarray
     escaped: np.ndarray
-    tail: np.ndarray | None = None
-    tail_end: np.ndarray | None = None
 
 
 def iterate(
@@ -237,12 +232,6 @@ class LimitSet:
     unconverged: int = 0
     trigger_note: str | None = None
     throws_used: int = 0
-    growing: dict[int, list[int]] = field(default_factory=dict)
-
-    @property
-    def growing_edges(self) -> list[int]:
-        """Edges whose radius range some unconverged start was still widening when the throws ran out."""
-        return sorted({e for edges in self.growing.values() for e in edges})
 
     @property
     def converged(self) -> bool:
@@ -275,8 +264,6 @@ class LimitSet:
             "unconverged_starts": self.unconverged,
             "trigger_note": self.trigger_note,
             "throws_used": self.throws_used,
-            "growing_starts": len(self.growing),
-            "growing_edges": self.growing_edges,
         }
 
 
@@ -521,7 +508,7 @@ def limit_set(
         for e, (lo_r, hi_r) in a.edge_radius_ranges.items():
             old = ranges.get(e)
             ranges[e] = (lo_r, hi_r) if old is None else (min(old[0], lo_r), max(old[1], hi_r))
-    traj = Trajectories(search.edge, search.radius, search.jog, search.escaped, search.tail, search.tail_end)
+    traj = Trajectories(search.edge, search.radius, search.jog, search.escaped)
     return LimitSet(
         stable_edges=part.stable_edges,
         bounds=bounds,
@@ -539,5 +526,4 @@ def limit_set(
         unconverged=unconverged,
         trigger_note=note,
         throws_used=int(search.end.max()),
-        growing=dict(search.growing),
     )

@@ -38,7 +38,6 @@ __all__ = [
     "RESOLUTION_SPAN_SHARE",
     "SOJOURN_FACTOR",
     "OUTSIDE_SHARE",
-    "TAIL_GAPS",
     "SENSING_HEIGHT_FRACTION",
     "SLAB_SLACK",
     "HORIZONTAL_EDGE",
@@ -150,13 +149,6 @@ RESOLUTION_SPAN_SHARE: Final = 0.1
 # its extremes only now and then, so a short recent half misses a few of them; a transient is a
 # stretch of such states.
 OUTSIDE_SHARE: Final = 0.05
-# How far beyond the confirmed tail's range (its last n/2 states) an older state of the run may lie and
-# still be a visit of the attractor rather than the transient's approach (attractors.tail_start, issue
-# 35), in mean gaps between the tail's states on that edge: span / states. A tail that fills its interval
-# (quasi-periodic radii) leaves gaps of about that size, an approach from outside lands many gaps away
-# (the issue's design: 10-20). Three gaps leave room for the unevenly spaced visits of a rotation (its
-# gaps take at most three lengths, the largest the sum of the other two).
-TAIL_GAPS: Final = 3.0
 # A tail confirms only once the run has kept to it this many times longer than it ever kept to it
 # before departing (attractors.settled): convex12's visits to edge 5 come 50 to 1,500 throws apart, and
 # a quasi-periodic round of a corpus design breaks its 8-visit motif every ~1,200 throws; twice the
