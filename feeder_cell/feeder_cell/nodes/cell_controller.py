@@ -538,13 +538,8 @@ class CellController(Node):
 
     def _ready(self, key: str) -> Outcome:
         """Wait (answer_timeout, wall) until the device's status says ready; else say its state."""
-        deadline = time.monotonic() + self.p["answer_timeout"]
-        while time.monotonic() < deadline:
-            status = self.status.get(key)
-            if status is not None and status.ready:
-                return Outcome("DONE")
-            self._check_stop()
-            time.sleep(POLL_S)
+        if self._wait_until(lambda: (s := self.status.get(key)) is not None and s.ready):
+            return Outcome("DONE")
         status = self.status.get(key)
         if status is None:
             return Outcome("NO_ANSWER", 0, f"no status from {self.devices[key]}")
@@ -560,12 +555,8 @@ class CellController(Node):
             if outcome.event != "DONE":
                 return outcome
         # Under use_sim_time the node clock reads 0 until the first /clock: cycle times start after.
-        deadline = time.monotonic() + self.p["answer_timeout"]
-        while self.now() <= 0.0:
-            self._check_stop()
-            if time.monotonic() > deadline:
-                return Outcome("NO_ANSWER", 0, "no /clock (use_sim_time is set)")
-            time.sleep(POLL_S)
+        if not self._wait_until(lambda: self.now() > 0.0):
+            return Outcome("NO_ANSWER", 0, "no /clock (use_sim_time is set)")
         return Outcome("DONE")
 
     # --- inputs and outputs ---------------------------------------------------------------------------
