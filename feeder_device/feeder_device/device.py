@@ -178,6 +178,7 @@ class ManagedDevice(LifecycleNode, Generic[P]):
         self.last_tick_due_ns = 0
         self.last_advance_ns = 0
         self.tick_waiters: list[Future] = []
+        self.ticks_done = 0  # ticks since the node started: a goal's start is placed by it (goals.py)
         self.last_goal_rejection = ""
         threshold = JumpThreshold(
             min_forward=Duration(nanoseconds=1), min_backward=None, on_clock_change=True
@@ -299,6 +300,7 @@ class ManagedDevice(LifecycleNode, Generic[P]):
             self.record_tick(simulated)
         finally:
             self.tick_instant_ns = 0
+            self.ticks_done += 1
 
     def _grid_instant(self, index: int) -> int:
         # Rounded from the index, not accumulated: a rate whose period is no whole number of

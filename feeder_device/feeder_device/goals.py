@@ -151,6 +151,8 @@ def serve_goal(
     """
     # Counted from acceptance, not from execution: two goals sent together must not both be accepted.
     goals = [0]
+    # The device's tick count when the executing goal was accepted (one goal at a time).
+    accepted_at_tick = [0]
 
     def on_goal(goal: Any) -> GoalResponse:
         try:
@@ -162,16 +164,20 @@ def serve_goal(
             device.record_goal_rejection(name, str(error))
             return GoalResponse.REJECT
         goals[0] += 1
+        accepted_at_tick[0] = device.ticks_done
         return GoalResponse.ACCEPT
 
     async def on_execute(handle: ServerGoalHandle) -> object:
         running: RunningGoal | None = None
         poll = None
         try:
-            if device.lockstep is not None:
-                # rclpy runs this after it has sent the accept answer, so in lockstep the goal starts
-                # at the device's next tick: what its start publishes then belongs to a defined quantum
-                # (a recorder would otherwise take it in this quantum or the next, by chance).
+            if device.lockstep is not None and device.ticks_done == accepted_at_tick[0]:
+                # In lockstep a goal starts after the device's first tick after its acceptance: what its
+                # start publishes then belongs to a defined quantum (a recorder would otherwise take it
+                # in this quantum or the next, by chance). rclpy creates this task after it has sent the
+                # accept answer, so on a loaded host the next quantum's tick can come before the task
+                # first runs (seen once in CI: the fixture's RUNNING status a quantum late); the tick
+                # count taken at acceptance places the start the same way in both orders.
                 await device.next_tick()
             running = RunningGoal(device, name, start(handle), handle)
             device.goals.append(running)
