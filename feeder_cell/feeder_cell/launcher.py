@@ -5,10 +5,12 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import dataclasses
+import importlib
 import os
 import re
 import signal
 import subprocess
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -409,6 +411,7 @@ class NodeProcess:
     process: subprocess.Popen
     log_path: Path
     stopped: bool = False
+    host: str = ""  # the cell host it runs in (shared with the host's other nodes), or "" alone
 
     @property
     def pid(self) -> int:
@@ -502,3 +505,65 @@ def start_node(
             start_new_session=True,
         )
     return NodeProcess(spec, process, log_path)
+
+
+def hostable(specs: list[NodeSpec]) -> list[NodeSpec]:
+    """Return the nodes of ``specs`` one cell host can take: those whose module offers ``NODE``, one per name.
+
+    The host's ROS arguments are node-targeted by the node's own name (``throwing_arm:__ns:=...``), so two
+    nodes of one executable cannot share a host: the second runs in a process of its own.
+    """
+    taken: set[str] = set()
+    chosen = []
+    for spec in specs:
+        module = f"{spec.package}.nodes.{spec.executable}"
+        try:
+            offered = getattr(importlib.import_module(module), "NODE", None) is not None
+        except ImportError:
+            offered = False
+        if offered and spec.executable not in taken:
+            taken.add(spec.executable)
+            chosen.append(spec)
+    return chosen
+
+
+def start_host(
+    name: str, specs: list[tuple[NodeSpec, dict[str, ParameterValue]]], log_dir: Path
+) -> list[NodeProcess]:
+    """Start one cell host process for ``specs`` (each with its extra parameters); one NodeProcess each.
+
+    Every entry shares the host's process (its pid, log, exit code and CPU time); ending one ends all.
+    """
+    log_dir.mkdir(parents=True, exist_ok=True)
+    stem = f"{name}-{time.monotonic_ns()}"
+    command = [sys.executable, "-m", "feeder_cell.host"]
+    command += [f"{spec.package}/{spec.executable}" for spec, _ in specs]
+    command.append("--ros-args")
+    documents: dict[str, Any] = {}
+    for spec, extra in specs:
+        own = spec.executable  # a node-targeted rule matches the name the node was built with
+        if spec.name:
+            command += ["-r", f"{own}:__node:={spec.name}"]
+        if spec.namespace:
+            command += ["-r", f"{own}:__ns:={spec.namespace}"]
+        for source, target in spec.remappings:
+            command += ["-r", f"{own}:{source}:={target}"]
+        parameters = {**spec.parameters, **extra}
+        if parameters:
+            documents[spec.fully_qualified_name] = {"ros__parameters": parameters}
+    if documents:
+        params_path = log_dir / f"{stem}-params.yaml"
+        params_path.write_text(yaml.safe_dump(documents))
+        command += ["--params-file", str(params_path)]
+    log_path = log_dir / f"{stem}.log"
+    with open(log_path, "w") as log:
+        process = subprocess.Popen(
+            command,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL,
+            env=dict(os.environ, PYTHONUNBUFFERED="1"),
+            preexec_fn=_die_with_parent,
+            start_new_session=True,  # as start_node: the launch ends it by pid, in order
+        )
+    return [NodeProcess(spec, process, log_path, host=name) for spec, _ in specs]

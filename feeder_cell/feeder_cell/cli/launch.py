@@ -14,8 +14,10 @@ from feeder_cell.launcher import (
     NodeProcess,
     NodeSpec,
     ParameterScalar,
+    hostable,
     joins_lockstep,
     load_scene,
+    start_host,
     start_node,
     with_overrides,
 )
@@ -61,6 +63,38 @@ def real_time_factor(text: str) -> float:
     if value <= 0:
         raise argparse.ArgumentTypeError(f"must be > 0 or max, got {text!r}")
     return value
+
+
+HOST_NAME = "cell_host"
+
+
+def hosted_specs(specs: list[NodeSpec], participants: list[NodeSpec]) -> list[NodeSpec]:
+    """Return the nodes of a lockstep launch that share the cell host (clock, cell_simulation, devices).
+
+    A lockstep participant that is not a device (the reference controller: it decides on a thread of its
+    own) stays a process of its own and takes part over DDS, as a user's node does.
+    """
+    candidates = [
+        s
+        for s in specs
+        if s.executable in (CLOCK_NODE.executable, SIMULATION_NODE.executable)
+        or (s in participants and s.executable in DEVICE_LISTS)
+    ]
+    return hostable(candidates)
+
+
+def extra_parameters(
+    spec: NodeSpec, specs: list[NodeSpec], participants: list[NodeSpec], args: argparse.Namespace
+) -> dict[str, Any]:
+    """Return what the launch adds to a node's parameters (on the cell clock: sim time, pace, lockstep)."""
+    if args.real_time_factor is None or spec is specs[0]:
+        return {}
+    # Every node follows /clock, and every device learns the factor it must keep up with (an undeclared
+    # parameter is ignored by the nodes without one).
+    extra: dict[str, Any] = {"use_sim_time": True, "real_time_factor": args.real_time_factor}
+    if spec in participants:
+        extra["lockstep"] = True
+    return extra
 
 
 def simulation_spec(specs: list[NodeSpec], quantum: float) -> NodeSpec:
@@ -248,19 +282,18 @@ def _launch(args: argparse.Namespace) -> int:
             recorder = Recorder(node, Path(args.record))
         states: dict[str, str] = {}
         try:
+            hosted = hosted_specs(specs, participants) if sim_time and not args.one_process_per_node else []
             for spec in specs:
                 if not keep_going():
                     break  # interrupted during start-up: end what was started, no traceback
-                # On the cell clock every node follows /clock, and every device learns the factor it
-                # must keep up with (an undeclared parameter is ignored by the nodes without one).
-                extra: dict[str, Any] = (
-                    {"use_sim_time": True, "real_time_factor": args.real_time_factor}
-                    if sim_time and spec is not specs[0]
-                    else {}
-                )
-                if sim_time and spec in participants:
-                    extra["lockstep"] = True
+                if spec in hosted:
+                    if spec is hosted[0]:
+                        with_extra = [(h, extra_parameters(h, specs, participants, args)) for h in hosted]
+                        processes += start_host(HOST_NAME, with_extra, log_dir)
+                    continue
+                extra = extra_parameters(spec, specs, participants, args)
                 processes.append(start_node(spec, log_dir, extra_parameters=extra))
+            processes.sort(key=lambda p: specs.index(p.spec))  # the scene's order: the bring-up's
             _wait_until_in_graph(node, executor, processes, keep_going)
             if observer is not None and keep_going():
                 # Subscribed to every topic the scene's nodes made at start-up before the clock's join
@@ -300,7 +333,9 @@ def _launch(args: argparse.Namespace) -> int:
                 observer.leave()
             stats = recorder.close() if recorder else {}
             cpu = {p.spec.fully_qualified_name: p.cpu_seconds() for p in processes}
-            codes = [(p, p.alive(), p.stop()) for p in processes]
+            # Alive or not before any is stopped: a host's nodes share one process.
+            alive_before = [p.alive() for p in processes]
+            codes = [(p, alive, p.stop()) for p, alive in zip(processes, alive_before, strict=True)]
         result: dict[str, Any] = {
             "scene": scene.name,
             "log_dir": str(log_dir),
@@ -311,6 +346,7 @@ def _launch(args: argparse.Namespace) -> int:
                     "executable": p.executable,
                     "name": p.spec.fully_qualified_name,
                     "pid": p.pid,
+                    "host": p.host,
                     "lifecycle": states.get(p.spec.fully_qualified_name, "unmanaged"),
                     "on_exit": p.spec.on_exit,
                     "ended_scene": not alive and p.spec.on_exit == "shutdown",
@@ -438,6 +474,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="NODE.PARAM=VALUE",
         help="set a node's parameter for this run, over the scene file's (NODE: its name, e.g. "
         "cell_controller.cycles=1; VALUE: YAML); checked against the node's declarations; repeatable",
+    )
+    parser.add_argument(
+        "--one-process-per-node",
+        action="store_true",
+        help="on the cell clock, run every node in a process of its own (default: the clock, "
+        "cell_simulation and the devices share one cell host process, lockstep among them by direct "
+        "calls; docs/cell.md)",
     )
     parser.add_argument("--log-dir", help="where node logs go (default: a new temporary folder)")
     add_json_flag(parser)

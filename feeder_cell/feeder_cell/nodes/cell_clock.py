@@ -40,6 +40,7 @@ from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
+from feeder_cell.host.hub import ClockHub
 from feeder_cell.lockstep_barrier import Barrier, Dropped
 from feeder_msgs.srv import IsPaused, StepClock
 from feeder_planner.errors import InputError
@@ -204,6 +205,8 @@ class CellClock(Node):
         self.next_due = 0.0
         self.announced_wall = time.monotonic()
         self.quanta = 0
+        # The participants built in this process (the cell host) join here, not over DDS.
+        self.hub = ClockHub(self.barrier, self._pump)
         self.announcers: dict[str, Publisher] = {
             role: self.create_publisher(Header, ANNOUNCE_TOPIC[role], LOCKSTEP_QOS) for role in ROLES
         }
@@ -255,6 +258,7 @@ class CellClock(Node):
     def _announce(self, role: str) -> None:
         self.announced_wall = time.monotonic()
         self.announcers[role].publish(Header(stamp=to_time(self.now_ns)))
+        self.hub.arrive(role, self.now_ns)
         if role == "tick" and self.announced_wall - self.clock_wall >= 1.0 / self.p.clock_rate:
             self.clock_wall = self.announced_wall
             self.publish()
@@ -396,6 +400,9 @@ class CellClock(Node):
                     self.tick()
                 self.factor = float(change.value)
         return SetParametersResult(successful=True)
+
+
+NODE = CellClock  # what the cell host builds (feeder_cell.host)
 
 
 def main(args: list[str] | None = None) -> None:

@@ -340,6 +340,9 @@ class CellSimulation(Node):
             )
 
 
+NODE = CellSimulation  # what the cell host builds (feeder_cell.host)
+
+
 def main(args: list[str] | None = None) -> None:
     """Run the simulation node."""
     run_node(CellSimulation, "cell_simulation", args)

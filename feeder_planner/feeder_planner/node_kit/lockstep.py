@@ -32,6 +32,12 @@ its own, so an announcement could overtake the samples a device sent before its 
 logged a joint state one quantum late: seen once in CI); unbounded types all take the shared-memory
 transport, where what reaches one process arrives in the order it was sent.
 
+**In one process** (``feeder_cell``'s cell host, docs/cell.md): a node built while a ``Hub`` is installed
+(``host_in_process``) takes part by direct calls instead: the hub, the hosted cell clock, calls ``arrive(T)``
+in its phase, and ``send`` hands the answer to the hub; no lockstep message goes through DDS. The host's
+loop spins the one executor of all its nodes and calls ``answer_pending`` of every hosted participant after
+each turn, so the drain before an answer is the same as in a process of its own.
+
 Why the phases: DDS delivers the messages one process sends to another in order, and a participant
 answers only after it has sent everything the quantum caused. So when a controller sees
 ``/lockstep/settled`` T, every device sample and result stamped up to T is already in its queue, and
@@ -48,7 +54,7 @@ from __future__ import annotations
 
 import threading
 import time
-from typing import Callable
+from typing import Callable, Protocol
 
 import rclpy
 from rclpy.clock import Clock as RclClock
@@ -62,6 +68,8 @@ from rclpy.timer import Timer
 from std_msgs.msg import Header
 
 __all__ = [
+    "Hub",
+    "host_in_process",
     "ROLES",
     "ANNOUNCE_TOPIC",
     "ANSWER_TOPIC",
@@ -91,6 +99,26 @@ MAX_DRAIN_PASSES = 50
 JOIN_PERIOD_S = 0.25  # wall s between join messages until the first announcement
 NANOSECONDS = 1_000_000_000
 RCLError = rclpy_implementation.RCLError
+
+
+class Hub(Protocol):
+    """What runs the lockstep for the participants built in its own process (the hosted cell clock)."""
+
+    def join(self, participant: Participant) -> None:
+        """Take ``participant`` in: it is announced its role's phases by ``Participant.arrive``."""
+
+    def answer(self, participant: Participant, now_ns: int, leave: bool) -> None:
+        """Take ``participant``'s answer: done with ``now_ns`` (0 joins), or leaving."""
+
+
+_HUB: list[Hub] = []  # the hub of this process, if a host installed one
+
+
+def host_in_process(hub: Hub | None) -> None:
+    """Install ``hub`` for the participants built from now on in this process (None: over DDS again)."""
+    _HUB.clear()
+    if hub is not None:
+        _HUB.append(hub)
 
 
 def drain(executor: Executor, tasks_only: bool = False) -> None:
@@ -160,13 +188,18 @@ class Participant:
         self.pending = False  # announced, not yet answered
         self._announced = threading.Condition()
         self.drained_ns = -1  # the last T after which the spinning thread drained (``hold`` mode)
+        self._joining: Timer | None = None
+        self.hub: Hub | None = _HUB[0] if _HUB else None
+        if self.hub is not None:
+            self.hub.join(self)  # hosted: announced and answered by direct calls, nothing on DDS
+            return
         self._answer = node.create_publisher(Header, ANSWER_TOPIC[role], LOCKSTEP_QOS)
         node.create_subscription(Header, ANNOUNCE_TOPIC[role], self._on_message, LOCKSTEP_QOS)
         # Join, and again until the first announcement comes: a message sent before the clock's reader
         # has matched this writer is lost (volatile), and react and observe announcements start only
         # once every expected participant has joined.
         self.send(0)
-        self._joining: Timer | None = node.create_timer(
+        self._joining = node.create_timer(
             JOIN_PERIOD_S, lambda: self.send(0), clock=RclClock(clock_type=ClockType.STEADY_TIME)
         )
 
@@ -174,7 +207,10 @@ class Participant:
         if self._joining is not None:
             self.node.destroy_timer(self._joining)
             self._joining = None
-        now_ns = _nanoseconds(msg)
+        self.arrive(_nanoseconds(msg))
+
+    def arrive(self, now_ns: int) -> None:
+        """Take the announcement of ``now_ns`` (from DDS, or by a direct call from the hub)."""
         clock = self.node.get_clock()
         if isinstance(clock, ROSClock) and clock.ros_time_is_active and now_ns > clock.now().nanoseconds:
             # What rclpy's time source does with a /clock message (jump callbacks included): the node
@@ -209,6 +245,10 @@ class Participant:
 
     def send(self, now_ns: int) -> None:
         """Publish an answer: done with ``now_ns`` (0 joins; ``leave`` leaves)."""
+        if self.hub is not None:
+            self.answered_ns = max(self.answered_ns, now_ns)
+            self.hub.answer(self, now_ns, False)
+            return
         header = Header(frame_id=self.name)
         header.stamp.sec, header.stamp.nanosec = divmod(now_ns, NANOSECONDS)
         self._answer.publish(header)
@@ -216,6 +256,9 @@ class Participant:
 
     def leave(self) -> None:
         """Leave the lockstep: the clock stops waiting for this node (nothing to say once shut down)."""
+        if self.hub is not None:
+            self.hub.answer(self, -1, True)
+            return
         if not self.node.context.ok():
             return
         header = Header(frame_id=self.name)

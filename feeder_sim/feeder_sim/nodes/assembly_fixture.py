@@ -334,6 +334,9 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
         return Drawing(self.frame_id, base, static=table_shapes(assembly), dynamic=dynamic, moving=[tilt])
 
 
+NODE = AssemblyFixtureNode  # what the cell host builds (feeder_cell.host)
+
+
 def main(args: list[str] | None = None) -> None:
     """Run the node until shutdown."""
     run_node(AssemblyFixtureNode, NODE_NAME, args)

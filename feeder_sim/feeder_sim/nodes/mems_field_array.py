@@ -338,6 +338,9 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         return RunProgramGoal(self, machine, predictions)
 
 
+NODE = MemsFieldArrayNode  # what the cell host builds (feeder_cell.host)
+
+
 def main(args: list[str] | None = None) -> None:
     """Run the node until shut down."""
     run_node(MemsFieldArrayNode, NODE_NAME, args)

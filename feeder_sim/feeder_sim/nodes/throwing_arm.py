@@ -312,6 +312,9 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         return self.arm.ground_truth() if self.arm is not None else (-1, math.nan)
 
 
+NODE = ThrowingArmNode  # what the cell host builds (feeder_cell.host)
+
+
 def main(args: list[str] | None = None) -> None:
     """Run the throwing_arm node."""
     run_node(ThrowingArmNode, "throwing_arm", args)
