@@ -171,7 +171,7 @@ def serve_goal(
         running: RunningGoal | None = None
         poll = None
         try:
-            if device.lockstep is not None and device.ticks_done == accepted_at_tick[0]:
+            if device.in_lockstep and device.ticks_done == accepted_at_tick[0]:
                 # In lockstep a goal starts after the device's first tick after its acceptance: what its
                 # start publishes then belongs to a defined quantum (a recorder would otherwise take it
                 # in this quantum or the next, by chance). rclpy creates this task after it has sent the
@@ -182,7 +182,7 @@ def serve_goal(
             running = RunningGoal(device, name, start(handle), handle)
             device.goals.append(running)
             device.publish_status()
-            if device.lockstep is None:
+            if not device.in_lockstep:
                 # A cancel under a held clock: no tick would wake the goal. In lockstep the ticks come,
                 # and a cancel is taken at the next one, at a defined cell time.
                 poll = device.create_timer(

@@ -1,0 +1,50 @@
+"""Who drives a device's tick in lockstep: the device's side of the announcements, free of ROS.
+
+A device ticks on a timer of its own when it runs free. Under the cell clock's lockstep the tick belongs to
+whoever announces cell time: ``advance_lockstep(T)`` (``ticks.TickLoop``) runs every instant of the device's
+rate grid up to T and publishes its status. Two can call it:
+
+- the DDS ``Participant`` (``feeder_planner.node_kit.lockstep``) the device makes for itself
+  (``make_lockstep_participant``), on every ``/lockstep/tick`` announcement, its node clock already at T;
+- a cell host that runs several devices in one process and advances them by direct calls (the device
+  then makes no participant: ``feeder_device.device.hosted``), after setting each device's clock to T.
+
+Either way the device keeps what it must know of the announcements here, in its ``LockstepDriver``: the last
+time announced (before the first, the device has no cell time to stamp a status with, so it says nothing)
+and what runs once at the first.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+__all__ = ["LockstepDriver"]
+
+
+class LockstepDriver:
+    """The announcements a lockstep device has heard: the last cell time, and what the first one starts.
+
+    ``announce(T)`` is called by the device's ``advance_lockstep`` before it ticks: a time not later than
+    the last is no news (a repeated announcement ticks nothing twice).
+    """
+
+    def __init__(self) -> None:
+        self.announced_ns = -1  # the last cell time announced (-1: none yet)
+        # Called once, at the first announcement, before its ticks: what a device publishes at start-up
+        # waits for it, or its stamp would depend on when the clock came.
+        self.on_first: Callable[[], None] | None = None
+
+    @property
+    def started(self) -> bool:
+        """Whether a cell time has been announced."""
+        return self.announced_ns >= 0
+
+    def announce(self, now_ns: int) -> bool:
+        """Take in the announcement of ``now_ns``; return whether it is new (the device then ticks to it)."""
+        if now_ns <= self.announced_ns:
+            return False
+        first = not self.started
+        self.announced_ns = now_ns
+        if first and self.on_first is not None:
+            self.on_first()
+        return True
