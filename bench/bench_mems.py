@@ -1,8 +1,14 @@
-"""MEMS field array benchmarks: exact integrals vs sampling, equilibria timing, array speed, fidelity."""
+"""MEMS field array benchmarks: the ideal model's cost in the cell scene, exact integrals vs sampling,
+equilibria timing, array speed, fidelity.
+
+``python bench/bench_mems.py --orient [--profile]`` runs only the ideal model's cost (and profiles one
+run with cProfile).
+"""
 
 from __future__ import annotations
 
 import math
+import statistics
 import sys
 import time
 from pathlib import Path
@@ -17,8 +23,8 @@ from benchlib import median_time, row  # noqa: E402
 
 from feeder_planner.mems.equilibria import find_equilibria  # noqa: E402
 from feeder_planner.mems.fields import CombinedField, ProgramStep  # noqa: E402
-from feeder_planner.parts import make_part  # noqa: E402
-from feeder_sim.mems.scene import Body, Scene  # noqa: E402
+from feeder_planner.parts import load_part, make_part  # noqa: E402
+from feeder_sim.mems.scene import Body, Scene, random_poses  # noqa: E402
 
 
 def washer():
@@ -158,6 +164,56 @@ def array_speed(quick: bool) -> list[dict]:
     return rows
 
 
+# The cell scene's array (feeder_cell/scenes/cell.yaml): the plus at the node's random placement for seed 7
+# in a 1 mm disc, the cell controller's default program (one combined field, delta 0.2, forever), the
+# default drag and the scene's 2.5e-3 s time_step, which the node steps in whole.
+CELL_PART = ROOT / "examples" / "mems" / "plus.yaml"
+CELL_SEED, CELL_RADIUS, CELL_DELTA, CELL_TIME_STEP = 7, 1e-3, 0.2, 2.5e-3
+# Long enough to orient (the plus settles in about 15 s; it rests only after about 23 s, so every second
+# of it is integrated): what the node costs while the cell waits on the array.
+CELL_DURATION = 15.0
+
+
+def cell_scene() -> Scene:
+    """Return the cell scene's array as its node configures it: one plus, ideal fidelity."""
+    start = random_poses(1, CELL_RADIUS, CELL_SEED)[0]
+    program = (ProgramStep(CombinedField(CELL_DELTA), math.inf),)
+    return Scene([Body(load_part(CELL_PART), start)], program, "ideal")
+
+
+def orient_cost(duration: float) -> tuple[float, Scene]:
+    """Return the CPU seconds of orienting the cell scene's plus for ``duration`` s, and the scene.
+
+    CPU time of this process, not wall time: the others' load on the shared cores does not count.
+    """
+    scene = cell_scene()
+    steps = int(round(duration / CELL_TIME_STEP))
+    start = time.process_time()
+    for _ in range(steps):
+        scene.step(CELL_TIME_STEP)
+    return time.process_time() - start, scene
+
+
+def ideal_orient_cost(quick: bool) -> list[dict]:
+    """CPU s per simulated s of the ideal model orienting the cell scene's plus (median of repeats)."""
+    duration = CELL_DURATION / 3 if quick else CELL_DURATION
+    runs = [orient_cost(duration) for _ in range(3 if quick else 5)]
+    cost = statistics.median(cpu for cpu, _ in runs) / duration
+    stepper = runs[-1][1].stepper
+    return [
+        row(
+            "ideal model, cell scene's plus orienting (delta 0.2, time_step 2.5e-3 s)",
+            "CPU s per simulated s",
+            cost,
+            "CPU s/s",
+            "<= 0.01",
+            f"{duration:g} s simulated, median of {len(runs)}; {stepper.evaluations / duration:.0f} "
+            f"evaluations and {stepper.substeps / duration:.0f} Heun steps per simulated s",
+            cost <= 0.01,
+        )
+    ]
+
+
 def fidelity_trade(out_dir: Path, quick: bool) -> list[dict]:
     import matplotlib
 
@@ -218,15 +274,30 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     """All MEMS benchmark rows (see module docstring); plots go to out_dir."""
     out_dir.mkdir(parents=True, exist_ok=True)
     return (
-        exact_vs_sampling(quick)
+        ideal_orient_cost(quick)
+        + exact_vs_sampling(quick)
         + equilibria_timing(quick)
         + array_speed(quick)
         + fidelity_trade(out_dir, quick)
     )
 
 
+def profile_orient(duration: float) -> None:
+    """Print the cProfile of one orienting run, the 25 most expensive functions by their own time."""
+    import cProfile
+    import pstats
+
+    profiler = cProfile.Profile()
+    profiler.runcall(orient_cost, duration)
+    pstats.Stats(profiler).sort_stats("tottime").print_stats(25)
+
+
 if __name__ == "__main__":
     import json
 
-    for r in run(Path("/tmp/bench_mems"), "--full" not in sys.argv):
+    quick = "--full" not in sys.argv
+    if "--profile" in sys.argv:
+        profile_orient(CELL_DURATION)
+    rows = ideal_orient_cost(quick) if "--orient" in sys.argv else run(Path("/tmp/bench_mems"), quick)
+    for r in rows:
         print(json.dumps(r))
