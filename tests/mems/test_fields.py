@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from shapes import washer
+from shapes import bracket, plus, washer
 
 from feeder_planner.errors import InputError
 from feeder_planner.mems.fields import (
@@ -18,6 +18,7 @@ from feeder_planner.mems.fields import (
     field_from_mapping,
     program_from_mapping,
 )
+from feeder_planner.mems.frame import PartFrame
 
 FIELDS = [
     RadialField((0.1, 0.2), 1.3),
@@ -41,6 +42,21 @@ def test_wrench_is_minus_gradient_of_lifted_potential(field) -> None:
         q[k] -= 2 * step
         down = field.lifted(part.placed(*q))
         assert abs(-(up - down) / (2 * step) - wrench[k]) <= 1e-6 * (1 + abs(wrench[k]))
+
+
+@pytest.mark.parametrize("field", FIELDS, ids=lambda f: type(f).__name__)
+@pytest.mark.parametrize("make", [washer, plus, bracket], ids=lambda m: m.__name__)
+def test_wrench_at_a_pose_in_the_part_frame_is_the_wrench_on_the_placed_part(field, make) -> None:
+    """wrench_at (the part frame, the edges built once) = wrench on the placed loops, to rounding."""
+    part = make()
+    frame = PartFrame.of(part)
+    rng = np.random.default_rng(3)
+    # Forces scale with the area, torques with the area times the radius: rounding relative to those.
+    scale = np.array([1.0, 1.0, part.radius]) * part.area * 3.0
+    for _ in range(50):
+        pose = np.array([*rng.uniform(-1.5, 1.5, 2) * part.radius, rng.uniform(0, 2 * math.pi)])
+        placed = field.wrench(part.placed(*pose), pose[:2])
+        assert np.all(np.abs(field.wrench_at(frame, pose) - placed) <= 1e-13 * scale)
 
 
 @pytest.mark.parametrize("field", FIELDS, ids=lambda f: type(f).__name__)

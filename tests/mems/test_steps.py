@@ -391,7 +391,7 @@ def test_quasi_static_rate_is_wrench_over_drag() -> None:
     body = Body(part, np.array([0.3, -0.4, 0.7]))
     field = CombinedField(0.3)
     w = wrench_on(body, IdealForces(), field)
-    assert np.array_equal(w, field.wrench(body.loops(), body.pose[:2]))
+    assert np.array_equal(w, field.wrench_at(body.frame, body.pose))  # tests/mems/test_fields.py: = wrench
     drag = drag_coefficients(part, 2.0)
     assert np.allclose(drag, 2.0 * np.array([part.area, part.area, part.polar_moment]))
     scene = Scene([body], (ProgramStep(field, math.inf),), "ideal", damping=2.0)

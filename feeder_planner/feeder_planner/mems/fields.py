@@ -2,7 +2,9 @@
 
 Every field is a force per unit area f(r) = -grad u(r). ``wrench`` returns the exact resultant force
 (eq. 1) and torque about a reference point (eq. 2) on placed polygon loops, ``lifted`` the lifted
-potential (Definition 1); no sampling of the area anywhere.
+potential (Definition 1); no sampling of the area anywhere. ``wrench_at`` is the same wrench on a rigid
+part at a pose (``frame.PartFrame``): the radial and constant fields evaluate it in the part frame, from
+the edges and moments the part keeps, without placing the part.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from feeder_planner.errors import InputError
 from feeder_planner.fields_io import finite_number, non_negative_number
 from feeder_planner.limits import quote
 from feeder_planner.mems import lifted
+from feeder_planner.mems.frame import PartFrame, Placement
 from feeder_planner.mems.regions import area_moments, half_plane_moments, moments
 
 __all__ = [
@@ -97,6 +100,13 @@ class Field(ABC):
     def lifted(self, loops: tuple[np.ndarray, ...]) -> float:
         """Return the lifted potential, the integral of u over the placed loops (Definition 1)."""
 
+    def wrench_at(self, frame: PartFrame, pose: np.ndarray) -> np.ndarray:
+        """Return (Fx, Fy, torque about the centroid) on the part at ``pose`` (x, y, theta), eqs. (1-2).
+
+        By default ``wrench`` on the placed loops; fields with a part-frame form override it.
+        """
+        return self.wrench(frame.placed(pose), pose[:2])
+
 
 @dataclass(frozen=True)
 class RadialField(Field):
@@ -125,6 +135,20 @@ class RadialField(Field):
         # (r - c) x f = 0 for a radial field, so the torque about G is (c - G) x F.
         return np.array([force[0], force[1], _cross(c - about, force)])
 
+    def wrench_at(self, frame: PartFrame, pose: np.ndarray) -> np.ndarray:
+        """Return the wrench of ``wrench`` in the part frame: the centre carried into it, c' = R^T (c - p).
+
+        There the force is -strength grad V at -c' (eqs. 5-6) on the part's own edges; in the plane it is
+        R times that, and the torque about the centroid, (c - p) x F, is c' x F' (a rotation keeps cross
+        products).
+        """
+        placement = Placement.of(pose)
+        cx, cy = placement.to_part(self.center)
+        gx, gy = lifted.gradient(frame.edges, np.array([-cx, -cy]))
+        fx, fy = -self.strength * float(gx), -self.strength * float(gy)
+        px, py = placement.rotate((fx, fy))
+        return np.array([px, py, cx * fy - cy * fx])
+
     def lifted(self, loops: tuple[np.ndarray, ...]) -> float:
         """Return strength V at the translation that puts the centre at the origin (eq. 4)."""
         return float(self.strength * lifted.potential(lifted.loop_edges(loops), -np.array(self.center)))
@@ -148,6 +172,14 @@ class ConstantField(Field):
         f = np.array(self.force) * m[0]
         centroid = m[1:3] / m[0]
         return np.array([f[0], f[1], _cross(centroid - about, f)])
+
+    def wrench_at(self, frame: PartFrame, pose: np.ndarray) -> np.ndarray:
+        """Return force times area at the centroid, from the part's own moments (no placement needed)."""
+        area, sx, sy = frame.area_moments
+        fx, fy = self.force[0] * area, self.force[1] * area
+        # The centroid's offset from the frame's origin is rounding only, but it is the placed-loops form.
+        ax, ay = Placement.of(pose).rotate((sx / area, sy / area))
+        return np.array([fx, fy, ax * fy - ay * fx])
 
     def lifted(self, loops: tuple[np.ndarray, ...]) -> float:
         """Return -force . (first moment of area)."""
@@ -178,6 +210,11 @@ class CombinedField(Field):
         """Return the sum of the radial and the constant wrenches."""
         a, b = self._parts()
         return a.wrench(loops, about) + b.wrench(loops, about)
+
+    def wrench_at(self, frame: PartFrame, pose: np.ndarray) -> np.ndarray:
+        """Return the sum of the radial and the constant wrenches, both in the part frame."""
+        a, b = self._parts()
+        return a.wrench_at(frame, pose) + b.wrench_at(frame, pose)
 
     def lifted(self, loops: tuple[np.ndarray, ...]) -> float:
         """Return the lifted potential of eq. (12) in the plane frame (placed loops)."""

@@ -7,12 +7,14 @@ dynamic world when asked for the 'dynamic' fidelity, and the world sees only bod
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Literal, Protocol, get_args
 
 import numpy as np
 
 from feeder_planner.errors import InputError
 from feeder_planner.mems.fields import Field
+from feeder_planner.mems.frame import PartFrame
 from feeder_planner.parts import Part
 from feeder_sim.mems.faults import ArrayFaults
 
@@ -50,6 +52,11 @@ class Body:
     velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
     wrench: np.ndarray = field(default_factory=lambda: np.zeros(3))  # field force and torque, last step
 
+    @cached_property
+    def frame(self) -> PartFrame:
+        """Return the part's edges and moments in its own frame, built once (a body keeps its part)."""
+        return PartFrame.of(self.part)
+
     def loops(self, pose: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
         """Return the part's loops placed at ``pose`` (default: the body's pose) in the plane frame."""
         p = self.pose if pose is None else pose
@@ -61,6 +68,10 @@ class ForceModel(Protocol):
 
     def wrench(self, field: Field, loops: tuple[np.ndarray, ...], about: np.ndarray) -> np.ndarray:
         """Return (Fx, Fy, torque about ``about``) of the field on the placed loops."""
+        ...
+
+    def wrench_at(self, field: Field, frame: PartFrame, pose: np.ndarray) -> np.ndarray:
+        """Return the same wrench on the rigid part ``frame`` at ``pose`` (torque about its centroid)."""
         ...
 
     def cell_forces(self, field: Field) -> np.ndarray | None:
@@ -80,10 +91,11 @@ class ForceModel(Protocol):
 def wrench_on(body: Body, forces: ForceModel, field: Field, pose: np.ndarray | None = None) -> np.ndarray:
     """Return the force model's wrench of ``field`` on the body at ``pose`` (default: its pose).
 
-    The torque is about the part's centroid, the reference point of the motion law.
+    The torque is about the part's centroid, the reference point of the motion law. Through the part's
+    frame (``Body.frame``), so that a model that can (the ideal one) does not place the part at all.
     """
     p = body.pose if pose is None else pose
-    return forces.wrench(field, body.loops(p), p[:2])
+    return forces.wrench_at(field, body.frame, p)
 
 
 def drag_coefficients(part: Part, damping: float) -> np.ndarray:

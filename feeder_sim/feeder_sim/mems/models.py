@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from feeder_planner.mems.fields import Field
+from feeder_planner.mems.frame import PartFrame
 from feeder_sim.mems.cellsum import CellForceSums
 from feeder_sim.mems.coverage import Grid
 from feeder_sim.mems.faults import NO_FAULTS, ArrayFaults
@@ -32,7 +33,17 @@ class IdealForces:
 
     def wrench(self, field: Field, loops: tuple[np.ndarray, ...], about: np.ndarray) -> np.ndarray:
         """Return the field's exact wrench on the placed loops (times the faults' gain)."""
-        w = field.wrench(loops, about)
+        return self._with_faults(field.wrench(loops, about))
+
+    def wrench_at(self, field: Field, frame: PartFrame, pose: np.ndarray) -> np.ndarray:
+        """Return the field's exact wrench on the part at ``pose``, evaluated in the part frame.
+
+        What the ideal model's every velocity evaluation costs: the part's edges are not rebuilt.
+        """
+        return self._with_faults(field.wrench_at(frame, pose))
+
+    def _with_faults(self, w: np.ndarray) -> np.ndarray:
+        """Return the wrench times the faults' gain (the wrench is linear in the field)."""
         gain = self.faults.gain
         return w if gain == 1.0 else gain * w
 
@@ -91,6 +102,10 @@ class ArrayForces:
         Computed from edge integrals over the cells the boundary crosses (``CellForceSums``).
         """
         return self._sums_for(field).wrench(loops, about)
+
+    def wrench_at(self, field: Field, frame: PartFrame, pose: np.ndarray) -> np.ndarray:
+        """Return ``wrench`` on the part placed at ``pose``: the cells need the placed boundary."""
+        return self.wrench(field, frame.placed(pose), pose[:2])
 
     def wrench_by_cells(self, field: Field, loops: tuple[np.ndarray, ...], about: np.ndarray) -> np.ndarray:
         """Return the same sum from the covered area and moments of every cell (the reference).

@@ -1,0 +1,69 @@
+"""A rigid part in its own frame: what the fields need of it, computed once, and where a pose puts it.
+
+A moving part changes only its pose (x, y, theta); its edges and area moments in its own frame do not.
+``PartFrame`` holds them, so that a field's wrench at a pose (``Field.wrench_at``) is evaluated in the
+part frame, with the field carried into it, instead of rebuilding the placed part's edges at every pose.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from feeder_planner.mems import lifted
+from feeder_planner.mems.regions import area_moments
+from feeder_planner.parts import Part
+
+__all__ = ["PartFrame", "Placement"]
+
+
+@dataclass(frozen=True)
+class Placement:
+    """A pose (x, y, theta) as the rotation and translation it applies: r = R(theta) q + (x, y)."""
+
+    x: float
+    y: float
+    cos: float
+    sin: float
+
+    @classmethod
+    def of(cls, pose: np.ndarray) -> Placement:
+        """Return the placement of ``pose`` (x, y, theta)."""
+        theta = float(pose[2])
+        return cls(float(pose[0]), float(pose[1]), math.cos(theta), math.sin(theta))
+
+    def to_part(self, point: tuple[float, float]) -> tuple[float, float]:
+        """Return the part-frame coordinates q = R^T (r - (x, y)) of the plane point ``point``."""
+        dx, dy = point[0] - self.x, point[1] - self.y
+        return (self.cos * dx + self.sin * dy, self.cos * dy - self.sin * dx)
+
+    def rotate(self, vector: tuple[float, float]) -> tuple[float, float]:
+        """Return R vector: a part-frame vector (a force) in the plane frame."""
+        return (self.cos * vector[0] - self.sin * vector[1], self.sin * vector[0] + self.cos * vector[1])
+
+
+@dataclass(frozen=True)
+class PartFrame:
+    """A part with its edges and area moments in its own frame (centroid at the origin).
+
+    ``area_moments`` is (A, Sx, Sy) about the part's centroid: the first moments vanish up to rounding,
+    kept so that the constant field's torque is the same integral as on the placed loops.
+    """
+
+    part: Part
+    edges: lifted.Edges
+    area_moments: np.ndarray
+
+    @classmethod
+    def of(cls, part: Part) -> PartFrame:
+        """Return the frame of ``part``: its edges (eqs. 5-9 need them) and moments, once."""
+        return cls(part, lifted.part_edges(part), area_moments(part.loops()))
+
+    def placed(self, pose: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Return the loops placed at ``pose`` in the plane frame (for fields without a part-frame form).
+
+        The part's own placement, so that such a field's wrench is the one on ``Part.placed`` to the bit.
+        """
+        return self.part.placed(float(pose[0]), float(pose[1]), float(pose[2]))
