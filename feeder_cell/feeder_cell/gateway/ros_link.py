@@ -18,10 +18,11 @@ import asyncio
 import math
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Coroutine
+from typing import Any, Coroutine, TypeVar
 
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from lifecycle_msgs.srv import ChangeState
 from rcl_interfaces.msg import Log
 from rclpy.action.client import ClientGoalHandle
@@ -52,6 +53,8 @@ from feeder_planner.node_kit import LATCHED, STREAM_DEPTH
 from feeder_planner.node_kit.action_client import ActionClient
 
 __all__ = ["STATUS_TIMEOUT", "REJECTION_WAIT", "DeviceLink", "RosLink"]
+
+T = TypeVar("T")
 
 # A device whose ~/status (1 Hz heartbeat) is not heard for this long is offline (Online false, PackML
 # Undefined); five missed heartbeats, so that a starved process on a loaded host does not flap it. A goal
@@ -93,6 +96,20 @@ class DeviceLink:
     diagnosed_rejection: str = ""  # /diagnostics last_goal_rejection
     lock: threading.Lock = field(default_factory=threading.Lock)
 
+    def clients(self) -> list[Client]:
+        """Return every service client of the device (its commands', its methods')."""
+        return [*self.triggers.values(), self.change_state, *self.services.values()]
+
+    def missing(self) -> list[str]:
+        """Return what of the device is not heard or discovered yet (executor thread); [] when ready."""
+        with self.lock:
+            heard = self.state is not None and self.online
+        gaps = [] if heard else ["~/status"]
+        gaps += [c.srv_name for c in self.clients() if not c.service_is_ready()]
+        if not self.action.server_is_ready():
+            gaps.append(f"{self.entry.node}/{self.profile.action.action_name} (action)")
+        return gaps
+
 
 class RosLink:
     """Subscriptions, clients and the method handler of the gateway, on one rclpy node."""
@@ -109,6 +126,56 @@ class RosLink:
         node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         node.create_timer(0.5, self._watchdog, clock=steady)
+        # The gateway's own /diagnostics entry: which devices are online, and which were not ready at start.
+        self.diagnostics = node.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.startup = "waiting for the devices"
+        node.create_timer(1.0, self._publish_diagnostics, clock=steady)
+
+    # --- start-up ----------------------------------------------------------------------------------
+    async def wait_for_devices(self, timeout: float, stop: asyncio.Event) -> dict[str, list[str]]:
+        """Wait until every device is heard and its services and action discovered, at most ``timeout`` s.
+
+        The server listens only after this: a PLC that connects and commands at once would otherwise
+        find a device that has not reported (Undefined, "reports no status") or whose services are not yet
+        discovered ("not available"). Returns each device not ready in time with what it lacks.
+        """
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + timeout
+        started = loop.time()
+        missing: dict[str, list[str]] = {}
+        while not stop.is_set():
+            missing = {}
+            for link in self.links.values():
+                gaps = await self._in_ros_value(link.missing)
+                if gaps:
+                    missing[link.entry.node] = gaps
+            if not missing or loop.time() >= deadline:
+                break
+            await asyncio.sleep(0.05)
+        took = loop.time() - started
+        if missing:
+            self.startup = f"not ready within {timeout:g} s: " + "; ".join(
+                f"{node} lacks {', '.join(gaps)}" for node, gaps in missing.items()
+            )
+        else:
+            self.startup = f"every device heard and its services discovered in {took:.1f} s"
+        return missing
+
+    def _publish_diagnostics(self) -> None:
+        offline = []
+        entry = DiagnosticStatus(name=self.node.get_fully_qualified_name(), hardware_id="opcua_gateway")
+        for link in self.links.values():
+            with link.lock:
+                online = link.online
+            if not online:
+                offline.append(link.entry.node)
+            entry.values.append(KeyValue(key=f"{link.entry.node} online", value=str(online).lower()))
+        entry.values.append(KeyValue(key="startup", value=self.startup))
+        entry.level = DiagnosticStatus.WARN if offline else DiagnosticStatus.OK
+        entry.message = f"offline: {', '.join(offline)}" if offline else "every device online"
+        msg = DiagnosticArray(status=[entry])
+        msg.header.stamp = self.node.get_clock().now().to_msg()
+        self.diagnostics.publish(msg)
 
     # --- subscriptions ---------------------------------------------------------------------------
     def _link(self, entry: DeviceEntry) -> DeviceLink:
@@ -286,8 +353,18 @@ class RosLink:
 
     async def _in_ros(self, work: Coroutine[object, None, tuple[str, str]]) -> tuple[str, str]:
         """Run a coroutine in the rclpy executor's thread; its result, or BadTimeout after call_timeout."""
+        try:
+            return await self._in_ros_value(work)
+        except asyncio.TimeoutError:
+            return "BadTimeout", f"the device did not answer within {self.call_timeout:g} s"
+
+    async def _in_ros_value(self, work: Callable[[], T] | Coroutine[object, None, T]) -> T:
+        """Run a function or coroutine in the executor's thread; asyncio.TimeoutError after call_timeout.
+
+        rclpy's objects are touched only there: its action client is not thread-safe.
+        """
         loop = asyncio.get_running_loop()
-        done: asyncio.Future[tuple[str, str]] = loop.create_future()
+        done: asyncio.Future[T] = loop.create_future()
 
         def finished(task: Task) -> None:
             def settle() -> None:
@@ -301,12 +378,23 @@ class RosLink:
 
             loop.call_soon_threadsafe(settle)
 
-        task = self.executor.create_task(work)
-        task.add_done_callback(finished)
-        try:
-            return await asyncio.wait_for(done, self.call_timeout)
-        except asyncio.TimeoutError:
-            return "BadTimeout", f"the device did not answer within {self.call_timeout:g} s"
+        self.executor.create_task(work).add_done_callback(finished)
+        return await asyncio.wait_for(done, self.call_timeout)
+
+    async def _discovered(self, link: DeviceLink, calls: tuple[str, ...]) -> None:
+        """Wait, at most call_timeout, until the services of a command's calls are discovered.
+
+        A device that has just come up (or back) reports its status before every one of its services is
+        discovered; the command then waits for them rather than failing at once. Whatever is still missing
+        after the wait is answered by ``_calls`` (BadCommunicationError, naming the service).
+        """
+        clients = [link.change_state if c in LIFECYCLE else link.triggers[c] for c in calls]
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + self.call_timeout
+        while loop.time() < deadline:
+            if await self._in_ros_value(lambda: all(c.service_is_ready() for c in clients)):
+                return
+            await asyncio.sleep(0.05)
 
     async def _command(self, link: DeviceLink, command: Command) -> tuple[str, str]:
         """Run a PackML command: its plan for the device's state, the transient state shown meanwhile."""
@@ -318,6 +406,7 @@ class RosLink:
         row = plan(command, state)
         if isinstance(row, str):
             return "BadInvalidState", row
+        await self._discovered(link, row.calls)
         if row.transient:
             self._post_all(link, _packml_values(row.transient))
             await self.server.flush_now()

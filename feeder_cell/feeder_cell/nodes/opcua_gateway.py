@@ -134,10 +134,18 @@ PARAMETERS = (
         positive,
         read_only=True,
     ),
+    ParameterSpec(
+        "startup_timeout",
+        10.0,
+        "s (wall) the gateway waits at start for every device's first ~/status and its services and action "
+        "before it listens; a device not ready by then is served offline (Status/Online false)",
+        positive,
+        read_only=True,
+    ),
 )
 
 
-def _build(node: Node, executor: SingleThreadedExecutor) -> tuple[GatewayServer, RosLink]:
+def _build(node: Node, executor: SingleThreadedExecutor) -> tuple[GatewayServer, RosLink, float]:
     """Check every parameter and build the server and the ROS link; InputError names the parameter."""
     p = declare_parameters(node, PARAMETERS)
     endpoint = parse_endpoint(p["endpoint"])
@@ -176,10 +184,12 @@ def _build(node: Node, executor: SingleThreadedExecutor) -> tuple[GatewayServer,
     server = GatewayServer(endpoint, security, users, devices, _Handler(), p["program_dir"], logger)
     ros = RosLink(node, executor, server, float(p["call_timeout"]))
     holder["ros"] = ros
-    return server, ros
+    return server, ros, float(p["startup_timeout"])
 
 
-async def _serve(node: Node, server: GatewayServer, stop_request: StopRequest) -> int:
+async def _serve(
+    node: Node, server: GatewayServer, ros: RosLink, startup_timeout: float, stop_request: StopRequest
+) -> int:
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()
 
@@ -191,6 +201,15 @@ async def _serve(node: Node, server: GatewayServer, stop_request: StopRequest) -
     stop_request.future.add_done_callback(wake)
     if stop_request.requested:
         return 0  # stopped while it was being built: nothing was served
+    # Listening means ready: a PLC's first command must not race the devices' discovery.
+    missing = await ros.wait_for_devices(startup_timeout, stop)
+    if stop.is_set():
+        return 0
+    for device, gaps in missing.items():
+        node.get_logger().warning(
+            f"{device}: not ready within startup_timeout {startup_timeout:g} s (lacks {', '.join(gaps)}); "
+            "served with Status/Online as heard, its commands refused until it reports"
+        )
     try:
         await server.start()
     except OSError as error:
@@ -243,7 +262,7 @@ def main(args: list[str] | None = None) -> None:
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
-        server, _ros = _build(node, executor)
+        server, ros, startup_timeout = _build(node, executor)
     except InputError as error:
         node.get_logger().fatal(f"bad configuration: {error}")
         stop.ignore_from_now()
@@ -261,7 +280,7 @@ def main(args: list[str] | None = None) -> None:
     thread.start()
     code = 1
     try:
-        code = asyncio.run(_serve(node, server, stop))
+        code = asyncio.run(_serve(node, server, ros, startup_timeout, stop))
     finally:
         stop.ignore_from_now()
         executor.shutdown(timeout_sec=2.0)
