@@ -144,8 +144,8 @@ class RadialField(Field):
         """
         placement = Placement.of(pose)
         cx, cy = placement.to_part(self.center)
-        gx, gy = lifted.gradient(frame.edges, np.array([-cx, -cy]))
-        fx, fy = -self.strength * float(gx), -self.strength * float(gy)
+        gx, gy = lifted.point_gradient(frame.edges, (-cx, -cy))
+        fx, fy = -self.strength * gx, -self.strength * gy
         px, py = placement.rotate((fx, fy))
         return np.array([px, py, cx * fy - cy * fx])
 

@@ -13,7 +13,7 @@ not on the boundary (Prop. 2).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from math import comb
 
 import numpy as np
@@ -35,6 +35,7 @@ __all__ = [
     "part_edges",
     "potential",
     "gradient",
+    "point_gradient",
     "value_gradient_hessian",
     "value_gradient_hessian_noise",
     "derivatives",
@@ -50,6 +51,18 @@ class Edges:
     normal: np.ndarray  # (E, 2) unit outward normal of the area
     length: np.ndarray  # (E,)
     scale: float  # part radius, the length scale of tolerances
+
+    @cached_property
+    def lines(self) -> tuple[np.ndarray, np.ndarray]:
+        """Return (P, o) with o + P z = (s0, s1, h) stacked (3E,): the edges' terms translated by z.
+
+        s0, s1 are the arc-length coordinates of an edge's ends from the foot of the origin on its line and
+        h its signed distance (``_edge_terms``): affine in the translation, so fixed edges need them once.
+        """
+        s0 = (self.start * self.direction).sum(axis=1)
+        h = (self.start * self.normal).sum(axis=1)
+        projection = np.vstack([self.direction, self.direction, self.normal])
+        return projection, np.concatenate([s0, s0 + self.length, h])
 
 
 def edge_endpoints(loops: tuple[np.ndarray, ...]) -> tuple[np.ndarray, np.ndarray]:
@@ -86,17 +99,24 @@ def _edge_terms(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, ...]:
     a = edges.start + z[..., None, :]  # (..., E, 2)
     s0 = np.einsum("...ek,ek->...e", a, edges.direction)
     h = np.einsum("...ek,ek->...e", a, edges.normal)
-    s1 = s0 + edges.length
-    ah = np.abs(h)
+    return _line_terms(s0, s0 + edges.length, h)
+
+
+def _line_terms(s0: np.ndarray, s1: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Return (s0, s1, h, rho0, rho1, h*A) from the edges' ends on their lines and their distances h.
+
+    A = asinh(s1/|h|) - asinh(s0/|h|) = log((s1 + rho1) / (s0 + rho0)), one logarithm per edge. Each
+    s + rho is taken in the form without cancellation for the sign of s: s + rho itself for s >= 0,
+    h^2 / (rho - s) for s < 0 (the two are equal, (rho + s)(rho - s) = h^2).
+    """
     rho0 = np.hypot(s0, h)
     rho1 = np.hypot(s1, h)
+    hh = h * h
     with np.errstate(divide="ignore", invalid="ignore"):
-        # asinh(s1/|h|) - asinh(s0/|h|) without cancellation: pick the form by the signs of s0, s1.
-        pos = np.log((s1 + rho1) / (s0 + rho0))
-        neg = np.log((rho0 - s0) / (rho1 - s1))
-        straddle = np.log((s1 + rho1) / ah) + np.log((rho0 - s0) / ah)
-        big = np.where(s0 >= 0, pos, np.where(s1 <= 0, neg, straddle))
-        h_a = np.where(h == 0.0, 0.0, h * big)
+        x0 = np.where(s0 >= 0, s0 + rho0, hh / (rho0 - s0))
+        x1 = np.where(s1 >= 0, s1 + rho1, hh / (rho1 - s1))
+        # h A -> 0 with h (as h log|h|); where h^2 is zero (or underflows) the quotient is 0/0 or inf.
+        h_a = np.where(hh == 0.0, 0.0, h * np.log(x1 / x0))
     return s0, s1, h, rho0, rho1, h_a
 
 
@@ -123,6 +143,19 @@ def gradient(edges: Edges, z: np.ndarray) -> np.ndarray:
     """Return (dV/dX, dV/dY) at translations z (..., 2), eqs. (5-6) as oint |r| n ds."""
     terms = _edge_terms(edges, np.asarray(z, float))
     return np.einsum("...e,ek->...k", _abs_r_integrals(terms), edges.normal)
+
+
+def point_gradient(edges: Edges, z: tuple[float, float]) -> tuple[float, float]:
+    """Return (dV/dX, dV/dY) at one translation z, eqs. (5-6): ``gradient`` without rebuilding the terms.
+
+    The edges' projections (``Edges.lines``) are kept, so a part's fixed edges cost one product per call.
+    """
+    projection, offset = edges.lines
+    count = len(edges.length)
+    s0_s1_h = offset + projection @ np.array(z, float)
+    terms = _line_terms(s0_s1_h[:count], s0_s1_h[count : 2 * count], s0_s1_h[2 * count :])
+    gx, gy = _abs_r_integrals(terms) @ edges.normal
+    return float(gx), float(gy)
 
 
 def value_gradient_hessian(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
