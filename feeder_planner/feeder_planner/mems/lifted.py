@@ -42,6 +42,10 @@ __all__ = [
 ]
 
 
+# The smallest |h| divided by: h A is below 1e-297 there, where it is taken as its limit 0.
+_H_FLOOR = 1e-300
+
+
 @dataclass(frozen=True)
 class Edges:
     """All boundary edges of a part (outer counter-clockwise, holes clockwise) as arrays."""
@@ -54,15 +58,16 @@ class Edges:
 
     @cached_property
     def lines(self) -> tuple[np.ndarray, np.ndarray]:
-        """Return (P, o) with o + P z = (s0, s1, h) stacked (3E,): the edges' terms translated by z.
+        """Return (P, o) with o + P z = (s0, s1, h, h) stacked (4E,): the edges' terms translated by z.
 
         s0, s1 are the arc-length coordinates of an edge's ends from the foot of the origin on its line and
         h its signed distance (``_edge_terms``): affine in the translation, so fixed edges need them once.
+        h comes twice, beside the two ends, so that both ends' terms are one operation each.
         """
         s0 = (self.start * self.direction).sum(axis=1)
         h = (self.start * self.normal).sum(axis=1)
-        projection = np.vstack([self.direction, self.direction, self.normal])
-        return projection, np.concatenate([s0, s0 + self.length, h])
+        projection = np.vstack([self.direction, self.direction, self.normal, self.normal])
+        return projection, np.concatenate([s0, s0 + self.length, h, h])
 
 
 def edge_endpoints(loops: tuple[np.ndarray, ...]) -> tuple[np.ndarray, np.ndarray]:
@@ -99,25 +104,23 @@ def _edge_terms(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, ...]:
     a = edges.start + z[..., None, :]  # (..., E, 2)
     s0 = np.einsum("...ek,ek->...e", a, edges.direction)
     h = np.einsum("...ek,ek->...e", a, edges.normal)
-    return _line_terms(s0, s0 + edges.length, h)
+    return _line_terms(np.concatenate([s0, s0 + edges.length], axis=-1), np.concatenate([h, h], axis=-1))
 
 
-def _line_terms(s0: np.ndarray, s1: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Return (s0, s1, h, rho0, rho1, h*A) from the edges' ends on their lines and their distances h.
+def _line_terms(ends: np.ndarray, h2: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Return (s0, s1, h, rho0, rho1, h*A) from the edges' ends and their distances, both (..., 2E).
 
-    A = asinh(s1/|h|) - asinh(s0/|h|) = log((s1 + rho1) / (s0 + rho0)), one logarithm per edge. Each
-    s + rho is taken in the form without cancellation for the sign of s: s + rho itself for s >= 0,
-    h^2 / (rho - s) for s < 0 (the two are equal, (rho + s)(rho - s) = h^2).
+    ``ends`` are (s0, s1), the ends' coordinates on the edges' lines, ``h2`` the distances h twice.
+    A = asinh(s1/|h|) - asinh(s0/|h|). Where the two nearly cancel (an edge far along its line), |h| is
+    small against s and h A enters V and its derivatives times h, below the rounding of the s rho terms.
     """
-    rho0 = np.hypot(s0, h)
-    rho1 = np.hypot(s1, h)
-    hh = h * h
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x0 = np.where(s0 >= 0, s0 + rho0, hh / (rho0 - s0))
-        x1 = np.where(s1 >= 0, s1 + rho1, hh / (rho1 - s1))
-        # h A -> 0 with h (as h log|h|); where h^2 is zero (or underflows) the quotient is 0/0 or inf.
-        h_a = np.where(hh == 0.0, 0.0, h * np.log(x1 / x0))
-    return s0, s1, h, rho0, rho1, h_a
+    count = ends.shape[-1] // 2
+    rho = np.hypot(ends, h2)
+    # h A -> 0 with h (as h log|h|): a floor on |h| keeps the quotients finite without changing it.
+    asinh = np.arcsinh(ends / np.maximum(np.abs(h2), _H_FLOOR))
+    h = h2[..., :count]
+    h_a = h * (asinh[..., count:] - asinh[..., :count])
+    return ends[..., :count], ends[..., count:], h, rho[..., :count], rho[..., count:], h_a
 
 
 def _abs_r_integrals(terms: tuple[np.ndarray, ...]) -> np.ndarray:
@@ -151,9 +154,9 @@ def point_gradient(edges: Edges, z: tuple[float, float]) -> tuple[float, float]:
     The edges' projections (``Edges.lines``) are kept, so a part's fixed edges cost one product per call.
     """
     projection, offset = edges.lines
-    count = len(edges.length)
-    s0_s1_h = offset + projection @ np.array(z, float)
-    terms = _line_terms(s0_s1_h[:count], s0_s1_h[count : 2 * count], s0_s1_h[2 * count :])
+    count = 2 * len(edges.length)
+    ends_h = offset + projection @ np.array(z, float)
+    terms = _line_terms(ends_h[:count], ends_h[count:])
     gx, gy = _abs_r_integrals(terms) @ edges.normal
     return float(gx), float(gy)
 
