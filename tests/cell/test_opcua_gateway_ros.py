@@ -155,6 +155,14 @@ def u32(value: int) -> ua.Variant:
     return ua.Variant(value, ua.VariantType.UInt32)
 
 
+def i32(value: int) -> ua.Variant:
+    return ua.Variant(value, ua.VariantType.Int32)
+
+
+def boolean(value: bool) -> ua.Variant:
+    return ua.Variant(value, ua.VariantType.Boolean)
+
+
 def dbl(value: float) -> ua.Variant:
     return ua.Variant(value, ua.VariantType.Double)
 
@@ -397,11 +405,57 @@ def test_status_code_bad_invalid_state_feed_part_while_the_arm_is_busy_with_anot
             assert all(code.is_good() for code in result.InputArgumentResults), result
             assert await s.read(key, "Command.LastStatus") == "BadInvalidState"
             assert await s.read(key, "Command.GoalCount") == goals
+            # The device refuses the infeed for the other client's goal (its action status says so).
+            result = await s.call(key, "PlacePart", i32(2), dbl(0.12))
+            assert result.StatusCode.value == ua.StatusCodes.BadInvalidState, result
         finally:
             await asyncio.to_thread(_result_of, handle.cancel_goal_async(), 10.0)
             message = await s.good(key, "ClearFault", ua.Variant("", ua.VariantType.String))  # every one
             assert "active faults: none" in message, message
         await idle(s, key)
+
+    session(gateway, scenario)
+
+
+def test_a_device_refusal_is_classified_by_the_devices_state_not_by_its_words(
+    gateway: str, ros_client: Any
+) -> None:
+    """A service refused while a goal executes is BadInvalidState; refused for its contents, InvalidArgument.
+
+    The arm's "place_part refused: a ~/feed_part goal is executing" names no state in words the gateway
+    once matched, and read as BadInvalidArgument; the device's state (a goal executing) decides now.
+    """
+
+    async def scenario(s: Session) -> None:
+        arm = KEYS["arm"]
+        await idle(s, arm)
+        # In Idle the device refuses an edge the part does not have: the request's contents.
+        result = await s.call(arm, "PlacePart", i32(99), dbl(0.12))
+        assert result.StatusCode.value == ua.StatusCodes.BadInvalidArgument, result
+        response = await asyncio.to_thread(
+            ros_harness.inject_fault, ros_client, ARM, "sensor_stuck", state=False
+        )
+        assert response.ok, response.error
+        await s.good(arm, "FeedPart", u32(10_000), dbl(0.0))
+        try:
+            await s.wait_for(arm, "Command.Busy", lambda v: v is True)
+            result = await s.call(arm, "PlacePart", i32(2), dbl(0.12))
+            assert result.StatusCode.value == ua.StatusCodes.BadInvalidState, result
+            assert all(code.is_good() for code in result.InputArgumentResults), result
+            assert "goal is executing" in result.OutputArguments[0].Value, result
+            assert await s.read(arm, "Command.LastStatus") == "BadInvalidState"
+            # A goal does not keep faults from being injected: an unknown one is still the argument's fault.
+            result = await s.call(arm, "InjectFault", text("no_such_fault"), dbl(0.0), boolean(False))
+            assert result.StatusCode.value == ua.StatusCodes.BadInvalidArgument, result
+        finally:
+            await s.good(arm, "Stop")
+        await s.wait_for(arm, "Status.PackMLState", lambda v: v == "Stopped")
+        # Stopped: the device refuses the infeed for its state, whatever the arguments.
+        result = await s.call(arm, "PlacePart", i32(99), dbl(0.12))
+        assert result.StatusCode.value == ua.StatusCodes.BadInvalidState, result
+        await s.good(arm, "Reset")
+        await s.good(arm, "ClearFault", text(""))
+        await idle(s, arm)
 
     session(gateway, scenario)
 

@@ -38,7 +38,7 @@ from lifecycle_msgs.msg import Transition
 
 from feeder_cell.gateway.arguments import ArgumentError, check_count, read_number, read_string
 from feeder_cell.gateway.config import packml_state
-from feeder_cell.gateway.spec import Argument, ArgumentSpec, MethodSpec, ServiceLink
+from feeder_cell.gateway.spec import Argument, ArgumentSpec, Availability, MethodSpec, ServiceLink
 from feeder_msgs.msg import DeviceStatus
 from feeder_msgs.srv import InjectFault
 
@@ -154,6 +154,12 @@ def cancels_goal(command: Command) -> bool:
 
 # --- fault injection: one ~/inject_fault call each ----------------------------------------------------
 
+# A fault is injected in any configured state, a goal executing or not (a commissioning test injects one
+# into a running cycle); clearing one is never refused for the device's state.
+_CONFIGURED = frozenset({_S.IDLE, _S.RUNNING, _S.PAUSED, _S.FAULT, _S.STOPPED})
+_INJECTS = Availability(states=_CONFIGURED, goal_blocks=False)
+_CLEARS = Availability(states=_CONFIGURED | {_S.UNCONFIGURED}, goal_blocks=False)
+
 
 @dataclass(frozen=True)
 class _FaultCall:
@@ -196,6 +202,7 @@ FAULT_SERVICES: tuple[ServiceLink, ...] = (
         lambda spec, args, _context: _check_inject(spec, args),
         InjectFault,
         "inject_fault",
+        _INJECTS,
     ),
     ServiceLink(
         MethodSpec(
@@ -206,5 +213,6 @@ FAULT_SERVICES: tuple[ServiceLink, ...] = (
         lambda spec, args, _context: _check_clear(spec, args),
         InjectFault,
         "inject_fault",
+        _CLEARS,
     ),
 )

@@ -22,6 +22,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Coroutine, TypeVar
 
+# Generated, untyped, and not in pyproject's list of ROS message modules (outside this change's reach).
+from action_msgs.msg import GoalStatus, GoalStatusArray  # type: ignore[import-untyped]
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from lifecycle_msgs.srv import ChangeState
 from rcl_interfaces.msg import Log
@@ -47,7 +49,7 @@ from feeder_cell.gateway.config import PACKML_STATES, DeviceEntry, is_warning, p
 from feeder_cell.gateway.kinds import KINDS
 from feeder_cell.gateway.layout import UINT32_MODULUS, counter32_path, counter_path
 from feeder_cell.gateway.server import GatewayServer
-from feeder_cell.gateway.spec import Goal, KindProfile, StreamLink, Value, Values
+from feeder_cell.gateway.spec import Availability, Goal, KindProfile, StreamLink, Value, Values
 from feeder_msgs.msg import DeviceStatus
 from feeder_planner.node_kit import LATCHED, STREAM_DEPTH
 from feeder_planner.node_kit.action_client import ActionClient
@@ -78,10 +80,13 @@ class DeviceLink:
     triggers: dict[str, Client]  # commands.TRIGGERS: ~/stop, ~/reset, ~/clear, ~/abort (std_srvs/Trigger)
     change_state: Client  # ~/change_state (lifecycle_msgs/srv/ChangeState)
     services: dict[str, Client]  # method name -> the client of its ServiceLink
+    availability: dict[str, Availability]  # method name -> when its ServiceLink's service runs
     action: ActionClient  # the kind's long action
     state: int | None = None  # last DeviceStatus state
     ready: bool = False
     busy: bool = False  # last DeviceStatus busy
+    fault_code: int = 0  # last DeviceStatus fault_code
+    goals_active: bool = False  # the action server's status lists a goal accepted or executing (any client's)
     state_name: str = ""
     fault_text: str = ""
     heard: float = -math.inf  # monotonic time of the last status
@@ -191,9 +196,18 @@ class RosLink:
                 s.method.name: node.create_client(s.service_type, f"{name}/{s.service_name}")
                 for s in (*profile.services, *FAULT_SERVICES)
             },
+            availability={s.method.name: s.availability for s in (*profile.services, *FAULT_SERVICES)},
             action=ActionClient(node, action.action_type, f"{name}/{action.action_name}"),
         )
         node.create_subscription(DeviceStatus, f"{name}/status", lambda m: self._on_status(link, m), LATCHED)
+        # The action server's goal status (rclpy's action status QoS: reliable, latched, depth 1) tells of
+        # every client's goals, not only the gateway's: what makes a refusal "busy" without reading words.
+        node.create_subscription(
+            GoalStatusArray,
+            f"{name}/{action.action_name}/_action/status",
+            lambda m: self._on_goal_status(link, m),
+            LATCHED,
+        )
         for stream in link.profile.streams:
             self._subscribe(link, stream)
         return link
@@ -224,6 +238,7 @@ class RosLink:
         with link.lock:
             link.state, link.ready, link.state_name = int(msg.state), bool(msg.ready), msg.state_name
             link.busy = bool(msg.busy)
+            link.fault_code = int(msg.fault_code)
             link.fault_text = msg.fault_text
             back = not link.online and link.heard > -math.inf
             link.heard = time.monotonic()
@@ -266,6 +281,11 @@ class RosLink:
         if show_busy:
             values["Command.Busy"] = True
         self._post_all(link, values, stamp)
+
+    def _on_goal_status(self, link: DeviceLink, msg: GoalStatusArray) -> None:
+        live = (GoalStatus.STATUS_ACCEPTED, GoalStatus.STATUS_EXECUTING, GoalStatus.STATUS_CANCELING)
+        with link.lock:
+            link.goals_active = any(g.status in live for g in msg.status_list)
 
     def _arrival_stamp(self, info: Any) -> int:
         """Stamp a headerless sample (std_msgs/Bool): the DDS sample's source timestamp (wall clock).
@@ -440,7 +460,7 @@ class RosLink:
             response = await client.call_async(request)
             text = getattr(response, "message", "") or ("done" if response.success else "refused")
             said.append(f"{call}: {text}")
-            if not response.success:
+            if not response.success:  # a PackML command has no arguments: only the state refuses it
                 return "BadInvalidState", f"{method}: {'; '.join(said)}"
         return "Good", f"{method}: {'; '.join(said)}"
 
@@ -465,9 +485,16 @@ class RosLink:
             faults = getattr(response, "active_faults", None)
             extra = f"; active faults: {', '.join(faults) or 'none'}" if faults is not None else ""
             return "Good", f"{method}: done{extra}"
-        # The device names its state when that is why ("device is FAULT"); else the request was bad.
-        code = "BadInvalidState" if "device is " in text or "busy" in text else "BadInvalidArgument"
+        code = "BadInvalidState" if self._refused_for_state(link, method) else "BadInvalidArgument"
         return code, f"{method} refused by the device: {text}"
+
+    def _refused_for_state(self, link: DeviceLink, method: str) -> bool:
+        """Whether the device's latest status (and its goals) is why it refused a service method."""
+        with link.lock:
+            state = link.state if link.online else None
+            fault_code = link.fault_code
+            goal_active = link.goal is not None or link.goals_active
+        return link.availability[method].refuses(state, fault_code, goal_active)
 
     async def _send_goal(self, link: DeviceLink, method: str, goal: Goal | None) -> tuple[str, str]:
         client: ActionClient = link.action
@@ -515,7 +542,6 @@ class RosLink:
                     reason = link.rejections[-1][1].split("goal rejected:", 1)[1].strip()
                     break
             await asyncio.sleep(0.05)
-        heard = bool(reason)
         if not reason:
             with link.lock:
                 last = link.diagnosed_rejection
@@ -524,13 +550,12 @@ class RosLink:
                 if last
                 else "no reason received"
             )
-        # The kit's reasons for the device's state name it; anything else is about the goal's contents,
-        # unless the device reported itself busy or not ready (then the reason, if any, came too late).
+        # Typed, not read from the reason's words: a device that is not ready, or runs another client's
+        # goal, refused it for its state; a ready, free device refused the goal's contents.
         with link.lock:
-            not_free = link.busy or not link.ready
-        state = "device is " in reason or "goal is executing" in reason or (not heard and not_free)
+            not_free = not link.ready or not link.online or link.goals_active
         return (
-            "BadInvalidState" if state else "BadInvalidArgument"
+            "BadInvalidState" if not_free else "BadInvalidArgument"
         ), f"{method} rejected by the device: {reason}"
 
     # --- goal progress (executor thread) ---------------------------------------------------------

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol, TypeAlias
 
 from feeder_device.declarations import CounterSpec
+from feeder_msgs.msg import DeviceStatus
 
 __all__ = [
     "Value",
@@ -38,6 +39,7 @@ __all__ = [
     "Convert",
     "StreamLink",
     "ActionLink",
+    "Availability",
     "ServiceLink",
     "KindProfile",
 ]
@@ -147,6 +149,28 @@ class ActionLink:
 
 
 @dataclass(frozen=True)
+class Availability:
+    """When a device runs a service: what decides whether its refusal is the device's state or the request's.
+
+    A refusal while the device's latest ~/status is outside these (its ``state``, its ``fault_code`` in
+    FAULT) or, with ``goal_blocks``, while a goal of its action executes, is Bad_InvalidState; inside them
+    the request's contents were refused, Bad_InvalidArgument. Typed, because the device's message text is
+    for people: matching its words misread "a ~/feed_part goal is executing" as a bad argument.
+    """
+
+    states: frozenset[int] = frozenset({DeviceStatus.IDLE, DeviceStatus.RUNNING})  # the device's ``ready``
+    fault_codes: frozenset[int] = frozenset()  # in FAULT with one of these codes it still runs
+    goal_blocks: bool = True  # refused while a goal of the kind's action executes (any client's)
+
+    def refuses(self, state: int | None, fault_code: int, goal_active: bool) -> bool:
+        """Return whether a device in this state refuses the service whatever the request."""
+        if state is None:
+            return True
+        runs = state in self.states or (state == DeviceStatus.FAULT and fault_code in self.fault_codes)
+        return not runs or (self.goal_blocks and goal_active)
+
+
+@dataclass(frozen=True)
 class ServiceLink:
     """A method that is one call of a device service, answered when the device answers.
 
@@ -158,6 +182,7 @@ class ServiceLink:
     check: Check
     service_type: Any  # the ROS service class
     service_name: str  # under the device's node: place_part is /cell/throwing_arm/place_part
+    availability: Availability = Availability()
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,7 @@ from feeder_cell.gateway.spec import (
     ActionLink,
     Argument,
     ArgumentSpec,
+    Availability,
     KindProfile,
     MethodSpec,
     ServiceLink,
@@ -23,6 +24,7 @@ from feeder_cell.gateway.spec import (
     VariableSpec,
 )
 from feeder_msgs.action import FeedPart
+from feeder_msgs.msg import DeviceStatus
 from feeder_msgs.srv import ArmPlacePart
 from feeder_sim.throwing.counters import COUNTERS
 
@@ -150,6 +152,8 @@ PROFILE = KindProfile(
             lambda spec, args, _context: check_place_part(spec, args),
             ArmPlacePart,
             "place_part",
+            # Placing a part is how a lost part's FAULT ends, so that FAULT does not refuse it.
+            Availability(fault_codes=frozenset({DeviceStatus.FAULT_PART_LOST})),
         ),
     ),
 )
