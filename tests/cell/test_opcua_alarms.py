@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import asyncio
 import socket
+import time
+from datetime import datetime, timedelta, timezone
 from typing import Any
 
 from asyncua import Client, ua
@@ -149,3 +151,56 @@ def test_a_fault_is_raised_acknowledged_and_cleared_and_a_warning_is_a_lower_sev
             await gateway.stop()
 
     asyncio.run(main())
+
+
+def test_every_event_of_a_condition_carries_the_gateways_wall_clock_so_times_never_go_back() -> None:
+    """The cell clock runs ahead of the wall clock at a factor above 1: an hour ahead here.
+
+    Raise and clear come with the device's stamp, the acknowledge has none of its own; one clock for all
+    of them (the gateway's wall clock) keeps a condition's event Times in order. The device's stamp stays
+    the SourceTimestamp of Status/FaultCode.
+    """
+
+    async def main() -> None:
+        url = f"opc.tcp://127.0.0.1:{_port()}"
+        security = SecurityConfig(("None",), "", "", True, "")
+        gateway = GatewayServer(
+            Endpoint(url, "127.0.0.1", int(url.rsplit(":", 1)[1])), security, None, (ARM,), _NoCalls()
+        )
+        await gateway.start()
+        client = Client(url, timeout=10)
+        await client.connect()
+        try:
+            idx = await client.get_namespace_index(layout.NAMESPACE_URI)
+            events = Events()
+            subscription = await client.create_subscription(0, events)
+            await subscription.subscribe_events(
+                client.get_node(ua.NodeId(KEY, idx)), ua.ObjectIds.AlarmConditionType
+            )
+            ahead_ns = time.time_ns() + 3600 * 10**9
+            before = datetime.now(timezone.utc)
+            gateway.post_all(KEY, _status(101, "motor_fault injected", 0, ""), ahead_ns)
+            raised = await events.next()
+            assert (await _acknowledge(client, raised, "seen")).StatusCode.is_good()
+            acked = await events.next()
+            gateway.post_all(KEY, _status(0, "", 0, ""), ahead_ns + 10**9)
+            cleared = await events.next()
+            after = datetime.now(timezone.utc)
+            times = [_utc(e.Time) for e in (raised, acked, cleared)]
+            assert times == sorted(times), times
+            assert all(before - timedelta(seconds=1) <= t <= after + timedelta(seconds=1) for t in times), (
+                times
+            )
+            code = await client.get_node(
+                ua.NodeId(layout.variable_id(KEY, "Status.FaultCode"), idx)
+            ).read_data_value()
+            assert abs(_utc(code.SourceTimestamp).timestamp() * 1e9 - (ahead_ns + 10**9)) < 1e6
+        finally:
+            await client.disconnect()
+            await gateway.stop()
+
+    asyncio.run(main())
+
+
+def _utc(stamp: datetime) -> datetime:
+    return stamp if stamp.tzinfo else stamp.replace(tzinfo=timezone.utc)

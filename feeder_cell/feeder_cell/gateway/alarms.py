@@ -98,6 +98,7 @@ class _Condition:
     text: str = ""
     active: bool = False
     acked: bool = True
+    last_time: datetime = datetime.min.replace(tzinfo=timezone.utc)  # Time of its last event
     event_ids: set[bytes] = field(default_factory=set)
     children: dict[str, Node] = field(default_factory=dict)
     variables: dict[str, ua.NodeId] = field(default_factory=dict)
@@ -175,7 +176,7 @@ class Alarms:
             self._fill(condition, _now(), f"{name}: none")
             await self._write_variables(condition)
 
-    async def update(self, key: str, name: str, code: int, text: str, stamp: datetime) -> None:
+    async def update(self, key: str, name: str, code: int, text: str) -> None:
         """Raise, re-raise or clear a condition from the device's code (0: none) and text."""
         condition = self._by_key.get((key, name))
         if condition is None:
@@ -192,7 +193,7 @@ class Alarms:
             condition.active = False
             message = f"{name} {condition.code} cleared" + (f": {condition.text}" if condition.text else "")
             condition.code, condition.text = 0, ""
-        await self._emit(condition, stamp, message)
+        await self._emit(condition, message)
 
     def _fill(self, c: _Condition, stamp: datetime, message: str) -> None:
         e = c.event
@@ -218,7 +219,13 @@ class Alarms:
             setattr(e, name, value)
         e.InputNode = ua.NodeId()
 
-    async def _emit(self, c: _Condition, stamp: datetime, message: str) -> None:
+    async def _emit(self, c: _Condition, message: str) -> None:
+        # One clock for every event of a condition, the gateway's wall clock: the device's stamp (its
+        # cell clock, ahead of the wall at a factor above 1) has no counterpart for an acknowledge, and
+        # mixing the two put an acknowledge before its raise. The device's stamp is the SourceTimestamp of
+        # Status/FaultCode (WarningCode). Never behind the condition's last event, should the wall step.
+        stamp = max(_now(), c.last_time)
+        c.last_time = stamp
         self._fill(c, stamp, message)
         event_id = uuid.uuid4().hex.encode()
         c.event.EventId = _bytes(event_id)
@@ -266,7 +273,7 @@ class Alarms:
             if isinstance(comment, ua.LocalizedText) and comment.Text:
                 condition.event.Comment = comment
             state = "active" if condition.active else "inactive"
-            await self._emit(condition, _now(), f"{condition.name} acknowledged ({state})")
+            await self._emit(condition, f"{condition.name} acknowledged ({state})")
         return result
 
     def _check_acknowledge(self, parent: ua.NodeId, args: tuple[Any, ...]) -> int:

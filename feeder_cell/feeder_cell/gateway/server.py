@@ -436,28 +436,27 @@ class GatewayServer:
         finally:
             self._alarm_lock.release()
 
-    def _alarm_changes(self, pending: Mapping[str, _Pending]) -> list[tuple[str, str, int, str, int]]:
-        """Return (key, condition, code, text, stamp) of each device whose fault or warning changed."""
+    def _alarm_changes(self, pending: Mapping[str, _Pending]) -> list[tuple[str, str, int, str]]:
+        """Return (key, condition, code, text) of each device whose fault or warning changed."""
         changes = []
         for device in self.devices:
             for name in ("Fault", "Warning"):
                 code_vid = layout.variable_id(device.key, f"Status.{name}Code")
                 text_vid = layout.variable_id(device.key, f"Status.{name}Text")
-                item = pending.get(code_vid) or pending.get(text_vid)
-                if item is None:
+                if code_vid not in pending and text_vid not in pending:
                     continue
                 code = cast(int, self._written.get(code_vid, 0))
                 text = str(self._written.get(text_vid, ""))
-                changes.append((device.key, name, int(code), text, item.stamp_ns))
+                changes.append((device.key, name, int(code), text))
         return changes
 
-    async def _update_alarms(self, changes: list[tuple[str, str, int, str, int]]) -> None:
+    async def _update_alarms(self, changes: list[tuple[str, str, int, str]]) -> None:
         """Raise or clear the devices' Fault and Warning conditions (alarms.py)."""
         if self.alarms is None:
             return
-        for key, name, code, text, stamp_ns in changes:
+        for key, name, code, text in changes:
             try:
-                await self.alarms.update(key, name, code, text, _stamp(stamp_ns))
+                await self.alarms.update(key, name, code, text)
             except Exception:  # noqa: BLE001 - an alarm's failure must not stop the values
                 self.log.exception("%s: the %s alarm failed", key, name)
 
