@@ -61,6 +61,7 @@ __all__ = ["SETTLED_SCALE", "Rate", "BodyState", "IdealStepper"]
 
 # Velocities in units of the settled speeds: one norm for (vx, vy, omega), and below 1 a part is at rest.
 SETTLED_SCALE = np.array([SETTLED_SPEED, SETTLED_SPEED, SETTLED_ANGULAR_SPEED])
+_SETTLED = (SETTLED_SPEED, SETTLED_SPEED, SETTLED_ANGULAR_SPEED)
 
 # The quasi-static velocity and wrench of one body at a pose: (k, wrench).
 Rate = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
@@ -146,7 +147,7 @@ class IdealStepper:
                 return None
             state.rest_pose = state.inverse_jacobian = None  # placed elsewhere: moves again
             state.unstable = False
-        weights = np.array([scale, scale, 1.0])
+        weights = (scale, scale, 1.0)
         if state.rate is not None and state.rate_pose is not None and np.array_equal(pose, state.rate_pose):
             k1, wrench = state.rate, state.wrench
             assert wrench is not None
@@ -160,10 +161,10 @@ class IdealStepper:
             h = remaining if h >= remaining * (1.0 - 1e-9) else h
             k2, _ = self._rate(rate, pose + h * k1)
             change = k2 - k1
-            error = 0.5 * h * float(np.linalg.norm(change / weights))
-            speed = float(np.linalg.norm(k1 / SETTLED_SCALE))
+            error = 0.5 * h * _norm(change, weights)
+            speed = _norm(k1, _SETTLED)
             # At rest the rate is at its rounding floor, and its ratio means nothing.
-            ratio = float(np.linalg.norm(change / SETTLED_SCALE)) / speed if speed > 1.0 else 0.0
+            ratio = _norm(change, _SETTLED) / speed if speed > 1.0 else 0.0
             floor = h <= MIN_STEP_FRACTION * dt
             # lambda h scales with the step: what a full dt would have met, whatever h the error chose.
             full = ratio * dt / h
@@ -195,12 +196,12 @@ class IdealStepper:
         return pose, k1, wrench
 
     def _at_rest(
-        self, state: BodyState, pose: np.ndarray, k1: np.ndarray, rate: Rate, weights: np.ndarray
+        self, state: BodyState, pose: np.ndarray, k1: np.ndarray, rate: Rate, weights: tuple[float, ...]
     ) -> bool:
         """Whether the body at ``pose`` with velocity ``k1`` is within REST_TRAVEL of a stable equilibrium."""
         if not np.any(k1):
             return True  # no force at all: every further step is this pose, bit for bit
-        if float(np.linalg.norm(k1 / SETTLED_SCALE)) > 1.0:
+        if _norm(k1, _SETTLED) > 1.0:
             state.inverse_jacobian, state.unstable = None, False  # moving: judge J afresh when it settles
             return False
         if state.inverse_jacobian is None and not state.unstable:
@@ -211,7 +212,8 @@ class IdealStepper:
                 k, _ = self._rate(rate, pose + offset)
                 jacobian[:, axis] = (k - k1) / offset[axis]
             # In the pose scale, where the modes of a part of any size compare.
-            scaled = jacobian * weights[None, :] / weights[:, None]
+            w = np.array(weights)
+            scaled = jacobian * w[None, :] / w[:, None]
             eigenvalues = np.linalg.eigvals(scaled).real
             fastest = float(np.max(np.abs(eigenvalues)))
             if fastest == 0.0 or float(np.max(eigenvalues)) >= -REST_NEUTRAL * fastest:
@@ -220,8 +222,16 @@ class IdealStepper:
             state.inverse_jacobian = np.linalg.inv(jacobian)
         if state.unstable or state.inverse_jacobian is None:
             return False
-        travel = float(np.linalg.norm((state.inverse_jacobian @ k1) / weights))
-        return travel <= REST_TRAVEL
+        return _norm(state.inverse_jacobian @ k1, weights) <= REST_TRAVEL
+
+
+def _norm(vector: np.ndarray, scale: tuple[float, ...]) -> float:
+    """Return |vector / scale| for a velocity or pose change (3,).
+
+    In floats: numpy's per-call cost on three numbers is most of a Heun step's bookkeeping.
+    """
+    a, b, c = vector.tolist()
+    return math.hypot(a / scale[0], b / scale[1], c / scale[2])
 
 
 def _same(a: tuple[object, ...], b: tuple[object, ...]) -> bool:
