@@ -13,6 +13,7 @@ import dataclasses
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, ClassVar, Literal, get_args
 
 import numpy as np
@@ -136,18 +137,21 @@ class RadialField(Field):
         return np.array([force[0], force[1], _cross(c - about, force)])
 
     def wrench_at(self, frame: PartFrame, pose: np.ndarray) -> np.ndarray:
-        """Return the wrench of ``wrench`` in the part frame: the centre carried into it, c' = R^T (c - p).
+        """Return ``wrench`` on the part at ``pose``, evaluated in the part frame (``placed_wrench``)."""
+        return np.array(self.placed_wrench(frame, Placement.of(pose)))
+
+    def placed_wrench(self, frame: PartFrame, placement: Placement) -> tuple[float, float, float]:
+        """Return the wrench in the part frame: the centre carried into it, c' = R^T (c - p).
 
         There the force is -strength grad V at -c' (eqs. 5-6) on the part's own edges; in the plane it is
         R times that, and the torque about the centroid, (c - p) x F, is c' x F' (a rotation keeps cross
         products).
         """
-        placement = Placement.of(pose)
         cx, cy = placement.to_part(self.center)
         gx, gy = lifted.point_gradient(frame.edges, (-cx, -cy))
         fx, fy = -self.strength * gx, -self.strength * gy
         px, py = placement.rotate((fx, fy))
-        return np.array([px, py, cx * fy - cy * fx])
+        return px, py, cx * fy - cy * fx
 
     def lifted(self, loops: tuple[np.ndarray, ...]) -> float:
         """Return strength V at the translation that puts the centre at the origin (eq. 4)."""
@@ -174,12 +178,16 @@ class ConstantField(Field):
         return np.array([f[0], f[1], _cross(centroid - about, f)])
 
     def wrench_at(self, frame: PartFrame, pose: np.ndarray) -> np.ndarray:
-        """Return force times area at the centroid, from the part's own moments (no placement needed)."""
+        """Return ``wrench`` on the part at ``pose`` from the part's own moments (``placed_wrench``)."""
+        return np.array(self.placed_wrench(frame, Placement.of(pose)))
+
+    def placed_wrench(self, frame: PartFrame, placement: Placement) -> tuple[float, float, float]:
+        """Return force times area at the centroid, from the part's own moments (no placed loops)."""
         area, sx, sy = frame.area_moments
         fx, fy = self.force[0] * area, self.force[1] * area
         # The centroid's offset from the frame's origin is rounding only, but it is the placed-loops form.
-        ax, ay = Placement.of(pose).rotate((sx / area, sy / area))
-        return np.array([fx, fy, ax * fy - ay * fx])
+        ax, ay = placement.rotate((sx / area, sy / area))
+        return fx, fy, ax * fy - ay * fx
 
     def lifted(self, loops: tuple[np.ndarray, ...]) -> float:
         """Return -force . (first moment of area)."""
@@ -211,10 +219,17 @@ class CombinedField(Field):
         a, b = self._parts()
         return a.wrench(loops, about) + b.wrench(loops, about)
 
+    @cached_property
+    def _components(self) -> tuple[RadialField, ConstantField]:
+        """Return ``_parts()`` once: the field is immutable, and the simulator asks at every evaluation."""
+        return self._parts()
+
     def wrench_at(self, frame: PartFrame, pose: np.ndarray) -> np.ndarray:
-        """Return the sum of the radial and the constant wrenches, both in the part frame."""
-        a, b = self._parts()
-        return a.wrench_at(frame, pose) + b.wrench_at(frame, pose)
+        """Return the sum of the radial and the constant wrenches, both in the part frame, one placement."""
+        a, b = self._components
+        placement = Placement.of(pose)
+        ra, rb = a.placed_wrench(frame, placement), b.placed_wrench(frame, placement)
+        return np.array([ra[0] + rb[0], ra[1] + rb[1], ra[2] + rb[2]])
 
     def lifted(self, loops: tuple[np.ndarray, ...]) -> float:
         """Return the lifted potential of eq. (12) in the plane frame (placed loops)."""

@@ -254,8 +254,14 @@ class Scene:
 
     def _rate(self, body: Body, pose: np.ndarray, field_now: Field) -> tuple[np.ndarray, np.ndarray]:
         """Return the quasi-static velocity (F / damping A, M / damping J) at ``pose`` and the wrench."""
+        return self._rate_with(body, pose, field_now, drag_coefficients(body.part, self.damping))
+
+    def _rate_with(
+        self, body: Body, pose: np.ndarray, field_now: Field, drag: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Return ``_rate`` with the body's drag coefficients given (the same through a step of dt)."""
         w = wrench_on(body, self.forces, field_now, pose)
-        return w / drag_coefficients(body.part, self.damping), w
+        return w / drag, w
 
     def step(self, dt: float) -> None:
         """Advance by dt seconds in the field active at the start of the step.
@@ -276,7 +282,12 @@ class Scene:
                     index,
                     body.pose,
                     dt,
-                    partial(self._rate, body, field_now=field_now),
+                    partial(
+                        self._rate_with,
+                        body,
+                        field_now=field_now,
+                        drag=drag_coefficients(body.part, self.damping),
+                    ),
                     body.part.radius,
                 )
                 if moved is not None:
