@@ -7,10 +7,11 @@ import sys
 from typing import Callable
 
 import rclpy
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
+from feeder_cell.host.hub import ClockHub
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit import lockstep
 from feeder_planner.node_kit.introspection import configure_service_introspection
@@ -70,6 +71,20 @@ def _build(nodes: list[tuple[str, str]]) -> list[Node]:
     return built
 
 
+def answer_hosted(hub: ClockHub, executor: Executor) -> None:
+    """Answer every hosted participant with an announcement pending, after one drain for them all.
+
+    The hosted participants are tick participants (devices): their drain is the executor's tasks (the
+    goals their ticks resumed), once for all, in place of a drain of every entity per participant.
+    """
+    pending = [p for p in hub.participants() if p.pending]
+    if not pending:
+        return
+    lockstep.run_tasks(executor)
+    for participant in pending:
+        participant.answer_pending(executor, drained=participant.role == "tick")
+
+
 def main(argv: list[str] | None = None) -> None:
     """Run the hosted nodes until SIGINT or SIGTERM; exit 0, or 2 on a bad configuration."""
     try:
@@ -90,8 +105,7 @@ def main(argv: list[str] | None = None) -> None:
         while rclpy.ok() and not stop.requested:
             executor.spin_once(timeout_sec=STOP_POLL_S)
             if hub is not None:
-                for participant in hub.participants():
-                    participant.answer_pending(executor)
+                answer_hosted(hub, executor)
     except ExternalShutdownException:
         pass
     finally:

@@ -10,6 +10,7 @@ fails with a message naming the service; the node keeps serving.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -40,6 +41,7 @@ from feeder_msgs.srv import (
     StepClock,
 )
 from feeder_planner.node_kit import LATCHED
+from feeder_planner.node_kit.polled import PolledSubscription
 from feeder_planner.node_kit.tf import TF_STATIC_QOS
 
 __all__ = ["Device", "CellLink", "KINDS"]
@@ -86,6 +88,8 @@ class CellLink:
             IsPaused, f"{self.clock_node}/is_paused", callback_group=self.group
         )
         self.devices: dict[str, Device] = {}
+        # A device's state stream, taken when a request needs it (never a wake-up per sample).
+        self._streams: dict[str, PolledSubscription] = {}
         self.clients: dict[tuple[str, str], Any] = {}
         self.cell_frames: dict[str, EntityState] = {}  # child frame -> its pose in its parent
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -110,10 +114,11 @@ class CellLink:
             self.node.create_subscription(
                 MemsParts, f"{fqn}/parts", lambda m, d=device: self._on_mems_parts(d, m), LATCHED
             )
-            self.node.create_subscription(
+            self._streams[fqn] = PolledSubscription(
+                self.node,
                 MemsPartStates,
                 f"{fqn}/part_states",
-                lambda m, d=device: self._on_part_states(d, m),
+                functools.partial(self._on_part_states, device),
                 STREAM_QOS,
             )
         elif kind == "throwing_arm":
@@ -126,8 +131,12 @@ class CellLink:
             self.node.create_subscription(
                 Part, f"{fqn}/part", lambda m, d=device: self._on_arm_part(d, m), LATCHED
             )
-            self.node.create_subscription(
-                PoseStamped, f"{fqn}/part_pose", lambda m, d=device: self._on_part_pose(d, m), STREAM_QOS
+            self._streams[fqn] = PolledSubscription(
+                self.node,
+                PoseStamped,
+                f"{fqn}/part_pose",
+                functools.partial(self._on_part_pose, device),
+                STREAM_QOS,
             )
         else:  # the fixture: its bodies are those of the assembly its assembly_file parameter names
             services |= {"get_parameters": GetParameters}
@@ -188,8 +197,15 @@ class CellLink:
         if placed is not None and stamp > placed.stamp_ns:
             del device.placed[name]
 
+    def refresh(self, device: Device) -> None:
+        """Take the device's state samples queued since the last look (its states and frame follow them)."""
+        stream = self._streams.get(device.fqn)
+        if stream is not None:
+            stream.take()
+
     def state_of(self, device: Device, name: str) -> EntityState | None:
         """Return a part's latest state: what was placed since the last sample, else the last sample."""
+        self.refresh(device)
         return device.placed.get(name) or device.states.get(name)
 
     # --- calls --------------------------------------------------------------------------------------
@@ -305,6 +321,7 @@ class CellLink:
         await self.transition(fqn, "cleanup")
         await self.transition(fqn, "configure")
         device = self.devices[fqn]
+        self.refresh(device)  # the samples of the former configuration are taken, not left to come back
         device.states.clear()
         device.placed.clear()
         if activate or (activate is None and was_active):

@@ -299,8 +299,8 @@ class CellWorld:
         return found, unrecognized
 
     # --- helpers -------------------------------------------------------------------------------------
-    @staticmethod
-    def _check_frame(device: Device, frame_id: str, field: str, code: int) -> None:
+    def _check_frame(self, device: Device, frame_id: str, field: str, code: int) -> None:
+        self.link.refresh(device)
         frame = device.frame_id or device.base_frame
         if frame_id not in ("", frame):
             raise SimulationError(
@@ -317,6 +317,7 @@ class CellWorld:
 
     def _placed(self, device: Device, name: str, pose: Pose) -> None:
         """Remember a pose set or spawned: the entity's state until the device's next sample."""
+        self.link.refresh(device)
         frame = device.frame_id or device.base_frame
         device.placed[name] = EntityState(frame, self.now_ns(), *pose)
 

@@ -78,6 +78,7 @@ __all__ = [
     "NANOSECONDS",
     "Participant",
     "drain",
+    "run_tasks",
 ]
 
 ROLES = ("tick", "react", "observe")
@@ -146,6 +147,28 @@ def drain(executor: Executor, tasks_only: bool = False) -> None:
                 raise error
             if entity is not None or handler.done():
                 progressed = True
+        if not progressed:
+            return
+
+
+def run_tasks(executor: Executor) -> None:
+    """Run the executor's tasks until a pass completes none: what a tick caused, with no wait set built.
+
+    The cell host's drain after its devices' ticks. What a hosted tick publishes is sent at once; only a
+    goal's coroutine, resumed by the tick, and the tasks it completes in turn (an action's result, a done
+    callback) send later, and none of them waits for an entity. Building the wait set of every hosted node
+    for that (``drain``) cost the host most of its time (3.5 ms a pass, profiled).
+    """
+    for _ in range(MAX_DRAIN_PASSES):
+        with executor._tasks_lock:
+            tasks = [task for task, _, _ in executor._tasks if not task.done() and not task.executing()]
+        progressed = False
+        for task in tasks:
+            task()
+            error = task.exception()
+            if error is not None:
+                raise error
+            progressed = progressed or task.done()
         if not progressed:
             return
 
@@ -230,11 +253,15 @@ class Participant:
             self.on_announce(now_ns)
         self.pending = True
 
-    def answer_pending(self, executor: Executor) -> None:
-        """Drain, then answer the pending announcement (or, holding, tell the holding thread it may look)."""
+    def answer_pending(self, executor: Executor, drained: bool = False) -> None:
+        """Drain, then answer the pending announcement (or, holding, tell the holding thread it may look).
+
+        ``drained``: the caller has drained already (the cell host drains once for all its participants).
+        """
         if not self.pending:
             return
-        drain(executor, tasks_only=self.role == "tick")
+        if not drained:
+            drain(executor, tasks_only=self.role == "tick")
         self.pending = False
         if self.hold:
             with self._announced:
