@@ -55,11 +55,12 @@ class PartFrame:
     part: Part
     edges: lifted.Edges
     area_moments: np.ndarray
+    radius: float  # Part.radius, which computes it at every call
 
     @classmethod
     def of(cls, part: Part) -> PartFrame:
         """Return the frame of ``part``: its edges (eqs. 5-9 need them) and moments, once."""
-        return cls(part, lifted.part_edges(part), area_moments(part.loops()))
+        return cls(part, lifted.part_edges(part), area_moments(part.loops()), part.radius)
 
     def placed(self, pose: np.ndarray) -> tuple[np.ndarray, ...]:
         """Return the loops placed at ``pose`` in the plane frame (for fields without a part-frame form).

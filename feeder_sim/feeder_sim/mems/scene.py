@@ -288,7 +288,7 @@ class Scene:
                         field_now=field_now,
                         drag=drag_coefficients(body.part, self.damping),
                     ),
-                    body.part.radius,
+                    body.frame.radius,
                 )
                 if moved is not None:
                     body.pose, body.velocity, body.wrench = moved
