@@ -698,15 +698,28 @@ def test_engineering_units_uint32_counters_and_build_info(gateway: str) -> None:
         for key, kind in zip(
             KEYS.values(), ("throwing_arm", "mems_field_array", "assembly_fixture"), strict=True
         ):
+            analog = 0
             for spec in layout.variables(kind):
+                # What Browse says of the variable (its parent's HasComponent reference carries the
+                # TypeDefinition a client takes) must be the node's own HasTypeDefinition.
+                node = s.node(key, spec.path)
+                browsed = [
+                    r
+                    for r in await (await node.get_parent()).get_references(ua.ObjectIds.HasComponent)
+                    if r.NodeId == node.nodeid
+                ]
+                assert len(browsed) == 1, spec.path
+                own = await node.read_type_definition()
+                assert browsed[0].TypeDefinition == own, (spec.path, browsed[0].TypeDefinition, own)
                 if not spec.unit:
                     continue
-                node = s.node(key, spec.path)
-                assert (await node.read_type_definition()).Identifier == ua.ObjectIds.BaseAnalogType
+                analog += 1
+                assert own.Identifier == ua.ObjectIds.BaseAnalogType
                 info = await (await node.get_child("0:EngineeringUnits")).read_value()
                 assert info.NamespaceUri == units.UNECE_NAMESPACE
                 assert info.UnitId == units.unit_id(spec.unit), spec.path
                 assert info.DisplayName.Text == units.UNITS[spec.unit].symbol
+            assert analog > 0, kind
         arm = KEYS["arm"]
         await s.wait_for(arm, "Status.Counters32.throws", lambda v: v is not None)
         wide, narrow, values, values32 = await s.client.read_values(

@@ -223,7 +223,10 @@ class GatewayServer:
             vtype = ua.VariantType[spec.type]
             vid = layout.variable_id(key, spec.path)
             initial = [] if spec.array else _INITIAL.get(spec.path, _default(vtype))
-            node = await parent.add_variable(self._id(vid), self._name(name), ua.Variant(initial, vtype))
+            analog = ua.ObjectIds.BaseAnalogType if spec.unit else ua.ObjectIds.BaseDataVariableType
+            node = await _add_variable(
+                parent, self._id(vid), self._name(name), ua.Variant(initial, vtype), analog
+            )
             if spec.array:
                 await node.write_attribute(
                     ua.AttributeIds.ValueRank,
@@ -305,7 +308,7 @@ class GatewayServer:
         )
 
     async def _engineering_units(self, node: Node, vid: str, code: str) -> None:
-        """Make the variable a BaseAnalogType with its EngineeringUnits property (OPC 10000-8, 5.3.2)."""
+        """Give a BaseAnalogType variable its EngineeringUnits property (OPC 10000-8, 5.3.2)."""
         unit = units.UNITS[code]
         info = ua.EUInformation(
             NamespaceUri=cast(ua.String, units.UNECE_NAMESPACE),
@@ -319,9 +322,6 @@ class GatewayServer:
             ua.Variant(info, ua.VariantType.ExtensionObject),
             datatype=_node_id(ua.ObjectIds.EUInformation),
         )
-        has_type = _node_id(ua.ObjectIds.HasTypeDefinition)
-        await node.delete_reference(_node_id(ua.ObjectIds.BaseDataVariableType), has_type)
-        await node.add_reference(_node_id(ua.ObjectIds.BaseAnalogType), has_type, bidirectional=False)
 
     @staticmethod
     def _refuse_writes(server: Server) -> None:
@@ -563,6 +563,36 @@ def _default(vtype: ua.VariantType) -> Value:
     if vtype in (ua.VariantType.Double, ua.VariantType.Float):
         return 0.0
     return 0
+
+
+async def _add_variable(
+    parent: Node, nodeid: ua.NodeId, name: ua.QualifiedName, value: ua.Variant, type_definition: int
+) -> Node:
+    """Add a read-only variable of the given VariableType, a HasComponent of ``parent``.
+
+    asyncua's ``add_variable`` makes a BaseDataVariableType; swapping the node's HasTypeDefinition
+    afterwards leaves the parent's reference (what Browse returns as TypeDefinition) stale, so the type is
+    the AddNodes request's own.
+    """
+    item = ua.AddNodesItem()
+    item.RequestedNewNodeId, item.BrowseName = nodeid, name
+    item.NodeClass = ua.NodeClass.Variable
+    item.ParentNodeId = parent.nodeid
+    item.ReferenceTypeId = _node_id(ua.ObjectIds.HasComponent)
+    item.TypeDefinition = _node_id(type_definition)
+    attrs = ua.VariableAttributes()
+    attrs.DisplayName = attrs.Description = ua.LocalizedText(name.Name)
+    attrs.DataType = _node_id(value.VariantType.value)
+    attrs.Value = value
+    array = isinstance(value.Value, list)
+    attrs.ValueRank = ua.ValueRank.OneDimension if array else ua.ValueRank.Scalar
+    attrs.WriteMask = attrs.UserWriteMask = cast(ua.UInt32, 0)
+    attrs.AccessLevel = attrs.UserAccessLevel = cast(ua.Byte, ua.AccessLevel.CurrentRead.mask)
+    attrs.Historizing = False
+    item.NodeAttributes = attrs
+    result = (await parent.session.add_nodes([item]))[0]
+    result.StatusCode.check()
+    return Node(parent.session, result.AddedNodeId)
 
 
 def _argument(spec: ArgumentSpec) -> ua.Argument:
