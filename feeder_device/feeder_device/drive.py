@@ -2,12 +2,14 @@
 
 A device ticks on a timer of its own when it runs free. Under the cell clock's lockstep the tick belongs to
 whoever announces cell time: ``advance_lockstep(T)`` (``ticks.TickLoop``) runs every instant of the device's
-rate grid up to T and publishes its status. Two can call it:
+rate grid up to T and publishes its status. It is called by
 
 - the DDS ``Participant`` (``feeder_planner.node_kit.lockstep``) the device makes for itself
   (``make_lockstep_participant``), on every ``/lockstep/tick`` announcement, its node clock already at T;
-- a cell host that runs several devices in one process and advances them by direct calls (the device
-  then makes no participant: ``feeder_device.device.hosted``), after setting each device's clock to T.
+  the same participant built in the cell host (``feeder_cell.host``) is announced by the host's hub
+  instead, by a direct call;
+- or a host that runs devices in one process and calls ``advance_lockstep`` itself (the device then makes
+  no participant: ``feeder_device.device.hosted``), after setting each device's clock to T.
 
 Either way the device keeps what it must know of the announcements here, in its ``LockstepDriver``: the last
 time announced (before the first, the device has no cell time to stamp a status with, so it says nothing)

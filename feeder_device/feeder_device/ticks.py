@@ -9,9 +9,9 @@ What calls it depends on the mode:
   destroyed at deactivate;
 - **lockstep** (parameter ``lockstep``): no timer. Whoever announces cell time T calls
   ``advance_lockstep(T)``, which ticks every instant of the rate's grid up to T, in order, each stamped with
-  its own ``now_ns``, then publishes the status. That is the device's DDS ``Participant`` (made by
-  ``make_lockstep_participant``) or a cell host that drives devices in one process by direct calls
-  (``feeder_device.drive``).
+  its own ``now_ns``, then publishes the status. That is the device's ``Participant`` (made by
+  ``make_lockstep_participant``; over DDS, or through the cell host's hub) or a host that calls it
+  directly (``feeder_device.drive``).
 
 So ``tick`` must stamp with ``now_ns``, never with the clock. ``elapsed_ns(now_ns)`` is the one definition
 of the node-clock time since the model last advanced.
