@@ -178,16 +178,13 @@ class ConstantField(Field):
         return np.array([f[0], f[1], _cross(centroid - about, f)])
 
     def wrench_at(self, frame: PartFrame, pose: np.ndarray) -> np.ndarray:
-        """Return ``wrench`` on the part at ``pose`` from the part's own moments (``placed_wrench``)."""
+        """Return ``wrench`` on the part at ``pose`` from the part's own area (``placed_wrench``)."""
         return np.array(self.placed_wrench(frame, Placement.of(pose)))
 
     def placed_wrench(self, frame: PartFrame, placement: Placement) -> tuple[float, float, float]:
-        """Return force times area at the centroid, from the part's own moments (no placed loops)."""
-        area, sx, sy = frame.area_moments
-        fx, fy = self.force[0] * area, self.force[1] * area
-        # The centroid's offset from the frame's origin is rounding only, but it is the placed-loops form.
-        ax, ay = placement.rotate((sx / area, sy / area))
-        return fx, fy, ax * fy - ay * fx
+        """Return force times area at the centroid: no torque about it, whatever the placement."""
+        area = float(frame.area_moments[0])
+        return self.force[0] * area, self.force[1] * area, 0.0
 
     def lifted(self, loops: tuple[np.ndarray, ...]) -> float:
         """Return -force . (first moment of area)."""

@@ -49,7 +49,7 @@ class PartFrame:
     """A part with its edges and area moments in its own frame (centroid at the origin).
 
     ``area_moments`` is (A, Sx, Sy) about the part's centroid: the first moments vanish up to rounding,
-    kept so that the constant field's torque is the same integral as on the placed loops.
+    so a constant field's force acts at the frame's origin (no torque about the centroid).
     """
 
     part: Part

@@ -168,8 +168,8 @@ def point_gradient(edges: Edges, z: tuple[float, float]) -> tuple[float, float]:
     ends, h2 = ends_h[:count], ends_h[count:]
     antiderivative = ends * np.hypot(ends, h2) + h2 * h2 * _asinh_of_ends(ends, h2)
     half = count // 2
-    gx, gy = (antiderivative[half:] - antiderivative[:half]) @ edges.normal
-    return 0.5 * float(gx), 0.5 * float(gy)
+    gx, gy = ((antiderivative[half:] - antiderivative[:half]) @ edges.normal).tolist()
+    return 0.5 * gx, 0.5 * gy
 
 
 def value_gradient_hessian(edges: Edges, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
