@@ -204,3 +204,48 @@ def test_every_event_of_a_condition_carries_the_gateways_wall_clock_so_times_nev
 
 def _utc(stamp: datetime) -> datetime:
     return stamp if stamp.tzinfo else stamp.replace(tzinfo=timezone.utc)
+
+
+def test_the_cell_object_is_an_event_notifier_carrying_its_devices_alarms() -> None:
+    """An HMI subscribes to the area object, Cell, and gets every device's alarm events (OPC 10000-3).
+
+    Before, Cell was no notifier and CreateMonitoredItems answered BadServiceUnsupported, a code that
+    OPC 10000-4 does not list for it.
+    """
+
+    async def main() -> None:
+        url = f"opc.tcp://127.0.0.1:{_port()}"
+        security = SecurityConfig(("None",), "", "", True, "")
+        endpoint = Endpoint(url, "127.0.0.1", int(url.rsplit(":", 1)[1]))
+        fixture = DeviceEntry("assembly_fixture", "/t/assembly_fixture")
+        gateway = GatewayServer(endpoint, security, None, (ARM, fixture), _NoCalls())
+        await gateway.start()
+        client = Client(url, timeout=10)
+        await client.connect()
+        try:
+            idx = await client.get_namespace_index(layout.NAMESPACE_URI)
+            cell = client.get_node(ua.NodeId(layout.CELL, idx))
+            notifier = await cell.read_attribute(ua.AttributeIds.EventNotifier)
+            assert notifier.Value.Value & (1 << ua.EventNotifier.SubscribeToEvents)
+            # The notifier hierarchy: Server -> Cell -> each device (HasNotifier).
+            below_server = await client.nodes.server.get_referenced_nodes(
+                ua.ObjectIds.HasNotifier, ua.BrowseDirection.Forward
+            )
+            assert cell.nodeid in [n.nodeid for n in below_server]
+            below_cell = {
+                n.nodeid
+                for n in await cell.get_referenced_nodes(ua.ObjectIds.HasNotifier, ua.BrowseDirection.Forward)
+            }
+            assert below_cell == {ua.NodeId(ARM.key, idx), ua.NodeId(fixture.key, idx)}
+            on_cell = Events()
+            subscription = await client.create_subscription(0, on_cell)
+            await subscription.subscribe_events(cell, ua.ObjectIds.AlarmConditionType)
+            gateway.post_all(KEY, _status(101, "motor_fault injected", 0, ""))
+            gateway.post_all(fixture.key, _status(0, "", 302, "rate limited"))
+            seen = {(e.SourceName, e.ConditionName) for e in [await on_cell.next(), await on_cell.next()]}
+            assert seen == {(KEY, "Fault"), (fixture.key, "Warning")}, seen
+        finally:
+            await client.disconnect()
+            await gateway.stop()
+
+    asyncio.run(main())

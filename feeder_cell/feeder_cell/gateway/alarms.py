@@ -8,8 +8,9 @@ and components of the device object, their ConditionIds ``<key>.Fault`` and ``<k
 - **Warning** (Severity ``WARNING_SEVERITY``): active while ``Status/WarningCode`` is not 0 (a code the
   device reports while it stays operational).
 
-Each change is one event of the condition, emitted by the device object and by the Server object (both
-have EventNotifier SubscribeToEvents), with one EventId: raised (ActiveState true, AckedState false,
+Each change is one event of the condition, emitted by the device object, by the Cell object (the area)
+and by the Server object (all three have EventNotifier SubscribeToEvents; HasNotifier Server -> Cell ->
+device), with one EventId: raised (ActiveState true, AckedState false,
 Retain true; a new code while active is raised again, unacknowledged), cleared (ActiveState false;
 Retain stays true until it is acknowledged) and acknowledged (AckedState true; Retain false once
 inactive). Acknowledge is the AcknowledgeableConditionType's method, called on the ConditionId with the
@@ -111,8 +112,9 @@ class _Condition:
 class Alarms:
     """The gateway's conditions: built with the address space, updated on the server's loop."""
 
-    def __init__(self, server: Server, idx: int, log: logging.Logger) -> None:
+    def __init__(self, server: Server, idx: int, log: logging.Logger, area: Node) -> None:
         self.server, self.idx, self.log = server, idx, log
+        self.area = area  # the Cell object: an HMI subscribes to the area for all of its devices' alarms
         self._conditions: dict[ua.NodeId, _Condition] = {}
         self._by_key: dict[tuple[str, str], _Condition] = {}
 
@@ -120,8 +122,12 @@ class Alarms:
         return ua.NodeId(cast(ua.String, identifier), cast(ua.Int16, self.idx))
 
     async def setup(self) -> None:
-        """Make the Server object a notifier and link the Acknowledge (and Enable, Disable) methods."""
+        """Make Server and the area notifiers and link the Acknowledge (and Enable, Disable) methods."""
         await self.server.nodes.server.set_event_notifier([ua.EventNotifier.SubscribeToEvents])
+        await self.area.set_event_notifier([ua.EventNotifier.SubscribeToEvents])
+        await self.server.nodes.server.add_reference(
+            self.area.nodeid, _nid(ua.ObjectIds.HasNotifier), forward=True, bidirectional=True
+        )
         # asyncua's ConditionRefresh (and its RefreshStart/RefreshEnd events, Severity 1) is off by default.
         iserver = self.server.iserver
         iserver.bind_condition_methods = 1
@@ -145,7 +151,8 @@ class Alarms:
     async def add_device(self, key: str, device: Node) -> None:
         """Add the device's Fault and Warning conditions and make the device object an event notifier."""
         await device.set_event_notifier([ua.EventNotifier.SubscribeToEvents])
-        await self.server.nodes.server.add_reference(
+        # The notifier hierarchy (OPC 10000-3, HasNotifier): Server -> Cell -> each device.
+        await self.area.add_reference(
             device.nodeid, _nid(ua.ObjectIds.HasNotifier), forward=True, bidirectional=True
         )
         for name, severity in KINDS.items():
@@ -231,9 +238,9 @@ class Alarms:
         c.event.EventId = _bytes(event_id)
         c.event_ids = {event_id}
         service = self.server.iserver.isession.subscription_service
-        # One event, notified by the device object and by the Server object (the last copy is the one
-        # asyncua keeps for ConditionRefresh).
-        for emitter in (c.source, _nid(ua.ObjectIds.Server)):
+        # One event, notified by the device object, by its area (Cell) and by the Server object (the last
+        # copy is the one asyncua keeps for ConditionRefresh).
+        for emitter in (c.source, self.area.nodeid, _nid(ua.ObjectIds.Server)):
             event = copy.copy(c.event)
             event.emitting_node = emitter
             await service.trigger_event(event)

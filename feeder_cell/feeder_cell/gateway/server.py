@@ -205,9 +205,9 @@ class GatewayServer:
 
     async def _build(self, server: Server) -> None:
         await self._packml_enumeration(server)
-        self.alarms = Alarms(server, self.idx, self.log)
-        await self.alarms.setup()
         cell = await server.nodes.objects.add_object(self._id(layout.CELL), self._name("Cell"))
+        self.alarms = Alarms(server, self.idx, self.log, cell)
+        await self.alarms.setup()
         folder = await cell.add_folder(self._id(layout.DEVICES_FOLDER), self._name("Devices"))
         for device in self.devices:
             await self._build_device(server, folder, device)
