@@ -169,8 +169,11 @@ def assert_bring_up_recorded(bag: Path) -> None:
         assert all(e.timestamp >= START_S * 1e9 for e in recorded), [e.timestamp for e in recorded]
 
 
-def _pid_of(executable: str, domain: int) -> int | None:
-    """The pid of the process running ``executable`` on ROS domain ``domain`` (from /proc)."""
+def _pid_of(executable: str, domain: int, with_argument: str = "") -> int | None:
+    """The pid of the process running ``executable`` on ROS domain ``domain`` (from /proc).
+
+    ``with_argument``: only a process with this among its arguments (a namespace remapping).
+    """
     for entry in Path("/proc").iterdir():
         if not entry.name.isdigit():
             continue
@@ -179,16 +182,42 @@ def _pid_of(executable: str, domain: int) -> int | None:
             environ = (entry / "environ").read_bytes().split(b"\0")
         except OSError:
             continue
-        if any(part.endswith(executable.encode()) for part in cmdline) and (
-            f"ROS_DOMAIN_ID={domain}".encode() in environ
+        if (
+            any(part.endswith(executable.encode()) for part in cmdline)
+            and f"ROS_DOMAIN_ID={domain}".encode() in environ
+            and (not with_argument or with_argument.encode() in cmdline)
         ):
             return int(entry.name)
     return None
 
 
+# The layouts of the killed-participant test: (id, launch flags, the device killed, its process's argument).
+# Hosted, the devices share the cell host; a second arm (a second node of one executable cannot share it)
+# runs alone and takes part over DDS, as a device on another machine would: it is the one killed.
+LAYOUTS = [
+    ("one_process_per_node", ("--one-process-per-node",), "/cell/throwing_arm", "__ns:=/cell"),
+    ("hosted", (), "/cell/spare/throwing_arm", "__ns:=/cell/spare"),
+]
+
+
+def _scene_with_spare_arm(folder: Path) -> Path:
+    """The cell scene (no cycles) and a second arm under /cell/spare, brought to active by the launch."""
+    import yaml
+
+    path = _scene(folder, cycles=0)
+    scene = yaml.safe_load(path.read_text())
+    arm = next(n for n in scene["nodes"] if n["executable"] == "throwing_arm")
+    scene["nodes"].append({**arm, "namespace": "/cell/spare", "lifecycle": "active"})
+    path.write_text(yaml.safe_dump(scene))
+    return path
+
+
 @pytest.fixture
-def cell_launch(tmp_path: Path) -> Iterator[tuple[subprocess.Popen[str], int]]:
+def cell_launch(
+    tmp_path: Path, request: pytest.FixtureRequest
+) -> Iterator[tuple[subprocess.Popen[str], int]]:
     """The cell scene at factor 2 with a 3 s lockstep timeout, on its own domain; ended by pid."""
+    _, flags, _, _ = request.param
     lease = ros_harness.DomainLease()
     process = subprocess.Popen(
         [
@@ -196,7 +225,8 @@ def cell_launch(tmp_path: Path) -> Iterator[tuple[subprocess.Popen[str], int]]:
             "-m",
             "feeder_cell.cli.main",
             "launch",
-            str(_scene(tmp_path, cycles=0)),
+            str(_scene_with_spare_arm(tmp_path)),
+            *flags,
             "--real-time-factor",
             "2",
             "--lockstep-timeout",
@@ -225,8 +255,9 @@ def cell_launch(tmp_path: Path) -> Iterator[tuple[subprocess.Popen[str], int]]:
         lease.release()
 
 
+@pytest.mark.parametrize("cell_launch", LAYOUTS, ids=[layout[0] for layout in LAYOUTS], indirect=True)
 def test_a_device_killed_mid_run_is_dropped_from_the_lockstep_and_the_cell_goes_on(
-    cell_launch: tuple[subprocess.Popen[str], int],
+    cell_launch: tuple[subprocess.Popen[str], int], request: pytest.FixtureRequest
 ) -> None:
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
@@ -237,6 +268,7 @@ def test_a_device_killed_mid_run_is_dropped_from_the_lockstep_and_the_cell_goes_
     from feeder_planner.node_kit import LATCHED
 
     process, domain = cell_launch
+    _, _, device, argument = request.node.callspec.params["cell_launch"]
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=domain)
     node = Node("lockstep_kill_probe", context=context)
@@ -249,16 +281,14 @@ def test_a_device_killed_mid_run_is_dropped_from_the_lockstep_and_the_cell_goes_
             if status.level == DiagnosticStatus.ERROR:
                 seen["errors"].append((status.message, seen["clock"]))
             members = next((v.value for v in status.values if v.key == "participants"), "")
-            if "cell/throwing_arm (" in members:
+            if f"{device.lstrip('/')} (" in members or f"{device} (" in members:
                 seen["joined"] = True
 
     node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 50)
     node.create_subscription(
         Clock, "/clock", lambda m: seen.__setitem__("clock", m.clock.sec * 10**9 + m.clock.nanosec), 10
     )
-    node.create_subscription(
-        DeviceStatus, "/cell/throwing_arm/status", lambda m: seen.__setitem__("arm", m), LATCHED
-    )
+    node.create_subscription(DeviceStatus, f"{device}/status", lambda m: seen.__setitem__("arm", m), LATCHED)
     from rclpy.executors import SingleThreadedExecutor
 
     executor = SingleThreadedExecutor(context=context)
@@ -281,14 +311,12 @@ def test_a_device_killed_mid_run_is_dropped_from_the_lockstep_and_the_cell_goes_
         # Killed only once the clock lists it as joined: an arm up but not yet heard (its first answers
         # sent before the clock's reader matched its writer, on a loaded host) is dropped as "did not join".
         spin_until(lambda: seen["joined"], 60, "the arm among the clock's lockstep participants")
-        pid = _pid_of("throwing_arm", domain)
-        assert pid is not None, "no throwing_arm process on the test's domain"
+        pid = _pid_of("throwing_arm", domain, argument)
+        assert pid is not None, f"no process of {device} on the test's domain"
         os.kill(pid, signal.SIGKILL)
         killed_at = seen["clock"]
-        spin_until(
-            lambda: any("/cell/throwing_arm" in m for m, _ in seen["errors"]), 20, "ERROR naming the arm"
-        )
-        message, at = next((m, t) for m, t in seen["errors"] if "/cell/throwing_arm" in m)
+        spin_until(lambda: any(device in m for m, _ in seen["errors"]), 20, "ERROR naming the arm")
+        message, at = next((m, t) for m, t in seen["errors"] if device in m)
         assert "dropped" in message and "did not answer" in message
         # The cell goes on without it: cell time keeps advancing after the drop.
         spin_until(lambda: seen["clock"] > max(at, killed_at) + 2 * 10**9, 30, "cell time after the drop")
@@ -296,3 +324,45 @@ def test_a_device_killed_mid_run_is_dropped_from_the_lockstep_and_the_cell_goes_
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown(context=context)
+
+
+def test_kill_9_of_the_cell_host_ends_the_launch_with_one_line_naming_the_host_and_its_nodes(
+    tmp_path: Path,
+) -> None:
+    lease = ros_harness.DomainLease()
+    logs = tmp_path / "logs"
+    process = subprocess.Popen(
+        [
+            *(sys.executable, "-m", "feeder_cell.cli.main", "launch", str(_scene(tmp_path, cycles=0))),
+            *("--real-time-factor", "2", "--duration", "120", "--log-dir", str(logs), "--json"),
+        ],
+        env=_env(lease.domain),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        # The host is up once the clock has said where it runs (its first log line).
+        deadline = time.monotonic() + 90
+        while not any("/clock at real-time factor" in p.read_text() for p in logs.glob("cell_host-*.log")):
+            assert process.poll() is None, f"the launch ended early: {process.communicate()[1][-1500:]}"
+            assert time.monotonic() < deadline, "the cell host did not start within 90 s"
+            time.sleep(0.2)
+        time.sleep(2.0)  # the cell running
+        pid = _pid_of("feeder_cell/cell_clock", lease.domain)
+        assert pid is not None, "no cell host process on the test's domain"
+        os.kill(pid, signal.SIGKILL)
+        out, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
+        lease.release()
+    assert process.returncode != 0, "the launch must fail when its cell host dies"
+    lines = [line for line in err.splitlines() if "cell host" in line]
+    assert len(lines) == 1, err[-2000:]
+    for node in ("/cell_clock", "/cell_simulation", "/cell/mems_field_array", "/cell/throwing_arm"):
+        assert node in lines[0], lines[0]
+    assert f"pid {pid}" in lines[0] and "exit code -9" in lines[0], lines[0]
+    host = json.loads(out)["hosts"][0]
+    assert host["pid"] == pid and host["died_early"] and "/cell/assembly_fixture" in host["nodes"]

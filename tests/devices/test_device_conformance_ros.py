@@ -183,19 +183,16 @@ class DeviceCase:
         return importlib.import_module(f"{self.package}.nodes.{self.executable}")
 
     def device_class(self) -> Any:
-        """The node module's ManagedDevice subclass."""
+        """The node module's ManagedDevice subclass: its ``NODE``, what the cell host builds."""
         from feeder_device.device import ManagedDevice
 
         module = self.module()
-        classes = [
-            value
-            for value in vars(module).values()
-            if isinstance(value, type)
-            and issubclass(value, ManagedDevice)
-            and value.__module__ == module.__name__
-        ]
-        assert len(classes) == 1, f"{module.__name__} defines {classes}"
-        return classes[0]
+        node = getattr(module, "NODE", None)
+        assert isinstance(node, type) and issubclass(node, ManagedDevice), (
+            f"{module.__name__}.NODE is {node!r}"
+        )
+        assert node.__module__ == module.__name__, f"{module.__name__}.NODE is defined in {node.__module__}"
+        return node
 
 
 def vec(x: float, y: float, z: float) -> Vector3:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -357,6 +358,17 @@ def _launch(args: argparse.Namespace) -> int:
                 for p, alive, code in codes
             ],
         }
+        hosts = host_reports(codes)
+        if hosts:
+            result["hosts"] = hosts
+            for host in hosts:
+                if host["died_early"]:
+                    # One line for the host, not one death per node: they are one process.
+                    print(
+                        f"feeder launch: the cell host {host['name']} (pid {host['pid']}) ended with exit "
+                        f"code {host['exit_code']}, and with it its nodes {', '.join(host['nodes'])}",
+                        file=sys.stderr,
+                    )
         if cell_time is not None:
             result["cell_time"] = cell_time.summary()
         if recorder:
@@ -369,6 +381,21 @@ def _launch(args: argparse.Namespace) -> int:
     result = with_node(LAUNCH_NODE, work, use_sim_time=sim_time)
     emit(args, result, _summary)
     return exit_code(result["nodes"])
+
+
+def host_reports(codes: list[tuple[NodeProcess, bool, int | None]]) -> list[dict[str, Any]]:
+    """Return one report per cell host: its pid, nodes, exit code, and whether it died before the end."""
+    hosts: dict[str, dict[str, Any]] = {}
+    for process, alive, code in codes:
+        if not process.host:
+            continue
+        host = hosts.setdefault(
+            process.host,
+            {"name": process.host, "pid": process.pid, "nodes": [], "exit_code": code, "died_early": False},
+        )
+        host["nodes"].append(process.spec.fully_qualified_name)
+        host["died_early"] = host["died_early"] or not alive
+    return list(hosts.values())
 
 
 def _dropped_by_clock(process: NodeProcess, sim_time: bool, participants: list[NodeSpec]) -> bool:
