@@ -156,13 +156,17 @@ class IdealStepper:
         remaining = dt
         h = min(state.step or dt, dt)
         stiff = False
+        # The step's arithmetic in floats, the same operations in the same order as on arrays: numpy's
+        # per-call cost on three numbers was most of a Heun step's bookkeeping.
+        x, v1 = pose.tolist(), k1.tolist()
         while remaining > 0.0:
             # The last piece of a dt: take what is left rather than leave a sliver of rounding.
             h = remaining if h >= remaining * (1.0 - 1e-9) else h
-            k2, _ = self._rate(rate, pose + h * k1)
-            change = k2 - k1
+            k2, _ = self._rate(rate, np.array([x[0] + h * v1[0], x[1] + h * v1[1], x[2] + h * v1[2]]))
+            v2 = k2.tolist()
+            change = [v2[0] - v1[0], v2[1] - v1[1], v2[2] - v1[2]]
             error = 0.5 * h * _norm(change, weights)
-            speed = _norm(k1, _SETTLED)
+            speed = _norm(v1, _SETTLED)
             # At rest the rate is at its rounding floor, and its ratio means nothing.
             ratio = _norm(change, _SETTLED) / speed if speed > 1.0 else 0.0
             floor = h <= MIN_STEP_FRACTION * dt
@@ -178,15 +182,18 @@ class IdealStepper:
                 self.rejected += 1
                 h *= max(STEP_SHRINK, STEP_SAFETY * math.sqrt(STEP_ERROR_TOLERANCE / error))
                 continue
-            pose = pose + 0.5 * h * (k1 + k2)
-            pose[2] = math.remainder(pose[2], 2 * math.pi) % (2 * math.pi)
+            half = 0.5 * h
+            x = [x[0] + half * (v1[0] + v2[0]), x[1] + half * (v1[1] + v2[1]), x[2] + half * (v1[2] + v2[2])]
+            x[2] = math.remainder(x[2], 2 * math.pi) % (2 * math.pi)
             remaining -= h
             self.substeps += 1
             grow = STEP_GROWTH if error == 0.0 else STEP_SAFETY * math.sqrt(STEP_ERROR_TOLERANCE / error)
             if ratio > 0.0:  # keep the next step inside the margin too
                 grow = min(grow, STIFF_STEP_RATIO / ratio)
             state.step = h = min(h * min(grow, STEP_GROWTH), dt)
+            pose = np.array(x)
             k1, wrench = self._rate(rate, pose)
+            v1 = k1.tolist()
         if stiff:
             self.stiff_steps += 1
         # Copies: a caller may change its pose array in place (a placement), which must not match them.
@@ -201,7 +208,7 @@ class IdealStepper:
         """Whether the body at ``pose`` with velocity ``k1`` is within REST_TRAVEL of a stable equilibrium."""
         if not k1.any():
             return True  # no force at all: every further step is this pose, bit for bit
-        if _norm(k1, _SETTLED) > 1.0:
+        if _norm(k1.tolist(), _SETTLED) > 1.0:
             state.inverse_jacobian, state.unstable = None, False  # moving: judge J afresh when it settles
             return False
         if state.inverse_jacobian is None and not state.unstable:
@@ -222,7 +229,7 @@ class IdealStepper:
             state.inverse_jacobian = np.linalg.inv(jacobian)
         if state.unstable or state.inverse_jacobian is None:
             return False
-        return _norm(state.inverse_jacobian @ k1, weights) <= REST_TRAVEL
+        return _norm((state.inverse_jacobian @ k1).tolist(), weights) <= REST_TRAVEL
 
 
 def _same_pose(a: np.ndarray, b: np.ndarray) -> bool:
@@ -230,13 +237,9 @@ def _same_pose(a: np.ndarray, b: np.ndarray) -> bool:
     return bool(a.tolist() == b.tolist())
 
 
-def _norm(vector: np.ndarray, scale: tuple[float, ...]) -> float:
-    """Return |vector / scale| for a velocity or pose change (3,).
-
-    In floats: numpy's per-call cost on three numbers is most of a Heun step's bookkeeping.
-    """
-    a, b, c = vector.tolist()
-    return math.hypot(a / scale[0], b / scale[1], c / scale[2])
+def _norm(vector: list[float], scale: tuple[float, ...]) -> float:
+    """Return |vector / scale| for a velocity or pose change of three components, in floats."""
+    return math.hypot(vector[0] / scale[0], vector[1] / scale[1], vector[2] / scale[2])
 
 
 def _same(a: tuple[object, ...], b: tuple[object, ...]) -> bool:
