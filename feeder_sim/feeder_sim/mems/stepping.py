@@ -37,6 +37,7 @@ with the pose it rested at.
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -206,7 +207,7 @@ class IdealStepper:
         self, state: BodyState, pose: np.ndarray, k1: np.ndarray, rate: Rate, weights: tuple[float, ...]
     ) -> bool:
         """Whether the body at ``pose`` with velocity ``k1`` is within REST_TRAVEL of a stable equilibrium."""
-        if not k1.any():
+        if not any(k1.tolist()):
             return True  # no force at all: every further step is this pose, bit for bit
         if _norm(k1.tolist(), _SETTLED) > 1.0:
             state.inverse_jacobian, state.unstable = None, False  # moving: judge J afresh when it settles
@@ -244,7 +245,10 @@ def _norm(vector: list[float], scale: tuple[float, ...]) -> float:
 
 def _same(a: tuple[object, ...], b: tuple[object, ...]) -> bool:
     """Whether two condition tuples name the same motion law (identical objects or equal values)."""
-    return len(a) == len(b) and all(
+    if len(a) != len(b):
+        return False
+    # The same objects step after step (the usual case): one pass of identity tests, no comparisons.
+    return all(map(operator.is_, a, b)) or all(
         x is y or (type(x) is type(y) and _equal(x, y)) for x, y in zip(a, b, strict=True)
     )
 
