@@ -181,9 +181,42 @@ def part_from_mapping(document: dict[str, Any]) -> Part:
 
 
 def load_part(path: str | Path) -> Part:
-    """Read and validate a part file; every error names the file and the field."""
+    """Read and validate a part file; every error names the file and the field.
+
+    A CAD file (``.dxf``...) is read by ``feeder_planner.cad``; so is the file a part YAML's ``cad:``
+    mapping names (relative to the YAML), with that mapping's options and the YAML's name and density.
+    """
+    from feeder_planner import cad  # imported here: cad imports this module
+
+    if cad.is_cad_file(path):
+        return cad.cad_part(path)
     document = load_yaml_mapping(path)
     try:
+        if "cad" in document:
+            return _cad_document_part(document, Path(path).parent)
         return part_from_mapping(document)
     except InputError as error:
-        raise error.with_source(str(path)) from None
+        raise (error if error.source else error.with_source(str(path))) from None
+
+
+def _cad_document_part(document: dict[str, Any], base: Path) -> Part:
+    """Return the part a YAML's ``cad: {file: ..., options}`` names, with the YAML's name and density."""
+    from feeder_planner import cad
+
+    raw = document["cad"]
+    if not isinstance(raw, dict):
+        raise InputError("cad", "expected a mapping with file (and options: docs/cli.md, Importing parts)")
+    extra = sorted(set(document) - {"cad", "name", "density"})
+    if extra:
+        raise InputError(
+            extra[0], "a part with cad: takes its geometry and unit from the CAD file; remove it"
+        )
+    file = short_string(required(raw, "file", "cad.file"), "cad.file")
+    target = Path(file).expanduser()
+    target = target if target.is_absolute() else base / target
+    if not cad.is_cad_file(target):
+        raise InputError("cad.file", f"{file!r} is not a CAD file (expected {', '.join(cad.CAD_SUFFIXES)})")
+    options = cad.options_from_mapping(raw, "cad")
+    density = positive_number(optional(document, "density", DEFAULT_DENSITY), "density")
+    name = optional(document, "name", None)
+    return cad.cad_part(target, options, None if name is None else short_string(name, "name"), density)

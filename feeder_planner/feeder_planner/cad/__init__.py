@@ -1,0 +1,70 @@
+"""Planar parts from CAD files: DXF and SVG outlines, STEP and STL solids (docs/cli.md, "Importing parts").
+
+``read_outline`` returns what a file gave (``Outline``: the loops, the unit, the source entities);
+``cad_part`` makes it a ``Part`` as a YAML part file would be. ``feeder_planner.parts.load_part`` calls
+these for a CAD file, or for a part YAML with a ``cad:`` mapping that names one with its options.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from feeder_planner.cad.options import CHORD_TOLERANCE, CadOptions, options_from_mapping
+from feeder_planner.cad.outline import Outline
+from feeder_planner.errors import InputError
+from feeder_planner.parts import DEFAULT_DENSITY, Part, make_part
+
+__all__ = [
+    "CAD_SUFFIXES",
+    "CHORD_TOLERANCE",
+    "CadOptions",
+    "Outline",
+    "cad_part",
+    "is_cad_file",
+    "options_from_mapping",
+    "read_outline",
+]
+
+CAD_SUFFIXES = (".dxf",)
+"""File name endings read as CAD parts (lower case)."""
+
+
+def is_cad_file(path: str | Path) -> bool:
+    """Whether ``path`` is read as a CAD file, by its extension."""
+    return Path(path).suffix.lower() in CAD_SUFFIXES
+
+
+def read_outline(path: str | Path, options: CadOptions | None = None) -> Outline:
+    """Read a CAD file's outline and holes; every InputError names the file and the entity."""
+    options = options or CadOptions()
+    suffix = Path(path).suffix.lower()
+    try:
+        if suffix == ".dxf":
+            from feeder_planner.cad.dxf import read_dxf
+
+            return read_dxf(path, options)
+        raise InputError(
+            "<file>", f"unknown CAD format {suffix!r}; expected one of {', '.join(CAD_SUFFIXES)}"
+        )
+    except InputError as error:
+        raise (error if error.source else error.with_source(str(path))) from None
+
+
+def cad_part(
+    path: str | Path,
+    options: CadOptions | None = None,
+    name: str | None = None,
+    density: float = DEFAULT_DENSITY,
+) -> Part:
+    """Read a CAD file as a Part: its outline, holes and unit; the name defaults to the file's stem."""
+    outline = read_outline(path, options)
+    try:
+        return make_part(
+            outline.outer.points.tolist(),
+            [hole.points.tolist() for hole in outline.holes],
+            density,
+            name if name is not None else Path(path).stem[:256] or "part",
+            outline.unit_scale,
+        )
+    except InputError as error:
+        raise error.with_source(str(path)) from None

@@ -1,0 +1,82 @@
+"""The choices a CAD part file may need: which entities, which unit, how fine, which face or section.
+
+They come from a part YAML's ``cad:`` mapping (``cad: {file: bracket.dxf, layer: BRACKET}``) or from
+``feeder part-info``'s flags. Every one is optional: a file with one outline and its units needs none.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any
+
+from feeder_planner.errors import InputError
+from feeder_planner.fields_io import finite_number, positive_number, short_string
+
+__all__ = ["CHORD_TOLERANCE", "CAD_UNITS", "CadOptions", "options_from_mapping", "unit_scale"]
+
+# Arcs, circles, ellipses and splines become polylines whose chords stay within this distance of the
+# curve, relative to the drawing's bounding-box diagonal. For the examples' filleted bracket it moves the
+# equilibria and grasp radii by less than 1e-6 of the part's size against 1e-6 (docs/cli.md, "Importing
+# parts"), and a full circle of a part's size gets about 160 chords.
+CHORD_TOLERANCE = 1e-4
+
+# Length units a CAD file may be given in by ``unit:`` (metres each).
+CAD_UNITS: dict[str, float] = {
+    "m": 1.0,
+    "dm": 0.1,
+    "cm": 1e-2,
+    "mm": 1e-3,
+    "um": 1e-6,
+    "in": 0.0254,
+    "ft": 0.3048,
+    "mil": 2.54e-5,
+}
+
+
+@dataclass(frozen=True)
+class CadOptions:
+    """How to read a CAD part; None leaves the choice to the file (or to the default)."""
+
+    layer: str | None = None  # DXF: only entities on this layer
+    block: str | None = None  # DXF: the entities of this block definition instead of the model space
+    element: str | None = None  # SVG: only the element with this id (and its children)
+    unit: str | None = None  # overrides the file's unit (a name of CAD_UNITS)
+    chord_tolerance: float = CHORD_TOLERANCE  # relative to the drawing's bounding-box diagonal
+    face: str | None = None  # STEP/STL: the face the solid rests on ('-z' default, '+x', ...)
+    section: float | None = None  # STEP/STL: instead of resting, the section at this height along face
+
+
+_FACES = ("-z", "+z", "-x", "+x", "-y", "+y")
+
+
+def unit_scale(name: str, field: str) -> float:
+    """Metres per unit ``name`` (CAD_UNITS); InputError naming ``field`` otherwise."""
+    if name not in CAD_UNITS:
+        raise InputError(field, f"unknown unit {name!r}; use one of {', '.join(CAD_UNITS)}")
+    return CAD_UNITS[name]
+
+
+def options_from_mapping(raw: dict[str, Any], prefix: str) -> CadOptions:
+    """Read the options of a ``cad:`` mapping (its ``file`` is the caller's); errors name ``prefix.key``."""
+    known = {f.name for f in fields(CadOptions)} | {"file"}
+    unknown = sorted(set(raw) - known)
+    if unknown:
+        raise InputError(f"{prefix}.{unknown[0]}", f"unknown key (known: {', '.join(sorted(known))})")
+    values: dict[str, Any] = {}
+    for key in ("layer", "block", "element", "unit", "face"):
+        if key in raw:
+            values[key] = short_string(raw[key], f"{prefix}.{key}")
+    if "unit" in values:
+        unit_scale(values["unit"], f"{prefix}.unit")
+    if "face" in values and values["face"] not in _FACES:
+        raise InputError(f"{prefix}.face", f"expected one of {', '.join(_FACES)}, got {values['face']!r}")
+    if "chord_tolerance" in raw:
+        tolerance = positive_number(raw["chord_tolerance"], f"{prefix}.chord_tolerance")
+        if tolerance > 0.1 or tolerance < 1e-9:
+            raise InputError(
+                f"{prefix}.chord_tolerance", f"expected 1e-9 to 0.1 (relative), got {tolerance:g}"
+            )
+        values["chord_tolerance"] = tolerance
+    if "section" in raw:
+        values["section"] = finite_number(raw["section"], f"{prefix}.section")
+    return CadOptions(**values)

@@ -1,0 +1,87 @@
+"""Write the CAD twins of the examples from their YAML parts: `python tools/make_cad_examples.py`.
+
+Each twin draws the same outline in the same vertex order (the throwing arm numbers hull edges in the
+file's order) and the same unit, so that the planners give the same results (tests/cad). The filleted
+bracket has arcs and a circular hole: the part that the chord tolerance is measured on.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+# $INSUNITS code of each YAML length unit.
+_INSUNITS = {"m": 6, "cm": 5, "mm": 4, "um": 13}
+
+
+def _new_drawing(unit: str) -> Any:
+    import ezdxf
+
+    doc = ezdxf.new("R2010", units=_INSUNITS[unit])
+    doc.layers.add("PART")
+    return doc
+
+
+def polyline_twin(source: Path, target: Path) -> None:
+    """A closed LWPOLYLINE (holes as more closed LWPOLYLINEs) on layer PART, from a YAML part."""
+    document = yaml.safe_load(source.read_text())
+    doc = _new_drawing(document.get("length_unit", "m"))
+    space = doc.modelspace()
+    for loop in [document["vertices"], *document.get("holes", [])]:
+        space.add_lwpolyline([tuple(p) for p in loop], close=True, dxfattribs={"layer": "PART"})
+    doc.saveas(target)
+
+
+def line_chain_twin(source: Path, target: Path) -> None:
+    """The outline as a chain of LINE entities, in the YAML's vertex order, from a YAML part."""
+    document = yaml.safe_load(source.read_text())
+    doc = _new_drawing(document.get("length_unit", "m"))
+    space = doc.modelspace()
+    vertices = [tuple(p) for p in document["vertices"]]
+    for a, b in zip(vertices, vertices[1:] + vertices[:1], strict=False):
+        space.add_line(a, b, dxfattribs={"layer": "PART"})
+    doc.saveas(target)
+
+
+def filleted_bracket(target: Path) -> None:
+    """The bracket (mm) with a 0.5 mm fillet in its inner corner, drawn as LINEs and an ARC, and a
+    CIRCLE hole of radius 0.3 mm: arcs whose flattening the chord tolerance bounds."""
+    doc = _new_drawing("mm")
+    space = doc.modelspace()
+    attribs = {"layer": "PART"}
+    r = 0.5
+    points = [(1.0, 3.0), (0.0, 3.0), (0.0, 0.0), (4.0, 0.0), (4.0, 1.0), (1.0 + r, 1.0)]
+    for a, b in zip(points, points[1:], strict=False):
+        space.add_line(a, b, dxfattribs=attribs)
+    # The fillet from (1.5, 1) to (1, 1.5) about (1.5, 1.5): clockwise in the outline's order, so the
+    # ARC (always counter-clockwise in DXF) runs from 180 to 270 degrees and the chain reverses it.
+    space.add_arc((1.0 + r, 1.0 + r), r, 180.0, 270.0, dxfattribs=attribs)
+    space.add_line((1.0, 1.0 + r), (1.0, 3.0), dxfattribs=attribs)
+    space.add_circle((0.5, 0.5), 0.3, dxfattribs=attribs)
+    doc.saveas(target)
+
+
+def main() -> int:
+    """Write every twin; print the paths."""
+    written = []
+    for source, target, make in (
+        (EXAMPLES / "mems/bracket.yaml", EXAMPLES / "mems/bracket.dxf", polyline_twin),
+        (EXAMPLES / "mems/washer.yaml", EXAMPLES / "mems/washer.dxf", polyline_twin),
+        (EXAMPLES / "throwing/triangle.yaml", EXAMPLES / "throwing/triangle.dxf", line_chain_twin),
+    ):
+        make(source, target)
+        written.append(target)
+    filleted_bracket(EXAMPLES / "mems/bracket_filleted.dxf")
+    written.append(EXAMPLES / "mems/bracket_filleted.dxf")
+    for path in written:
+        print(path.relative_to(ROOT))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
