@@ -913,7 +913,9 @@ def test_a_bad_device_entry_or_a_busy_endpoint_fails_the_start_naming_the_parame
 
 def test_user_and_password(launch_node: Callable[..., Any], tmp_path: Path) -> None:
     users = tmp_path / "users.yaml"
-    users.write_text(f"users:\n  plc: {hash_password('line-7', iterations=20_000)}\n")
+    users.write_text(
+        f'users:\n  plc: {{role: Operator, hash: "{hash_password("line-7", iterations=20_000)}"}}\n'
+    )
     url = f"opc.tcp://127.0.0.1:{free_port()}"
     launch_node(
         "feeder_cell",

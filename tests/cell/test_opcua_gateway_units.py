@@ -285,7 +285,7 @@ def test_password_hashes_are_salted_and_checked(tmp_path: Path) -> None:
     assert first != second  # a fresh salt each time
     assert verify_password("secret", first) and not verify_password("Secret", first)
     path = tmp_path / "users.yaml"
-    path.write_text(f"users:\n  plc: {first}\n")
+    path.write_text(f'users:\n  plc: {{role: Operator, hash: "{first}"}}\n')
     users = load_users(str(path))
     assert users.check("plc", "secret")
     assert (
@@ -295,10 +295,10 @@ def test_password_hashes_are_salted_and_checked(tmp_path: Path) -> None:
 
 def test_a_bad_users_file_names_the_entry(tmp_path: Path) -> None:
     path = tmp_path / "users.yaml"
-    path.write_text("users:\n  plc: plaintext\n")
+    path.write_text("users:\n  plc: {role: Operator, hash: plaintext}\n")
     with pytest.raises(InputError) as error:
         load_users(str(path))
-    assert "parameter users_file" in str(error.value) and "users.plc" in str(error.value)
+    assert "parameter users_file" in str(error.value) and "users.plc.hash" in str(error.value)
     assert isinstance(Users({}), Users)
 
 

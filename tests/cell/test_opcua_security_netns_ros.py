@@ -38,7 +38,8 @@ JS = ROOT / "tests" / "js"
 CLIENT = JS / "opcua_secure_client.js"
 PROBE = Path(__file__).resolve().parent / "scripts" / "opcua_raw_probe.py"
 DEVICE, KEY = "/cell/throwing_arm", "cell.throwing_arm"
-USER, PASSWORD = "plc", "line-7"
+USER, PASSWORD = "plc", "line-7"  # an Operator
+VIEWER = "viewer"  # an Observer, with the same password
 SECURE = "Basic256Sha256_SignAndEncrypt"
 SERVING = "OPC UA server on"
 TIMEOUT_S = 60.0  # generous: four gateways start at once on a loaded two-core machine
@@ -123,7 +124,13 @@ def run(ros_domain: int, tmp_path_factory: pytest.TempPathFactory) -> Iterator[R
     folder = tmp_path_factory.mktemp("opcua_security")
     users = folder / "users.yaml"
     # Fewer PBKDF2 rounds than a real file's: every login costs one check, on a shared test machine.
-    users.write_text(f"users:\n  {USER}: {hash_password(PASSWORD, iterations=20_000)}\n")
+    users.write_text(
+        "users:\n"
+        + "".join(
+            f'  {name}: {{role: {role}, hash: "{hash_password(PASSWORD, iterations=20_000)}"}}\n'
+            for name, role in ((USER, "Operator"), (VIEWER, "Observer"))
+        )
+    )
     hosts = netns.make_two_hosts(f"ua{os.getpid()}")
     gateways: list[Gateway] = []
     try:
@@ -184,6 +191,7 @@ def run(ros_domain: int, tmp_path_factory: pytest.TempPathFactory) -> Iterator[R
                             "password": PASSWORD,
                             "pki": str(folder / "client_pki"),
                             "key": KEY,
+                            "viewer": VIEWER,
                         }
                     ),
                 ]
@@ -293,3 +301,20 @@ def test_the_explicit_opt_outs_are_logged_as_warnings(run: Run) -> None:
     warnings = [line for line in run.opted_out_log.splitlines() if "WARN" in line]
     assert any("parameter allow_anonymous_remote: anonymous clients may open sessions" in w for w in warnings)
     assert any("parameter allow_insecure_remote:" in w and "offers None" in w for w in warnings), warnings
+
+
+def test_a_viewer_may_watch_but_not_command_and_reads_its_own_rights(run: Run) -> None:
+    operate = 4096  # PermissionType Call
+    viewer, plc = run.client["viewer_rights"], run.client["user_rights"]
+    assert viewer["ok"] and plc["ok"], run.client
+    assert viewer["stop"] == "BadUserAccessDenied", viewer
+    assert "viewer is Observer" in viewer["stop_message"], viewer
+    assert "Stop refused: user viewer is Observer" in run.gateway_log
+    # The Operator gets past the role: the device (not running here) is what refuses it.
+    assert plc["stop"] == "BadInvalidState", plc
+    assert viewer["user_executable"] is False and plc["user_executable"] is True
+    assert [p["permissions"] & operate for p in viewer["user_role_permissions"]] == [0], viewer
+    assert [p["permissions"] & operate for p in plc["user_role_permissions"]] == [operate], plc
+    roles = {p["role"]: bool(p["permissions"] & operate) for p in viewer["role_permissions"]}
+    # OPC 10000-18's well-known roles: Observer i=15668, Operator i=15680, Engineer i=16036.
+    assert roles == {"ns=0;i=15668": False, "ns=0;i=15680": True, "ns=0;i=16036": True}, roles

@@ -1,8 +1,10 @@
 // node-opcua's client against the feeder OPC UA gateway: what a third-party PLC-side stack sees.
 //
-// Usage: node opcua_secure_client.js '{"url": ..., "user": ..., "password": ..., "pki": ..., "key": ...}'
+// Usage: node opcua_secure_client.js '{"url": ..., "user": ..., "password": ..., "pki": ..., "key": ...,
+//   "viewer": ...}'
 // Prints one JSON line (node-opcua's own log lines go before it): the endpoints GetEndpoints lists, and
-// for each attempt whether a session opened (and what it read) or the error that refused it. The test
+// for each attempt whether a session opened (and what it read) or the error that refused it; with a
+// viewer (an Observer, the same password), what the viewer and the user may do (rights). The test
 // judges; this script only reports. node-opcua refuses on its side to send a token or use an endpoint the
 // server does not list; tests/cell/scripts/opcua_raw_probe.py sends those anyway.
 "use strict";
@@ -76,6 +78,47 @@ async function attempt(args, certificateManager, mode, policy, identity) {
   return outcome;
 }
 
+// What a logged-in user may do: a PackML command's answer, and the role attributes of that method.
+async function rights(args, certificateManager, identity) {
+  const client = OPCUAClient.create({
+    applicationName: "feeder-test-plc",
+    securityMode: MessageSecurityMode.SignAndEncrypt,
+    securityPolicy: SecurityPolicy.Basic256Sha256,
+    endpointMustExist: false,
+    connectionStrategy: { maxRetry: 0, initialDelay: 100, maxDelay: 200 },
+    requestedSessionTimeout: 60000,
+    clientCertificateManager: certificateManager,
+  });
+  const outcome = { ok: false };
+  try {
+    await client.connect(args.url);
+    const session = await client.createSession(identity);
+    try {
+      const namespaces = (await session.read({ nodeId: NAMESPACE_ARRAY, attributeId: AttributeIds.Value }))
+        .value.value;
+      const index = namespaces.indexOf(NAMESPACE_URI);
+      const stop = `ns=${index};s=${args.key}.Stop`;
+      const result = await session.call({ objectId: `ns=${index};s=${args.key}`, methodId: stop, inputArguments: [] });
+      outcome.stop = result.statusCode.name;
+      outcome.stop_message = result.outputArguments.length ? result.outputArguments[0].value : "";
+      const read = async (attributeId) => session.read({ nodeId: stop, attributeId });
+      outcome.user_executable = (await read(AttributeIds.UserExecutable)).value.value;
+      const permissions = (dataValue) =>
+        (dataValue.value.value || []).map((p) => ({ role: p.roleId.toString(), permissions: p.permissions }));
+      outcome.role_permissions = permissions(await read(AttributeIds.RolePermissions));
+      outcome.user_role_permissions = permissions(await read(AttributeIds.UserRolePermissions));
+      outcome.ok = true;
+    } finally {
+      await session.close();
+    }
+  } catch (error) {
+    outcome.error = errorText(error);
+  } finally {
+    await client.disconnect();
+  }
+  return outcome;
+}
+
 async function endpoints(args, certificateManager) {
   const client = OPCUAClient.create({
     applicationName: "feeder-test-plc",
@@ -117,6 +160,11 @@ async function main() {
   report.secure_anonymous = await attempt(args, certificateManager, ...secure, anonymous);
   report.secure_wrong_password = await attempt(args, certificateManager, ...secure, wrong);
   report.none_user = await attempt(args, certificateManager, ...none, user);
+  if (args.viewer) {
+    const viewer = { type: UserTokenType.UserName, userName: args.viewer, password: args.password };
+    report.viewer_rights = await rights(args, certificateManager, viewer);
+    report.user_rights = await rights(args, certificateManager, user);
+  }
   await certificateManager.dispose();
   process.stdout.write(JSON.stringify(report) + "\n");
 }

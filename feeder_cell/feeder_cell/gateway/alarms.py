@@ -31,6 +31,8 @@ from typing import Any, cast
 from asyncua import Node, Server, ua
 from asyncua.common.event_objects import AlarmCondition
 
+from feeder_cell.gateway.roles import Role, caller_role
+
 __all__ = ["FAULT_SEVERITY", "WARNING_SEVERITY", "KINDS", "Alarms", "condition_id"]
 
 # OPC 10000-5 BaseEventType Severity: 1..1000, 1000 the most urgent. OPC 40083's classes: 667-1000 high
@@ -116,6 +118,10 @@ class Alarms:
         self.server, self.idx, self.log = server, idx, log
         self.area = area  # the Cell object: an HMI subscribes to the area for all of its devices' alarms
         self._conditions: dict[ua.NodeId, _Condition] = {}
+        # The Acknowledge methods (the type's and each condition's own): an Operator's (roles.py).
+        self.acknowledge_methods: list[ua.NodeId] = [
+            _nid(ua.ObjectIds.AcknowledgeableConditionType_Acknowledge)
+        ]
         self._by_key: dict[tuple[str, str], _Condition] = {}
 
     def _id(self, identifier: str) -> ua.NodeId:
@@ -177,6 +183,8 @@ class Alarms:
                 condition.children[child_name] = child
                 if child_name in methods and await child.read_node_class() == ua.NodeClass.Method:
                     self.server.link_method(child, methods[child_name])  # the instance's own copy
+                    if child_name == "Acknowledge":
+                        self.acknowledge_methods.append(child.nodeid)
             await self._resolve(condition)
             self._conditions[cid] = condition
             self._by_key[(key, name)] = condition
@@ -272,6 +280,11 @@ class Alarms:
     async def _acknowledge(self, parent: ua.NodeId, *args: Any) -> ua.CallMethodResult:
         result = ua.CallMethodResult()
         result.InputArgumentResults = [ua.StatusCode() for _ in args]
+        role, user = caller_role()
+        if role < Role.Operator:
+            self.log.warning("Acknowledge of %s refused: user %s is %s", parent.to_string(), user, role.name)
+            result.StatusCode = _sc(ua.StatusCodes.BadUserAccessDenied)
+            return result
         code = self._check_acknowledge(parent, args)
         result.StatusCode = _sc(code)
         condition = self._conditions.get(parent)

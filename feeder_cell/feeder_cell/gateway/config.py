@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from urllib.parse import urlparse
 
 from feeder_cell.gateway.kinds import KINDS
+from feeder_cell.gateway.roles import Role
 from feeder_planner.errors import InputError
 
 __all__ = [
@@ -191,6 +192,7 @@ class SecurityConfig:
     pki_dir: str = ""  # empty: certificates.default_pki_dir()
     remote: bool = False  # the endpoint is not a loopback address
     insecure_remote: bool = False  # remote, offering None or no encryption, by allow_insecure_remote
+    anonymous_role: Role = Role.Engineer  # an anonymous session's rights (roles.Role)
 
     @property
     def makes_certificate(self) -> bool:

@@ -29,19 +29,21 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from importlib import metadata
 from pathlib import Path
-from typing import Protocol, cast
+from typing import Any, Protocol, cast
 
 from asyncua import Node, Server, ua
+from asyncua.common.callback import CallbackType
 from asyncua.crypto.permission_rules import User, UserRole
 from asyncua.crypto.truststore import TrustStore
 from asyncua.crypto.validator import CertificateValidator, CertificateValidatorOptions
 from asyncua.server.internal_server import InternalServer
 from asyncua.server.user_managers import UserManager
 
-from feeder_cell.gateway import arguments, layout, units
+from feeder_cell.gateway import arguments, layout, roles, units
 from feeder_cell.gateway.alarms import Alarms
 from feeder_cell.gateway.config import PACKML_STATES, DeviceEntry, Endpoint, SecurityConfig
 from feeder_cell.gateway.kinds import KINDS
+from feeder_cell.gateway.roles import CALLER, GatewayUser, Role
 from feeder_cell.gateway.spec import ArgumentSpec, CallContext, Goal, MethodSpec, Value
 from feeder_cell.gateway.users import Users
 
@@ -82,10 +84,17 @@ class GatewayUsers(UserManager):
     GetEndpoints) and would create and activate sessions on it, unsigned and unencrypted.
     """
 
-    def __init__(self, users: Users | None, allow_anonymous: bool, secure_only: bool = False) -> None:
+    def __init__(
+        self,
+        users: Users | None,
+        allow_anonymous: bool,
+        secure_only: bool = False,
+        anonymous_role: Role = Role.Engineer,
+    ) -> None:
         self.users = users
         self.allow_anonymous = allow_anonymous
         self.secure_only = secure_only
+        self.anonymous_role = anonymous_role
 
     def get_user(
         self,
@@ -98,9 +107,11 @@ class GatewayUsers(UserManager):
         if self.secure_only and not certificate:
             return None  # a None channel: only a secured one carries the client's certificate
         if username is None and password is None:
-            return User(role=UserRole.User, name="anonymous") if self.allow_anonymous else None
-        if self.users is not None and self.users.check(username, password):
-            return User(role=UserRole.User, name=username)
+            if not self.allow_anonymous:
+                return None
+            return GatewayUser(role=UserRole.User, name="anonymous", access=self.anonymous_role)
+        if self.users is not None and username and self.users.check(username, password):
+            return GatewayUser(role=UserRole.User, name=username, access=self.users.role(username))
         return None
 
 
@@ -155,14 +166,21 @@ class GatewayServer:
         self._flush_lock = asyncio.Lock()
         self.alarms: Alarms | None = None
         self._alarm_lock = asyncio.Lock()
+        # Every method a role restricts -> its least role (roles.required_role; Acknowledge: Operator).
+        self.method_roles: dict[ua.NodeId, Role] = {}
 
     # --- start and stop --------------------------------------------------------------------------
     async def start(self) -> None:
         """Build the address space and listen on the endpoint (OSError when it cannot bind)."""
         self._loop = asyncio.get_running_loop()
         secure_only = "None" not in self.security.policies
-        server = Server(user_manager=GatewayUsers(self.users, self.security.allow_anonymous, secure_only))
+        server = Server(
+            user_manager=GatewayUsers(
+                self.users, self.security.allow_anonymous, secure_only, self.security.anonymous_role
+            )
+        )
         await server.init()
+        self._enforce_roles(server)
         server.set_endpoint(self.endpoint.url)
         server.set_server_name("feeder cell OPC UA gateway")
         await server.set_application_uri(layout.APPLICATION_URI)
@@ -211,6 +229,8 @@ class GatewayServer:
         folder = await cell.add_folder(self._id(layout.DEVICES_FOLDER), self._name("Devices"))
         for device in self.devices:
             await self._build_device(server, folder, device)
+        for method in self.alarms.acknowledge_methods:
+            self.method_roles[method] = Role.Operator
 
     async def _build_device(self, server: Server, folder: Node, device: DeviceEntry) -> None:
         key = device.key
@@ -251,6 +271,7 @@ class GatewayServer:
         self.post(key, "Kind", device.kind)
         self.post(key, "NodeName", device.node)
         for spec_m in layout.methods(device.kind):
+            self.method_roles[self._id(layout.method_id(key, spec_m.name))] = roles.required_role(spec_m.name)
             await obj.add_method(
                 self._id(layout.method_id(key, spec_m.name)),
                 self._name(spec_m.name),
@@ -322,6 +343,44 @@ class GatewayServer:
             ua.Variant(info, ua.VariantType.ExtensionObject),
             datatype=_node_id(ua.ObjectIds.EUInformation),
         )
+
+    def _enforce_roles(self, server: Server) -> None:
+        """Make each session's user known to the method callbacks, and answer reads of the role attributes.
+
+        asyncua calls a method without the session, so the gateway wraps each client session's Call service
+        to set ``roles.CALLER`` around it; a PostRead callback rewrites UserExecutable, UserAccessLevel,
+        RolePermissions and UserRolePermissions of the gateway's nodes (``roles.answer_read``).
+        """
+        iserver = server.iserver
+        create = iserver.create_session
+
+        def create_session(name: str, user: User = _NOBODY, external: bool = False) -> Any:
+            session = create(name, user, external)
+            call = session.call
+
+            async def call_as_user(params: list[ua.CallMethodRequest]) -> list[ua.CallMethodResult]:
+                token = CALLER.set(session.user)
+                try:
+                    return await call(params)
+                finally:
+                    CALLER.reset(token)
+
+            session.call = call_as_user  # type: ignore[method-assign]
+            return session
+
+        iserver.create_session = create_session  # type: ignore[method-assign]
+
+        async def on_read(event: Any, _dispatcher: Any) -> None:
+            if event.response_params is not None:
+                roles.answer_read(
+                    event.user,
+                    event.request_params.NodesToRead,
+                    event.response_params,
+                    self.idx,
+                    self.method_roles,
+                )
+
+        server.subscribe_server_callback(CallbackType.PostRead, on_read)
 
     @staticmethod
     def _refuse_writes(server: Server) -> None:
@@ -486,6 +545,12 @@ class GatewayServer:
                     -1,
                     post=False,
                 )
+            role, user = roles.caller_role()
+            needed = roles.required_role(spec.name)
+            if role < needed:
+                # Not posted: a session without the right must not write the device's command channel.
+                message = f"{spec.name} refused: user {user} is {role.name}; it needs {needed.name} or above"
+                return self._result(device, spec, count, "BadUserAccessDenied", message, -1, post=False)
             try:
                 goal = self._check(device, spec, [_from_variant(v) for v in variants])
             except arguments.ArgumentError as error:
@@ -551,6 +616,7 @@ class GatewayServer:
 
 _UNSET = object()
 _ADMIN = User(role=UserRole.Admin)  # asyncua's default for a write without a session (the server's own)
+_NOBODY = User(role=UserRole.Anonymous)  # asyncua's default user of a session not yet activated
 # Initial values other than the type's zero: no status heard yet is PackML Undefined (code 0).
 _INITIAL: dict[str, Value] = {"Status.PackMLState": "Undefined"}
 

@@ -1,12 +1,13 @@
-"""User/password logins of the gateway: a YAML users file with salted PBKDF2-SHA256 hashes, no passwords.
+"""User/password logins of the gateway: a YAML users file with salted PBKDF2-SHA256 hashes and roles.
 
-The file maps user names to hashes made by ``python -m feeder_cell.gateway.users NAME`` (it asks for the
-password and prints the line to add)::
+The file maps user names to their role (``roles.Role``: Observer, Operator or Engineer) and hash, the
+line made by ``python -m feeder_cell.gateway.users NAME ROLE`` (it asks for the password)::
 
     users:
-      plc: pbkdf2_sha256$200000$<salt, base64>$<hash, base64>
+      plc: {role: Operator, hash: "pbkdf2_sha256$200000$<salt, base64>$<hash, base64>"}
 
-Each hash carries its own salt and iteration count; a check compares in constant time.
+Each hash carries its own salt and iteration count; a check compares in constant time. An entry without
+a role is refused at start, naming the user: nobody gets rights by omission.
 """
 
 from __future__ import annotations
@@ -17,8 +18,9 @@ import hashlib
 import hmac
 import os
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
+from feeder_cell.gateway.roles import Role, parse_role
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import load_yaml_mapping
 
@@ -64,9 +66,14 @@ def verify_password(password: str, stored: str) -> bool:
 
 @dataclass(frozen=True)
 class Users:
-    """The users allowed to log in with a password, name -> stored hash."""
+    """The users allowed to log in with a password: name -> stored hash, name -> role."""
 
     hashes: dict[str, str]
+    roles: dict[str, Role] = field(default_factory=dict)
+
+    def role(self, name: str) -> Role:
+        """Return a user's role (Observer for a name without one: no rights by omission)."""
+        return self.roles.get(name, Role.Observer)
 
     def check(self, name: str | None, password: str | None) -> bool:
         """Return whether the name is a user and the password is theirs."""
@@ -82,27 +89,45 @@ def load_users(path: str) -> Users:
         if not isinstance(users, dict) or not users:
             raise InputError("users", "expected a non-empty mapping of user names to password hashes")
         hashes: dict[str, str] = {}
-        for name, stored in users.items():
+        roles: dict[str, Role] = {}
+        for name, entry in users.items():
             if not isinstance(name, str) or not name:
                 raise InputError("users", f"user names must be non-empty strings, got {name!r}")
-            _parse_hash(stored, f"users.{name}")
-            hashes[name] = stored
+            where = f"users.{name}"
+            if not isinstance(entry, dict) or "role" not in entry:
+                raise InputError(
+                    where,
+                    "has no role: write {role: Observer|Operator|Engineer, hash: ...} "
+                    "(python -m feeder_cell.gateway.users NAME ROLE)",
+                )
+            unknown = sorted(set(entry) - {"role", "hash"})
+            if unknown:
+                raise InputError(f"{where}.{unknown[0]}", "is not a field of a user (role, hash)")
+            roles[name] = parse_role(entry["role"], f"{where}.role")
+            _parse_hash(str(entry.get("hash", "")), f"{where}.hash")
+            hashes[name] = entry["hash"]
     except InputError as error:
         raise InputError("parameter users_file", str(error.with_source(path))) from None
-    return Users(hashes)
+    return Users(hashes, roles)
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Ask for a password and print the users-file line for the user named on the command line."""
+    """Ask for a password and print the users-file line for the user and role named on the command line."""
     args = sys.argv[1:] if argv is None else argv
-    if len(args) != 1 or not args[0]:
-        print("usage: python -m feeder_cell.gateway.users NAME  (asks for the password)", file=sys.stderr)
+    usage = "usage: python -m feeder_cell.gateway.users NAME ROLE  (ROLE: Observer, Operator or Engineer)"
+    if len(args) != 2 or not args[0]:
+        print(usage, file=sys.stderr)
+        return 2
+    try:
+        role = parse_role(args[1], "ROLE")
+    except InputError as error:
+        print(f"{error}; {usage}", file=sys.stderr)
         return 2
     password = getpass.getpass(f"password for {args[0]}: ")
     if not password or password != getpass.getpass("again: "):
         print("the passwords are empty or differ", file=sys.stderr)
         return 1
-    print(f"  {args[0]}: {hash_password(password)}")
+    print(f'  {args[0]}: {{role: {role.name}, hash: "{hash_password(password)}"}}')
     return 0
 
 

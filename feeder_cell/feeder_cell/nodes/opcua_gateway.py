@@ -32,6 +32,7 @@ from feeder_cell.gateway.config import (
     security_warnings,
 )
 from feeder_cell.gateway.kinds import KINDS
+from feeder_cell.gateway.roles import parse_role
 from feeder_cell.gateway.ros_link import RosLink
 from feeder_cell.gateway.server import GatewayServer
 from feeder_cell.gateway.spec import Goal
@@ -103,6 +104,13 @@ PARAMETERS = (
         "allow_anonymous", True, "accept anonymous sessions (on a loopback endpoint only)", read_only=True
     ),
     ParameterSpec(
+        "anonymous_role",
+        "Engineer",
+        "the role of an anonymous session: Observer (browse, read, subscribe), Operator (also the devices' "
+        "methods and acknowledging alarms) or Engineer (also RunProgram and LoadProgram)",
+        read_only=True,
+    ),
+    ParameterSpec(
         "allow_anonymous_remote",
         False,
         "also accept anonymous sessions on a non-loopback endpoint (explicitly, logged; refused otherwise)",
@@ -162,6 +170,8 @@ def _build(node: Node, executor: SingleThreadedExecutor) -> tuple[GatewayServer,
         p["allow_insecure_remote"],
         p["pki_dir"],
     )
+    anonymous_role = parse_role(p["anonymous_role"], "parameter anonymous_role")
+    security = dataclasses.replace(security, anonymous_role=anonymous_role)
     users = load_users(security.users_file) if security.users_file else None
     if security.makes_certificate:
         made = ensure_certificate(security.pki_dir, layout.APPLICATION_URI, endpoint.host)
@@ -220,9 +230,11 @@ async def _serve(
     for warning in security_warnings(server.endpoint, server.security):
         node.get_logger().warning(warning)
     names = ", ".join(d.node for d in server.devices) or "no devices"
+    security = server.security
+    anonymous = f"allowed, {security.anonymous_role.name}" if security.allow_anonymous else "refused"
     node.get_logger().info(
         f"OPC UA server on {server.endpoint.url} ({', '.join(server.security.policies)}; "
-        f"anonymous {'allowed' if server.security.allow_anonymous else 'refused'}; "
+        f"anonymous {anonymous}; "
         f"users {'from ' + server.security.users_file if server.users else 'none'}): {names}"
     )
     await stop.wait()
