@@ -6,6 +6,7 @@ import ctypes
 import ctypes.util
 import dataclasses
 import importlib
+import json
 import os
 import re
 import signal
@@ -412,6 +413,7 @@ class NodeProcess:
     log_path: Path
     stopped: bool = False
     host: str = ""  # the cell host it runs in (shared with the host's other nodes), or "" alone
+    end_file: Path | None = None  # a host's: which of its nodes' work ended it (feeder_cell.host)
 
     @property
     def pid(self) -> int:
@@ -435,6 +437,15 @@ class NodeProcess:
     def output(self) -> str:
         """Return what the node has written to its log so far."""
         return self.log_path.read_text(errors="replace") if self.log_path.exists() else ""
+
+    def ended_by(self) -> list[str]:
+        """Return the hosted nodes whose own work (the controller's cycles) ended the host, once it ended."""
+        if self.end_file is None or self.alive() or not self.end_file.exists():
+            return []
+        try:
+            return list(json.loads(self.end_file.read_text()).get("ended_by", []))
+        except (OSError, ValueError):
+            return []
 
     def cpu_seconds(self) -> float | None:
         """CPU seconds (user + system) the process has used so far, from /proc; None once it has ended."""
@@ -536,7 +547,8 @@ def start_host(
     """
     log_dir.mkdir(parents=True, exist_ok=True)
     stem = f"{name}-{time.monotonic_ns()}"
-    command = [sys.executable, "-m", "feeder_cell.host"]
+    end_file = log_dir / f"{stem}-end.json"
+    command = [sys.executable, "-m", "feeder_cell.host", f"--end-file={end_file}"]
     command += [f"{spec.package}/{spec.executable}" for spec, _ in specs]
     command.append("--ros-args")
     documents: dict[str, Any] = {}
@@ -566,4 +578,4 @@ def start_host(
             preexec_fn=_die_with_parent,
             start_new_session=True,  # as start_node: the launch ends it by pid, in order
         )
-    return [NodeProcess(spec, process, log_path, host=name) for spec, _ in specs]
+    return [NodeProcess(spec, process, log_path, host=name, end_file=end_file) for spec, _ in specs]

@@ -1,10 +1,10 @@
-"""The lockstep cell clock with real processes: the same run at every pace, quiet or loaded; a dead device.
+"""The lockstep cell clock with real processes: the same run at every pace and in every layout; deaths.
 
 The determinism test launches the cell scene (its three devices, planners and the reference controller,
-one production cycle) with a fixed start time and a recorded bag at ``max`` and at 1 on a quiet machine,
-and at 5 with a CPU hog on both cores, and compares every bag with the first message by message
-(``feeder bag-compare``: data fields, header stamps and log times; wall-clock topics and fields
-excepted). The factor-1 run covers a fixed span of cell time only, to keep the wall time modest.
+one production cycle) with a fixed start time and a recorded bag in the three layouts: in the cell host at
+``max`` (the reference), in the cell host with the controller hosted too at ``max``, and with one process
+per node at 5 with a CPU hog on both cores; it compares every bag with the first message by message
+(``feeder bag-compare``: data fields, header stamps and log times; wall-clock topics and fields excepted).
 """
 
 from __future__ import annotations
@@ -24,7 +24,6 @@ import ros_harness
 ROOT = Path(__file__).resolve().parents[2]
 START_S = 1000.0  # a fixed start: the stamps of two runs are comparable
 CYCLE_SPAN_S = 16.0  # of cell time after the start: bring-up and one whole cycle (16.9 s) bar its end
-FACTOR_1_SPAN_S = 3.0  # what the factor-1 run compares (about 3 s of wall time, 7 s recorded)
 
 pytestmark = pytest.mark.ros
 
@@ -106,7 +105,7 @@ def _compare(left: Path, right: Path, end_s: float) -> tuple[str, dict[str, int]
     return (difference.describe() if difference else ""), counts
 
 
-def test_the_cell_gives_the_same_run_at_every_pace_quiet_and_loaded(tmp_path: Path) -> None:
+def test_the_cell_gives_the_same_run_at_every_pace_and_in_every_layout(tmp_path: Path) -> None:
     summary, reference = _launch(tmp_path, "max", "max")
     # The one cycle ran to its end, the controller ending the scene, the devices brought up by it.
     controller = next(n for n in summary["nodes"] if n["executable"] == "cell_controller")
@@ -130,21 +129,23 @@ def test_the_cell_gives_the_same_run_at_every_pace_quiet_and_loaded(tmp_path: Pa
     assert counts["/cell/throwing_arm/joint_states"] >= 100 * (CYCLE_SPAN_S - 1.0)
     assert_bring_up_recorded(reference)
 
-    # At 5 loaded only (quiet at 5 is the same pace with less to expose), at 1 quiet: a loaded host changes
-    # only when each answer comes; the loaded factor-5 run found the last wall-clock dependence (a MEMS
-    # status) and the last ordering race (a bounded announcement type overtaking samples).
-    runs = [("1", "1", START_S + FACTOR_1_SPAN_S, False), ("5_loaded", "5", end, True)]
-    for name, factor, span_end, loaded in runs:
-        # --duration counts wall time from the launch's own bring-up, before the recorder has joined and the
-        # clock left its start time: a margin of 4 s.
-        extra = ("--duration", str(FACTOR_1_SPAN_S + 4.0)) if factor == "1" else ()
+    # The hosted controller reacts by direct calls. Factor 5 runs loaded only (quiet at 5 is the same pace
+    # with less to expose): a loaded host changes only when each answer comes; that run found the last
+    # wall-clock dependence (a MEMS status) and the last ordering races (a bounded announcement type
+    # overtaking samples; a goal's execute task run after the next tick). It runs one process per node:
+    # every lockstep message over DDS, where the reference has none among the devices and the clock.
+    runs = [
+        ("max_controller_hosted", "max", end, False, ("--host-controller",)),
+        ("5_loaded_one_process_per_node", "5", end, True, ("--one-process-per-node",)),
+    ]
+    for name, factor, span_end, loaded, extra in runs:
         if loaded:
             with CpuHog():
                 _, bag = _launch(tmp_path, name, factor, *extra)
         else:
             _, bag = _launch(tmp_path, name, factor, *extra)
         difference, _ = _compare(reference, bag, span_end)
-        assert not difference, f"factor {name} differs from max: {difference}"
+        assert not difference, f"{name} differs from the hosted run at max: {difference}"
 
 
 def assert_bring_up_recorded(bag: Path) -> None:

@@ -69,17 +69,20 @@ def real_time_factor(text: str) -> float:
 HOST_NAME = "cell_host"
 
 
-def hosted_specs(specs: list[NodeSpec], participants: list[NodeSpec]) -> list[NodeSpec]:
+def hosted_specs(
+    specs: list[NodeSpec], participants: list[NodeSpec], controller: bool = False
+) -> list[NodeSpec]:
     """Return the nodes of a lockstep launch that share the cell host (clock, cell_simulation, devices).
 
     A lockstep participant that is not a device (the reference controller: it decides on a thread of its
-    own) stays a process of its own and takes part over DDS, as a user's node does.
+    own) stays a process of its own and takes part over DDS, as a user's node does, unless ``controller``.
     """
     candidates = [
         s
         for s in specs
         if s.executable in (CLOCK_NODE.executable, SIMULATION_NODE.executable)
         or (s in participants and s.executable in DEVICE_LISTS)
+        or (controller and s.package == "feeder_cell" and s.executable == "cell_controller")
     ]
     return hostable(candidates)
 
@@ -283,7 +286,11 @@ def _launch(args: argparse.Namespace) -> int:
             recorder = Recorder(node, Path(args.record))
         states: dict[str, str] = {}
         try:
-            hosted = hosted_specs(specs, participants) if sim_time and not args.one_process_per_node else []
+            hosted = (
+                hosted_specs(specs, participants, args.host_controller)
+                if sim_time and not args.one_process_per_node
+                else []
+            )
             for spec in specs:
                 if not keep_going():
                     break  # interrupted during start-up: end what was started, no traceback
@@ -334,8 +341,14 @@ def _launch(args: argparse.Namespace) -> int:
                 observer.leave()
             stats = recorder.close() if recorder else {}
             cpu = {p.spec.fully_qualified_name: p.cpu_seconds() for p in processes}
-            # Alive or not before any is stopped: a host's nodes share one process.
-            alive_before = [p.alive() for p in processes]
+            # Alive or not before any is stopped: a host's nodes share one process, and when a hosted
+            # node's own work ended it (the controller done with its cycles), that node ended the scene
+            # and the others were stopped with it, as they would have been in processes of their own.
+            ended_by = {name for p in processes for name in p.ended_by()}
+            alive_before = [
+                p.alive() or (bool(ended_by) and p.host != "" and p.spec.fully_qualified_name not in ended_by)
+                for p in processes
+            ]
             codes = [(p, alive, p.stop()) for p, alive in zip(processes, alive_before, strict=True)]
         result: dict[str, Any] = {
             "scene": scene.name,
@@ -394,7 +407,7 @@ def host_reports(codes: list[tuple[NodeProcess, bool, int | None]]) -> list[dict
             {"name": process.host, "pid": process.pid, "nodes": [], "exit_code": code, "died_early": False},
         )
         host["nodes"].append(process.spec.fully_qualified_name)
-        host["died_early"] = host["died_early"] or not alive
+        host["died_early"] = host["died_early"] or (not alive and process.spec.on_exit != "shutdown")
     return list(hosts.values())
 
 
@@ -501,6 +514,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="NODE.PARAM=VALUE",
         help="set a node's parameter for this run, over the scene file's (NODE: its name, e.g. "
         "cell_controller.cycles=1; VALUE: YAML); checked against the node's declarations; repeatable",
+    )
+    parser.add_argument(
+        "--host-controller",
+        action="store_true",
+        help="on the cell clock, run the scene's reference controller in the cell host too (it then reacts "
+        "by direct calls; default: a process of its own, over DDS)",
     )
     parser.add_argument(
         "--one-process-per-node",

@@ -206,7 +206,7 @@ class CellClock(Node):
         self.announced_wall = time.monotonic()
         self.quanta = 0
         # The participants built in this process (the cell host) join here, not over DDS.
-        self.hub = ClockHub(self.barrier, self._pump)
+        self.hub = ClockHub(self, self.barrier, self._pump)
         self.announcers: dict[str, Publisher] = {
             role: self.create_publisher(Header, ANNOUNCE_TOPIC[role], LOCKSTEP_QOS) for role in ROLES
         }

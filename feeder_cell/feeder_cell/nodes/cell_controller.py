@@ -261,6 +261,23 @@ class CellController(Node):
         self.publish_status()
 
     # --- the cycle ------------------------------------------------------------------------------
+    def hosted_work(self, stop: StopRequest) -> int:
+        """Run the cycles and end as ``exit_when_done`` says; return the exit code.
+
+        On the thread ``main`` keeps for it, or the cell host's (``feeder_cell.host``): there the controller
+        reacts by direct calls to the hosted clock (its participant joins the clock's hub), its requests to
+        the devices still go through their services.
+        """
+        self.stop_request = stop
+        code = self.run()
+        if self.lockstep is not None:
+            self.lockstep.leave()  # the clock goes on without a controller that has stopped deciding
+        if not self.p["exit_when_done"]:
+            while not self.stopping():  # keep serving the latched status until Ctrl-C
+                time.sleep(POLL_S)
+            code = EXIT_SHUT_DOWN
+        return code
+
     def run(self) -> int:
         """Run the machine to its end; return the exit code (0 FINISHED or shut down, 1 STOPPED)."""
         work = {
@@ -661,6 +678,9 @@ class CellController(Node):
         self.diagnostics_pub.publish(DiagnosticArray(header=msg.header, status=[entry]))
 
 
+NODE = CellController  # what the cell host builds (feeder_cell.host); it runs hosted_work on a thread
+
+
 def main(args: list[str] | None = None) -> None:
     """Run the controller: spin on a thread, run the cycles here; exit 0 FINISHED or shut down, 1 STOPPED."""
     dump_profile = profiled(NODE_NAME)
@@ -685,13 +705,7 @@ def main(args: list[str] | None = None) -> None:
     spinner.start()
     code = EXIT_STOPPED
     try:
-        code = node.run()
-        if node.lockstep is not None:
-            node.lockstep.leave()  # the clock goes on without a controller that has stopped deciding
-        if not node.p["exit_when_done"]:
-            while not node.stopping():  # keep serving the latched status until Ctrl-C
-                time.sleep(POLL_S)
-            code = EXIT_SHUT_DOWN
+        code = node.hosted_work(stop)
     finally:
         stop.ignore_from_now()
         if rclpy.ok(context=node.context):

@@ -122,7 +122,7 @@ def host_in_process(hub: Hub | None) -> None:
         _HUB.append(hub)
 
 
-def drain(executor: Executor, tasks_only: bool = False) -> None:
+def drain(executor: Executor, tasks_only: bool = False, nodes: list[Node] | None = None) -> None:
     """Run every ready callback and every task that can finish, until one pass makes no progress.
 
     ``tasks_only``: nothing to do unless the executor has tasks (a tick participant: what its tick publishes
@@ -131,6 +131,8 @@ def drain(executor: Executor, tasks_only: bool = False) -> None:
     is progress, and so is a task that completes (a done callback, an action server's result); a coroutine
     task that is resumed and suspends again on a future not yet done is not (rclpy resumes every pending
     coroutine on every pass), so the drain ends while a goal waits for its next tick.
+
+    ``nodes``: only these nodes' entities (the cell host drains its controller's, not every hosted node's).
     """
     for _ in range(MAX_DRAIN_PASSES):
         if tasks_only and not executor._tasks:
@@ -138,7 +140,7 @@ def drain(executor: Executor, tasks_only: bool = False) -> None:
         progressed = False
         while True:
             try:
-                handler, entity, _node = executor.wait_for_ready_callbacks(timeout_sec=0)
+                handler, entity, _node = executor.wait_for_ready_callbacks(timeout_sec=0, nodes=nodes)
             except TimeoutException:
                 break
             handler()
