@@ -14,6 +14,7 @@ SUBCOMMAND_MODULES = (
     "feeder_cell.cli.clock",
     "feeder_cell.cli.calls",
     "feeder_cell.cli.equilibria",
+    "feeder_cell.cli.part_info",
     "feeder_cell.cli.throwing",
     "feeder_cell.cli.assembly",
     "feeder_cell.cli.bridge",
