@@ -57,6 +57,11 @@ class Body:
         """Return the part's edges and moments in its own frame, built once (a body keeps its part)."""
         return PartFrame.of(self.part)
 
+    @cached_property
+    def unit_drag(self) -> np.ndarray:
+        """Return the drag coefficients at unit damping, (A, A, J): damping times them is the drag."""
+        return drag_coefficients(self.part, 1.0)
+
     def loops(self, pose: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
         """Return the part's loops placed at ``pose`` (default: the body's pose) in the plane frame."""
         p = self.pose if pose is None else pose

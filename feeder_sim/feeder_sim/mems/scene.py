@@ -286,7 +286,7 @@ class Scene:
                         self._rate_with,
                         body,
                         field_now=field_now,
-                        drag=drag_coefficients(body.part, self.damping),
+                        drag=self.damping * body.unit_drag,  # drag_coefficients to the bit, kept
                     ),
                     body.frame.radius,
                 )
