@@ -48,6 +48,26 @@ def line_chain_twin(source: Path, target: Path) -> None:
     doc.saveas(target)
 
 
+def svg_twin(source: Path, target: Path) -> None:
+    """One SVG path (a subpath per loop) in the YAML's unit and vertex order; SVG's y axis points down,
+    so y is negated, and the viewBox is the part's box."""
+    document = yaml.safe_load(source.read_text())
+    unit = document.get("length_unit", "m")
+    loops = [document["vertices"], *document.get("holes", [])]
+    xs = [p[0] for p in document["vertices"]]
+    ys = [-p[1] for p in document["vertices"]]
+    width, height = max(xs) - min(xs), max(ys) - min(ys)
+    data = " ".join("M " + " L ".join(f"{x:g} {-y:g}" for x, y in loop) + " Z" for loop in loops)
+    target.write_text(
+        '<svg xmlns="http://www.w3.org/2000/svg" '
+        f'width="{width:g}{unit}" height="{height:g}{unit}" '
+        f'viewBox="{min(xs):g} {min(ys):g} {width:g} {height:g}">\n'
+        f'  <path id="{document.get("name", "part")}" d="{data}" '
+        'fill="none" stroke="black" stroke-width="0.01"/>\n'
+        "</svg>\n"
+    )
+
+
 def filleted_bracket(target: Path) -> None:
     """The bracket (mm) with a 0.5 mm fillet in its inner corner, drawn as LINEs and an ARC, and a
     CIRCLE hole of radius 0.3 mm: arcs whose flattening the chord tolerance bounds."""
@@ -73,6 +93,9 @@ def main() -> int:
         (EXAMPLES / "mems/bracket.yaml", EXAMPLES / "mems/bracket.dxf", polyline_twin),
         (EXAMPLES / "mems/washer.yaml", EXAMPLES / "mems/washer.dxf", polyline_twin),
         (EXAMPLES / "throwing/triangle.yaml", EXAMPLES / "throwing/triangle.dxf", line_chain_twin),
+        (EXAMPLES / "mems/bracket.yaml", EXAMPLES / "mems/bracket.svg", svg_twin),
+        (EXAMPLES / "mems/washer.yaml", EXAMPLES / "mems/washer.svg", svg_twin),
+        (EXAMPLES / "throwing/triangle.yaml", EXAMPLES / "throwing/triangle.svg", svg_twin),
     ):
         make(source, target)
         written.append(target)

@@ -25,7 +25,7 @@ __all__ = [
     "read_outline",
 ]
 
-CAD_SUFFIXES = (".dxf",)
+CAD_SUFFIXES = (".dxf", ".svg")
 """File name endings read as CAD parts (lower case)."""
 
 
@@ -43,6 +43,10 @@ def read_outline(path: str | Path, options: CadOptions | None = None) -> Outline
             from feeder_planner.cad.dxf import read_dxf
 
             return read_dxf(path, options)
+        if suffix == ".svg":
+            from feeder_planner.cad.svg import read_svg
+
+            return read_svg(path, options)
         raise InputError(
             "<file>", f"unknown CAD format {suffix!r}; expected one of {', '.join(CAD_SUFFIXES)}"
         )

@@ -15,9 +15,10 @@ from feeder_planner.fields_io import finite_number, positive_number, short_strin
 __all__ = ["CHORD_TOLERANCE", "CAD_UNITS", "CadOptions", "options_from_mapping", "unit_scale"]
 
 # Arcs, circles, ellipses and splines become polylines whose chords stay within this distance of the
-# curve, relative to the drawing's bounding-box diagonal. For the examples' filleted bracket it moves the
-# equilibria and grasp radii by less than 1e-6 of the part's size against 1e-6 (docs/cli.md, "Importing
-# parts"), and a full circle of a part's size gets about 160 chords.
+# curve, relative to the drawing's bounding-box diagonal. Measured on examples/mems/bracket_filleted.dxf
+# (5.3 mm across) against 1e-6: the equilibria's angles move by at most 7.3e-4 rad and their positions by
+# 1.1e-7 m (delta 0.1 and 0.5), the grasp radii by 1.7e-7 m (docs/cli.md, "Importing parts"). A full
+# circle as large as the drawing gets about 160 chords.
 CHORD_TOLERANCE = 1e-4
 
 # Length units a CAD file may be given in by ``unit:`` (metres each).

@@ -98,8 +98,9 @@ def assemble_outline(pieces: Sequence[Piece], choose: str) -> tuple[Loop, tuple[
 def _closed(piece: Piece) -> Loop:
     """Return a closed piece as a loop, without the repeated first point."""
     points = piece.points
-    if len(points) > 1 and np.array_equal(points[0], points[-1]):
-        points = points[:-1]
+    span = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
+    while len(points) > 1 and np.abs(points[0] - points[-1]).max() <= JOIN_TOLERANCE * span:
+        points = points[:-1]  # the closing point, repeated (to rounding) by the curve's last step
     return Loop(points, (piece.label,))
 
 

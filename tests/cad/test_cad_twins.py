@@ -1,4 +1,4 @@
-"""DXF twins of the YAML examples give the planners' same answers (issue 39 item 4), through the CLI.
+"""DXF and SVG twins of the YAML examples give the planners' same answers (issue 39 item 4), through the CLI.
 
 The twins are examples/*/*.dxf (tools/make_cad_examples.py): polygonal, so they agree to rounding; the
 filleted bracket measures the chord tolerance against a 100 times finer flattening.
@@ -55,19 +55,34 @@ def assert_same(left: object, right: object, path: str = "") -> None:
         assert left == right, path
 
 
+@pytest.mark.parametrize("suffix", ["dxf", "svg"])
 @pytest.mark.parametrize("name", ["bracket", "washer"])
-def test_mems_twin_has_the_same_equilibria(capsys: pytest.CaptureFixture[str], name: str) -> None:
+def test_mems_twin_has_the_same_equilibria(
+    capsys: pytest.CaptureFixture[str], name: str, suffix: str
+) -> None:
     yaml_result = feeder_json(capsys, "equilibria", str(EXAMPLES / f"mems/{name}.yaml"), "--delta", "0.1")
-    dxf_result = feeder_json(capsys, "equilibria", str(EXAMPLES / f"mems/{name}.dxf"), "--delta", "0.1")
+    dxf_result = feeder_json(capsys, "equilibria", str(EXAMPLES / f"mems/{name}.{suffix}"), "--delta", "0.1")
     assert any(e["stable"] for e in dxf_result["equilibria"])
     assert_same(yaml_result, dxf_result)
 
 
-def test_triangle_twin_has_the_same_limit_set_and_grasp_radii(capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize("suffix", ["dxf", "svg"])
+def test_triangle_twin_has_the_same_limit_set_and_grasp_radii(
+    capsys: pytest.CaptureFixture[str], suffix: str
+) -> None:
     yaml_result = feeder_json(capsys, "limit-set", str(EXAMPLES / "throwing/triangle.yaml"), *LIMIT_SET)
-    dxf_result = feeder_json(capsys, "limit-set", str(EXAMPLES / "throwing/triangle.dxf"), *LIMIT_SET)
-    assert dxf_result["cycle"]["edges"] == [1, 0, 2]  # the README's cycle: the edges are numbered alike
-    assert_same(yaml_result, dxf_result)
+    twin = feeder_json(capsys, "limit-set", str(EXAMPLES / f"throwing/triangle.{suffix}"), *LIMIT_SET)
+    assert twin["cycle"]["edges"] == [1, 0, 2]  # the README's cycle: the edges are numbered alike
+    # Set by the geometry alone: equal to rounding.
+    for key in ("stable_edges", "grasp_radius", "flip_radius", "max_radius", "invariant", "unique"):
+        assert_same(yaml_result[key], twin[key], key)
+    # Sampled from the orbits, which are chaotic: a vertex moved by 1e-18 m (the SVG twin's viewBox
+    # rounding) moves a range's ends by up to 2.3 % (measured). The attractor is the same.
+    assert twin["cycle"]["edges"] == yaml_result["cycle"]["edges"]
+    assert twin["trigger"]["goal_edge"] == yaml_result["trigger"]["goal_edge"]
+    for edge, (low, high) in yaml_result["edge_radius_ranges"].items():
+        assert twin["edge_radius_ranges"][edge] == pytest.approx([low, high], rel=0.05)
+    assert twin["trigger"]["radius_range"] == pytest.approx(yaml_result["trigger"]["radius_range"], rel=0.05)
 
 
 def test_a_yaml_cad_mapping_names_the_dxf_with_name_and_density(tmp_path: Path) -> None:
