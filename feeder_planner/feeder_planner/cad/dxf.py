@@ -121,14 +121,14 @@ def _entities(doc: Any, options: CadOptions) -> tuple[list[tuple[Any, str]], Cou
     layers: set[str] = set()
     for entity, label in _flattened_inserts(space, "", 0):
         kind = entity.dxftype()
-        layer = str(entity.dxf.get("layer", "0"))
+        layer = _layer(entity)
         layers.add(layer)
         if options.layer is not None and layer != options.layer:
             continue
         if kind == "POLYLINE" and not entity.is_2d_polyline:
             ignored["3-D POLYLINE or mesh"] += 1
         elif kind in _OUTLINE_TYPES:
-            chosen.append((entity, f"{label}{kind} #{entity.dxf.handle} on layer {layer}"))
+            chosen.append((entity, f"{label}{kind} #{_handle(entity)} on layer {layer}"))
         else:
             ignored[kind] += 1
     if options.layer is not None and options.layer not in layers:
@@ -145,9 +145,10 @@ def _flattened_inserts(space: Iterable[Any], prefix: str, depth: int) -> Iterato
             yield entity, prefix
             continue
         name = entity.dxf.get("name", "?")
+        handle = _handle(entity)
         if depth >= _MAX_INSERT_DEPTH:
             raise InputError(
-                f"INSERT #{entity.dxf.handle}",
+                f"INSERT #{handle}",
                 f"block {name!r} nests inserts deeper than {_MAX_INSERT_DEPTH} (or inserts itself); "
                 "explode it",
             )
@@ -155,12 +156,10 @@ def _flattened_inserts(space: Iterable[Any], prefix: str, depth: int) -> Iterato
             children = list(entity.virtual_entities())
         except Exception as exc:  # a broken reference or a non-uniform scale ezdxf cannot apply
             raise InputError(
-                f"INSERT #{entity.dxf.handle} of block {name!r}",
+                f"INSERT #{handle} of block {name!r}",
                 f"cannot be placed ({type(exc).__name__}); explode it in the CAD tool",
             ) from None
-        yield from _flattened_inserts(
-            children, f"{prefix}INSERT #{entity.dxf.handle} of {name!r}: ", depth + 1
-        )
+        yield from _flattened_inserts(children, f"{prefix}INSERT #{handle} of {name!r}: ", depth + 1)
 
 
 def _pieces(entities: list[tuple[Any, str]], chord_tolerance: float) -> list[Piece]:
@@ -193,13 +192,29 @@ def _pieces(entities: list[tuple[Any, str]], chord_tolerance: float) -> list[Pie
 
 def _choice_hint(doc: Any, options: CadOptions) -> str:
     """How to choose one part in this drawing, naming its layers and blocks."""
-    layers = sorted({str(e.dxf.get("layer", "0")) for e in doc.modelspace()})
+    layers = sorted({_layer(e) for e in doc.modelspace()})
     blocks = [b.name for b in doc.blocks if not b.name.startswith("*")]
     listed = f"layers: {', '.join(layers[:8]) or 'none'}; blocks: {', '.join(blocks[:8]) or 'none'}"
     return (
         "put one part per layer or block and choose it with layer: or block: in the part YAML's cad: "
         f"mapping ({listed})"
     )
+
+
+def _layer(entity: Any) -> str:
+    """Return an entity's layer name ("0" when a damaged entity has none)."""
+    try:
+        return str(entity.dxf.get("layer", "0"))
+    except Exception:  # ezdxf's DXFAttributeError: the entity's kind has no layer attribute
+        return "0"
+
+
+def _handle(entity: Any) -> str:
+    """Return an entity's handle ("?" when a damaged entity has none)."""
+    try:
+        return str(entity.dxf.get("handle", "?"))
+    except Exception:  # as _layer
+        return "?"
 
 
 def _listed(kinds: Counter[str]) -> str:

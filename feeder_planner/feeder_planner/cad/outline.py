@@ -78,7 +78,8 @@ def assemble_outline(pieces: Sequence[Piece], choose: str) -> tuple[Loop, tuple[
     if not pieces:
         raise InputError("<file>", "holds no outline")
     everything = np.concatenate([p.points for p in pieces])
-    diagonal = float(np.linalg.norm(np.ptp(everything, axis=0)))
+    with np.errstate(over="ignore", invalid="ignore"):  # a huge coordinate: refused just below
+        diagonal = float(np.hypot(*np.ptp(everything, axis=0)))
     if not np.isfinite(diagonal):
         raise InputError(pieces[0].label, "a coordinate is not finite; fix or delete the entity")
     loops = [_closed(p) for p in pieces if p.closed] + _chain([p for p in pieces if not p.closed], diagonal)

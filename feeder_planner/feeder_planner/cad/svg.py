@@ -134,7 +134,12 @@ def _pieces(
 
     # Back from the viewport (where svgelements puts the shapes, through the root's viewBox and size, in
     # pixels rounded to 7 digits) to user space, the file frame, which _unit scales exactly.
-    viewport = ~svgelements.Matrix(viewbox_transform or "")
+    try:
+        viewport = ~svgelements.Matrix(viewbox_transform or "")
+    except (ZeroDivisionError, ValueError, OverflowError):
+        raise InputError(
+            "<svg viewBox>", "maps the drawing to nothing (a zero or huge size); fix the viewBox"
+        ) from None
     paths = []
     for shape, label in shapes:
         try:
@@ -146,7 +151,8 @@ def _pieces(
     ends = [(s.end.x, s.end.y) for segments, _ in paths for s in segments if s.end is not None]
     if not ends or not np.isfinite(ends).all():
         raise InputError(shapes[0][1], "has no extent or a coordinate that is not finite; redraw it")
-    diagonal = float(np.linalg.norm(np.ptp(np.array(ends), axis=0)))
+    with np.errstate(over="ignore", invalid="ignore"):  # a huge coordinate is refused by the outline
+        diagonal = float(np.hypot(*np.ptp(np.array(ends), axis=0)))
     tolerance = chord_tolerance * diagonal if diagonal > 0 else 1e-12
     pieces = []
     for segments, label in paths:
