@@ -147,11 +147,13 @@ class RadialField(Field):
         R times that, and the torque about the centroid, (c - p) x F, is c' x F' (a rotation keeps cross
         products).
         """
-        cx, cy = placement.to_part(self.center)
+        # Placement.to_part and .rotate written out: this is every evaluation of the ideal model.
+        x, y, cos, sin = placement
+        dx, dy = self.center[0] - x, self.center[1] - y
+        cx, cy = cos * dx + sin * dy, cos * dy - sin * dx
         gx, gy = lifted.point_gradient(frame.edges, (-cx, -cy))
         fx, fy = -self.strength * gx, -self.strength * gy
-        px, py = placement.rotate((fx, fy))
-        return px, py, cx * fy - cy * fx
+        return cos * fx - sin * fy, sin * fx + cos * fy, cx * fy - cy * fx
 
     def lifted(self, loops: tuple[np.ndarray, ...]) -> float:
         """Return strength V at the translation that puts the centre at the origin (eq. 4)."""

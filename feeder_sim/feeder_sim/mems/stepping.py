@@ -199,17 +199,26 @@ class IdealStepper:
             self.stiff_steps += 1
         # Copies: a caller may change its pose array in place (a placement), which must not match them.
         state.rate, state.wrench, state.rate_pose = k1, wrench, pose.copy()
-        if self._at_rest(state, pose, k1, rate, weights):
+        if self._at_rest(state, pose, k1, v1, rate, weights):
             state.rest_pose = pose.copy()
         return pose, k1, wrench
 
     def _at_rest(
-        self, state: BodyState, pose: np.ndarray, k1: np.ndarray, rate: Rate, weights: tuple[float, ...]
+        self,
+        state: BodyState,
+        pose: np.ndarray,
+        k1: np.ndarray,
+        v1: list[float],
+        rate: Rate,
+        weights: tuple[float, ...],
     ) -> bool:
-        """Whether the body at ``pose`` with velocity ``k1`` is within REST_TRAVEL of a stable equilibrium."""
-        if not any(k1.tolist()):
+        """Whether the body at ``pose`` is within REST_TRAVEL of a stable equilibrium.
+
+        ``k1`` is its velocity, ``v1`` the same in floats.
+        """
+        if not any(v1):
             return True  # no force at all: every further step is this pose, bit for bit
-        if _norm(k1.tolist(), _SETTLED) > 1.0:
+        if _norm(v1, _SETTLED) > 1.0:
             state.inverse_jacobian, state.unstable = None, False  # moving: judge J afresh when it settles
             return False
         if state.inverse_jacobian is None and not state.unstable:
