@@ -199,6 +199,29 @@ def load_part(path: str | Path) -> Part:
         raise (error if error.source else error.with_source(str(path))) from None
 
 
+def part_document(path: str | Path) -> dict[str, Any]:
+    """Return the contract-section-2 document of any part file (a CAD part's as read, in metres).
+
+    A plain part YAML is returned as written; a CAD part (a CAD file, or a YAML with ``cad:``) as its
+    outline and holes as read, in metres and the file's frame. It is what a node publishes as its part
+    (``~/part``), so that another node rebuilds the same part without the CAD file.
+    """
+    from feeder_planner import cad
+
+    if not cad.is_cad_file(path):
+        document = load_yaml_mapping(path)
+        if "cad" not in document:
+            return document
+    part = load_part(path)
+    return {
+        "name": part.name,
+        "length_unit": "m",
+        "vertices": part.file_vertices.tolist(),
+        "holes": [(hole + part.offset).tolist() for hole in part.holes],
+        "density": part.density,
+    }
+
+
 def _cad_document_part(document: dict[str, Any], base: Path) -> Part:
     """Return the part a YAML's ``cad: {file: ..., options}`` names, with the YAML's name and density."""
     from feeder_planner import cad

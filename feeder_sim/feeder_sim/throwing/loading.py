@@ -18,9 +18,9 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from feeder_planner.errors import InputError
-from feeder_planner.fields_io import load_yaml_mapping, short_string, yaml_mapping_from_text
+from feeder_planner.fields_io import short_string, yaml_mapping_from_text
 from feeder_planner.limits import quote
-from feeder_planner.parts import part_from_mapping
+from feeder_planner.parts import part_document, part_from_mapping
 from feeder_planner.throwing import ArmPart, arm_part, lowest_radius
 from feeder_sim.throwing.cycle import ThrowCycle
 from feeder_sim.throwing.parameters import DEFAULT_RADIUS_FACTOR, ArmParameters
@@ -47,7 +47,7 @@ class HeldPart:
 def configured_part(p: ArmParameters, part: ArmPart) -> HeldPart:
     """Return the configured part (``part`` as ``configure_arm`` read it from ``p.part_file``)."""
     try:
-        document = load_yaml_mapping(p.part_file)
+        document = part_document(p.part_file)  # a CAD part file as the outline it was read as
     except InputError as error:
         raise InputError("parameter part_file", str(error)) from None
     return HeldPart(part.part.name, document, p.part_file)
