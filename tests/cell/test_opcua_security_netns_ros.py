@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -40,6 +41,7 @@ PROBE = Path(__file__).resolve().parent / "scripts" / "opcua_raw_probe.py"
 DEVICE, KEY = "/cell/throwing_arm", "cell.throwing_arm"
 USER, PASSWORD = "plc", "line-7"  # an Operator
 VIEWER = "viewer"  # an Observer, with the same password
+LOCKOUT_FAILURES, LOCKOUT_S = 3, 2.0  # the secure gateway's login_failures and login_lockout
 SECURE = "Basic256Sha256_SignAndEncrypt"
 SERVING = "OPC UA server on"
 TIMEOUT_S = 60.0  # generous: four gateways start at once on a loaded two-core machine
@@ -113,6 +115,7 @@ class Run:
     probe: dict[str, Any]
     refused: dict[str, tuple[int | None, str]]  # case -> (exit code, log)
     opted_out_log: str
+    client_address: str  # host B's, where node-opcua runs
 
 
 @pytest.fixture(scope="module")
@@ -147,6 +150,8 @@ def run(ros_domain: int, tmp_path_factory: pytest.TempPathFactory) -> Iterator[R
                 "allow_anonymous": "false",
                 "users_file": str(users),
                 "pki_dir": str(pki_dir),
+                "login_failures": str(LOCKOUT_FAILURES),
+                "login_lockout": str(LOCKOUT_S),
             },
             env,
             folder / "secure.log",
@@ -192,6 +197,8 @@ def run(ros_domain: int, tmp_path_factory: pytest.TempPathFactory) -> Iterator[R
                             "pki": str(folder / "client_pki"),
                             "key": KEY,
                             "viewer": VIEWER,
+                            "lockout_failures": LOCKOUT_FAILURES,
+                            "lockout_s": LOCKOUT_S,
                         }
                     ),
                 ]
@@ -225,6 +232,7 @@ def run(ros_domain: int, tmp_path_factory: pytest.TempPathFactory) -> Iterator[R
             json.loads(probe_run.stdout.strip().splitlines()[-1]),
             codes,
             opted_out_log,
+            hosts.b.address,
         )
     finally:
         for gateway in gateways:
@@ -318,3 +326,30 @@ def test_a_viewer_may_watch_but_not_command_and_reads_its_own_rights(run: Run) -
     roles = {p["role"]: bool(p["permissions"] & operate) for p in viewer["role_permissions"]}
     # OPC 10000-18's well-known roles: Observer i=15668, Operator i=15680, Engineer i=16036.
     assert roles == {"ns=0;i=15668": False, "ns=0;i=15680": True, "ns=0;i=16036": True}, roles
+
+
+def test_every_login_is_one_line_with_address_user_certificate_and_outcome(run: Run) -> None:
+    assert not run.client["unknown_user"]["ok"], run.client
+    assert "BadUserAccessDenied" in run.client["unknown_user"]["error"], run.client
+    logins = [line for line in run.gateway_log.splitlines() if "login from " in line]
+    prefix = f"login from {run.client_address} as "
+    thumbprint = r"[0-9A-F]{2}(:[0-9A-F]{2}){19}"
+    for user, outcome in (
+        (USER, "accepted"),
+        (USER, "refused: wrong user name or password"),
+        ("nobody", "refused: wrong user name or password"),
+        (VIEWER, "accepted"),
+    ):
+        pattern = re.escape(f"{prefix}{user} (certificate ") + thumbprint + re.escape(f"): {outcome}")
+        assert any(re.search(pattern, line) for line in logins), (user, outcome, logins)
+    assert any(f"{prefix}(anonymous)" in line and "refused" in line for line in logins), logins
+    assert not any(PASSWORD in line for line in run.gateway_log.splitlines())
+
+
+def test_failed_logins_lock_the_address_out_and_the_right_password_works_after(run: Run) -> None:
+    lockout = run.client["lockout"]
+    assert lockout["wrong"] == [False] * (LOCKOUT_FAILURES + 1), lockout
+    assert not lockout["right_while_locked"]["ok"], lockout
+    assert lockout["right_after"]["ok"], lockout
+    assert f"address {run.client_address}" in run.gateway_log and "locked out for 2 s" in run.gateway_log
+    assert "refused: locked out for" in run.gateway_log

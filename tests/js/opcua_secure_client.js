@@ -4,7 +4,8 @@
 //   "viewer": ...}'
 // Prints one JSON line (node-opcua's own log lines go before it): the endpoints GetEndpoints lists, and
 // for each attempt whether a session opened (and what it read) or the error that refused it; with a
-// viewer (an Observer, the same password), what the viewer and the user may do (rights). The test
+// viewer (an Observer, the same password), what the viewer and the user may do (rights); with
+// lockout_failures and lockout_s, the gateway's login lockout from this address (last: it locks host B). The test
 // judges; this script only reports. node-opcua refuses on its side to send a token or use an endpoint the
 // server does not list; tests/cell/scripts/opcua_raw_probe.py sends those anyway.
 "use strict";
@@ -160,10 +161,27 @@ async function main() {
   report.secure_anonymous = await attempt(args, certificateManager, ...secure, anonymous);
   report.secure_wrong_password = await attempt(args, certificateManager, ...secure, wrong);
   report.none_user = await attempt(args, certificateManager, ...none, user);
+  // A user name the users file does not have: refused like a wrong password (and as slowly).
+  report.unknown_user = await attempt(args, certificateManager, ...secure, {
+    type: UserTokenType.UserName,
+    userName: "nobody",
+    password: args.password,
+  });
   if (args.viewer) {
     const viewer = { type: UserTokenType.UserName, userName: args.viewer, password: args.password };
     report.viewer_rights = await rights(args, certificateManager, viewer);
     report.user_rights = await rights(args, certificateManager, user);
+  }
+  if (args.lockout_failures) {
+    // Past login_failures wrong passwords this address is locked out: even the right one is refused
+    // until login_lockout has passed, then it works.
+    report.lockout = { wrong: [] };
+    for (let i = 0; i <= args.lockout_failures; i += 1) {
+      report.lockout.wrong.push((await attempt(args, certificateManager, ...secure, wrong)).ok);
+    }
+    report.lockout.right_while_locked = await attempt(args, certificateManager, ...secure, user);
+    await new Promise((resolve) => setTimeout(resolve, args.lockout_s * 1000 + 500));
+    report.lockout.right_after = await attempt(args, certificateManager, ...secure, user);
   }
   await certificateManager.dispose();
   process.stdout.write(JSON.stringify(report) + "\n");

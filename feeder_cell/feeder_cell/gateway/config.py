@@ -193,6 +193,8 @@ class SecurityConfig:
     remote: bool = False  # the endpoint is not a loopback address
     insecure_remote: bool = False  # remote, offering None or no encryption, by allow_insecure_remote
     anonymous_role: Role = Role.Engineer  # an anonymous session's rights (roles.Role)
+    login_failures: int = 5  # consecutive failed logins (an address's, a user's) before lockouts (logins)
+    login_lockout: float = 30.0  # s each failure past login_failures locks the address or user out
 
     @property
     def makes_certificate(self) -> bool:

@@ -176,6 +176,9 @@ class RosLink:
                 offline.append(link.entry.node)
             entry.values.append(KeyValue(key=f"{link.entry.node} online", value=str(online).lower()))
         entry.values.append(KeyValue(key="startup", value=self.startup))
+        guard = self.server.logins
+        if guard is not None:  # the login counts (logins.LoginGuard), once the server is listening
+            entry.values += [KeyValue(key=k, value=str(v)) for k, v in dict(guard.counts).items()]
         entry.level = DiagnosticStatus.WARN if offline else DiagnosticStatus.OK
         entry.message = f"offline: {', '.join(offline)}" if offline else "every device online"
         msg = DiagnosticArray(status=[entry])

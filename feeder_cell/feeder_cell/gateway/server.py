@@ -43,6 +43,7 @@ from feeder_cell.gateway import arguments, layout, roles, units
 from feeder_cell.gateway.alarms import Alarms
 from feeder_cell.gateway.config import PACKML_STATES, DeviceEntry, Endpoint, SecurityConfig
 from feeder_cell.gateway.kinds import KINDS
+from feeder_cell.gateway.logins import ATTEMPT, Attempt, LoginGuard, install, thumbprint
 from feeder_cell.gateway.roles import CALLER, GatewayUser, Role
 from feeder_cell.gateway.spec import ArgumentSpec, CallContext, Goal, MethodSpec, Value
 from feeder_cell.gateway.users import Users
@@ -81,7 +82,9 @@ class GatewayUsers(UserManager):
 
     With ``secure_only`` (the server offers no None endpoint) a session on a channel without a client
     certificate is refused whoever asks: asyncua accepts a None channel whatever the policies (for
-    GetEndpoints) and would create and activate sessions on it, unsigned and unencrypted.
+    GetEndpoints) and would create and activate sessions on it, unsigned and unencrypted. Each answer is
+    recorded and logged by the ``LoginGuard``, which has usually checked the password already, off the
+    loop (``logins.ATTEMPT``).
     """
 
     def __init__(
@@ -90,11 +93,13 @@ class GatewayUsers(UserManager):
         allow_anonymous: bool,
         secure_only: bool = False,
         anonymous_role: Role = Role.Engineer,
+        guard: LoginGuard | None = None,
     ) -> None:
         self.users = users
         self.allow_anonymous = allow_anonymous
         self.secure_only = secure_only
         self.anonymous_role = anonymous_role
+        self.guard = guard or LoginGuard(users, secure_only=secure_only)
 
     def get_user(
         self,
@@ -104,15 +109,29 @@ class GatewayUsers(UserManager):
         certificate: object = None,
     ) -> User | None:
         """Return the session's user, or None (BadUserAccessDenied)."""
+        seen = ATTEMPT.get()
+        address = seen.address if seen is not None else "an unknown address"
+        presented = thumbprint(certificate) if isinstance(certificate, bytes) else ""
+        attempt = Attempt(address, presented or (seen.certificate if seen is not None else ""), username)
         if self.secure_only and not certificate:
-            return None  # a None channel: only a secured one carries the client's certificate
+            # A None channel: only a secured one carries the client's certificate.
+            self.guard.refuse(attempt, "a channel without a client certificate (security None)")
+            return None
         if username is None and password is None:
             if not self.allow_anonymous:
+                self.guard.refuse(attempt, "anonymous sessions are not allowed")
                 return None
+            self.guard.accept_anonymous(attempt)
             return GatewayUser(role=UserRole.User, name="anonymous", access=self.anonymous_role)
-        if self.users is not None and username and self.users.check(username, password):
-            return GatewayUser(role=UserRole.User, name=username, access=self.users.role(username))
-        return None
+        if self.users is None or not username:
+            self.guard.refuse(attempt, "no user name, or no users file")
+            return None
+        ahead = seen is not None and seen.checked and seen.user == username and seen.password == password
+        checking = Attempt(attempt.address, attempt.certificate, username, password)
+        ok = seen.ok if ahead and seen is not None else self.guard.check_now(checking)
+        if not self.guard.decide(attempt, ok):
+            return None
+        return GatewayUser(role=UserRole.User, name=username, access=self.users.role(username))
 
 
 @dataclass
@@ -155,6 +174,7 @@ class GatewayServer:
         self.context = CallContext(program_dir=program_dir)
         self.log = logger or logging.getLogger("opcua_gateway")
         self.server: Server | None = None
+        self.logins: LoginGuard | None = None  # made with the server (start)
         self.idx = 0
         self._types: dict[str, ua.VariantType] = {}
         self._lock = threading.Lock()
@@ -174,12 +194,19 @@ class GatewayServer:
         """Build the address space and listen on the endpoint (OSError when it cannot bind)."""
         self._loop = asyncio.get_running_loop()
         secure_only = "None" not in self.security.policies
-        server = Server(
-            user_manager=GatewayUsers(
-                self.users, self.security.allow_anonymous, secure_only, self.security.anonymous_role
-            )
+        self.logins = LoginGuard(
+            self.users,
+            failures=self.security.login_failures,
+            lockout=self.security.login_lockout,
+            secure_only=secure_only,
+            log=self.log,
         )
+        users = GatewayUsers(
+            self.users, self.security.allow_anonymous, secure_only, self.security.anonymous_role, self.logins
+        )
+        server = Server(user_manager=users)
         await server.init()
+        install(server.iserver, self.logins)
         self._enforce_roles(server)
         server.set_endpoint(self.endpoint.url)
         server.set_server_name("feeder cell OPC UA gateway")
@@ -213,6 +240,8 @@ class GatewayServer:
         if self.server is not None:
             server, self.server = self.server, None
             await server.stop()
+        if self.logins is not None:
+            self.logins.close()
 
     # --- address space ---------------------------------------------------------------------------
     def _id(self, identifier: str) -> ua.NodeId:

@@ -13,6 +13,7 @@ a role is refused at start, naming the user: nobody gets rights by omission.
 from __future__ import annotations
 
 import base64
+import functools
 import getpass
 import hashlib
 import hmac
@@ -71,14 +72,29 @@ class Users:
     hashes: dict[str, str]
     roles: dict[str, Role] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        # Made now, not at the first unknown name: that check would otherwise cost two.
+        if self.hashes:
+            _ = self._dummy
+
     def role(self, name: str) -> Role:
         """Return a user's role (Observer for a name without one: no rights by omission)."""
         return self.roles.get(name, Role.Observer)
 
     def check(self, name: str | None, password: str | None) -> bool:
-        """Return whether the name is a user and the password is theirs."""
+        """Return whether the name is a user and the password is theirs.
+
+        An unknown name is checked against a dummy hash of the users' iteration count, so that it takes
+        as long as a known name's wrong password: the time of a refusal does not tell which names exist.
+        """
         stored = self.hashes.get(name or "")
-        return stored is not None and password is not None and verify_password(password, stored)
+        ok = verify_password(password or "", stored if stored is not None else self._dummy)
+        return ok and stored is not None and password is not None
+
+    @functools.cached_property
+    def _dummy(self) -> str:
+        rounds = [_parse_hash(h, "hash")[0] for h in self.hashes.values()] or [ITERATIONS]
+        return hash_password(os.urandom(16).hex(), iterations=max(rounds))
 
 
 def load_users(path: str) -> Users:

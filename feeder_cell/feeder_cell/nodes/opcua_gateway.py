@@ -40,6 +40,7 @@ from feeder_cell.gateway.users import load_users
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit import ParameterSpec, declare_parameters, positive
 from feeder_planner.node_kit.runner import StopRequest
+from feeder_planner.parameter_specs import integer_at_least
 
 __all__: list[str] = []
 
@@ -111,6 +112,21 @@ PARAMETERS = (
         read_only=True,
     ),
     ParameterSpec(
+        "login_failures",
+        5,
+        "consecutive failed logins from one client address, or for one user name, before each further "
+        "failure locks it out for login_lockout",
+        integer_at_least(1),
+        read_only=True,
+    ),
+    ParameterSpec(
+        "login_lockout",
+        30.0,
+        "s (wall) an address or a user name is locked out after a failed login past login_failures",
+        positive,
+        read_only=True,
+    ),
+    ParameterSpec(
         "allow_anonymous_remote",
         False,
         "also accept anonymous sessions on a non-loopback endpoint (explicitly, logged; refused otherwise)",
@@ -171,7 +187,12 @@ def _build(node: Node, executor: SingleThreadedExecutor) -> tuple[GatewayServer,
         p["pki_dir"],
     )
     anonymous_role = parse_role(p["anonymous_role"], "parameter anonymous_role")
-    security = dataclasses.replace(security, anonymous_role=anonymous_role)
+    security = dataclasses.replace(
+        security,
+        anonymous_role=anonymous_role,
+        login_failures=int(p["login_failures"]),
+        login_lockout=float(p["login_lockout"]),
+    )
     users = load_users(security.users_file) if security.users_file else None
     if security.makes_certificate:
         made = ensure_certificate(security.pki_dir, layout.APPLICATION_URI, endpoint.host)
@@ -259,6 +280,8 @@ def _log_to_stderr() -> None:
     # certificate, a bad login).
     for name in ("asyncua", "asyncuagds"):
         logging.getLogger(name).setLevel(logging.ERROR)
+    # Every login, accepted too, is a line of the gateway's own (logins.LoginGuard).
+    logging.getLogger(NODE_NAME).setLevel(logging.INFO)
 
 
 def main(args: list[str] | None = None) -> None:
