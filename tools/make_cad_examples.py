@@ -68,6 +68,28 @@ def svg_twin(source: Path, target: Path) -> None:
     )
 
 
+def stl_prism(source: Path, target: Path, thickness: float = 1.0) -> None:
+    """The bracket as a solid 1 unit thick (ASCII STL, outward normals): its caps fanned from vertex 3,
+    the reflex corner, from which every other vertex is seen."""
+    document = yaml.safe_load(source.read_text())
+    base = [(float(x), float(y)) for x, y in document["vertices"]]
+    n = len(base)
+    triangles = []
+    for k in range(1, n - 1):  # fan from vertex 3 (index order rotated so it is first)
+        a, b, c = base[3], base[(3 + k) % n], base[(3 + k + 1) % n]
+        triangles.append(((*a, thickness), (*b, thickness), (*c, thickness)))
+        triangles.append(((*a, 0.0), (*c, 0.0), (*b, 0.0)))
+    for k in range(n):
+        a, b = base[k], base[(k + 1) % n]
+        triangles.append(((*a, 0.0), (*b, 0.0), (*b, thickness)))
+        triangles.append(((*a, 0.0), (*b, thickness), (*a, thickness)))
+    lines = ["solid part"]
+    for triangle in triangles:
+        lines += ["facet normal 0 0 0", "outer loop", *(f"vertex {x:g} {y:g} {z:g}" for x, y, z in triangle)]
+        lines += ["endloop", "endfacet"]
+    target.write_text("\n".join([*lines, "endsolid part", ""]))
+
+
 def filleted_bracket(target: Path) -> None:
     """The bracket (mm) with a 0.5 mm fillet in its inner corner, drawn as LINEs and an ARC, and a
     CIRCLE hole of radius 0.3 mm: arcs whose flattening the chord tolerance bounds."""
@@ -99,6 +121,8 @@ def main() -> int:
     ):
         make(source, target)
         written.append(target)
+    stl_prism(EXAMPLES / "mems/bracket.yaml", EXAMPLES / "mems/bracket.stl")
+    written.append(EXAMPLES / "mems/bracket.stl")
     filleted_bracket(EXAMPLES / "mems/bracket_filleted.dxf")
     written.append(EXAMPLES / "mems/bracket_filleted.dxf")
     for path in written:

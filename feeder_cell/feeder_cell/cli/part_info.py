@@ -38,6 +38,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--layer", help="DXF: only the entities on this layer")
     parser.add_argument("--block", help="DXF: the entities of this block definition")
     parser.add_argument("--element", help="SVG: only the element with this id (and its children)")
+    parser.add_argument(
+        "--face", choices=["-z", "+z", "-x", "+x", "-y", "+y"], help="STL: the face it rests on"
+    )
+    parser.add_argument(
+        "--section", type=finite_float, help="STL: the section at this level across --face's axis"
+    )
     parser.add_argument("--unit", choices=list(CAD_UNITS), help="the file's length unit, overriding its own")
     parser.add_argument(
         "--chord-tolerance",
@@ -55,7 +61,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _options(args: argparse.Namespace, base: dict[str, Any]) -> CadOptions:
     """Return the CAD options: a YAML cad: mapping's (``base``), then the flags given."""
     raw = dict(base)
-    for key in ("layer", "block", "element", "unit", "chord_tolerance"):
+    for key in ("layer", "block", "element", "unit", "chord_tolerance", "face", "section"):
         value = getattr(args, key, None)
         if value is not None:
             raw[key] = value

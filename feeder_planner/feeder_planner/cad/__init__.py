@@ -25,7 +25,7 @@ __all__ = [
     "read_outline",
 ]
 
-CAD_SUFFIXES = (".dxf", ".svg")
+CAD_SUFFIXES = (".dxf", ".svg", ".stl")
 """File name endings read as CAD parts (lower case)."""
 
 
@@ -47,6 +47,10 @@ def read_outline(path: str | Path, options: CadOptions | None = None) -> Outline
             from feeder_planner.cad.svg import read_svg
 
             return read_svg(path, options)
+        if suffix == ".stl":
+            from feeder_planner.cad.stl import read_stl
+
+            return read_stl(path, options)
         raise InputError(
             "<file>", f"unknown CAD format {suffix!r}; expected one of {', '.join(CAD_SUFFIXES)}"
         )
