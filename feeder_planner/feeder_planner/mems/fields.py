@@ -184,9 +184,8 @@ class ConstantField(Field):
         return np.array(self.placed_wrench(frame, Placement.of(pose)))
 
     def placed_wrench(self, frame: PartFrame, placement: Placement) -> tuple[float, float, float]:
-        """Return force times area at the centroid: no torque about it, whatever the placement."""
-        area = float(frame.area_moments[0])
-        return self.force[0] * area, self.force[1] * area, 0.0
+        """Return force times area at the centroid (eqs. 1-2 for f constant): no torque about it."""
+        return self.force[0] * frame.area, self.force[1] * frame.area, 0.0
 
     def lifted(self, loops: tuple[np.ndarray, ...]) -> float:
         """Return -force . (first moment of area)."""
@@ -224,7 +223,7 @@ class CombinedField(Field):
         return self._parts()
 
     def wrench_at(self, frame: PartFrame, pose: np.ndarray) -> np.ndarray:
-        """Return the sum of the radial and the constant wrenches, both in the part frame, one placement."""
+        """Return the sum of the radial and the constant wrenches (section 3.2), one placement for both."""
         a, b = self._components
         placement = Placement.of(pose)
         ra, rb = a.placed_wrench(frame, placement), b.placed_wrench(frame, placement)

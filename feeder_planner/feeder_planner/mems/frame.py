@@ -32,11 +32,11 @@ class Placement(NamedTuple):
     cos: float
     sin: float
 
-    @classmethod
-    def of(cls, pose: np.ndarray) -> Placement:
+    @staticmethod
+    def of(pose: np.ndarray) -> Placement:
         """Return the placement of ``pose`` (x, y, theta)."""
         x, y, theta = pose.tolist()
-        return cls(x, y, math.cos(theta), math.sin(theta))
+        return Placement(x, y, math.cos(theta), math.sin(theta))
 
     def to_part(self, point: tuple[float, float]) -> tuple[float, float]:
         """Return the part-frame coordinates q = R^T (r - (x, y)) of the plane point ``point``."""
@@ -50,21 +50,21 @@ class Placement(NamedTuple):
 
 @dataclass(frozen=True)
 class PartFrame:
-    """A part with its edges and area moments in its own frame (centroid at the origin).
+    """A part with its edges and area in its own frame (centroid at the origin).
 
-    ``area_moments`` is (A, Sx, Sy) about the part's centroid: the first moments vanish up to rounding,
-    so a constant field's force acts at the frame's origin (no torque about the centroid).
+    ``area`` is that of the loops (Green's theorem, as for placed loops); the first moments about the
+    frame's origin vanish, so a constant field's force acts there, with no torque about the centroid.
     """
 
     part: Part
     edges: lifted.Edges
-    area_moments: np.ndarray
+    area: float
     radius: float  # Part.radius, which computes it at every call
 
     @classmethod
     def of(cls, part: Part) -> PartFrame:
-        """Return the frame of ``part``: its edges (eqs. 5-9 need them) and moments, once."""
-        return cls(part, lifted.part_edges(part), area_moments(part.loops()), part.radius)
+        """Return the frame of ``part``: its edges (eqs. 5-9 need them) and area, once."""
+        return cls(part, lifted.part_edges(part), float(area_moments(part.loops())[0]), part.radius)
 
     def placed(self, pose: np.ndarray) -> tuple[np.ndarray, ...]:
         """Return the loops placed at ``pose`` in the plane frame (for fields without a part-frame form).
