@@ -110,6 +110,28 @@ def _build(nodes: list[tuple[str, str]]) -> list[Node]:
     return built
 
 
+def hand_clock_directly(built: list[Node]) -> None:
+    """Give the hosted nodes cell time by call from the hosted clock, not through their /clock readers.
+
+    Each node on sim time has rclpy's time source reading /clock (best effort, depth 1): in the host that
+    is one callback per node for every /clock message, the most frequent work of the host's executor after
+    the lockstep itself. The clock calls each time source's own callback instead, with the same message
+    when it publishes it. (rclpy offers no public way to feed a time source: ``_time_source`` and its
+    ``_clock_sub`` are rclpy 7.1's; a time source re-subscribes by itself if ``use_sim_time`` is set again.)
+    """
+    clock = next((n for n in built if hasattr(n, "hosted_readers")), None)
+    if clock is None:
+        return
+    for node in built:
+        source = getattr(node, "_time_source", None)
+        subscription = getattr(source, "_clock_sub", None)
+        if node is clock or source is None or subscription is None:
+            continue
+        node.destroy_subscription(subscription)
+        source._clock_sub = None
+        clock.hosted_readers.append(source.clock_callback)
+
+
 def answer_hosted(hub: ClockHub, executor: Executor) -> None:
     """Answer every hosted participant with an announcement pending, after the drain its role needs.
 
@@ -145,6 +167,7 @@ def main(argv: list[str] | None = None) -> None:
         built = _build(nodes)
         for node in built:
             executor.add_node(node)
+        hand_clock_directly(built)
         hub = next((n.hub for n in built if getattr(n, "hub", None) is not None), None)
         # No timeout on spin_once (rclpy 7.1 makes a timer per call with one and never frees it): a stop
         # wakes the executor, and so does the end of a hosted node's work.

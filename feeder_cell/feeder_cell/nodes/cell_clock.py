@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import cast
+from typing import Callable, cast
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -155,6 +155,8 @@ class CellClock(Node):
         self.paused = bool(self.p.start_paused)
         self.last_wall = time.monotonic()
         self.pub = self.create_publisher(Clock, "/clock", CLOCK_QOS)
+        # The /clock callbacks of the nodes in the cell host with this clock (feeder_cell.host): by call.
+        self.hosted_readers: list[Callable[[Clock], None]] = []
         self.create_service(Trigger, "~/pause", self.on_pause)
         self.create_service(Trigger, "~/resume", self.on_resume)
         # Its own reentrant group: in lockstep a step waits for the answers of the quanta it runs, which the
@@ -175,8 +177,11 @@ class CellClock(Node):
         self.get_logger().info(f"/clock at real-time factor {pace}, {mode}{paused}")
 
     def publish(self) -> None:
-        """Publish the present simulated time."""
-        self.pub.publish(Clock(clock=to_time(self.now_ns)))
+        """Publish the present simulated time (and hand it to the time sources of the nodes it hosts)."""
+        msg = Clock(clock=to_time(self.now_ns))
+        self.pub.publish(msg)
+        for reader in self.hosted_readers:
+            reader(msg)
 
     # --- free-running -------------------------------------------------------------------------------
     def tick(self) -> None:
