@@ -1071,3 +1071,89 @@ def test_abort_clear_reset_and_suspend_unsuspend_follow_packml(gateway: str) -> 
         await idle(s, fixture)
 
     session(gateway, scenario)
+
+
+def _client_certificate(folder: Path, name: str, uri: str, days: tuple[float, float]) -> tuple[Path, Path]:
+    """Make a client certificate for ``uri`` valid from ``days[0]`` to ``days[1]`` days from now."""
+    import datetime as dt
+
+    from cryptography import x509
+    from cryptography.hazmat.primitives import hashes, serialization
+    from cryptography.hazmat.primitives.asymmetric import rsa
+    from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
+
+    key = rsa.generate_private_key(public_exponent=65537, key_size=2048)
+    subject = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, name)])
+    now = dt.datetime.now(dt.timezone.utc)
+    certificate = (
+        x509.CertificateBuilder()
+        .subject_name(subject)
+        .issuer_name(subject)
+        .public_key(key.public_key())
+        .serial_number(x509.random_serial_number())
+        .not_valid_before(now + dt.timedelta(days=days[0]))
+        .not_valid_after(now + dt.timedelta(days=days[1]))
+        .add_extension(x509.SubjectAlternativeName([x509.UniformResourceIdentifier(uri)]), critical=False)
+        .add_extension(
+            x509.KeyUsage(True, True, True, True, False, True, False, False, False), critical=False
+        )
+        .add_extension(x509.ExtendedKeyUsage([ExtendedKeyUsageOID.CLIENT_AUTH]), critical=False)
+        .sign(key, hashes.SHA256())
+    )
+    cert_path, key_path = folder / f"{name}_cert.der", folder / f"{name}_key.pem"
+    cert_path.write_bytes(certificate.public_bytes(serialization.Encoding.DER))
+    key_path.write_bytes(
+        key.private_bytes(
+            serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8, serialization.NoEncryption()
+        )
+    )
+    return cert_path, key_path
+
+
+def test_without_a_trust_list_a_client_certificate_is_still_checked_for_itself(
+    launch_node: Callable[..., Any], tmp_path: Path
+) -> None:
+    """No trusted_certificates_dir: any issuer opens a channel, not an expired or another client's one."""
+    uri = "urn:feeder:test:plc"
+    cases = {
+        "good": (uri, (-1, 365), None),
+        "expired": (uri, (-30, -1), "BadCertificateTimeInvalid"),
+        "not_yet_valid": (uri, (1, 365), "BadCertificateTimeInvalid"),
+        "foreign_uri": ("urn:feeder:test:someone-else", (-1, 365), "BadCertificateUriInvalid"),
+    }
+    made = {name: _client_certificate(tmp_path, name, u, days) for name, (u, days, _) in cases.items()}
+    url = f"opc.tcp://127.0.0.1:{free_port()}"
+    launch_node(
+        "feeder_cell",
+        "opcua_gateway",
+        {
+            "endpoint": url,
+            "devices": [ARM],
+            "security_policies": ["Basic256Sha256_SignAndEncrypt"],
+            "pki_dir": str(tmp_path / "pki"),
+        },
+        namespace="/gw_selfcheck",
+    )
+
+    async def connect(name: str) -> str:
+        cert, key = made[name]
+        client = Client(url, timeout=10, watchdog_intervall=WATCHDOG_S)
+        client.application_uri = uri
+        await client.set_security_string(f"Basic256Sha256,SignAndEncrypt,{cert},{key}")
+        try:
+            await client.connect()
+        except Exception as error:  # noqa: BLE001 - the refusal's name is what is judged
+            return type(error).__name__ + " " + str(error)
+        await client.disconnect()
+        return "Good"
+
+    async def main() -> None:
+        await _wait_for_endpoints(url)
+        for name, (_, _, refusal) in cases.items():
+            said = await connect(name)
+            if refusal is None:
+                assert said == "Good", (name, said)
+            else:
+                assert refusal in said, (name, said)
+
+    asyncio.run(main())

@@ -188,7 +188,7 @@ class SecurityConfig:
     private_key_file: str
     allow_anonymous: bool
     users_file: str
-    trusted_certificates_dir: str = ""  # empty: any client certificate opens a secure channel
+    trusted_certificates_dir: str = ""  # empty: any issuer (still checked for itself)
     pki_dir: str = ""  # empty: certificates.default_pki_dir()
     remote: bool = False  # the endpoint is not a loopback address
     insecure_remote: bool = False  # remote, offering None or no encryption, by allow_insecure_remote

@@ -229,6 +229,11 @@ class GatewayServer:
             await store.load()
             options = CertificateValidatorOptions.TRUSTED_VALIDATION | CertificateValidatorOptions.PEER_CLIENT
             server.set_certificate_validator(CertificateValidator(options, store))
+        else:
+            # No trust list: any issuer opens a channel, but a certificate is still checked for itself
+            # (OPC 10000-4, 6.1.3): its validity period and that its URI is the client's ApplicationUri.
+            options = CertificateValidatorOptions.BASIC_VALIDATION | CertificateValidatorOptions.PEER_CLIENT
+            server.set_certificate_validator(CertificateValidator(options))
         self.idx = await server.register_namespace(layout.NAMESPACE_URI)
         await self._build(server)
         await server.start()

@@ -98,7 +98,8 @@ PARAMETERS = (
         "trusted_certificates_dir",
         "",
         "folder of trusted client certificates (or their CAs; PEM or DER) for the Basic256Sha256 "
-        "policies; empty: any client certificate opens a secure channel",
+        "policies; empty: a certificate of any issuer opens a secure channel (its validity period and URI "
+        "are checked either way)",
         read_only=True,
     ),
     ParameterSpec(
