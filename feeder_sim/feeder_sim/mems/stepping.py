@@ -76,7 +76,9 @@ class BodyState:
     # The rate at ``rate_pose`` under ``conditions`` (reused by the next call when nothing changed).
     rate: np.ndarray | None = None
     wrench: np.ndarray | None = None
-    rate_pose: np.ndarray | None = None
+    # The pose and the rate as floats: the next call compares and steps in floats.
+    rate_pose: list[float] | None = None
+    rate_floats: list[float] | None = None
     # The inverse Jacobian of the rate near the settling pose, or None; ``unstable`` when J has a mode that
     # does not decay (a neutral or unstable equilibrium: no rest is certified there).
     inverse_jacobian: np.ndarray | None = None
@@ -149,17 +151,18 @@ class IdealStepper:
             state.rest_pose = state.inverse_jacobian = None  # placed elsewhere: moves again
             state.unstable = False
         weights = (scale, scale, 1.0)
-        if state.rate is not None and state.rate_pose is not None and _same_pose(pose, state.rate_pose):
-            k1, wrench = state.rate, state.wrench
+        # The step's arithmetic in floats, the same operations in the same order as on arrays: numpy's
+        # per-call cost on three numbers was most of a Heun step's bookkeeping.
+        x = pose.tolist()
+        if state.rate is not None and state.rate_floats is not None and state.rate_pose == x:
+            k1, wrench, v1 = state.rate, state.wrench, state.rate_floats
             assert wrench is not None
         else:
             k1, wrench = self._rate(rate, pose)
+            v1 = k1.tolist()
         remaining = dt
         h = min(state.step or dt, dt)
         stiff = False
-        # The step's arithmetic in floats, the same operations in the same order as on arrays: numpy's
-        # per-call cost on three numbers was most of a Heun step's bookkeeping.
-        x, v1 = pose.tolist(), k1.tolist()
         while remaining > 0.0:
             # The last piece of a dt: take what is left rather than leave a sliver of rounding.
             h = remaining if h >= remaining * (1.0 - 1e-9) else h
@@ -197,8 +200,8 @@ class IdealStepper:
             v1 = k1.tolist()
         if stiff:
             self.stiff_steps += 1
-        # Copies: a caller may change its pose array in place (a placement), which must not match them.
-        state.rate, state.wrench, state.rate_pose = k1, wrench, pose.copy()
+        # Lists and copies: a caller may change its pose array in place (a placement), which must not match.
+        state.rate, state.wrench, state.rate_pose, state.rate_floats = k1, wrench, x, v1
         if self._at_rest(state, pose, k1, v1, rate, weights):
             state.rest_pose = pose.copy()
         return pose, k1, wrench
