@@ -63,6 +63,80 @@ def require_node_opcua() -> None:
     )
 
 
+CLIENT_URI = "urn:feeder:test:plc"
+# name -> (the URI in the certificate, its validity from/to in days from now, the refusal expected)
+CERTIFICATES = {
+    "valid": (CLIENT_URI, (-1, 365), None),
+    "expired": (CLIENT_URI, (-30, -1), "BadCertificateTimeInvalid"),
+    "not_yet_valid": (CLIENT_URI, (1, 365), "BadCertificateTimeInvalid"),
+    "foreign_uri": ("urn:feeder:test:someone-else", (-1, 365), "BadCertificateUriInvalid"),
+}
+
+
+# An asyncua client that presents a certificate of another application's URI while claiming CLIENT_URI
+# (argv: url, certificate, key, user, password); prints one JSON line.
+FOREIGN_URI_CLIENT = f"""
+import asyncio, json, sys
+from asyncua import Client
+
+async def main():
+    url, cert, key, user, password = sys.argv[1:6]
+    client = Client(url, timeout=10)
+    client.application_uri = "{CLIENT_URI}"
+    client.set_user(user)
+    client.set_password(password)
+    await client.set_security_string(f"Basic256Sha256,SignAndEncrypt,{{cert}},{{key}}")
+    try:
+        await client.connect()
+    except Exception as error:
+        return {{"ok": False, "error": f"{{type(error).__name__}}: {{error}}".splitlines()[0]}}
+    await client.disconnect()
+    return {{"ok": True}}
+
+print(json.dumps(asyncio.run(main())))
+"""
+
+
+def client_certificates(folder: Path) -> dict[str, dict[str, str]]:
+    """Make each of CERTIFICATES (PEM, for node-opcua); each claims CLIENT_URI as its ApplicationUri."""
+    import datetime as dt
+
+    from cryptography import x509
+    from cryptography.hazmat.primitives import hashes, serialization
+    from cryptography.hazmat.primitives.asymmetric import rsa
+    from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
+
+    made = {}
+    now = dt.datetime.now(dt.timezone.utc)
+    for name, (uri, (start, end), _) in CERTIFICATES.items():
+        key = rsa.generate_private_key(public_exponent=65537, key_size=2048)
+        subject = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, name)])
+        certificate = (
+            x509.CertificateBuilder()
+            .subject_name(subject)
+            .issuer_name(subject)
+            .public_key(key.public_key())
+            .serial_number(x509.random_serial_number())
+            .not_valid_before(now + dt.timedelta(days=start))
+            .not_valid_after(now + dt.timedelta(days=end))
+            .add_extension(x509.SubjectAlternativeName([x509.UniformResourceIdentifier(uri)]), critical=False)
+            .add_extension(
+                x509.KeyUsage(True, True, True, True, False, True, False, False, False), critical=False
+            )
+            .add_extension(x509.ExtendedKeyUsage([ExtendedKeyUsageOID.CLIENT_AUTH]), critical=False)
+            .sign(key, hashes.SHA256())
+        )
+        cert, private = folder / f"{name}_cert.pem", folder / f"{name}_key.pem"
+        cert.write_bytes(certificate.public_bytes(serialization.Encoding.PEM))
+        private.write_bytes(
+            key.private_bytes(
+                serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8, serialization.NoEncryption()
+            )
+        )
+        made[name] = {"cert": str(cert), "key": str(private), "uri": CLIENT_URI}
+    return made
+
+
 @dataclass
 class Gateway:
     """A gateway process on a host; its output goes to a log file."""
@@ -116,6 +190,7 @@ class Run:
     refused: dict[str, tuple[int | None, str]]  # case -> (exit code, log)
     opted_out_log: str
     client_address: str  # host B's, where node-opcua runs
+    foreign_uri: dict[str, Any]  # FOREIGN_URI_CLIENT's session attempt
 
 
 @pytest.fixture(scope="module")
@@ -184,6 +259,27 @@ def run(ros_domain: int, tmp_path_factory: pytest.TempPathFactory) -> Iterator[R
         gateway_log = wait_for(secure, SERVING)
         opted_out_log = wait_for(opted_out, SERVING)
         opted_out.stop()
+        certificates = client_certificates(folder)
+        foreign = certificates["foreign_uri"]
+        foreign_run = subprocess.run(
+            hosts.b.command(
+                [
+                    sys.executable,
+                    "-c",
+                    FOREIGN_URI_CLIENT,
+                    url,
+                    foreign["cert"],
+                    foreign["key"],
+                    USER,
+                    PASSWORD,
+                ]
+            ),
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=TIMEOUT_S,
+        )
+        assert foreign_run.returncode == 0, foreign_run.stdout[-3000:] + foreign_run.stderr[-3000:]
         client_run = subprocess.run(
             hosts.b.command(
                 [
@@ -197,6 +293,7 @@ def run(ros_domain: int, tmp_path_factory: pytest.TempPathFactory) -> Iterator[R
                             "pki": str(folder / "client_pki"),
                             "key": KEY,
                             "viewer": VIEWER,
+                            "certificates": {k: v for k, v in certificates.items() if k != "foreign_uri"},
                             "lockout_failures": LOCKOUT_FAILURES,
                             "lockout_s": LOCKOUT_S,
                         }
@@ -233,6 +330,7 @@ def run(ros_domain: int, tmp_path_factory: pytest.TempPathFactory) -> Iterator[R
             codes,
             opted_out_log,
             hosts.b.address,
+            json.loads(foreign_run.stdout.strip().splitlines()[-1]),
         )
     finally:
         for gateway in gateways:
@@ -353,3 +451,15 @@ def test_failed_logins_lock_the_address_out_and_the_right_password_works_after(r
     assert lockout["right_after"]["ok"], lockout
     assert f"address {run.client_address}" in run.gateway_log and "locked out for 2 s" in run.gateway_log
     assert "refused: locked out for" in run.gateway_log
+
+
+def test_without_a_trust_list_each_client_certificate_is_checked_for_itself(run: Run) -> None:
+    # node-opcua claims its certificate's own URI whatever it is told, so asyncua (FOREIGN_URI_CLIENT)
+    # sends the mismatch; node-opcua sends the others.
+    results = {**run.client["certificates"], "foreign_uri": run.foreign_uri}
+    for name, (_, _, refusal) in CERTIFICATES.items():
+        result = results[name]
+        if refusal is None:
+            assert result["ok"], (name, result)
+        else:
+            assert not result["ok"] and refusal in result.get("error", ""), (name, result)

@@ -32,8 +32,9 @@ function errorText(error) {
   return String((error && (error.message || error)) || "unknown").split("\n")[0];
 }
 
-async function attempt(args, certificateManager, mode, policy, identity) {
+async function attempt(args, certificateManager, mode, policy, identity, own = {}) {
   const client = OPCUAClient.create({
+    ...own, // a given client certificate and key, and the ApplicationUri it claims
     applicationName: "feeder-test-plc",
     securityMode: mode,
     securityPolicy: policy,
@@ -171,6 +172,15 @@ async function main() {
     const viewer = { type: UserTokenType.UserName, userName: args.viewer, password: args.password };
     report.viewer_rights = await rights(args, certificateManager, viewer);
     report.user_rights = await rights(args, certificateManager, user);
+  }
+  // Client certificates the gateway must check for themselves (no trust list): each one's session.
+  report.certificates = {};
+  for (const [name, own] of Object.entries(args.certificates || {})) {
+    report.certificates[name] = await attempt(args, certificateManager, ...secure, user, {
+      certificateFile: own.cert,
+      privateKeyFile: own.key,
+      applicationUri: own.uri,
+    });
   }
   if (args.lockout_failures) {
     // Past login_failures wrong passwords this address is locked out: even the right one is refused
