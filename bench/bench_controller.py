@@ -1,12 +1,14 @@
-"""The lockstep cell as fast as it goes: the cell scene under the reference controller, the demo scene.
+"""The lockstep cell as fast as it goes: the cell scene under the reference controller in each layout.
 
 Runs the cell scene (`feeder_cell/scenes/cell.yaml`: the three devices, their planners and the cell
-controller) with `feeder launch --real-time-factor max --json` on its own ROS domain; the launch ends
-when the controller has run its cycles (on_exit: shutdown). From the launch's summary: the real-time
-factor achieved (cell seconds over wall seconds after the first quantum) and every node's CPU seconds;
-from the controller's log: the cycles and their cell times. In lockstep no device drops a sample (the
-determinism test counts them); what is measured here is how fast. Then the demo scene for 20 s of wall
-time. Medians of 3 runs (1 with --quick).
+controller) with `feeder launch --real-time-factor max` on its own ROS domain in three layouts: the cell
+host with the controller as its own process (the default), the controller hosted too
+(`--host-controller`), and one process per node (the baseline). Steady state: from the end of cycle 1 to
+the end of cycle n (the controller's log stamps each cycle's end), cell seconds per wall second, cycles
+per wall minute, and every process's CPU seconds per simulated second from /proc snapshots at those two
+moments. In lockstep no device drops a sample (the determinism test counts them); what is measured here is
+how fast. Then the demo scene with recording for 20 s of wall time. Medians of 3 interleaved runs (1 with
+--quick).
 """
 
 from __future__ import annotations
@@ -38,104 +40,168 @@ def _scene_with(cycles: int, folder: Path) -> Path:
     return scene_copy(SCENE, folder, {"cell_controller": {"cycles": cycles}})
 
 
-def _launch(scene: Path, folder: str, domain: int, *extra: str) -> tuple[dict[str, Any], float]:
-    """Run ``feeder launch SCENE --real-time-factor max --json``; return its summary and the wall time."""
-    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    started = time.monotonic()
-    launch = subprocess.run(
-        [*FEEDER, "launch", str(scene), "--log-dir", folder, "--real-time-factor", "max", "--json", *extra],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=RUN_WALL_LIMIT_S,
-    )
-    wall = time.monotonic() - started
-    if launch.returncode != 0 and not launch.stdout.strip():
-        raise RuntimeError(f"feeder launch failed: {launch.stderr.strip().splitlines()[-1:]}")
-    return json.loads(launch.stdout), wall
+def _processes(domain: int) -> dict[int, tuple[str, float]]:
+    """CPU seconds (user + system) of every process on ROS domain ``domain``, by pid: (name, CPU s)."""
+    found: dict[int, tuple[str, float]] = {}
+    tick = os.sysconf("SC_CLK_TCK")
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            if f"ROS_DOMAIN_ID={domain}".encode() not in (entry / "environ").read_bytes().split(b"\0"):
+                continue
+            argv = (entry / "cmdline").read_bytes().decode(errors="replace").split("\0")
+            fields = (entry / "stat").read_text().rpartition(")")[2].split()
+        except OSError:
+            continue
+        name = "cell_host" if "feeder_cell.host" in argv else Path(argv[1] if len(argv) > 1 else argv[0]).name
+        if name in ("main.py", "-m") or "feeder_cell.cli.main" in argv:
+            name = "feeder launch"
+        found[int(entry.name)] = (name, (int(fields[11]) + int(fields[12])) / tick)
+    return found
 
 
-def _cycles(folder: str) -> tuple[int, float]:
-    """Cycles completed and the mean cycle time (cell s), from the controller's log."""
-    log = next(Path(folder).glob("cell.cell_controller-*.log")).read_text()
-    times = [float(m) for m in re.findall(r"\]: cycle \d+: ([0-9.]+) s", log)]
-    return len(times), (statistics.mean(times) if times else float("nan"))
+def _cycle_lines(folder: Path) -> list[tuple[float, float]]:
+    """(wall stamp, cell s) of each finished cycle, from the controller's log (its own or the host's)."""
+    lines: list[tuple[float, float]] = []
+    for log in folder.glob("*.log"):
+        for match in CYCLE_LINE.finditer(log.read_text(errors="replace")):
+            lines.append((float(match.group(1)), float(match.group(2))))
+    return sorted(lines)
 
 
-def _cpu_per_cell_second(summary: dict[str, Any]) -> dict[str, float]:
-    """CPU seconds per simulated second per node (start-up included: it is part of a controller test)."""
-    cell = summary["cell_time"]["cell_s"]
+CYCLE_LINE = re.compile(r"\[(\d+\.\d+)\] \[cell\.cell_controller\]: cycle \d+: ([0-9.]+) s")
+
+
+def steady_run(cycles: int, domain: int, *flags: str) -> dict[str, Any]:
+    """Run the cell scene for ``cycles`` + 1 cycles at max; measure cycles 2..``cycles`` + ... steadily.
+
+    Steady state: from the end of cycle 1 to the end of the last measured cycle (one more runs, so the
+    CPU snapshot is taken while everything still runs): cell s per wall s, cycles per wall minute, and each
+    process's CPU s per simulated s over that span (start-up excluded).
+    """
+    with tempfile.TemporaryDirectory() as name:
+        folder = Path(name)
+        scene = _scene_with(cycles + 1, folder)
+        env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+        command = [*FEEDER, "launch", str(scene), "--log-dir", str(folder / "logs"), "--real-time-factor"]
+        launch = subprocess.Popen(
+            [*command, "max", "--json", *flags],
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        snapshots: dict[int, dict[int, tuple[str, float]]] = {}
+        deadline = time.monotonic() + RUN_WALL_LIMIT_S
+        try:
+            while launch.poll() is None and time.monotonic() < deadline and len(snapshots) < 2:
+                done = len(_cycle_lines(folder / "logs"))
+                for mark in (1, cycles):
+                    if done >= mark and mark not in snapshots:
+                        snapshots[mark] = _processes(domain)
+                time.sleep(0.02)
+            launch.communicate(timeout=RUN_WALL_LIMIT_S)
+        finally:
+            if launch.poll() is None:
+                launch.kill()
+                launch.communicate()
+        lines = _cycle_lines(folder / "logs")
+    if len(snapshots) < 2 or len(lines) < cycles:
+        raise RuntimeError(f"the cell scene did not run {cycles} cycles at max ({len(lines)} in the logs)")
+    wall = lines[cycles - 1][0] - lines[0][0]
+    cell = sum(cell_s for _, cell_s in lines[1:cycles])
+    cpu: dict[str, float] = {}
+    for pid, (process, after) in snapshots[cycles].items():
+        before = snapshots[1].get(pid, (process, after))[1]
+        cpu[process] = cpu.get(process, 0.0) + (after - before) / cell
     return {
-        n["name"].rsplit("/", 1)[1]: n["cpu_s"] / cell
-        for n in summary["nodes"]
-        if n.get("cpu_s") and cell > 0
+        "factor": cell / wall,
+        "cycles_per_minute": 60.0 * (cycles - 1) / wall,
+        "mean_cycle": cell / (cycles - 1),
+        "cpu": cpu,
     }
 
 
+LAYOUTS = {
+    "controller own process": (),
+    "controller hosted": ("--host-controller",),
+    "one process per node": ("--one-process-per-node",),
+}
+TARGETS = {"controller own process": 20.0, "controller hosted": 40.0, "one process per node": 0.0}
+
+
+def _demo(domain: int) -> float:
+    """The demo scene at max with recording on, 20 s of wall time: its achieved real-time factor."""
+    with tempfile.TemporaryDirectory() as folder:
+        env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+        launch = subprocess.run(
+            [
+                *(*FEEDER, "launch", str(DEMO), "--log-dir", f"{folder}/logs", "--real-time-factor", "max"),
+                *("--record", f"{folder}/bag", "--duration", "20", "--json"),
+            ],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=RUN_WALL_LIMIT_S,
+        )
+        return float(json.loads(launch.stdout)["cell_time"]["achieved_real_time_factor"])
+
+
 def run(out_dir: Path, quick: bool) -> list[dict]:
-    """Return the lockstep rows: the cell scene and the demo scene at max, medians of repeats."""
+    """Return the lockstep rows: the cell scene in each layout (steady state), the demo scene recorded."""
     domain = 80 + os.getpid() % 10
     repeats = 1 if quick else 3
-    cycles = 2 if quick else 3
-    cell: list[dict[str, Any]] = []
+    cycles = 3 if quick else 4
+    # Interleaved repeats: a slow spell of the shared machine falls on every layout alike.
+    results: dict[str, list[dict[str, Any]]] = {layout: [] for layout in LAYOUTS}
     for _ in range(repeats):
-        with tempfile.TemporaryDirectory() as folder:
-            summary, wall = _launch(_scene_with(cycles, Path(folder)), folder, domain)
-            done, mean_cycle = _cycles(folder)
-            cell.append(
-                {
-                    "factor": summary["cell_time"]["achieved_real_time_factor"],
-                    "cycles_per_minute": 60.0 * done / wall,
-                    "cycles": done,
-                    "mean_cycle": mean_cycle,
-                    "cpu": _cpu_per_cell_second(summary),
-                }
+        for layout, flags in LAYOUTS.items():
+            results[layout].append(steady_run(cycles, domain, *flags))
+    rows = []
+    baseline = statistics.median(r["factor"] for r in results["one process per node"])
+    for layout, runs in results.items():
+        factor = statistics.median(r["factor"] for r in runs)
+        per_minute = statistics.median(r["cycles_per_minute"] for r in runs)
+        names = sorted({name for r in runs for name in r["cpu"]})
+        cpu = {name: statistics.median(r["cpu"].get(name, 0.0) for r in runs) for name in names}
+        target = TARGETS[layout]
+        rows.append(
+            row(
+                "controller",
+                f"cell scene at max, {layout}: steady state over cycles 2..{cycles}",
+                factor,
+                "x real time",
+                f">= {target:g}" if target else "(baseline)",
+                f"median of {repeats}; {factor / baseline:.2f}x the one-process-per-node layout in the same "
+                f"run; every cycle {runs[0]['mean_cycle']:.2f} s of cell time; {per_minute:.1f} cycles per "
+                "wall minute",
+                factor >= target,
             )
-    factor = statistics.median(r["factor"] for r in cell)
-    per_minute = statistics.median(r["cycles_per_minute"] for r in cell)
-    finished = all(r["cycles"] == cycles for r in cell)
-    cpu = {name: statistics.median(r["cpu"].get(name, 0.0) for r in cell) for name in cell[0]["cpu"]}
-    demo: list[float] = []
-    for _ in range(repeats):
-        with tempfile.TemporaryDirectory() as folder:
-            summary, _ = _launch(DEMO, folder, domain, "--duration", "20")
-            demo.append(summary["cell_time"]["achieved_real_time_factor"])
-    return [
+        )
+        rows.append(
+            row(
+                "controller",
+                f"CPU s per simulated s per process at max, {layout} (steady state)",
+                sum(cpu.values()),
+                "CPU s / cell s",
+                "(reported)",
+                ", ".join(
+                    f"{n} {v:.3f}" for n, v in sorted(cpu.items(), key=lambda kv: -kv[1]) if v >= 0.0005
+                ),
+                True,
+            )
+        )
+    demo = statistics.median(_demo(domain) for _ in range(repeats))
+    rows.append(
         row(
             "controller",
-            f"cell scene, reference controller, --real-time-factor max ({cycles} cycles, lockstep)",
-            factor,
+            "demo scene at --real-time-factor max with recording (20 s of wall time, lockstep, hosted)",
+            demo,
             "x real time",
             ">= 20",
-            f"median of {repeats}; every cycle {cell[0]['mean_cycle']:.2f} s of cell time; before lockstep "
-            "below 1x",
-            factor >= 20 and finished,
-        ),
-        row(
-            "controller",
-            "cycles per wall minute at max (start-up and bring-up included)",
-            per_minute,
-            "cycles/min",
-            "(reported)",
-            "before lockstep 3.5 at factor 1",
-            finished,
-        ),
-        row(
-            "controller",
-            "CPU s per simulated s, per node, at max (start-up included)",
-            sum(cpu.values()),
-            "CPU s / cell s",
-            "(reported)",
-            ", ".join(f"{name} {value:.3f}" for name, value in sorted(cpu.items(), key=lambda kv: -kv[1])),
-            True,
-        ),
-        row(
-            "controller",
-            "demo scene at --real-time-factor max (20 s of wall time, lockstep)",
-            statistics.median(demo),
-            "x real time",
-            ">= 30",
             f"median of {repeats}",
-            statistics.median(demo) >= 30,
-        ),
-    ]
+            demo >= 20,
+        )
+    )
+    return rows

@@ -10,10 +10,11 @@ from pathlib import Path
 from typing import Callable, Protocol, cast
 
 import rclpy
-from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
+from feeder_cell.host.executor import HostExecutor
 from feeder_cell.host.hub import ClockHub
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit import lockstep
@@ -162,7 +163,7 @@ def main(argv: list[str] | None = None) -> None:
     built: list[Node] = []
     workers: list[threading.Thread] = []
     ended: list[tuple[str, int]] = []
-    executor = SingleThreadedExecutor()
+    executor = HostExecutor()
     try:
         built = _build(nodes)
         for node in built:
