@@ -13,18 +13,19 @@ parameter's. asyncua knows no roles of this kind, so the gateway enforces them i
 of the session's role is Bad_UserAccessDenied (``GatewayServer``, ``Alarms``), and a Read of
 UserExecutable, UserAccessLevel, RolePermissions or UserRolePermissions answers with the roles' rights
 (``answer_read``). The session's user reaches a method's callback, which asyncua calls without it,
-through ``CALLER``: the gateway sets it around each session's Call service.
+through ``CALLER``: ``enforce`` sets it around each session's Call service.
 """
 
 from __future__ import annotations
 
 import contextvars
 import enum
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import cast
+from typing import Any, cast
 
-from asyncua import ua
+from asyncua import Server, ua
+from asyncua.common.callback import CallbackType
 from asyncua.crypto.permission_rules import User, UserRole
 
 from feeder_planner.errors import InputError
@@ -40,6 +41,7 @@ __all__ = [
     "permissions",
     "role_permissions",
     "answer_read",
+    "enforce",
 ]
 
 
@@ -172,3 +174,41 @@ def answer_read(
             value = ua.Variant(role_permissions(callable_by, only), ua.VariantType.ExtensionObject)
         if value is not None:
             results[i] = ua.DataValue(value)
+
+
+def enforce(server: Server, namespace: Callable[[], int], methods: Mapping[ua.NodeId, Role]) -> None:
+    """Make each session's user known to the method callbacks, and answer reads of the role attributes.
+
+    asyncua calls a method without the session, so each client session's Call service is wrapped to set
+    ``CALLER`` around it; a PostRead callback rewrites UserExecutable, UserAccessLevel, RolePermissions and
+    UserRolePermissions of the gateway's nodes (``answer_read``; ``namespace()``: the gateway's index).
+    """
+    iserver = server.iserver
+    create = iserver.create_session
+
+    def create_session(name: str, user: User = _NOBODY, external: bool = False) -> Any:
+        session = create(name, user, external)
+        call = session.call
+
+        async def call_as_user(params: list[ua.CallMethodRequest]) -> list[ua.CallMethodResult]:
+            token = CALLER.set(session.user)
+            try:
+                return await call(params)
+            finally:
+                CALLER.reset(token)
+
+        session.call = call_as_user  # type: ignore[method-assign]
+        return session
+
+    iserver.create_session = create_session  # type: ignore[method-assign]
+
+    async def on_read(event: Any, _dispatcher: Any) -> None:
+        if event.response_params is not None:
+            answer_read(
+                event.user, event.request_params.NodesToRead, event.response_params, namespace(), methods
+            )
+
+    server.subscribe_server_callback(CallbackType.PostRead, on_read)
+
+
+_NOBODY = User(role=UserRole.Anonymous)  # asyncua's default user of a session not yet activated

@@ -24,7 +24,7 @@ from typing import Any, Coroutine, TypeVar
 
 # Generated, untyped, and not in pyproject's list of ROS message modules (outside this change's reach).
 from action_msgs.msg import GoalStatus, GoalStatusArray  # type: ignore[import-untyped]
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from lifecycle_msgs.srv import ChangeState
 from rcl_interfaces.msg import Log
 from rclpy.action.client import ClientGoalHandle
@@ -46,6 +46,7 @@ from feeder_cell.gateway.commands import (
     plan,
 )
 from feeder_cell.gateway.config import PACKML_STATES, DeviceEntry, is_warning, packml_state
+from feeder_cell.gateway.health import Health
 from feeder_cell.gateway.kinds import KINDS
 from feeder_cell.gateway.layout import UINT32_MODULUS, counter32_path, counter_path
 from feeder_cell.gateway.server import GatewayServer
@@ -131,59 +132,7 @@ class RosLink:
         node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         node.create_timer(0.5, self._watchdog, clock=steady)
-        # The gateway's own /diagnostics entry: which devices are online, and which were not ready at start.
-        self.diagnostics = node.create_publisher(DiagnosticArray, "/diagnostics", 10)
-        self.startup = "waiting for the devices"
-        node.create_timer(1.0, self._publish_diagnostics, clock=steady)
-
-    # --- start-up ----------------------------------------------------------------------------------
-    async def wait_for_devices(self, timeout: float, stop: asyncio.Event) -> dict[str, list[str]]:
-        """Wait until every device is heard and its services and action discovered, at most ``timeout`` s.
-
-        The server listens only after this: a PLC that connects and commands at once would otherwise
-        find a device that has not reported (Undefined, "reports no status") or whose services are not yet
-        discovered ("not available"). Returns each device not ready in time with what it lacks.
-        """
-        loop = asyncio.get_running_loop()
-        deadline = loop.time() + timeout
-        started = loop.time()
-        missing: dict[str, list[str]] = {}
-        while not stop.is_set():
-            missing = {}
-            for link in self.links.values():
-                gaps = await self._in_ros_value(link.missing)
-                if gaps:
-                    missing[link.entry.node] = gaps
-            if not missing or loop.time() >= deadline:
-                break
-            await asyncio.sleep(0.05)
-        took = loop.time() - started
-        if missing:
-            self.startup = f"not ready within {timeout:g} s: " + "; ".join(
-                f"{node} lacks {', '.join(gaps)}" for node, gaps in missing.items()
-            )
-        else:
-            self.startup = f"every device heard and its services discovered in {took:.1f} s"
-        return missing
-
-    def _publish_diagnostics(self) -> None:
-        offline = []
-        entry = DiagnosticStatus(name=self.node.get_fully_qualified_name(), hardware_id="opcua_gateway")
-        for link in self.links.values():
-            with link.lock:
-                online = link.online
-            if not online:
-                offline.append(link.entry.node)
-            entry.values.append(KeyValue(key=f"{link.entry.node} online", value=str(online).lower()))
-        entry.values.append(KeyValue(key="startup", value=self.startup))
-        guard = self.server.logins
-        if guard is not None:  # the login counts (logins.LoginGuard), once the server is listening
-            entry.values += [KeyValue(key=k, value=str(v)) for k, v in dict(guard.counts).items()]
-        entry.level = DiagnosticStatus.WARN if offline else DiagnosticStatus.OK
-        entry.message = f"offline: {', '.join(offline)}" if offline else "every device online"
-        msg = DiagnosticArray(status=[entry])
-        msg.header.stamp = self.node.get_clock().now().to_msg()
-        self.diagnostics.publish(msg)
+        self.health = Health(node, self.links, server, self._in_ros_value)
 
     # --- subscriptions ---------------------------------------------------------------------------
     def _link(self, entry: DeviceEntry) -> DeviceLink:

@@ -29,10 +29,9 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from importlib import metadata
 from pathlib import Path
-from typing import Any, Protocol, cast
+from typing import Protocol, cast
 
 from asyncua import Node, Server, ua
-from asyncua.common.callback import CallbackType
 from asyncua.crypto.permission_rules import User, UserRole
 from asyncua.crypto.truststore import TrustStore
 from asyncua.crypto.validator import CertificateValidator, CertificateValidatorOptions
@@ -44,7 +43,7 @@ from feeder_cell.gateway.alarms import Alarms
 from feeder_cell.gateway.config import PACKML_STATES, DeviceEntry, Endpoint, SecurityConfig
 from feeder_cell.gateway.kinds import KINDS
 from feeder_cell.gateway.logins import ATTEMPT, Attempt, LoginGuard, install, thumbprint
-from feeder_cell.gateway.roles import CALLER, GatewayUser, Role
+from feeder_cell.gateway.roles import GatewayUser, Role
 from feeder_cell.gateway.spec import ArgumentSpec, CallContext, Goal, MethodSpec, Value
 from feeder_cell.gateway.users import Users
 
@@ -207,13 +206,13 @@ class GatewayServer:
         server = Server(user_manager=users)
         await server.init()
         install(server.iserver, self.logins)
-        self._enforce_roles(server)
+        roles.enforce(server, lambda: self.idx, self.method_roles)
         server.set_endpoint(self.endpoint.url)
         server.set_server_name("feeder cell OPC UA gateway")
         await server.set_application_uri(layout.APPLICATION_URI)
         version, built = product_version()
         await server.set_build_info(PRODUCT_URI, MANUFACTURER, PRODUCT_NAME, version, version, built)
-        self._refuse_writes(server)
+        _refuse_writes(server)
         server.set_security_policy([POLICY_TYPES[p] for p in self.security.policies])
         tokens: list[type] = []
         if self.security.allow_anonymous:
@@ -377,80 +376,6 @@ class GatewayServer:
             ua.Variant(info, ua.VariantType.ExtensionObject),
             datatype=_node_id(ua.ObjectIds.EUInformation),
         )
-
-    def _enforce_roles(self, server: Server) -> None:
-        """Make each session's user known to the method callbacks, and answer reads of the role attributes.
-
-        asyncua calls a method without the session, so the gateway wraps each client session's Call service
-        to set ``roles.CALLER`` around it; a PostRead callback rewrites UserExecutable, UserAccessLevel,
-        RolePermissions and UserRolePermissions of the gateway's nodes (``roles.answer_read``).
-        """
-        iserver = server.iserver
-        create = iserver.create_session
-
-        def create_session(name: str, user: User = _NOBODY, external: bool = False) -> Any:
-            session = create(name, user, external)
-            call = session.call
-
-            async def call_as_user(params: list[ua.CallMethodRequest]) -> list[ua.CallMethodResult]:
-                token = CALLER.set(session.user)
-                try:
-                    return await call(params)
-                finally:
-                    CALLER.reset(token)
-
-            session.call = call_as_user  # type: ignore[method-assign]
-            return session
-
-        iserver.create_session = create_session  # type: ignore[method-assign]
-
-        async def on_read(event: Any, _dispatcher: Any) -> None:
-            if event.response_params is not None:
-                roles.answer_read(
-                    event.user,
-                    event.request_params.NodesToRead,
-                    event.response_params,
-                    self.idx,
-                    self.method_roles,
-                )
-
-        server.subscribe_server_callback(CallbackType.PostRead, on_read)
-
-    @staticmethod
-    def _refuse_writes(server: Server) -> None:
-        """Answer a write to a node whose AccessLevel (or WriteMask) forbids it with Bad_NotWritable.
-
-        asyncua answers Bad_UserAccessDenied for both; OPC 10000-4 (5.11.4.4, Write) keeps that for a
-        node the user may not write although the node itself is writable. Every gateway variable is
-        read-only (AccessLevel CurrentRead, WriteMask 0), so every client write is Bad_NotWritable.
-        """
-        service = server.iserver.attribute_service
-        write = service.write
-        aspace = server.iserver.aspace
-
-        def writable(item: ua.WriteValue) -> bool:
-            if item.AttributeId != ua.AttributeIds.Value:
-                mask = aspace.read_attribute_value(item.NodeId, ua.AttributeIds.WriteMask)
-                return bool(
-                    mask.StatusCode is not None
-                    and mask.StatusCode.is_good()
-                    and mask.Value
-                    and mask.Value.Value
-                )
-            level = aspace.read_attribute_value(item.NodeId, ua.AttributeIds.AccessLevel)
-            if level.StatusCode is None or not level.StatusCode.is_good() or level.Value is None:
-                return True  # an unknown node: asyncua's own answer (Bad_NodeIdUnknown)
-            return bool(int(level.Value.Value) & (1 << ua.AccessLevel.CurrentWrite))
-
-        async def refuse_read_only(params: ua.WriteParameters, user: User = _ADMIN) -> list[ua.StatusCode]:
-            codes = await write(params, user)
-            for i, item in enumerate(params.NodesToWrite):
-                denied = codes[i].value == ua.StatusCodes.BadUserAccessDenied
-                if denied and item.NodeId in aspace and not writable(item):
-                    codes[i] = _status_code(ua.StatusCodes.BadNotWritable)
-            return codes
-
-        service.write = refuse_read_only  # type: ignore[method-assign]
 
     @staticmethod
     async def _describe(node: Node, text: str) -> None:
@@ -650,7 +575,6 @@ class GatewayServer:
 
 _UNSET = object()
 _ADMIN = User(role=UserRole.Admin)  # asyncua's default for a write without a session (the server's own)
-_NOBODY = User(role=UserRole.Anonymous)  # asyncua's default user of a session not yet activated
 # Initial values other than the type's zero: no status heard yet is PackML Undefined (code 0).
 _INITIAL: dict[str, Value] = {"Status.PackMLState": "Undefined"}
 
@@ -663,6 +587,39 @@ def _default(vtype: ua.VariantType) -> Value:
     if vtype in (ua.VariantType.Double, ua.VariantType.Float):
         return 0.0
     return 0
+
+
+def _refuse_writes(server: Server) -> None:
+    """Answer a write to a node whose AccessLevel (or WriteMask) forbids it with Bad_NotWritable.
+
+    asyncua answers Bad_UserAccessDenied for both; OPC 10000-4 (5.11.4.4, Write) keeps that for a
+    node the user may not write although the node itself is writable. Every gateway variable is
+    read-only (AccessLevel CurrentRead, WriteMask 0), so every client write is Bad_NotWritable.
+    """
+    service = server.iserver.attribute_service
+    write = service.write
+    aspace = server.iserver.aspace
+
+    def writable(item: ua.WriteValue) -> bool:
+        if item.AttributeId != ua.AttributeIds.Value:
+            mask = aspace.read_attribute_value(item.NodeId, ua.AttributeIds.WriteMask)
+            return bool(
+                mask.StatusCode is not None and mask.StatusCode.is_good() and mask.Value and mask.Value.Value
+            )
+        level = aspace.read_attribute_value(item.NodeId, ua.AttributeIds.AccessLevel)
+        if level.StatusCode is None or not level.StatusCode.is_good() or level.Value is None:
+            return True  # an unknown node: asyncua's own answer (Bad_NodeIdUnknown)
+        return bool(int(level.Value.Value) & (1 << ua.AccessLevel.CurrentWrite))
+
+    async def refuse_read_only(params: ua.WriteParameters, user: User = _ADMIN) -> list[ua.StatusCode]:
+        codes = await write(params, user)
+        for i, item in enumerate(params.NodesToWrite):
+            denied = codes[i].value == ua.StatusCodes.BadUserAccessDenied
+            if denied and item.NodeId in aspace and not writable(item):
+                codes[i] = _status_code(ua.StatusCodes.BadNotWritable)
+        return codes
+
+    service.write = refuse_read_only  # type: ignore[method-assign]
 
 
 async def _add_variable(

@@ -234,7 +234,7 @@ async def _serve(
     if stop_request.requested:
         return 0  # stopped while it was being built: nothing was served
     # Listening means ready: a PLC's first command must not race the devices' discovery.
-    missing = await ros.wait_for_devices(startup_timeout, stop)
+    missing = await ros.health.wait_for_devices(startup_timeout, stop)
     if stop.is_set():
         return 0
     for device, gaps in missing.items():
