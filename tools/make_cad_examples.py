@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -90,6 +91,79 @@ def stl_prism(source: Path, target: Path, thickness: float = 1.0) -> None:
     target.write_text("\n".join([*lines, "endsolid part", ""]))
 
 
+def _step_write(shapes: list[object], target: Path) -> None:
+    """Write solids into one STEP file (millimetres, OpenCASCADE's default), in the list's order."""
+    from OCP.BRep import BRep_Builder
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+    from OCP.TopoDS import TopoDS_Compound
+
+    builder, compound = BRep_Builder(), TopoDS_Compound()
+    builder.MakeCompound(compound)
+    for shape in shapes:
+        builder.Add(compound, shape)
+    writer = STEPControl_Writer()
+    writer.Transfer(compound, STEPControl_AsIs)
+    writer.Write(str(target))
+
+
+def step_prism(source: Path, target: Path) -> None:
+    """The YAML part (mm) extruded 1 mm along z, one STEP solid."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace, BRepBuilderAPI_MakePolygon
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
+    from OCP.gp import gp_Pnt, gp_Vec
+
+    document = yaml.safe_load(source.read_text())
+    assert document.get("length_unit") == "mm"
+    polygon = BRepBuilderAPI_MakePolygon()
+    for x, y in document["vertices"]:
+        polygon.Add(gp_Pnt(float(x), float(y), 0.0))
+    polygon.Close()
+    face = BRepBuilderAPI_MakeFace(polygon.Wire()).Face()
+    _step_write([BRepPrimAPI_MakePrism(face, gp_Vec(0.0, 0.0, 1.0)).Shape()], target)
+
+
+def step_assembly(source: Path, target: Path, assembly: Path) -> None:
+    """Each body of a box assembly as one STEP solid (its boxes fused, coplanar faces merged), in the
+    bodies' order, and the assembly YAML that places them as meshes (body: 1, 2, ...)."""
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Fuse
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
+    from OCP.gp import gp_Pnt
+    from OCP.ShapeUpgrade import ShapeUpgrade_UnifySameDomain
+
+    document = yaml.safe_load(source.read_text())
+    per_mm = {"mm": 1.0, "cm": 10.0, "m": 1000.0}[document.get("length_unit", "m")]
+    solids = []
+    for body in document["bodies"]:
+        shape = None
+        for box in body["boxes"]:
+            low, high = (np.array(box["min"]) * per_mm), (np.array(box["max"]) * per_mm)
+            made = BRepPrimAPI_MakeBox(gp_Pnt(*low), gp_Pnt(*high)).Shape()
+            shape = made if shape is None else BRepAlgoAPI_Fuse(shape, made).Shape()
+        unify = ShapeUpgrade_UnifySameDomain(shape, True, True, True)
+        unify.Build()
+        solids.append(unify.Shape())
+    _step_write(solids, target)
+    twin = {
+        "name": f"{document['name']}_step",
+        "length_unit": document.get("length_unit", "m"),
+        "mu": document.get("mu", 0.0),
+        "bodies": [
+            {
+                "name": body["name"],
+                **({"grounded": True} if body.get("grounded") else {}),
+                "meshes": [{"file": str(target.relative_to(assembly.parent)), "body": k + 1}],
+            }
+            for k, body in enumerate(document["bodies"])
+        ],
+        "contacts": "auto",
+    }
+    header = (
+        f"# {source.name} as one STEP file (tools/make_cad_examples.py): each body is a solid of\n"
+        "# meshes/block_in_l_bracket.step, placed by the file, tessellated into the mesh path.\n"
+    )
+    assembly.write_text(header + yaml.safe_dump(twin, sort_keys=False))
+
+
 def filleted_bracket(target: Path) -> None:
     """The bracket (mm) with a 0.5 mm fillet in its inner corner, drawn as LINEs and an ARC, and a
     CIRCLE hole of radius 0.3 mm: arcs whose flattening the chord tolerance bounds."""
@@ -122,6 +196,17 @@ def main() -> int:
         make(source, target)
         written.append(target)
     stl_prism(EXAMPLES / "mems/bracket.yaml", EXAMPLES / "mems/bracket.stl")
+    step_prism(EXAMPLES / "mems/bracket.yaml", EXAMPLES / "mems/bracket.step")
+    written.append(EXAMPLES / "mems/bracket.step")
+    step_assembly(
+        EXAMPLES / "assembly/block_in_l_bracket.yaml",
+        EXAMPLES / "assembly/meshes/block_in_l_bracket.step",
+        EXAMPLES / "assembly/block_in_l_bracket_step.yaml",
+    )
+    written += [
+        EXAMPLES / "assembly/meshes/block_in_l_bracket.step",
+        EXAMPLES / "assembly/block_in_l_bracket_step.yaml",
+    ]
     written.append(EXAMPLES / "mems/bracket.stl")
     filleted_bracket(EXAMPLES / "mems/bracket_filleted.dxf")
     written.append(EXAMPLES / "mems/bracket_filleted.dxf")

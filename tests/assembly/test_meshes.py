@@ -183,7 +183,7 @@ def test_bad_meshes_are_refused_naming_file_field_and_problem(tmp_path) -> None:
     assert "is not finite" in _error(_document("nan.obj"), tmp_path).problem
     missing = _error(_document("missing.stl"), tmp_path)
     assert "does not exist" in missing.problem and missing.field == "bodies[1].meshes[0].file"
-    assert "unknown mesh format" in _error(_document("cube.step"), tmp_path).problem
+    assert "unknown mesh format" in _error(_document("cube.igs"), tmp_path).problem
     (tmp_path / "garbage.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nend_header\n\x00\x01")
     assert "cannot read the mesh" in _error(_document("garbage.ply"), tmp_path).problem
     # Two million faces: refused from the declared count before parsing (a sparse 100 MB binary STL).

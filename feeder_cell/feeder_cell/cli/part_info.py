@@ -73,7 +73,8 @@ def read(args: argparse.Namespace) -> tuple[Part, cad.Outline | None, str]:
     path = Path(args.file)
     if cad.is_cad_file(path):
         options = _options(args, {})
-        return cad.cad_part(path, options), cad.read_outline(path, options), str(path)
+        outline = cad.read_outline(path, options)
+        return cad.part_from_outline(outline, path), outline, str(path)
     part = load_part(path)  # checks the whole YAML, its cad: mapping and the CAD file it names
     mapping = load_yaml_mapping(path).get("cad")
     if not isinstance(mapping, dict):
@@ -84,9 +85,10 @@ def read(args: argparse.Namespace) -> tuple[Part, cad.Outline | None, str]:
         options = _options(args, mapping)
     except InputError as error:
         raise error.with_source(str(path)) from None
+    outline = cad.read_outline(target, options)
     if options != cad.options_from_mapping(mapping, "cad"):  # a flag changed the reading
-        part = cad.cad_part(target, options, part.name, part.density)
-    return part, cad.read_outline(target, options), str(target)
+        part = cad.part_from_outline(outline, target, part.name, part.density)
+    return part, outline, str(target)
 
 
 def describe(part: Part, outline: cad.Outline | None, source: str) -> dict[str, Any]:

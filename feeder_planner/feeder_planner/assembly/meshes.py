@@ -30,6 +30,7 @@ __all__ = [
     "MESH_SUFFIXES",
     "MeshPart",
     "body_surface",
+    "checked_mesh",
     "load_mesh_part",
     "mesh_parts",
     "part_bounds",
@@ -37,8 +38,12 @@ __all__ = [
     "rigid_transform",
 ]
 
-MESH_SUFFIXES = {".stl": "stl", ".obj": "obj", ".ply": "ply"}
-"""File name endings read as meshes, and trimesh's name of their format."""
+MESH_SUFFIXES = {".stl": "stl", ".obj": "obj", ".ply": "ply", ".step": "step", ".stp": "step"}
+"""File name endings read as meshes, and trimesh's name of their format (STEP: OpenCASCADE, tessellated)."""
+# STEP solids are tessellated with chords within this fraction of the file's bounding-box diagonal (the
+# planar parts' chord tolerance, feeder_planner.cad.options.CHORD_TOLERANCE): boxes and planar faces are
+# exact, a cylinder of the assembly's size gets about 160 chords around.
+STEP_TESSELLATION = 1e-4
 # A mesh beyond these is refused before trimesh parses it: 200,000 triangles load and are checked in about a
 # second and 100 MB here; a 2-million-face CAD export would take tens of seconds and gigabytes, and contact
 # finding needs only the planar faces, which a decimated export keeps.
@@ -108,17 +113,31 @@ def mesh_parts(
         item = f"{field_name}.meshes[{j}]"
         if not isinstance(entry, dict):
             raise InputError(item, "expected a mapping with file (and optional scale, transform)")
-        unknown = sorted(set(entry) - {"file", "scale", "transform"})
+        unknown = sorted(set(entry) - {"file", "scale", "transform", "body"})
         if unknown:
-            raise InputError(f"{item}.{unknown[0]}", "unknown key (a mesh has file, scale, transform)")
+            raise InputError(f"{item}.{unknown[0]}", "unknown key (a mesh has file, scale, transform, body)")
         name = required(entry, "file", f"{item}.file")
         if not isinstance(name, str) or not name:
             raise InputError(f"{item}.file", f"expected a file path (a string), got {name!r}")
         factor = positive_number(optional(entry, "scale", 1.0), f"{item}.scale")
         transform = rigid_transform(optional(entry, "transform", None), f"{item}.transform")
         path = resolve_mesh_path(name, base_dir, f"{item}.file")
-        parts.append((item, load_mesh_part(path, item, factor * scale, transform, scale)))
+        body = _step_body(entry, path, item)
+        parts.append((item, load_mesh_part(path, item, factor * scale, transform, scale, body)))
     return parts
+
+
+def _step_body(entry: dict[str, Any], path: Path, item: str) -> int | None:
+    """Return a STEP mesh's ``body`` (its solid's number, default 1); refuse ``body`` for other meshes."""
+    is_step = MESH_SUFFIXES[path.suffix.lower()] == "step"
+    if "body" not in entry:
+        return 1 if is_step else None
+    body = entry["body"]
+    if not is_step:
+        raise InputError(f"{item}.body", "only a STEP file has bodies; remove body")
+    if isinstance(body, bool) or not isinstance(body, int) or body < 1:
+        raise InputError(f"{item}.body", f"expected a solid's number 1, 2, ..., got {body!r}"[:200])
+    return body
 
 
 def resolve_mesh_path(name: str, base_dir: str | Path | None, field: str) -> Path:
@@ -130,7 +149,8 @@ def resolve_mesh_path(name: str, base_dir: str | Path | None, field: str) -> Pat
         path = Path(base_dir) / path
     if path.suffix.lower() not in MESH_SUFFIXES:
         raise InputError(
-            field, f"{str(path)!r}: unknown mesh format {path.suffix!r} (expected .stl, .obj or .ply)"
+            field,
+            f"{str(path)!r}: unknown mesh format {path.suffix!r} (expected .stl, .obj, .ply, .step or .stp)",
         )
     if not path.is_file():
         raise InputError(field, f"mesh file {str(path)!r} does not exist (or is not a file)")
@@ -167,14 +187,33 @@ def rigid_transform(value: Any, field: str) -> np.ndarray:
 
 
 def load_mesh_part(
-    path: Path, field: str, factor: float, transform: np.ndarray, unit_scale: float = 1.0
+    path: Path,
+    field: str,
+    factor: float,
+    transform: np.ndarray,
+    unit_scale: float = 1.0,
+    body: int | None = None,
 ) -> MeshPart:
     """Read and check one mesh file: size limits, finite vertices, closed, oriented, no degenerate faces.
 
     ``factor`` (mesh scale times the file's unit) scales the file's vertices, ``transform`` (translation in
-    the file's unit, ``unit_scale`` metres each) then moves them rigidly.
+    the file's unit, ``unit_scale`` metres each) then moves them rigidly. A STEP file carries its own unit,
+    which replaces the assembly's in ``factor``; ``body`` is its solid, placed as the file places it.
     """
     where = f"{field}.file"
+    if body is not None:
+        if path.stat().st_size > MAX_MESH_BYTES:
+            raise InputError(where, f"{str(path)!r}: more than the {MAX_MESH_BYTES} byte limit")
+        stat = path.stat()
+        try:
+            vertices, faces, metres = _step_mesh(str(path), body, stat.st_size, stat.st_mtime_ns)
+        except InputError as error:
+            raise InputError(
+                f"{where} solid {body}", f"{str(path)!r}: {error.field}: {error.problem}"
+            ) from None
+        vertices = vertices * (metres * factor / unit_scale)
+        vertices = vertices @ transform[:3, :3].T + transform[:3, 3] * unit_scale
+        return checked_mesh(path, field, vertices, faces)
     size = path.stat().st_size
     # The declared face count first (binary STL, PLY headers; text files up to the byte limit are counted):
     # a 2-million-face export is refused for its faces, before the byte limit.
@@ -194,7 +233,22 @@ def load_mesh_part(
         raise InputError(where, f"{str(path)!r}: {error}") from None
     vertices = vertices * factor
     vertices = vertices @ transform[:3, :3].T + transform[:3, 3] * unit_scale
-    return _checked(path, field, vertices, faces)
+    return checked_mesh(path, field, vertices, faces)
+
+
+@functools.lru_cache(maxsize=32)
+def _step_mesh(path: str, body: int, size: int, mtime_ns: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """Tessellate solid ``body`` of a STEP file: vertices (file numbers), faces, metres per number; cached."""
+    from feeder_planner.cad.step import read_step_solids
+
+    del size, mtime_ns  # only part of the cache key
+    solids, metres, _unit = read_step_solids(path, STEP_TESSELLATION)
+    if body > len(solids):
+        raise InputError("body", f"the file has {len(solids)} solid(s), not {body}")
+    solid = solids[body - 1]
+    if len(solid.faces) > MAX_MESH_FACES:
+        raise InputError("body", f"{len(solid.faces)} faces after tessellation, more than {MAX_MESH_FACES}")
+    return solid.vertices, solid.faces, metres
 
 
 class _MeshFileError(Exception):
@@ -235,7 +289,7 @@ def _file_mesh(path: str, size: int, mtime_ns: int) -> tuple[np.ndarray, np.ndar
     return vertices, faces
 
 
-def _checked(path: Path, field: str, vertices: np.ndarray, faces: np.ndarray) -> MeshPart:
+def checked_mesh(path: Path, field: str, vertices: np.ndarray, faces: np.ndarray) -> MeshPart:
     """Refuse open, inconsistently oriented, degenerate or empty meshes (vertices already merged)."""
     where = f"{field}.file"
     name = repr(str(path))

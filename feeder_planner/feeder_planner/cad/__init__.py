@@ -22,10 +22,11 @@ __all__ = [
     "cad_part",
     "is_cad_file",
     "options_from_mapping",
+    "part_from_outline",
     "read_outline",
 ]
 
-CAD_SUFFIXES = (".dxf", ".svg", ".stl")
+CAD_SUFFIXES = (".dxf", ".svg", ".stl", ".step", ".stp")
 """File name endings read as CAD parts (lower case)."""
 
 
@@ -47,6 +48,10 @@ def read_outline(path: str | Path, options: CadOptions | None = None) -> Outline
             from feeder_planner.cad.svg import read_svg
 
             return read_svg(path, options)
+        if suffix in (".step", ".stp"):
+            from feeder_planner.cad.step import read_step_part
+
+            return read_step_part(path, options)
         if suffix == ".stl":
             from feeder_planner.cad.stl import read_stl
 
@@ -65,7 +70,13 @@ def cad_part(
     density: float = DEFAULT_DENSITY,
 ) -> Part:
     """Read a CAD file as a Part: its outline, holes and unit; the name defaults to the file's stem."""
-    outline = read_outline(path, options)
+    return part_from_outline(read_outline(path, options), path, name, density)
+
+
+def part_from_outline(
+    outline: Outline, path: str | Path, name: str | None = None, density: float = DEFAULT_DENSITY
+) -> Part:
+    """Make a read outline a Part (errors name ``path``); the name defaults to the file's stem."""
     try:
         return make_part(
             outline.outer.points.tolist(),

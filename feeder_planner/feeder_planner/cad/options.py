@@ -11,6 +11,7 @@ from typing import Any
 
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import finite_number, positive_number, short_string
+from feeder_planner.limits import quote
 
 __all__ = ["CHORD_TOLERANCE", "CAD_UNITS", "CadOptions", "options_from_mapping", "unit_scale"]
 
@@ -45,6 +46,7 @@ class CadOptions:
     chord_tolerance: float = CHORD_TOLERANCE  # relative to the drawing's bounding-box diagonal
     face: str | None = None  # STEP/STL: the face the solid rests on ('-z' default, '+x', ...)
     section: float | None = None  # STEP/STL: instead of resting, the section at this height along face
+    body: int | None = None  # STEP: the solid to read (1, 2, ... in the file's order)
 
 
 _FACES = ("-z", "+z", "-x", "+x", "-y", "+y")
@@ -78,6 +80,11 @@ def options_from_mapping(raw: dict[str, Any], prefix: str) -> CadOptions:
                 f"{prefix}.chord_tolerance", f"expected 1e-9 to 0.1 (relative), got {tolerance:g}"
             )
         values["chord_tolerance"] = tolerance
+    if "body" in raw:
+        body = raw["body"]
+        if isinstance(body, bool) or not isinstance(body, int) or body < 1:
+            raise InputError(f"{prefix}.body", f"expected a solid's number 1, 2, ..., got {quote(body)}")
+        values["body"] = body
     if "section" in raw:
         values["section"] = finite_number(raw["section"], f"{prefix}.section")
     return CadOptions(**values)

@@ -21,7 +21,7 @@ from feeder_planner.cad.options import CadOptions, unit_scale
 from feeder_planner.cad.outline import Outline, Piece, assemble_outline
 from feeder_planner.errors import InputError
 
-__all__ = ["read_stl"]
+__all__ = ["read_stl", "solid_outline"]
 
 # Face -> (axis along which the solid is seen, index of u, sign of u, index of v, sign of v).
 _FRAMES = {
@@ -45,8 +45,12 @@ def read_stl(path: str | Path, options: CadOptions) -> Outline:
         )
     scale = unit_scale(options.unit, "cad.unit")
     mesh = load_mesh_part(Path(path), "solid", 1.0, np.eye(4))  # checks closed, oriented, non-degenerate
+    return solid_outline(mesh.triangles, options, scale, f"{options.unit} (given by unit)")
+
+
+def solid_outline(triangles: np.ndarray, options: CadOptions, scale: float, unit_name: str) -> Outline:
+    """Return the outline of a checked solid's triangles (m, 3, 3), resting on ``face`` or in ``section``."""
     along, iu, su, iv, sv = _FRAMES[options.face or "-z"]
-    triangles = mesh.triangles
     flat = np.stack([triangles[:, :, iu] * su, triangles[:, :, iv] * sv], axis=2)
     if options.section is None:
         pieces = _silhouette(flat)
@@ -58,7 +62,7 @@ def read_stl(path: str | Path, options: CadOptions) -> Outline:
         f"section at {options.section:g} across {options.face or '-z'}" if options.section is not None else ""
     )
     notes = (how,) if how else ()
-    return Outline(outer, holes, scale, f"{options.unit} (given by unit)", tuple(pieces), notes)
+    return Outline(outer, holes, scale, unit_name, tuple(pieces), notes)
 
 
 def _silhouette(flat: np.ndarray) -> list[Piece]:
