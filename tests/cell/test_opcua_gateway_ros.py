@@ -562,6 +562,54 @@ def test_the_packml_state_code_is_an_enumeration_with_enum_values(gateway: str) 
     session(gateway, scenario)
 
 
+async def _enumeration(s: Session, key: str, path: str) -> tuple[str, dict[int, str]]:
+    """Return the name of a variable's enumeration DataType and its EnumValues (number -> name)."""
+    node = s.node(key, path)
+    assert await node.read_data_type_as_variant_type() == ua.VariantType.Int32
+    dtype = s.client.get_node(await node.read_data_type())
+    assert (await dtype.get_parent()).nodeid == ua.NodeId(ua.ObjectIds.Enumeration)
+    entries = await (await dtype.get_child("0:EnumValues")).read_value()
+    names = {int(e.Value): e.DisplayName.Text for e in entries}
+    definition = await dtype.read_data_type_definition()
+    assert {int(f.Value): f.Name for f in definition.Fields} == names
+    return (await dtype.read_browse_name()).Name, names
+
+
+def test_the_state_and_the_outcome_codes_are_enumerations_too(gateway: str) -> None:
+    """Status.State and Command.LastOutcomeCode say their meanings the way PackMLStateCode does."""
+
+    async def scenario(s: Session) -> None:
+        for key, (action, outcomes) in zip(
+            KEYS.values(),
+            (
+                ("FeedPart", {1: "PRESENTED", 2: "MAX_THROWS", 3: "TIMEOUT", 4: "FAULT", 5: "CANCELED"}),
+                ("RunProgram", {1: "SETTLED", 2: "TIMEOUT", 3: "FAULT", 4: "CANCELED"}),
+                ("FollowPath", {1: "REACHED", 2: "REFUSED", 3: "STALLED", 4: "CANCELED", 5: "FAULT"}),
+            ),
+            strict=True,
+        ):
+            name, states = await _enumeration(s, key, "Status.State")
+            assert name == "DeviceStateEnumeration"
+            assert states == {
+                0: "UNCONFIGURED",
+                1: "IDLE",
+                2: "RUNNING",
+                3: "PAUSED",
+                4: "FAULT",
+                5: "STOPPED",
+            }
+            await ready(s, key)
+            state, state_name = await s.client.read_values(
+                [s.node(key, "Status.State"), s.node(key, "Status.StateName")]
+            )
+            assert states[state] == state_name
+            name, codes = await _enumeration(s, key, "Command.LastOutcomeCode")
+            assert name == f"{action}OutcomeEnumeration"
+            assert codes == {0: "NONE", **outcomes}, codes
+
+    session(gateway, scenario)
+
+
 def test_a_non_stopping_fault_is_a_warning_not_a_fault(gateway: str, ros_client: Any) -> None:
     async def scenario(s: Session) -> None:
         key = KEYS["fixture"]

@@ -14,15 +14,21 @@ last part, under folders named by the path (``Status``, ``Signals``, ``Command``
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 
 from feeder_cell.gateway.commands import COMMANDS, FAULT_SERVICES
 from feeder_cell.gateway.kinds import KINDS
 from feeder_cell.gateway.spec import MethodSpec, ServiceLink, VariableSpec
+from feeder_msgs.msg import DeviceStatus
 
 __all__ = [
     "NAMESPACE_URI",
     "PACKML_STATE_TYPE",
+    "DEVICE_STATE_TYPE",
+    "DEVICE_STATES",
+    "enumerations",
+    "outcome_type",
     "APPLICATION_URI",
     "CELL",
     "DEVICES_FOLDER",
@@ -46,6 +52,7 @@ NAMESPACE_URI = "urn:feeder:cell"
 APPLICATION_URI = "urn:feeder:cell:opcua_gateway"
 CELL = "Cell"
 PACKML_STATE_TYPE = "PackMLStateEnumeration"  # the DataType's browse name and string NodeId
+DEVICE_STATE_TYPE = "DeviceStateEnumeration"  # Status.State's DataType: feeder_msgs/DeviceStatus states
 DEVICES_FOLDER = "Cell.Devices"
 
 
@@ -67,7 +74,12 @@ IDENTITY = (
 
 STATUS = (
     _v("Status.Online", "Boolean", "a ~/status heard within the last 5 s (the device's heartbeat is 1 Hz)"),
-    _v("Status.State", "Byte", "feeder_msgs/DeviceStatus state (0 UNCONFIGURED ... 5 STOPPED)"),
+    _v(
+        "Status.State",
+        "Int32",
+        "feeder_msgs/DeviceStatus state (DeviceStateEnumeration: 0 UNCONFIGURED ... 5 STOPPED)",
+        data_type=DEVICE_STATE_TYPE,
+    ),
     _v(
         "Status.StateName",
         "String",
@@ -120,7 +132,11 @@ COMMAND = (
     _v("Command.GoalCount", "UInt32", "goals accepted by the device since the gateway started"),
     _v("Command.ResultCount", "UInt32", "goal results received; equal to GoalCount when none is executing"),
     _v("Command.LastOutcome", "String", "outcome_name of the last result (PRESENTED, SETTLED, REACHED, ...)"),
-    _v("Command.LastOutcomeCode", "Byte", "outcome of the last result (the action's result constants)"),
+    _v(
+        "Command.LastOutcomeCode",
+        "Int32",
+        "outcome of the last result: the action's result constants (<Action>OutcomeEnumeration; 0 none)",
+    ),
     _v("Command.LastStatus", "String", "status of the last method call: Good or the Bad code's name"),
     _v("Command.LastMessage", "String", "message of the last method call or goal result"),
     _v("Command.Result.FaultCode", "UInt32", "fault_code of the last result (0 unless its outcome is FAULT)"),
@@ -156,6 +172,48 @@ def counter32_path(name: str) -> str:
     return f"Status.Counters32.{name}"
 
 
+# An enumeration DataType's fields: (number, name, meaning), as PACKML_STATES.
+Fields = tuple[tuple[int, str, str], ...]
+
+DEVICE_STATES: Fields = (
+    (DeviceStatus.UNCONFIGURED, "UNCONFIGURED", "lifecycle unconfigured (or its configuration failed)"),
+    (DeviceStatus.IDLE, "IDLE", "active, ready for a command"),
+    (DeviceStatus.RUNNING, "RUNNING", "active and executing (a throw cycle, a field program, a move)"),
+    (DeviceStatus.PAUSED, "PAUSED", "configured but inactive: the physics frozen where it was"),
+    (DeviceStatus.FAULT, "FAULT", "a fault stops the device until it is cleared and reset"),
+    (DeviceStatus.STOPPED, "STOPPED", "halted by a stop; a reset returns it to IDLE"),
+)
+# What each action's outcomes mean (feeder_msgs/action/*.action); 0 is the gateway's own.
+_OUTCOMES: Mapping[str, str] = {
+    "PRESENTED": "the sensor read true with the part at rest",
+    "MAX_THROWS": "MaxThrows thrown, never presented",
+    "SETTLED": "every part settled",
+    "REACHED": "at the last waypoint",
+    "REFUSED": "the interlock refused the path (FirstUnstableSample, UnbalancedBodies say where)",
+    "STALLED": "an axis stalled (fault 301): the fixture stopped where it was",
+    "TIMEOUT": "the timeout passed first",
+    "FAULT": "the device faulted during the goal (Result/FaultCode says which)",
+    "CANCELED": "canceled (Stop, Abort or a cancel)",
+}
+_NO_OUTCOME = (0, "NONE", "no outcome: a goal executing, none yet, or LOST (the device stopped reporting)")
+
+
+def outcome_type(kind: str) -> str:
+    """Return the name of the enumeration DataType of a kind's Command.LastOutcomeCode."""
+    return f"{KINDS[kind].action.method.name}OutcomeEnumeration"
+
+
+def enumerations(kinds: list[str]) -> dict[str, Fields]:
+    """Return the enumeration DataTypes the devices of ``kinds`` use, by name (PackML's is the server's)."""
+    types: dict[str, Fields] = {DEVICE_STATE_TYPE: DEVICE_STATES}
+    for kind in kinds:
+        result = KINDS[kind].action.action_type.Result
+        names = [n for n in dir(result) if n.isupper() and n != "SLOT_TYPES"]
+        fields = sorted((int(getattr(result, n)), n, _OUTCOMES.get(n, n)) for n in names)
+        types[outcome_type(kind)] = (_NO_OUTCOME, *fields)
+    return types
+
+
 def variables(kind: str) -> tuple[VariableSpec, ...]:
     """Return every variable of a device object of ``kind``, in browse order."""
     profile = KINDS[kind]
@@ -169,7 +227,12 @@ def variables(kind: str) -> tuple[VariableSpec, ...]:
         *counters,
         *counters32,
         *profile.signals,
-        *COMMAND,
+        *(
+            dataclasses.replace(spec, data_type=outcome_type(kind))
+            if spec.path == "Command.LastOutcomeCode"
+            else spec
+            for spec in COMMAND
+        ),
         *profile.action.feedback,
         *profile.action.result,
     )

@@ -323,17 +323,28 @@ class GatewayServer:
         return parents[path]
 
     async def _packml_enumeration(self, server: Server) -> None:
-        """Add the PackMLStateEnumeration DataType: an Enumeration subtype with EnumValues (OPC 10000-3).
+        """Add the enumeration DataTypes: PackML's, the device state's, each kind's outcomes."""
+        await self._enumeration(
+            server,
+            layout.PACKML_STATE_TYPE,
+            "PackML state: ISA-TR88.00.02 StateCurrent numbers; 100 Unconfigured",
+            PACKML_STATES,
+        )
+        kinds = sorted({d.kind for d in self.devices})
+        for name, fields in layout.enumerations(kinds).items():
+            await self._enumeration(server, name, name.removesuffix("Enumeration"), fields)
 
-        Its numbers are not contiguous (Unconfigured is 100), so it carries EnumValues, not EnumStrings,
-        and its DataTypeDefinition (an EnumDefinition) for clients that build types from it.
+    async def _enumeration(self, server: Server, name: str, text: str, fields: layout.Fields) -> None:
+        """Add an Enumeration subtype with EnumValues (OPC 10000-3) named ``name``.
+
+        PackML's numbers are not contiguous (Unconfigured is 100), so each carries EnumValues, not
+        EnumStrings, and its DataTypeDefinition (an EnumDefinition) for clients that build types from it.
         """
-        name = layout.PACKML_STATE_TYPE
         dtype = await server.nodes.enum_data_type.add_data_type(self._id(name), self._name(name))
-        await self._describe(dtype, "PackML state: ISA-TR88.00.02 StateCurrent numbers; 100 Unconfigured")
+        await self._describe(dtype, text)
         definition = ua.EnumDefinition()
         values = []
-        for number, state, meaning in PACKML_STATES:
+        for number, state, meaning in fields:
             definition.Fields.append(
                 ua.EnumField(
                     Value=cast(ua.Int64, number),
