@@ -44,6 +44,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--section", type=finite_float, help="STL: the section at this level across --face's axis"
     )
+    parser.add_argument("--body", type=int, help="STEP: the solid to read (1, 2, ... in the file's order)")
     parser.add_argument("--unit", choices=list(CAD_UNITS), help="the file's length unit, overriding its own")
     parser.add_argument(
         "--chord-tolerance",
@@ -61,7 +62,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _options(args: argparse.Namespace, base: dict[str, Any]) -> CadOptions:
     """Return the CAD options: a YAML cad: mapping's (``base``), then the flags given."""
     raw = dict(base)
-    for key in ("layer", "block", "element", "unit", "chord_tolerance", "face", "section"):
+    for key in ("layer", "block", "element", "unit", "chord_tolerance", "face", "section", "body"):
         value = getattr(args, key, None)
         if value is not None:
             raw[key] = value
