@@ -1205,3 +1205,28 @@ def test_without_a_trust_list_a_client_certificate_is_still_checked_for_itself(
                 assert refusal in said, (name, said)
 
     asyncio.run(main())
+
+
+def test_the_gateways_own_diagnostics_entry_has_its_devices_its_start_and_its_logins(
+    gateway: str, listen: Callable[..., Any]
+) -> None:
+    """The gateway's /diagnostics entry: each device online, what the start-up wait found, login counts."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+
+    diagnostics = listen(DiagnosticArray, "/diagnostics")
+
+    async def scenario(s: Session) -> None:
+        assert await s.read(KEYS["arm"], "Kind") == "throwing_arm"  # this session's login is counted
+
+    session(gateway, scenario)
+
+    def ours(msg: Any) -> bool:
+        return any(status.name.endswith("opcua_gateway") for status in msg.status)
+
+    msg = diagnostics.wait(ours, timeout=10)
+    entry = next(status for status in msg.status if status.name.endswith("opcua_gateway"))
+    values = {kv.key: kv.value for kv in entry.values}
+    assert entry.level == DiagnosticStatus.OK and entry.message == "every device online", entry
+    assert all(values[f"{device} online"] == "true" for device in (ARM, MEMS, FIXTURE)), values
+    assert values["startup"].startswith("every device heard and its services discovered in "), values
+    assert int(values["logins_accepted"]) >= 1 and int(values["logins_refused"]) == 0, values
