@@ -91,9 +91,10 @@ def stl_prism(source: Path, target: Path, thickness: float = 1.0) -> None:
     target.write_text("\n".join([*lines, "endsolid part", ""]))
 
 
-def _step_write(shapes: list[object], target: Path) -> None:
-    """Write solids into one STEP file (millimetres, OpenCASCADE's default), in the list's order."""
+def _step_write(shapes: list[object], target: Path, unit: str = "mm") -> None:
+    """Write solids (built in millimetres) into one STEP file in ``unit``, in the list's order."""
     from OCP.BRep import BRep_Builder
+    from OCP.Interface import Interface_Static
     from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
     from OCP.TopoDS import TopoDS_Compound
 
@@ -101,25 +102,33 @@ def _step_write(shapes: list[object], target: Path) -> None:
     builder.MakeCompound(compound)
     for shape in shapes:
         builder.Add(compound, shape)
+    Interface_Static.SetCVal_s("write.step.unit", unit.upper())
     writer = STEPControl_Writer()
     writer.Transfer(compound, STEPControl_AsIs)
     writer.Write(str(target))
 
 
 def step_prism(source: Path, target: Path) -> None:
-    """The YAML part (mm) extruded 1 mm along z, one STEP solid."""
+    """The YAML part extruded 1 unit along z (holes through), one STEP solid in millimetres."""
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace, BRepBuilderAPI_MakePolygon
     from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
     from OCP.gp import gp_Pnt, gp_Vec
 
     document = yaml.safe_load(source.read_text())
-    assert document.get("length_unit") == "mm"
-    polygon = BRepBuilderAPI_MakePolygon()
-    for x, y in document["vertices"]:
-        polygon.Add(gp_Pnt(float(x), float(y), 0.0))
-    polygon.Close()
-    face = BRepBuilderAPI_MakeFace(polygon.Wire()).Face()
-    _step_write([BRepPrimAPI_MakePrism(face, gp_Vec(0.0, 0.0, 1.0)).Shape()], target)
+    per_mm = {"mm": 1.0, "cm": 10.0, "m": 1000.0}[document.get("length_unit", "m")]
+
+    def wire(loop: list[list[float]]) -> object:
+        polygon = BRepBuilderAPI_MakePolygon()
+        for x, y in loop:
+            polygon.Add(gp_Pnt(float(x) * per_mm, float(y) * per_mm, 0.0))
+        polygon.Close()
+        return polygon.Wire()
+
+    maker = BRepBuilderAPI_MakeFace(wire(document["vertices"]))
+    for hole in document.get("holes", []):
+        maker.Add(wire(hole[::-1]))  # a hole's wire runs against the outline's
+    prism = BRepPrimAPI_MakePrism(maker.Face(), gp_Vec(0.0, 0.0, per_mm)).Shape()
+    _step_write([prism], target, document.get("length_unit", "m"))
 
 
 def step_assembly(source: Path, target: Path, assembly: Path) -> None:
@@ -142,7 +151,7 @@ def step_assembly(source: Path, target: Path, assembly: Path) -> None:
         unify = ShapeUpgrade_UnifySameDomain(shape, True, True, True)
         unify.Build()
         solids.append(unify.Shape())
-    _step_write(solids, target)
+    _step_write(solids, target, document.get("length_unit", "m"))
     twin = {
         "name": f"{document['name']}_step",
         "length_unit": document.get("length_unit", "m"),
@@ -197,7 +206,13 @@ def main() -> int:
         written.append(target)
     stl_prism(EXAMPLES / "mems/bracket.yaml", EXAMPLES / "mems/bracket.stl")
     step_prism(EXAMPLES / "mems/bracket.yaml", EXAMPLES / "mems/bracket.step")
-    written.append(EXAMPLES / "mems/bracket.step")
+    step_prism(EXAMPLES / "mems/washer.yaml", EXAMPLES / "mems/washer.step")
+    step_prism(EXAMPLES / "throwing/triangle.yaml", EXAMPLES / "throwing/triangle.step")
+    written += [
+        EXAMPLES / "mems/bracket.step",
+        EXAMPLES / "mems/washer.step",
+        EXAMPLES / "throwing/triangle.step",
+    ]
     step_assembly(
         EXAMPLES / "assembly/block_in_l_bracket.yaml",
         EXAMPLES / "assembly/meshes/block_in_l_bracket.step",

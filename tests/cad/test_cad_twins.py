@@ -1,6 +1,6 @@
-"""DXF and SVG twins of the YAML examples give the planners' same answers (issue 39 item 4), through the CLI.
+"""DXF, SVG and STEP twins of the YAML examples give the planners' same answers (issue 39 item 4).
 
-The twins are examples/*/*.dxf (tools/make_cad_examples.py): polygonal, so they agree to rounding; the
+Through the CLI. The twins (tools/make_cad_examples.py) are polygonal, so they agree to rounding; the
 filleted bracket measures the chord tolerance against a 100 times finer flattening.
 """
 
@@ -55,7 +55,7 @@ def assert_same(left: object, right: object, path: str = "") -> None:
         assert left == right, path
 
 
-@pytest.mark.parametrize("suffix", ["dxf", "svg"])
+@pytest.mark.parametrize("suffix", ["dxf", "svg", "step"])
 @pytest.mark.parametrize("name", ["bracket", "washer"])
 def test_mems_twin_has_the_same_equilibria(
     capsys: pytest.CaptureFixture[str], name: str, suffix: str
@@ -66,7 +66,7 @@ def test_mems_twin_has_the_same_equilibria(
     assert_same(yaml_result, dxf_result)
 
 
-@pytest.mark.parametrize("suffix", ["dxf", "svg"])
+@pytest.mark.parametrize("suffix", ["dxf", "svg", "step"])
 def test_triangle_twin_has_the_same_limit_set_and_grasp_radii(
     capsys: pytest.CaptureFixture[str], suffix: str
 ) -> None:

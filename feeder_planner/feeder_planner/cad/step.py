@@ -108,26 +108,57 @@ def _read_in_process(
     data = read_bytes(path)
     if not data.strip():
         raise InputError("<file>", "is empty; export the model again")
-    scale, unit_name = _unit(data, unit)
+    scale, numbers, unit_name = _unit(data, unit)
     shape = _shape(path)
     solids = _solids(shape)
     diagonal = _diagonal(shape)
     deflection = tolerance * diagonal if diagonal > 0 else 1e-6
-    return [_tessellated(solid, k + 1, deflection) for k, solid in enumerate(solids)], scale, unit_name
+    tessellated = [_tessellated(solid, k + 1, deflection) for k, solid in enumerate(solids)]
+    # Back to the file's own unit, so that lengths on the command line are in it (contract section 1).
+    in_file_unit = [StepSolid(s.label, s.vertices * numbers, s.faces) for s in tessellated]
+    return in_file_unit, scale, unit_name
 
 
-def _unit(data: bytes, unit: float | None) -> tuple[float, str]:
-    """Return metres per OpenCASCADE number (mm, converted) and the file's unit as written."""
+# A STEP length unit: SI prefixes of the metre, and the conversion-based units of CAD exports.
+_PREFIXES = {
+    b"": 1.0,
+    b"$": 1.0,
+    b".MILLI.": 1e-3,
+    b".CENTI.": 1e-2,
+    b".DECI.": 0.1,
+    b".MICRO.": 1e-6,
+    b".KILO.": 1e3,
+}
+_NAMED = {b"INCH": 0.0254, b"FOOT": 0.3048, b"MILLIMETRE": 1e-3, b"CENTIMETRE": 1e-2, b"METRE": 1.0}
+
+
+def _unit(data: bytes, unit: float | None) -> tuple[float, float, str]:
+    """Return metres per file unit, file units per OpenCASCADE number and the file's unit as written.
+
+    OpenCASCADE converts every length to millimetres; a unit it converts but this table does not know
+    stays in millimetres.
+    """
     match = _UNIT.search(data)
     if match:
-        return _MM, match.group(1).decode("ascii", "replace")
+        written = match.group(1)
+        si = re.match(rb"SI_UNIT\s*\(\s*([^,]*),\s*\.METRE\.", written)
+        named = re.match(rb"CONVERSION_BASED_UNIT\s*\(\s*'([^']*)'", written)
+        metres = (
+            _PREFIXES.get(si.group(1).strip())
+            if si
+            else _NAMED.get(named.group(1).upper())
+            if named
+            else None
+        )
+        metres = metres or _MM
+        return metres, _MM / metres, written.decode("ascii", "replace")
     if unit is None:
         raise InputError(
             "LENGTH_UNIT",
             "units missing: the file declares no length unit; export it with units, or give unit: in the "
             "part YAML's cad: mapping",
         )
-    return unit, "given by unit (the file declares none)"
+    return unit, 1.0, "given by unit (the file declares none)"
 
 
 def _shape(path: str | Path) -> object:

@@ -17,8 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
+from feeder_planner import polygon
 from feeder_planner.cad.options import CadOptions, unit_scale
-from feeder_planner.cad.outline import Outline, Piece, assemble_outline
+from feeder_planner.cad.outline import Loop, Outline, Piece, assemble_outline
 from feeder_planner.errors import InputError
 
 __all__ = ["read_stl", "solid_outline"]
@@ -62,7 +63,18 @@ def solid_outline(triangles: np.ndarray, options: CadOptions, scale: float, unit
         f"section at {options.section:g} across {options.face or '-z'}" if options.section is not None else ""
     )
     notes = (how,) if how else ()
-    return Outline(outer, holes, scale, unit_name, tuple(pieces), notes)
+    return Outline(_canonical(outer), holes, scale, unit_name, tuple(pieces), notes)
+
+
+def _canonical(loop: Loop) -> Loop:
+    """Return the loop counter-clockwise from its lowest (then leftmost) vertex.
+
+    A solid has no vertex order of its own, and the throwing arm numbers hull edges in the outline's
+    order: this rule makes the numbering the file's (a YAML part drawn the same way numbers alike).
+    """
+    points = loop.points if polygon.signed_area(loop.points) > 0 else loop.points[::-1]
+    first = int(np.lexsort((points[:, 0], points[:, 1]))[0])
+    return Loop(np.roll(points, -first, axis=0), loop.labels)
 
 
 def _silhouette(flat: np.ndarray) -> list[Piece]:
@@ -80,9 +92,9 @@ def _silhouette(flat: np.ndarray) -> list[Piece]:
     union = shapely.simplify(union, 0.0)  # drops the collinear vertices where triangles met
     polygons = list(getattr(union, "geoms", [union]))
     pieces = []
-    for k, polygon in enumerate(polygons):
-        pieces.append(Piece(np.asarray(polygon.exterior.coords)[:-1], True, f"silhouette outline {k}"))
-        for j, ring in enumerate(polygon.interiors):
+    for k, shape in enumerate(polygons):
+        pieces.append(Piece(np.asarray(shape.exterior.coords)[:-1], True, f"silhouette outline {k}"))
+        for j, ring in enumerate(shape.interiors):
             pieces.append(Piece(np.asarray(ring.coords)[:-1], True, f"silhouette hole {j} of outline {k}"))
     return pieces
 
