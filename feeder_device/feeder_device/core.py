@@ -112,6 +112,7 @@ class DeviceCore(LifecycleNode, Generic[P]):
         self.stopped = False
         self.faults: dict[str, ActiveFault] = {}
         self.model_fault: tuple[int, str] | None = None  # (code, text) of a fault the model raised
+        self.internal_error = ""  # why the device's own tick raised: FAULT_INTERNAL until configured again
         self.configuration_error = ""
         self.count = Counters(self.COUNTERS)
         self._streams = Streams(self)

@@ -50,7 +50,8 @@ class FaultServices(TickLoop[P]):
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         if self.lifecycle not in ("active", "inactive"):
-            response.success, response.message = False, f"reset refused: device is {self.state().name}"
+            why = f" ({self.internal_error})" if self.internal_error else ""
+            response.success, response.message = False, f"reset refused: device is {self.state().name}{why}"
             return response
         self._clear_every_fault()
         self.stopped = False

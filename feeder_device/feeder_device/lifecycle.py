@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import traceback
 from typing import Any
 
 from lifecycle_msgs.msg import State, Transition, TransitionEvent
@@ -52,6 +53,7 @@ class LifecycleTransitions(FaultServices[P]):
             self.publish_status()
             return TransitionCallbackReturn.FAILURE
         self.configuration_error = ""
+        self.internal_error = ""  # a model built again: a former tick's error is gone with its model
         self.lifecycle = "inactive"
         self.publish_status()
         return TransitionCallbackReturn.SUCCESS
@@ -76,14 +78,38 @@ class LifecycleTransitions(FaultServices[P]):
         return result
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
-        """Freeze the physics where it is; latched descriptions stay with their late-joining subscribers."""
+        """Freeze the physics where it is; latched descriptions stay with their late-joining subscribers.
+
+        After a tick raised (``fail_tick``) the transition ends in ERROR: rcl_lifecycle then runs the error
+        path (ErrorProcessing, ``on_error``), which releases the model.
+        """
         self._stop_ticks()
         self.deactivate_device()
         self.lifecycle = "inactive"
         self._wake_tick_waiters()  # a goal must not outlive the device's activity
         result = super().on_deactivate(state)
+        if self.internal_error:
+            return TransitionCallbackReturn.ERROR
         self.publish_status()
         return result
+
+    def fail_tick(self, error: Exception) -> None:
+        """Take the lifecycle's error path after the device's own tick raised, and say FAULT_INTERNAL.
+
+        Like a ros2_control hardware component whose read fails: the device leaves Active through its error
+        path (Deactivating, then ErrorProcessing: the model released, lifecycle Unconfigured) and its status
+        says FAULT with the error, until it is configured again. Its goals end; the rest of the cell (the
+        other nodes of a cell host, the clock) goes on. The traceback is logged for whoever fixes the bug.
+        """
+        self.internal_error = (
+            f"internal error in the tick: {type(error).__name__}: {error} (the model was released; "
+            "configure the device again)"
+        )
+        self.get_logger().error(self.internal_error)
+        self.get_logger().error("".join(traceback.format_exception(error)).rstrip())
+        if self.lifecycle == "active":
+            self.trigger_deactivate()
+        self.publish_status()
 
     def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Release the model; the node is unconfigured again."""

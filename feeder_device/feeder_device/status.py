@@ -34,6 +34,8 @@ class StatusReporting(DeviceCore[P]):
 
     def state(self) -> DeviceState:
         """Return the controller-facing state, derived from lifecycle, stop, faults and business."""
+        if self.internal_error:
+            return DeviceState.FAULT  # unconfigured by its error path, and saying why
         if self.lifecycle != "active" and self.lifecycle != "inactive":
             return DeviceState.UNCONFIGURED
         if self.stopping_fault() is not None:
@@ -46,6 +48,8 @@ class StatusReporting(DeviceCore[P]):
 
     def stopping_fault(self) -> tuple[int, str] | None:
         """(code, text) of the fault that stops the device, or None."""
+        if self.internal_error:
+            return DeviceStatus.FAULT_INTERNAL, self.internal_error
         if self.model_fault is not None:
             return self.model_fault
         for fault in self.faults.values():
