@@ -253,11 +253,15 @@ async def _login_measure(url: str, quick: bool) -> tuple[list[float], list[float
             raise RuntimeError(f"the login storm exited {storm.returncode}")
     finally:
         await watcher.disconnect()
+    await asyncio.sleep(2.0)  # the storm's sessions closed and cleaned up before the next measure
     unknown: list[float] = []
     known: list[float] = []
-    for _ in range(10 if quick else 30):  # alternated: a drift of the host's load hits both alike
-        unknown += await _refusal_ms(url, "nobody", 1)
-        known += await _refusal_ms(url, USER, 1)
+    for i in range(10 if quick else 30):
+        # Alternated, in turns, with a pause: a drift of the host's load, or the cleanup of the last
+        # refused connection, hits both alike.
+        for user in ("nobody", USER) if i % 2 else (USER, "nobody"):
+            (unknown if user == "nobody" else known).extend(await _refusal_ms(url, user, 1))
+            await asyncio.sleep(0.2)
     return quiet, loud, unknown, known
 
 
