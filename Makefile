@@ -9,7 +9,7 @@ help:
 	@echo "make demo   set up (if needed), then run the demo: doctor, the three devices, a recorded bag"
 	@echo "make test   set up (if needed), then run the whole test suite"
 	@echo "make bench  set up (if needed), then run the benchmarks (table on stdout, plots in bench/results)"
-	@echo "make stress Ctrl-C at 20 random moments of each long command's and own-main node's life, under load"
+	@echo "make stress Ctrl-C at 20 random moments of each long command's and own-main node's life, under load; 20 launches joining the lockstep"
 	@echo "make gate   only the lint and type gate (ruff, mypy), which make test runs first"
 	@echo "make setup  only the idempotent setup (.venv, pinned ROS 2 Jazzy wheels, colcon build)"
 	@echo "make shell  a bash shell inside the environment (same as 'source env.sh')"
@@ -32,6 +32,7 @@ bench: setup
 
 stress: setup
 	@$(ENV) FEEDER_STOP_MOMENTS=20 python -m pytest tests/foundation/test_stop_signals_ros.py
+	@$(ENV) FEEDER_JOIN_LAUNCHES=20 python -m pytest tests/cell/test_lockstep_ros.py -k reaches_its_first_quantum
 
 shell: setup
 	@bash --rcfile <(echo 'source ~/.bashrc 2>/dev/null; source ./env.sh; PS1="(feeder) $$PS1"')

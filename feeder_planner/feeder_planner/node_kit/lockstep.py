@@ -232,7 +232,14 @@ class Participant:
         if self._joining is not None:
             self.node.destroy_timer(self._joining)
             self._joining = None
-        self.arrive(_nanoseconds(msg))
+        now_ns = _nanoseconds(msg)
+        if now_ns <= self.answered_ns and not self.pending:
+            # Heard again (the clock re-announces a phase it still waits for): answer again. DDS matches
+            # the two ends of a topic each on its own, so an answer sent before the clock's reader had
+            # matched this writer was lost; the first one, at start-up, was a join that never came.
+            self.send(self.answered_ns)
+            return
+        self.arrive(now_ns)
 
     def arrive(self, now_ns: int) -> None:
         """Take the announcement of ``now_ns`` (from DDS, or by a direct call from the hub)."""
