@@ -12,6 +12,7 @@ import time
 from datetime import datetime, timedelta, timezone
 from typing import Any
 
+import pytest
 from asyncua import Client, ua
 
 from feeder_cell.gateway import alarms, layout
@@ -240,6 +241,11 @@ def test_the_cell_object_is_an_event_notifier_carrying_its_devices_alarms() -> N
             on_cell = Events()
             subscription = await client.create_subscription(0, on_cell)
             await subscription.subscribe_events(cell, ua.ObjectIds.AlarmConditionType)
+            # Another node is no notifier: the standard's operation code (not BadServiceUnsupported).
+            folder = client.get_node(ua.NodeId(layout.DEVICES_FOLDER, idx))
+            with pytest.raises(ua.UaStatusCodeError) as refused:
+                await subscription.subscribe_events(folder, ua.ObjectIds.AlarmConditionType)
+            assert refused.value.code == ua.StatusCodes.BadNotSupported, refused.value
             gateway.post_all(KEY, _status(101, "motor_fault injected", 0, ""))
             gateway.post_all(fixture.key, _status(0, "", 302, "rate limited"))
             seen = {(e.SourceName, e.ConditionName) for e in [await on_cell.next(), await on_cell.next()]}

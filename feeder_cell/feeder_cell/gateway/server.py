@@ -213,6 +213,7 @@ class GatewayServer:
         version, built = product_version()
         await server.set_build_info(PRODUCT_URI, MANUFACTURER, PRODUCT_NAME, version, version, built)
         _refuse_writes(server)
+        _refuse_events_of_non_notifiers(server)
         server.set_security_policy([POLICY_TYPES[p] for p in self.security.policies])
         tokens: list[type] = []
         if self.security.allow_anonymous:
@@ -631,6 +632,30 @@ def _refuse_writes(server: Server) -> None:
         return codes
 
     service.write = refuse_read_only  # type: ignore[method-assign]
+
+
+def _refuse_events_of_non_notifiers(server: Server) -> None:
+    """Answer an event item on a node that is no event notifier with Bad_NotSupported.
+
+    asyncua answers Bad_ServiceUnsupported, which OPC 10000-4 does not list among CreateMonitoredItems'
+    operation results (it is a service-level code: the whole service is not supported); the OPC
+    Foundation's reference server answers Bad_NotSupported there.
+    """
+    service = server.iserver.subscription_service
+    create = service.create_monitored_items
+    unsupported = ua.StatusCodes.BadServiceUnsupported
+
+    async def create_monitored_items(
+        params: ua.CreateMonitoredItemsParameters,
+    ) -> list[ua.MonitoredItemCreateResult]:
+        results = await create(params)
+        for item, result in zip(params.ItemsToCreate, results, strict=False):
+            events = item.ItemToMonitor.AttributeId == ua.AttributeIds.EventNotifier
+            if events and result.StatusCode.value == unsupported:
+                result.StatusCode = _status_code(ua.StatusCodes.BadNotSupported)
+        return results
+
+    service.create_monitored_items = create_monitored_items  # type: ignore[method-assign]
 
 
 async def _add_variable(
