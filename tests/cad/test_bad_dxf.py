@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import ezdxf
+import numpy as np
 import pytest
 
 from feeder_cell.cli.main import main
@@ -137,3 +138,46 @@ def test_not_a_dxf_file(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> N
     path = tmp_path / "notes.dxf"
     path.write_text("this is a text file, not a drawing\n")
     assert "not a readable DXF file" in refused(capsys, path)
+
+
+def test_a_block_is_chosen_and_an_insert_is_placed(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    doc = ezdxf.new("R2010", units=4)
+    block = doc.blocks.new("BRACKET")
+    block.add_lwpolyline([(0, 0), (4, 0), (4, 1), (1, 1), (1, 3), (0, 3)], close=True)
+    space = doc.modelspace()
+    space.add_lwpolyline(SQUARE, close=True, dxfattribs={"layer": "FRAME"})
+    space.add_blockref("BRACKET", (20.0, 5.0), dxfattribs={"layer": "PARTS"})
+    path = tmp_path / "sheet.dxf"
+    doc.saveas(path)
+    assert main(["part-info", str(path), "--block", "BRACKET", "--json"]) == 0  # the block's own frame
+    read = json.loads(capsys.readouterr().out)
+    assert read["centre_of_mass"] == pytest.approx([1.5e-3, 1e-3], abs=1e-15)
+    assert main(["part-info", str(path), "--layer", "PARTS", "--json"]) == 0  # the insert, placed
+    read = json.loads(capsys.readouterr().out)
+    assert read["centre_of_mass"] == pytest.approx([21.5e-3, 6e-3], abs=1e-15)
+    assert read["entities"]["outer"][0].startswith("INSERT #")
+
+
+def test_ellipse_hole_and_spline_outline_within_the_chord_tolerance(tmp_path: Path) -> None:
+    from feeder_planner.cad import CadOptions, cad_part
+
+    def draw(space: Any) -> None:
+        space.add_spline_control_frame([(0, 0), (10, -2), (20, 0), (22, 10), (10, 14), (-2, 10), (0, 0)])
+        space.add_ellipse((10.0, 5.0), major_axis=(3.0, 0.0), ratio=0.5)
+
+    path = drawing(tmp_path, draw)
+    coarse, fine = cad_part(path), cad_part(path, CadOptions(chord_tolerance=1e-6))
+    assert len(coarse.holes) == 1 and len(fine.outer) > 5 * len(coarse.outer)
+    hole_area = 3.0 * 1.5 * 3.141592653589793 * 1e-6  # pi a b, mm^2 in m^2
+    assert abs(coarse.area - fine.area) < 3e-4 * fine.area
+    # The ellipse's polygon lies inside it: the hole is smaller than pi a b by less than the tolerance allows.
+    hole = abs(
+        sum(
+            x0 * y1 - x1 * y0
+            for (x0, y0), (x1, y1) in zip(fine.holes[0], np.roll(fine.holes[0], -1, 0), strict=True)
+        )
+        / 2
+    )
+    assert 0 < hole_area - hole < 1e-4 * hole_area

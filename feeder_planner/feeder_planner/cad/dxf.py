@@ -159,12 +159,16 @@ def _flattened_inserts(space: Iterable[Any], prefix: str, depth: int) -> Iterato
                 f"INSERT #{handle} of block {name!r}",
                 f"cannot be placed ({type(exc).__name__}); explode it in the CAD tool",
             ) from None
+        layer = _layer(entity)
+        for child in children:
+            if _layer(child) == "0":  # CAD's rule: a block's layer-0 entities take the INSERT's layer
+                child.dxf.layer = layer
         yield from _flattened_inserts(children, f"{prefix}INSERT #{handle} of {name!r}: ", depth + 1)
 
 
 def _pieces(entities: list[tuple[Any, str]], chord_tolerance: float) -> list[Piece]:
     """Flatten every entity into a Piece, chords within ``chord_tolerance`` x the drawing's diagonal."""
-    from ezdxf import bbox, path
+    from ezdxf import bbox
 
     try:
         box = bbox.extents([entity for entity, _ in entities], fast=True)
@@ -175,9 +179,7 @@ def _pieces(entities: list[tuple[Any, str]], chord_tolerance: float) -> list[Pie
     pieces = []
     for entity, label in entities:
         try:
-            curve = path.make_path(entity)
-            points = np.array([(v.x, v.y) for v in curve.flattening(distance)], dtype=float)
-            closed = bool(curve.is_closed) and len(points) > 2
+            points, closed = _flattened(entity, distance)
         except InputError:
             raise
         except Exception as exc:  # a curve with bad parameters (zero radius, too few control points...)
@@ -188,6 +190,43 @@ def _pieces(entities: list[tuple[Any, str]], chord_tolerance: float) -> list[Pie
             raise InputError(label, "has no extent or a coordinate that is not finite; redraw or delete it")
         pieces.append(Piece(points, closed, label))
     return pieces
+
+
+def _flattened(entity: Any, distance: float) -> tuple[np.ndarray, bool]:
+    """Return an entity's points, chords within ``distance`` of the exact curve, and whether it closes.
+
+    Arcs, circles, ellipses and splines are flattened on their exact geometry (ezdxf's construction
+    tools), not through ezdxf's Path, whose cubic Bezier arcs are off the circle by up to 2.7e-4 of the
+    radius whatever the tolerance. A polyline's bulges are exploded into its ARCs first.
+    """
+    kind = entity.dxftype()
+    if kind == "LINE":
+        return np.array([entity.dxf.start, entity.dxf.end], dtype=float)[:, :2], False
+    if kind in ("ARC", "CIRCLE"):
+        points = _xy(entity.flattening(sagitta=distance))
+        return points, kind == "CIRCLE"
+    if kind in ("ELLIPSE", "SPLINE"):
+        points = _xy(entity.flattening(distance))
+        span = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
+        return points, len(points) > 2 and float(np.abs(points[0] - points[-1]).max()) <= 1e-9 * span
+    closed = bool(entity.is_closed)
+    if not getattr(entity, "has_arc", True):
+        vertices = (
+            entity.get_points("xy") if kind == "LWPOLYLINE" else [v.dxf.location for v in entity.vertices]
+        )
+        return np.array([(p[0], p[1]) for p in vertices], dtype=float), closed
+    points = np.zeros((0, 2))
+    for part in entity.virtual_entities():  # LINEs and ARCs in the polyline's order
+        segment, _ = _flattened(part, distance)
+        if len(points) and np.abs(segment[-1] - points[-1]).max() < np.abs(segment[0] - points[-1]).max():
+            segment = segment[::-1]  # an exploded ARC runs counter-clockwise, its bulge may not
+        points = np.concatenate([points, segment[1:] if len(points) else segment])
+    return points, closed
+
+
+def _xy(vertices: Iterable[Any]) -> np.ndarray:
+    """Return the x and y of ezdxf vectors as an (n, 2) array."""
+    return np.array([(v.x, v.y) for v in vertices], dtype=float).reshape(-1, 2)
 
 
 def _choice_hint(doc: Any, options: CadOptions) -> str:

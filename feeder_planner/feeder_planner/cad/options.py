@@ -17,9 +17,10 @@ __all__ = ["CHORD_TOLERANCE", "CAD_UNITS", "CadOptions", "options_from_mapping",
 
 # Arcs, circles, ellipses and splines become polylines whose chords stay within this distance of the
 # curve, relative to the drawing's bounding-box diagonal. Measured on examples/mems/bracket_filleted.dxf
-# (5.3 mm across) against 1e-6: the equilibria's angles move by at most 7.3e-4 rad and their positions by
-# 1.1e-7 m (delta 0.1 and 0.5), the grasp radii by 1.7e-7 m (docs/cli.md, "Importing parts"). A full
-# circle as large as the drawing gets about 160 chords.
+# (5.3 mm across) against 1e-6: the equilibria's angles move by at most 1.3e-3 rad and their positions by
+# 1.9e-7 m (delta 0.1 and 0.5), the grasp radii by 2.5e-7 m (docs/cli.md, "Importing parts"); 1e-5 moves
+# the angles by 1.2e-4 rad with three times the vertices. A full circle as large as the drawing gets
+# about 160 chords.
 CHORD_TOLERANCE = 1e-4
 
 # Length units a CAD file may be given in by ``unit:`` (metres each).
