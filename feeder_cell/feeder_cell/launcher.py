@@ -54,6 +54,9 @@ class NodeSpec:
     remappings: tuple[tuple[str, str], ...] = ()  # (from, to) name remappings, as -r from:=to
     lifecycle: LifecycleTarget = "active"  # where `feeder launch` brings a managed node
     on_exit: OnExit = ""  # "shutdown": when this node exits, the scene ends with its exit code
+    host: str = (
+        ""  # a cell host to run in (its name), "none" for a process of its own, "" the launch's choice
+    )
 
     @property
     def node_name(self) -> str:
@@ -103,6 +106,7 @@ def scene_from_mapping(document: dict[str, Any], base_dir: Path) -> Scene:
                 _remappings(optional(entry, "remappings", {}), f"{where}.remappings"),
                 _lifecycle(optional(entry, "lifecycle", "active"), f"{where}.lifecycle"),
                 _on_exit(optional(entry, "on_exit", ""), f"{where}.on_exit"),
+                _host(optional(entry, "host", ""), f"{where}.host"),
             )
         )
     return Scene(short_string(optional(document, "name", "scene"), "name", "a scene name"), tuple(nodes))
@@ -346,6 +350,16 @@ def _on_exit(value: Any, field: str) -> OnExit:
             field, f"must be one of {', '.join(ON_EXIT_ACTIONS)} (or absent), got {quote(value)}"
         )
     return cast(OnExit, value)
+
+
+NO_HOST = "none"  # a scene node's host: a process of its own
+
+
+def _host(value: Any, field: str) -> str:
+    """Return a host name (a ROS name token) or ``none``, else an InputError naming ``field``."""
+    if value in ("", NO_HOST):
+        return str(value)
+    return _ros_name(value, field, "host")
 
 
 def _resolve_path(key: str, value: ParameterValue, base_dir: Path) -> ParameterValue:

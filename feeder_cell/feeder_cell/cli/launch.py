@@ -12,6 +12,7 @@ from typing import Any, Callable
 from feeder_cell.cli.bag import _summary as bag_summary
 from feeder_cell.cli.common import add_json_flag, emit, finite_float, output_directory
 from feeder_cell.launcher import (
+    NO_HOST,
     NodeProcess,
     NodeSpec,
     ParameterScalar,
@@ -69,22 +70,55 @@ def real_time_factor(text: str) -> float:
 HOST_NAME = "cell_host"
 
 
-def hosted_specs(
-    specs: list[NodeSpec], participants: list[NodeSpec], controller: bool = False
-) -> list[NodeSpec]:
-    """Return the nodes of a lockstep launch that share the cell host (clock, cell_simulation, devices).
+def _hosted_by_default(spec: NodeSpec, participants: list[NodeSpec], controller: bool) -> bool:
+    """Whether a lockstep launch puts ``spec`` in the cell host: the clock, cell_simulation, the devices.
 
     A lockstep participant that is not a device (the reference controller: it decides on a thread of its
     own) stays a process of its own and takes part over DDS, as a user's node does, unless ``controller``.
     """
-    candidates = [
-        s
-        for s in specs
-        if s.executable in (CLOCK_NODE.executable, SIMULATION_NODE.executable)
-        or (s in participants and s.executable in DEVICE_LISTS)
-        or (controller and s.package == "feeder_cell" and s.executable == "cell_controller")
-    ]
-    return hostable(candidates)
+    return (
+        spec.executable in (CLOCK_NODE.executable, SIMULATION_NODE.executable)
+        or (spec in participants and spec.executable in DEVICE_LISTS)
+        or (controller and spec.package == "feeder_cell" and spec.executable == "cell_controller")
+    )
+
+
+def host_groups(
+    specs: list[NodeSpec], participants: list[NodeSpec], args: argparse.Namespace
+) -> dict[str, list[NodeSpec]]:
+    """Return the launch's hosts and their nodes, in scene order: what each scene node's ``host`` asks.
+
+    ``host: NAME`` puts a node in that host, ``host: none`` in a process of its own; without it, on the
+    cell clock, the clock, cell_simulation and the devices share ``cell_host``. ``--one-process-per-node``
+    overrides every one. A node a host cannot take (no ``NODE`` in its module, or a second node of one
+    executable) runs alone when the launch chose; a scene that asked for it is refused, naming the node.
+    """
+    if args.one_process_per_node:
+        return {}
+    sim_time = args.real_time_factor is not None
+    asked: dict[str, list[NodeSpec]] = {}
+    for spec in specs:
+        if spec.host == NO_HOST:
+            continue
+        if spec.host:
+            name = spec.host
+        elif sim_time and _hosted_by_default(spec, participants, args.host_controller):
+            name = HOST_NAME
+        else:
+            continue
+        asked.setdefault(name, []).append(spec)
+    groups = {}
+    for name, members in asked.items():
+        taken = hostable(members)
+        for spec in members:
+            if spec.host and spec not in taken:
+                raise InputError(
+                    f"node {spec.fully_qualified_name}: host",
+                    f"{spec.package}/{spec.executable} cannot run in host {name} (its module offers no NODE, "
+                    "or the host has a node of that executable already)",
+                )
+        groups[name] = taken
+    return groups
 
 
 def extra_parameters(
@@ -286,18 +320,17 @@ def _launch(args: argparse.Namespace) -> int:
             recorder = Recorder(node, Path(args.record))
         states: dict[str, str] = {}
         try:
-            hosted = (
-                hosted_specs(specs, participants, args.host_controller)
-                if sim_time and not args.one_process_per_node
-                else []
-            )
+            groups = host_groups(specs, participants, args)
+            host_of = {id(member): name for name, members in groups.items() for member in members}
             for spec in specs:
                 if not keep_going():
                     break  # interrupted during start-up: end what was started, no traceback
-                if spec in hosted:
-                    if spec is hosted[0]:
-                        with_extra = [(h, extra_parameters(h, specs, participants, args)) for h in hosted]
-                        processes += start_host(HOST_NAME, with_extra, log_dir)
+                host = host_of.get(id(spec))
+                if host is not None:
+                    members = groups[host]
+                    if spec is members[0]:
+                        with_extra = [(m, extra_parameters(m, specs, participants, args)) for m in members]
+                        processes += start_host(host, with_extra, log_dir)
                     continue
                 extra = extra_parameters(spec, specs, participants, args)
                 processes.append(start_node(spec, log_dir, extra_parameters=extra))
@@ -374,12 +407,12 @@ def _launch(args: argparse.Namespace) -> int:
         hosts = host_reports(codes)
         if hosts:
             result["hosts"] = hosts
-            for host in hosts:
-                if host["died_early"]:
+            for report in hosts:
+                if report["died_early"]:
                     # One line for the host, not one death per node: they are one process.
                     print(
-                        f"feeder launch: the cell host {host['name']} (pid {host['pid']}) ended with exit "
-                        f"code {host['exit_code']}, and with it its nodes {', '.join(host['nodes'])}",
+                        f"feeder launch: cell host {report['name']} (pid {report['pid']}) ended with exit "
+                        f"code {report['exit_code']}, and with it its nodes {', '.join(report['nodes'])}",
                         file=sys.stderr,
                     )
         if cell_time is not None:

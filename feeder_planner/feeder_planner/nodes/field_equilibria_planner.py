@@ -209,6 +209,11 @@ class FieldEquilibriaPlanner(Node):
             self.last_published = summary
 
 
+# What a cell host builds (feeder_cell.host) when a scene asks for it: there its services share the host's
+# one thread, so a long request holds the host's other nodes (alone, THREADS serve beside each other).
+NODE = FieldEquilibriaPlanner
+
+
 def main(args: list[str] | None = None) -> None:
     """Run the node until shut down."""
     run_node(FieldEquilibriaPlanner, "field_equilibria_planner", args, threads=THREADS)

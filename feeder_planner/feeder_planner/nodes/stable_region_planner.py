@@ -184,6 +184,11 @@ def _request_assembly(text: str, mesh_base_dir: str | None = None) -> Assembly:
         raise InputError(f"assembly_yaml ({error.field})", error.problem) from None
 
 
+# What a cell host builds (feeder_cell.host) when a scene asks for it: there its services share the host's
+# one thread, so a long request holds the host's other nodes (alone, THREADS serve beside each other).
+NODE = StableRegionPlanner
+
+
 def main(args: list[str] | None = None) -> None:
     """Run the node until shutdown."""
     run_node(StableRegionPlanner, "stable_region_planner", args, threads=THREADS)

@@ -312,6 +312,11 @@ def _candidate(row: DesignRow) -> DesignCandidate:
     )
 
 
+# What a cell host builds (feeder_cell.host) when a scene asks for it: there its services share the host's
+# one thread, so a long request holds the host's other nodes (alone, THREADS serve beside each other).
+NODE = ThrowPlanner
+
+
 def main(args: list[str] | None = None) -> None:
     """Run the throw_planner node."""
     run_node(ThrowPlanner, "throw_planner", args, threads=THREADS)
