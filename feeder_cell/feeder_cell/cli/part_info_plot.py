@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
 from feeder_cell.plots.common import new_figure
@@ -21,10 +22,15 @@ def part_info_figure(part: Part, outline: Outline | None) -> Figure:
     figure = new_figure((7.0, 6.0))
     ax = figure.add_subplot(1, 1, 1)
     if outline is not None:
-        for piece in outline.pieces:
-            points = piece.points * outline.unit_scale
-            ax.plot(points[:, 0], points[:, 1], color="0.6", linewidth=2.5, zorder=1)
-        ax.plot([], [], color="0.6", linewidth=2.5, label="source entities")
+        lines = [
+            np.vstack([piece.points, piece.points[:1]]) if piece.closed else piece.points
+            for piece in outline.pieces
+        ]  # one collection: a solid's 200,000 triangles draw in a second, one plot call each would not
+        width = 2.5 if len(lines) < 1000 else 0.5
+        ax.add_collection(
+            LineCollection([line * outline.unit_scale for line in lines], colors="0.6", linewidths=width)
+        )
+        ax.plot([], [], color="0.6", linewidth=width, label="source entities (a solid: its triangles)")
     loops = [part.file_vertices, *(hole + part.offset for hole in part.holes)]
     for k, loop in enumerate(loops):
         closed = np.vstack([loop, loop[:1]])

@@ -63,7 +63,9 @@ def solid_outline(triangles: np.ndarray, options: CadOptions, scale: float, unit
         f"section at {options.section:g} across {options.face or '-z'}" if options.section is not None else ""
     )
     notes = (how,) if how else ()
-    return Outline(_canonical(outer), holes, scale, unit_name, tuple(pieces), notes)
+    # What the drawing shows under the outline: the solid's triangles as seen from the face.
+    seen = tuple(Piece(corners, True, f"triangle {k}") for k, corners in enumerate(flat))
+    return Outline(_canonical(outer), holes, scale, unit_name, seen + tuple(pieces), notes)
 
 
 def _canonical(loop: Loop) -> Loop:
