@@ -38,3 +38,20 @@ def test_the_washer_twin_document_keeps_its_hole() -> None:
     rebuilt = part_from_mapping(document)
     assert len(rebuilt.holes) == 1
     assert rebuilt.area == pytest.approx(twin.area, rel=1e-12)
+
+
+@pytest.mark.parametrize("suffix", ["dxf", "svg"])
+def test_the_mems_array_configures_from_a_cad_twin_as_from_its_yaml(suffix: str) -> None:
+    import dataclasses
+
+    from feeder_sim.mems.configure import configure_scene
+    from feeder_sim.mems.parameters import MemsParameters
+
+    path = EXAMPLES / "mems" / f"washer.{suffix}"
+    scene = configure_scene(dataclasses.replace(MemsParameters(), part_files=[str(path)]))
+    # What the array publishes on ~/parts: the outline and the hole as read, which rebuild the same part.
+    (document,) = scene.documents
+    assert document["holes"], "the washer's hole was lost"
+    rebuilt, original = part_from_mapping(document), load_part(EXAMPLES / "mems" / "washer.yaml")
+    assert len(rebuilt.loops()) == len(original.loops()) == 2
+    assert np.isclose(rebuilt.mass, original.mass, rtol=1e-3)

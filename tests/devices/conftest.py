@@ -50,13 +50,15 @@ def start_together(
     log_dir = tmp_path_factory.mktemp("devices")
     mine: list[launcher.NodeProcess] = []
 
-    def start(specs: Sequence[launcher.NodeSpec]) -> list[launcher.NodeProcess]:
-        processes = []
-        for spec in specs:
-            process = launcher.start_node(spec, log_dir)
+    def start(specs: Sequence[launcher.NodeSpec], host: str = "") -> list[launcher.NodeProcess]:
+        """Start ``specs`` each alone, or (``host``) all in one cell host of that name."""
+        if host:
+            processes = launcher.start_host(host, [(spec, {}) for spec in specs], log_dir)
+        else:
+            processes = [launcher.start_node(spec, log_dir) for spec in specs]
+        for process in processes:
             started_processes.append(process)
             mine.append(process)
-            processes.append(process)
         for process in processes:
             _wait_for_node(ros_client, process)
             if process.spec.lifecycle != "unconfigured":

@@ -650,11 +650,16 @@ def prepare_device(
     return LifecycleClient(caller.node, None, name), status
 
 
-@pytest.fixture(scope="module")
-def cell(caller: Any, start_together: Any) -> Iterator[Cell]:
+LAYOUTS = ("alone", "hosted")
+
+
+@pytest.fixture(scope="module", params=LAYOUTS)
+def cell(caller: Any, start_together: Any, request: pytest.FixtureRequest) -> Iterator[Cell]:
     """Every device, started at once and left unconfigured with its ``broken`` runtime parameter.
 
-    So the first test can fail its configure, fix it and configure it.
+    So the first test can fail its configure, fix it and configure it. Every test runs twice: with each
+    device a process of its own ("alone"), and with the three in one cell host ("hosted",
+    ``feeder_cell.host``), where a client must see the same devices.
     """
     client = caller.node
     lifecycles, statuses = {}, {}
@@ -677,10 +682,13 @@ def cell(caller: Any, start_together: Any) -> Iterator[Cell]:
         )
         for case in DEVICES
     ]
-    processes = dict(zip(IDS, start_together(specs), strict=True))
+    host = "conformance_host" if request.param == "hosted" else ""
+    processes = dict(zip(IDS, start_together(specs, host), strict=True))
     yield Cell(caller, processes, lifecycles, statuses, transitions, diagnostics, rosout)
     for lifecycle in lifecycles.values():
         lifecycle.close()
+    for process in processes.values():  # the next layout's devices take the same names
+        process.stop()
 
 
 def assert_ended_by_pid(process: launcher.NodeProcess) -> None:
@@ -1292,5 +1300,10 @@ def test_shutdown_releases_everything_and_the_node_is_then_ended_by_pid(
     assert lifecycle.get_state() == "finalized" and process.alive()
     response = cell.trigger(case, "stop")
     assert not response.success and "UNCONFIGURED" in response.message
+    if process.host:
+        # Hosted: its neighbours live on in the host; the host is ended once every one is finalized.
+        others = [name for name in cell.lifecycles if name != case.name]
+        if any(cell.lifecycles[name].get_state() != "finalized" for name in others):
+            return
     process.stop()
     assert_ended_by_pid(process)

@@ -15,7 +15,7 @@ import numpy as np
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import load_yaml_mapping
 from feeder_planner.mems import CombinedField, ProgramStep, program_from_mapping
-from feeder_planner.parts import Part, load_part
+from feeder_planner.parts import Part, load_part, part_document
 from feeder_sim.mems.bodies import Body
 from feeder_sim.mems.parameters import MemsParameters
 from feeder_sim.mems.scene import Scene, random_poses
@@ -52,7 +52,7 @@ def configure_scene(p: MemsParameters) -> ConfiguredScene:
             continue
         try:
             parts.append(load_part(path))
-            documents.append(load_yaml_mapping(path))
+            documents.append(part_document(path))  # a CAD part's outline as read (what ~/parts publishes)
             sources.append(path)
         except InputError as error:
             raise InputError(f"parameter part_files[{index}]", str(error)) from None
