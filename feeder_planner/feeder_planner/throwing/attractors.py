@@ -49,7 +49,9 @@ from feeder_planner.throwing.tolerances import (
     QUASI_VISITS,
     QUASI_WINDOWS,
     RESOLUTION_SPAN_SHARE,
+    ROUNDING,
     SOJOURN_FACTOR,
+    TAIL_GAPS,
 )
 
 __all__ = [
@@ -61,6 +63,7 @@ __all__ = [
     "stretch",
     "confirms",
     "settled",
+    "tail_start",
     "iterate_to_attractor",
     "Attractor",
     "group_attractors",
@@ -345,6 +348,35 @@ def settled(
     return last + 1
 
 
+def tail_start(edge: np.ndarray, radius: np.ndarray, stay: int, first: int) -> int:
+    """Return where a confirmed row's tail begins: its stay (``settled``) without the approach to it.
+
+    ``edge``/``radius``: the row's run, states 0..n; the tail confirmed over the window ``first``..n
+    (``_confirm``), and the run kept to it from ``stay`` on, each state on a tail edge within that
+    edge's range widened by the resolution (``resolution``: up to a tenth of the range's span). The
+    attractor is the forward limit set (Theorem IV.3), the closure of the states the run keeps
+    visiting, and the window's states sample it; a state of the stay before the window that lies beyond
+    the window's range on its edge by more than TAIL_GAPS mean gaps between the window's states there
+    (span / states, at least ROUNDING of the radius) is no visit of that closure but the approach to it,
+    which the resolution band let in (issue 35: on examples/throwing/quad35.yaml each start's first
+    landing on the attractor made edge 0's range end, 155.4 mm where long runs never go below
+    159.25 mm). The tail begins after the last such state, so an attractor's ranges, pattern, throws per
+    round and transients come from its visits only. The window itself is left as ``_confirm`` found it.
+    """
+    if stay >= first:
+        return stay
+    edges, low, high = _ranges(edge[first:], radius[first:])
+    counts = np.bincount(np.searchsorted(edges, edge[first:]), minlength=len(edges))
+    e_old, r_old = edge[stay:first], radius[stay:first]
+    # ``settled`` kept the stay on the tail's edges; an edge the window lacks would be its business.
+    outside = ~np.isin(e_old, edges)
+    for k, e in enumerate(edges):
+        gap = max(TAIL_GAPS * float(high[k] - low[k]) / int(counts[k]), ROUNDING * abs(float(high[k])))
+        outside |= (e_old == e) & ((r_old < low[k] - gap) | (r_old > high[k] + gap))
+    out = np.flatnonzero(outside)
+    return stay if out.size == 0 else stay + int(out[-1]) + 1
+
+
 def _clusters(
     tails: list[Stretch], width: np.ndarray
 ) -> list[tuple[list[int], dict[int, tuple[float, float]]]]:
@@ -458,6 +490,7 @@ def iterate_to_attractor(
                 continue
             stay = settled(edge[b, : n + 1], radius[b, : n + 1], jog[b, : n + 1], first, rows.width[b], found)
             if stay >= 0:
+                stay = tail_start(edge[b, : n + 1], radius[b, : n + 1], stay, first)
                 tail[b], tail_end[b] = stay, n
                 tails[int(b)] = stretch(edge[b, stay : n + 1], radius[b, stay : n + 1], jog[b, stay : n + 1])
         for g in np.unique(owner[due]):

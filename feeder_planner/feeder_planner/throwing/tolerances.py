@@ -38,6 +38,8 @@ __all__ = [
     "RESOLUTION_SPAN_SHARE",
     "SOJOURN_FACTOR",
     "OUTSIDE_SHARE",
+    "TAIL_GAPS",
+    "ROUNDING",
     "SENSING_HEIGHT_FRACTION",
     "SLAB_SLACK",
     "HORIZONTAL_EDGE",
@@ -149,6 +151,18 @@ RESOLUTION_SPAN_SHARE: Final = 0.1
 # its extremes only now and then, so a short recent half misses a few of them; a transient is a
 # stretch of such states.
 OUTSIDE_SHARE: Final = 0.05
+# How far beyond the confirmed window's range (a start's last n/2 states) an older state of its stay may
+# lie and still be a visit of the attractor rather than the approach to it (attractors.tail_start, issue
+# 35), in mean gaps between the window's states on that edge (span / states). A tail that fills its
+# interval (quasi-periodic radii) leaves gaps of about that size, and its extreme states lie within a gap
+# or so of the interval's ends; three gaps leave room for the unevenly spaced visits of a rotation (its
+# gaps take at most three lengths, the largest the sum of the other two: the three-gap theorem). Measured
+# on examples/throwing/quad35.yaml (defaults): the approach states of the stays lie up to 10.9 gaps beyond
+# the windows (median 3.9); one landing 1 gap below edge 2's window stays in (161.1 mm, long runs 161.61).
+TAIL_GAPS: Final = 3.0
+# Relative rounding of a radius after a chain of throws: a periodic orbit converged to rounding repeats its
+# radii to a few ulps (1e-16 relative); 1e-9 is far above that and far below any physical difference.
+ROUNDING: Final = 1e-9
 # A tail confirms only once the run has kept to it this many times longer than it ever kept to it
 # before departing (attractors.settled): convex12's visits to edge 5 come 50 to 1,500 throws apart, and
 # a quasi-periodic round of a corpus design breaks its 8-visit motif every ~1,200 throws; twice the
