@@ -9,18 +9,29 @@ import subprocess
 import sys
 import tempfile
 import threading
+from typing import Callable
 
 STARTUP_TIMEOUT = 30.0
 
 
 class BridgeProcess:
-    """`feeder bridge --port 0 ARGS` as a child process; its first stdout line says where it serves."""
+    """`feeder bridge --port 0 ARGS` as a child process; its first stdout line says where it serves.
 
-    def __init__(self, *args: str) -> None:
-        command = [sys.executable, "-m", "feeder_cell.cli.main", "bridge", "--port", "0", *args]
+    ``serving`` is the start of that line's URL (loopback ws:// unless told); ``wrap`` runs the command
+    elsewhere (``netns.Host.command``: another network namespace) with ``env``.
+    """
+
+    def __init__(
+        self,
+        *args: str,
+        serving: str = "ws://127.0.0.1:",
+        wrap: Callable[[list[str]], list[str]] = list,
+        env: dict[str, str] | None = None,
+    ) -> None:
+        command = wrap([sys.executable, "-m", "feeder_cell.cli.main", "bridge", "--port", "0", *args])
         self.log = tempfile.NamedTemporaryFile("w+", prefix="feeder-bridge-", suffix=".log")  # noqa: SIM115
         self.process = subprocess.Popen(
-            command, stdout=subprocess.PIPE, stderr=self.log, text=True, env=dict(os.environ)
+            command, stdout=subprocess.PIPE, stderr=self.log, text=True, env=env or dict(os.environ)
         )
         lines: queue.Queue[str] = queue.Queue()
         threading.Thread(
@@ -33,7 +44,7 @@ class BridgeProcess:
             raise AssertionError(
                 f"feeder bridge printed nothing in {STARTUP_TIMEOUT:g} s: {self.output()}"
             ) from None
-        assert line.startswith("feeder bridge: serving ws://127.0.0.1:"), line  # loopback unless told
+        assert line.startswith(f"feeder bridge: serving {serving}"), line
         self.url = line.split()[3]
 
     def output(self) -> str:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import itertools
 import re
+import ssl
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -159,6 +160,7 @@ class GraphBridge:
         read_only: bool = False,
         client_topics: tuple[str, ...] = DEFAULT_CLIENT_TOPICS,
         service_timeout: float = DEFAULT_SERVICE_TIMEOUT,
+        tls: ssl.SSLContext | None = None,
     ) -> None:
         self.node = node
         self.me = node.get_fully_qualified_name()
@@ -184,7 +186,7 @@ class GraphBridge:
         self._graph = GraphSnapshot()
         self._clock_running = False
         self.server = FoxgloveServer(
-            self, address, port, read_only, tuple(re.compile(p) for p in client_topics)
+            self, address, port, read_only, tuple(re.compile(p) for p in client_topics), tls=tls
         )
         self.port = self.server.port
         self.discover()

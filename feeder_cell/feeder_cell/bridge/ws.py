@@ -18,6 +18,7 @@ from __future__ import annotations
 import asyncio
 import itertools
 import re
+import ssl
 import threading
 import time
 from collections import deque
@@ -256,7 +257,7 @@ class _Session:
 
 
 class FoxgloveServer:
-    """Serve the Foxglove WebSocket protocol at ws://address:port on a thread of its own."""
+    """Serve the Foxglove WebSocket protocol at ws://address:port (wss:// with ``tls``) on its own thread."""
 
     def __init__(
         self,
@@ -266,9 +267,11 @@ class FoxgloveServer:
         read_only: bool,
         client_topics: tuple[re.Pattern[str], ...],
         name: str = "feeder bridge",
+        tls: ssl.SSLContext | None = None,
     ) -> None:
         self.backend = backend
         self.address = address
+        self.tls = tls
         self.read_only = read_only
         self.client_topics = client_topics
         self.name = name
@@ -316,6 +319,7 @@ class FoxgloveServer:
                 subprotocols=list(protocol.SUBPROTOCOLS),  # type: ignore[arg-type]
                 compression=None,  # deflating every CDR frame costs more CPU than loopback bandwidth
                 max_size=MAX_FRAME,
+                ssl=self.tls,  # both subprotocols over TLS on the same port; a plain ws:// client fails
             )
         except OSError as error:
             self._error = error

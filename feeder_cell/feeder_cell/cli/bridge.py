@@ -14,6 +14,7 @@ from feeder_cell.bridge.defaults import (
     DEFAULT_PORT,
     DEFAULT_SERVICE_TIMEOUT,
 )
+from feeder_cell.bridge.security import check_bridge_security
 from feeder_cell.ros_session import with_node
 from feeder_planner.errors import FeederError, InputError
 
@@ -58,6 +59,18 @@ def _run(args: argparse.Namespace) -> int:
 
     if not args.address.strip():
         raise InputError("--address", "must name an interface address, e.g. 127.0.0.1 or 0.0.0.0")
+    # Checked before ROS starts: a refused start is one line, and no node appears in the graph.
+    security = check_bridge_security(
+        args.address,
+        args.tls_cert,
+        args.tls_key,
+        args.read_only,
+        args.allow_insecure_remote,
+        args.allow_remote_control,
+    )
+    for warning in security.warnings:  # every start, so a log never hides an opt-out
+        sys.stderr.write(f"feeder bridge: WARNING: {warning}\n")
+    sys.stderr.flush()
 
     def work(node: Node, executor: Executor, keep_going: Callable[[], bool]) -> int:
         try:
@@ -68,13 +81,18 @@ def _run(args: argparse.Namespace) -> int:
                 read_only=args.read_only,
                 client_topics=tuple(args.client_topic or DEFAULT_CLIENT_TOPICS),
                 service_timeout=args.service_timeout,
+                tls=security.tls,
             )
         except OSError as error:  # the address cannot be bound (in use, not this machine's)
-            raise FeederError(f"cannot serve ws://{args.address}:{args.port}: {error}") from None
+            raise FeederError(
+                f"cannot serve {security.scheme}://{args.address}:{args.port}: {error}"
+            ) from None
         # The line a user (and a test) waits for: where to point Foxglove.
         mode = " read-only" if args.read_only else ""
         host = f"[{args.address}]" if ":" in args.address else args.address  # an IPv6 address in a URL
-        sys.stdout.write(f"feeder bridge: serving ws://{host}:{bridge.port}{mode} (Ctrl-C stops)\n")
+        sys.stdout.write(
+            f"feeder bridge: serving {security.scheme}://{host}:{bridge.port}{mode} (Ctrl-C stops)\n"
+        )
         sys.stdout.flush()
         try:
             while keep_going():
@@ -99,10 +117,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "parametersSubscribe, names /node.parameter); publishing from the app on allowed topics "
         "(clientPublish); the connection graph (connectionGraph); and, for a client that connects while a "
         "cell clock publishes /clock, cell time (time). In Foxglove: Open connection, Foxglove WebSocket, "
-        "ws://ADDRESS:PORT. Runs until Ctrl-C; exit 1 when the address cannot be served.",
+        "ws://ADDRESS:PORT (wss:// with --tls-cert and --tls-key). Off loopback it is secure by default: it "
+        "refuses to start without TLS (unless --allow-insecure-remote) and with control (services, "
+        "parameter sets, publishing) unless --read-only or --allow-remote-control; each opt-out is a "
+        "WARNING at every start. Runs until Ctrl-C; exit 1 when the address cannot be served, 2 on bad "
+        "options or certificates.",
     )
     parser.add_argument(
-        "--address", default=DEFAULT_ADDRESS, help=f"interface to listen on (default {DEFAULT_ADDRESS})"
+        "--address",
+        default=DEFAULT_ADDRESS,
+        help=f"interface to listen on (default {DEFAULT_ADDRESS}; any other than loopback needs TLS and "
+        "--read-only or --allow-remote-control)",
     )
     parser.add_argument(
         "--port",
@@ -115,6 +140,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help="refuse clients everything that acts: service calls, parameter sets and publishing (topics, "
         "parameters and the graph stay readable)",
+    )
+    parser.add_argument(
+        "--tls-cert",
+        metavar="FILE",
+        help="serve wss:// (TLS) with this PEM certificate (chain); needs --tls-key",
+    )
+    parser.add_argument("--tls-key", metavar="FILE", help="the unencrypted PEM private key of --tls-cert")
+    parser.add_argument(
+        "--allow-insecure-remote",
+        action="store_true",
+        help="off loopback, serve plain ws:// without TLS (refused otherwise; a WARNING at every start)",
+    )
+    parser.add_argument(
+        "--allow-remote-control",
+        action="store_true",
+        help="off loopback, let clients call services, set parameters and publish (refused otherwise "
+        "unless --read-only; a WARNING at every start)",
     )
     parser.add_argument(
         "--client-topic",
