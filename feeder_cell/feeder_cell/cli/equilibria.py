@@ -33,7 +33,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("part", metavar="PART", help="part file (YAML, contract section 2)")
+    parser.add_argument(
+        "part",
+        metavar="PART",
+        help="part file: YAML (contract section 2), or DXF, SVG, STL, STEP (docs/cli.md, Importing parts)",
+    )
     parser.add_argument(
         "--delta",
         type=finite_float,

@@ -82,7 +82,11 @@ FLAGS = {
 
 
 def _common(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("part", metavar="PART", help="part file (YAML, contract section 2)")
+    parser.add_argument(
+        "part",
+        metavar="PART",
+        help="part file: YAML (contract section 2), or DXF, SVG, STL, STEP (docs/cli.md, Importing parts)",
+    )
     parser.add_argument(
         "--offset", type=finite_float, required=True, help="H: arm surface height at the pivot"
     )
