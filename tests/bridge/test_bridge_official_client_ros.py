@@ -23,7 +23,7 @@ import tempfile
 import threading
 import time
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any, Callable, Iterator
 
 import pytest
 from bridge_process import BridgeProcess
@@ -82,20 +82,33 @@ def npm_reason(text: str) -> str:
 class OfficialClient:
     """tests/js/foxglove_client.js in a Node.js process: one request line, one answer line."""
 
-    def __init__(self, url: str, subprotocol: str) -> None:
+    def __init__(
+        self,
+        url: str,
+        subprotocol: str,
+        wrap: Callable[[list[str]], list[str]] = list,
+        env: dict[str, str] | None = None,
+        timeout: float = TIMEOUT,
+    ) -> None:
+        """Connect; ``wrap`` runs Node.js elsewhere (``netns.Host.command``: another host) with ``env``."""
         self.log = tempfile.NamedTemporaryFile("w+", prefix="foxglove-client-", suffix=".log")  # noqa: SIM115
         self.process = subprocess.Popen(
-            ["node", str(JS / "foxglove_client.js")],
+            wrap(["node", str(JS / "foxglove_client.js")]),
             cwd=JS,
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=self.log,
             text=True,
+            env=env,
         )
         self.answers: queue.Queue[dict[str, Any]] = queue.Queue()
         threading.Thread(target=self._read, daemon=True).start()
         self.ids = itertools.count(1)
-        connected = self.request("connect", url=url, subprotocol=subprotocol)
+        try:
+            connected = self.request("connect", timeout=timeout, url=url, subprotocol=subprotocol)
+        except AssertionError:
+            self.close()  # a refused connection leaves no Node.js process behind
+            raise
         self.server_info, self.protocol = connected["serverInfo"], connected["protocol"]
 
     def _read(self) -> None:

@@ -46,7 +46,9 @@ function until(what, predicate, timeout) {
       if (value !== undefined && value !== null && value !== false) {
         resolve(value);
       } else if (state.closed !== null) {
-        reject(new Error(`connection closed (${state.closed}) while waiting for ${what}`));
+        // The socket's errors say why it closed (a TLS refusal: "self-signed certificate").
+        const why = state.errors.length ? `; errors: ${state.errors.join("; ")}` : "";
+        reject(new Error(`connection closed (${state.closed}${why}) while waiting for ${what}`));
       } else if (Date.now() > deadline) {
         reject(new Error(`no ${what} within ${timeout} s`));
       } else {
