@@ -53,6 +53,15 @@ REPEATS = 3  # an exact cycle counts when the last half shows it this many times
 FLIPS = 3  # flips each of the last two quarters must hold
 RANGE_SHARE = 0.25  # how far a quarter's radius range may fall short of the half's, as a share of it
 RADIUS_SHARE = 0.01  # ... or as a share of the part radius
+# How far an attractor's radius range end (and so a trigger range end) may lie from the long runs' (issue
+# 35), in mean gaps between the planner's tail states on that edge: span / states. A tail that fills its
+# interval leaves gaps of about that size at its ends, and the planner admits an older state up to
+# TAIL_GAPS = 3 of them beyond its confirmed tail (attractors.tail_start): 3 + 1 gaps. The long runs'
+# own gaps are smaller (their last halves hold more states).
+RANGE_GAPS = 4.0
+# ... and at least this share of the radius: rounding, and a periodic orbit whose radii converge to
+# points, which the long run shows converged and the planner's tail a few ulps to micrometres away.
+RANGE_FLOOR = 1e-6
 
 
 @dataclass(frozen=True)
@@ -309,6 +318,10 @@ class CorpusReport:
     kinds: dict[str, int] | None = None
     seconds: float = 0.0
     baseline_agree: int = 0
+    ranges_agree: int = 0
+    triggers_agree: int = 0
+    triggers: int = 0
+    range_mismatches: list[str] | None = None
 
     def figure(self) -> str:
         """Return the corpus figure: designs, why some are left out, agreement, what the corpus holds."""
@@ -318,8 +331,10 @@ class CorpusReport:
         return (
             f"limit-set vs long runs ({self.throws} throws from {self.starts_per_edge} starts per edge): "
             f"{self.designs} designs, {self.unambiguous} with an unambiguous truth ({kinds}); "
-            f"{self.agree} agree on every start's attractor edges and periodicity ({share:.1f} %); "
-            f"left out: {left or 'none'}; {self.seconds:.0f} s"
+            f"{self.agree} agree on every start's attractor edges and periodicity ({share:.1f} %), "
+            f"{self.ranges_agree} on every attractor's radius ranges and {self.triggers_agree} on the "
+            f"trigger range of every goal edge ({self.triggers} triggers; within {RANGE_GAPS:g} mean gaps "
+            f"of the tail); left out: {left or 'none'}; {self.seconds:.0f} s"
         )
 
 
@@ -335,6 +350,80 @@ def compare(ls_attractors: list, truths: list[StartTruth]) -> list[str]:
             kind = "periodic" if a.periodic else "quasi"
             out.append(f"start {b}: {a.edges} {kind} {a.cycle}, truth {list(t.edges)} {t.cycle}")
     return out
+
+
+def _tail_states(ls: Any, b: int) -> tuple[np.ndarray, np.ndarray]:
+    """Return the edges and radii of start b's confirmed tail in limit_set (kept trajectories)."""
+    t = ls.trajectories
+    sl = slice(int(t.tail[b]), int(t.tail_end[b]) + 1)
+    return t.edge[b, sl], t.radius[b, sl]
+
+
+def _last_half(run: Run) -> tuple[np.ndarray, np.ndarray]:
+    """Return the edges and radii of a long run's last half (its attractor, as ``judge`` reads it)."""
+    half = (len(run.edge) - 1) // 2
+    return run.edge[half:], run.radius[half:]
+
+
+def range_tolerance(ls: Any, a: Any, edge: int) -> float:
+    """Return how far attractor ``a``'s range ends on ``edge`` may lie from the long runs' (RANGE_GAPS)."""
+    states = [_tail_states(ls, b) for b in a.members]
+    r = np.concatenate([rr[ee == edge] for ee, rr in states])
+    return max(RANGE_GAPS * float(r.max() - r.min()) / r.size, RANGE_FLOOR * float(r.max()))
+
+
+def compare_ranges(ls: Any, runs: list[Run], part: ArmPart) -> tuple[list[str], list[str], int]:
+    """Return what differs in radius ranges, and in trigger ranges, between limit_set and the long runs.
+
+    Per attractor, its range on each edge against the union of its member starts' last halves, each end
+    within ``range_tolerance``. Per goal edge every attractor visits, the trigger range read on
+    limit_set's tails against the one read on the same starts' last halves (grouped as limit_set groups
+    them), each end within the largest tolerance of the attractors' edges (a trigger end is a range
+    end moved by the part's geometry); a trigger present on one side only counts when it is longer than
+    that tolerance. Also the number of triggers compared.
+    """
+    from feeder_planner.throwing.sensor import read_trigger, sensing_height_or_default
+
+    ranges_out: list[str] = []
+    tol_all = 0.0
+    for k, a in enumerate(ls.attractors):
+        for e, (lo, hi) in a.edge_radius_ranges.items():
+            truth = np.concatenate([rr[ee == e] for ee, rr in (_last_half(runs[b]) for b in a.members)])
+            tol = range_tolerance(ls, a, e)
+            tol_all = max(tol_all, tol)
+            if abs(lo - truth.min()) > tol or abs(hi - truth.max()) > tol:
+                ranges_out.append(
+                    f"attractor {k} edge {e}: [{lo:.6g}, {hi:.6g}] m, long runs [{truth.min():.6g}, "
+                    f"{truth.max():.6g}] m (tolerance {tol:.2g} m)"
+                )
+    height = sensing_height_or_default(part, None)
+    goals = sorted(set.intersection(*(set(a.edges) for a in ls.attractors))) if ls.attractors else []
+    triggers_out: list[str] = []
+    for goal in goals:
+        found = []
+        for states in (lambda b: _tail_states(ls, b), lambda b: _last_half(runs[b])):
+            groups = [
+                [
+                    list(zip((int(v) for v in ee), (float(v) for v in rr), strict=True))
+                    for ee, rr in map(states, a.members)
+                ]
+                for a in ls.attractors
+            ]
+            found.append(read_trigger(part, goal, height, groups).trigger)
+        mine, truth = found
+        if mine is None and truth is None:
+            continue
+        if mine is None or truth is None:
+            other = mine or truth
+            assert other is not None
+            if other[1] - other[0] > tol_all:
+                triggers_out.append(f"goal edge {goal}: trigger {mine}, long runs {truth}")
+        elif abs(mine[0] - truth[0]) > tol_all or abs(mine[1] - truth[1]) > tol_all:
+            triggers_out.append(
+                f"goal edge {goal}: trigger [{mine[0]:.6g}, {mine[1]:.6g}] m, long runs "
+                f"[{truth[0]:.6g}, {truth[1]:.6g}] m (tolerance {tol_all:.2g} m)"
+            )
+    return ranges_out, triggers_out, len(goals)
 
 
 def evaluate(
@@ -365,7 +454,15 @@ def evaluate(
     excluded: dict[str, int] = {}
     mismatches: list[str] = []
     kinds: dict[str, int] = {}
-    report = CorpusReport(throws, starts_per_edge, excluded=excluded, mismatches=mismatches, kinds=kinds)
+    range_mismatches: list[str] = []
+    report = CorpusReport(
+        throws,
+        starts_per_edge,
+        excluded=excluded,
+        mismatches=mismatches,
+        kinds=kinds,
+        range_mismatches=range_mismatches,
+    )
     parts: dict[int, list[CorpusDesign]] = {}
     for d in designs:
         parts.setdefault(d.part_index, []).append(d)
@@ -437,7 +534,18 @@ def evaluate(
                 mismatches.append(f"design {d.name}: " + "; ".join(wrong[:3]))
             else:
                 report.agree += 1
+                # Ranges and triggers only where the attractors agree (issue 35): otherwise the
+                # edge disagreement is the finding.
+                assert not isinstance(ls, str)
+                bad_ranges, bad_triggers, goals = compare_ranges(ls, runs, d.part)
+                report.triggers += goals
+                report.ranges_agree += not bad_ranges
+                report.triggers_agree += not bad_triggers
+                if bad_ranges or bad_triggers:
+                    range_mismatches.append(f"design {d.name}: " + "; ".join((bad_ranges + bad_triggers)[:3]))
             if progress:
                 print(f"{d.name}: {'agrees' if not wrong else wrong[0]}", flush=True)
+                if range_mismatches and range_mismatches[-1].startswith(f"design {d.name}:"):
+                    print(f"  {range_mismatches[-1]}", flush=True)
     report.seconds = time.perf_counter() - started
     return report

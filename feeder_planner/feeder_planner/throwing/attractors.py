@@ -348,33 +348,84 @@ def settled(
     return last + 1
 
 
-def tail_start(edge: np.ndarray, radius: np.ndarray, stay: int, first: int) -> int:
+# Per edge of a reference stretch: the lowest and highest radius and the number of states on it.
+_Reference = dict[int, tuple[float, float, int]]
+
+
+def _reference(edge: np.ndarray, radius: np.ndarray) -> _Reference:
+    """Return the reference of states for ``tail_start``: per edge, its lowest and highest radius, states."""
+    edges, low, high = _ranges(edge, radius)
+    counts = np.bincount(np.searchsorted(edges, edge), minlength=len(edges))
+    return {
+        int(e): (float(lo), float(hi), int(c)) for e, lo, hi, c in zip(edges, low, high, counts, strict=True)
+    }
+
+
+def tail_start(
+    edge: np.ndarray, radius: np.ndarray, stay: int, first: int, reference: _Reference | None = None
+) -> int:
     """Return where a confirmed row's tail begins: its stay (``settled``) without the approach to it.
 
     ``edge``/``radius``: the row's run, states 0..n; the tail confirmed over the window ``first``..n
     (``_confirm``), and the run kept to it from ``stay`` on, each state on a tail edge within that
     edge's range widened by the resolution (``resolution``: up to a tenth of the range's span). The
     attractor is the forward limit set (Theorem IV.3), the closure of the states the run keeps
-    visiting, and the window's states sample it; a state of the stay before the window that lies beyond
-    the window's range on its edge by more than TAIL_GAPS mean gaps between the window's states there
-    (span / states, at least ROUNDING of the radius) is no visit of that closure but the approach to it,
-    which the resolution band let in (issue 35: on examples/throwing/quad35.yaml each start's first
-    landing on the attractor made edge 0's range end, 155.4 mm where long runs never go below
-    159.25 mm). The tail begins after the last such state, so an attractor's ranges, pattern, throws per
-    round and transients come from its visits only. The window itself is left as ``_confirm`` found it.
+    visiting, and ``reference`` samples it (default: the window's own states); a state of the stay
+    before ``first`` that lies beyond the reference's range on its edge by more than TAIL_GAPS mean
+    gaps between the reference's states there (span / states, at least ROUNDING of the radius) is no
+    visit of that closure but the approach to it, which the resolution band let in (issue 35: on
+    examples/throwing/quad35.yaml each start's first landing on the attractor made edge 0's range end,
+    155.4 mm where long runs never go below 159.25 mm). The tail begins after the last such state, so
+    an attractor's ranges, pattern and throws per round come from its visits only.
     """
     if stay >= first:
         return stay
-    edges, low, high = _ranges(edge[first:], radius[first:])
-    counts = np.bincount(np.searchsorted(edges, edge[first:]), minlength=len(edges))
+    ref = _reference(edge[first:], radius[first:]) if reference is None else reference
     e_old, r_old = edge[stay:first], radius[stay:first]
-    # ``settled`` kept the stay on the tail's edges; an edge the window lacks would be its business.
-    outside = ~np.isin(e_old, edges)
-    for k, e in enumerate(edges):
-        gap = max(TAIL_GAPS * float(high[k] - low[k]) / int(counts[k]), ROUNDING * abs(float(high[k])))
-        outside |= (e_old == e) & ((r_old < low[k] - gap) | (r_old > high[k] + gap))
+    # ``settled`` kept the stay on the tail's edges; an edge the reference lacks is no visit of it.
+    outside = ~np.isin(e_old, np.fromiter(ref, dtype=np.int64, count=len(ref)))
+    for e, (lo, hi, count) in ref.items():
+        gap = max(TAIL_GAPS * (hi - lo) / count, ROUNDING * abs(hi))
+        outside |= (e_old == e) & ((r_old < lo - gap) | (r_old > hi + gap))
     out = np.flatnonzero(outside)
     return stay if out.size == 0 else stay + int(out[-1]) + 1
+
+
+def _trim_to_group(search: Search, group: list[int], periodic: bool) -> None:
+    """Begin each member's tail after its approach to the group's attractor, judged on all members.
+
+    The members' tails are one attractor (``_clusters``), so their recent quarters (each row's last n/4
+    states, which ``_confirm`` compared with its window) together sample its closure far more densely
+    than one row's window: their mean gaps are the members' count times smaller. ``tail_start`` against
+    that reference drops what one row's window let in: the approach's states within TAIL_GAPS of its
+    own sparser window and a transient still in the older quarter of its window within ``_confirm``'s
+    allowances (the resolution, OUTSIDE_SHARE of the states). A quasi-periodic tail keeps at least its
+    recent quarter; a ``periodic`` one its whole window, which ``_confirm`` saw repeat the cycle thrice
+    (a quarter may not hold one whole period). ``search.tail`` and ``search.stretches`` of the members
+    are updated in place.
+    """
+    recent = {b: int(search.tail_end[b]) - int(search.tail_end[b]) // 4 for b in group}
+    keep = {
+        b: int(search.tail_end[b]) - int(search.tail_end[b]) // 2 + 1 if periodic else recent[b]
+        for b in group
+    }
+    reference = _reference(
+        np.concatenate([search.edge[b, recent[b] : search.tail_end[b] + 1] for b in group]),
+        np.concatenate([search.radius[b, recent[b] : search.tail_end[b] + 1] for b in group]),
+    )
+    for b in group:
+        n = int(search.tail_end[b])
+        start = tail_start(
+            search.edge[b, : n + 1], search.radius[b, : n + 1], int(search.tail[b]), keep[b], reference
+        )
+        if start != search.tail[b]:
+            old = search.stretches.get(b)
+            search.tail[b] = start
+            sl = search.tail_slice(b)
+            found = stretch(search.edge[b, sl], search.radius[b, sl], search.jog[b, sl])
+            # The cluster's cycle stands: a recent quarter may hold too few periods to show it thrice.
+            cycle = old.cycle if old is not None else found.cycle
+            search.stretches[b] = Stretch(found.edges, found.low, found.high, cycle)
 
 
 def _clusters(
@@ -684,10 +735,13 @@ def group_attractors(search: Search, rows: np.ndarray | None = None) -> list[Att
     if not members:
         return []
     listed = [tails[b] for b in members]
-    found = [
-        _describe(search, sorted(members[k] for k in group), len(considered), tails, listed[group[0]].cycle)
-        for group, _ in _clusters(listed, search.width[members[0]])
-    ]
+    found = []
+    for group, _ in _clusters(listed, search.width[members[0]]):
+        rows_of = sorted(members[k] for k in group)
+        key = listed[group[0]].cycle
+        _trim_to_group(search, rows_of, key is not None)
+        trimmed = {b: search.stretches[b] if b in search.stretches else tails[b] for b in rows_of}
+        found.append(_describe(search, rows_of, len(considered), trimmed, key))
     return sorted(found, key=lambda a: (-a.basin, a.edges))
 
 

@@ -55,12 +55,17 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Trajectories:
-    """States after each throw: edge[b, n], radius[b, n], jog[b, n] (jog[:, 0] is meaningless), escaped[b]."""
+    """States after each throw: edge[b, n], radius[b, n], jog[b, n] (jog[:, 0] is meaningless), escaped[b].
+
+    From the attractor search also ``tail[b]``..``tail_end[b]``, row b's confirmed tail (-1: none).
+    """
 
     edge: np.ndarray
     radius: np.ndarray
     jog: np.ndarray
     escaped: np.ndarray
+    tail: np.ndarray | None = None
+    tail_end: np.ndarray | None = None
 
 
 def iterate(
@@ -508,7 +513,7 @@ def limit_set(
         for e, (lo_r, hi_r) in a.edge_radius_ranges.items():
             old = ranges.get(e)
             ranges[e] = (lo_r, hi_r) if old is None else (min(old[0], lo_r), max(old[1], hi_r))
-    traj = Trajectories(search.edge, search.radius, search.jog, search.escaped)
+    traj = Trajectories(search.edge, search.radius, search.jog, search.escaped, search.tail, search.tail_end)
     return LimitSet(
         stable_edges=part.stable_edges,
         bounds=bounds,
