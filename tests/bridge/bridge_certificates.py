@@ -8,11 +8,16 @@ from pathlib import Path
 
 
 def make_certificate(
-    folder: Path, name: str, addresses: tuple[str, ...], encrypt_key: bool = False
+    folder: Path,
+    name: str,
+    addresses: tuple[str, ...],
+    encrypt_key: bool = False,
+    valid_days: tuple[int, int] = (-1, 30),
 ) -> tuple[Path, Path]:
     """Write a self-signed server certificate for ``addresses`` and its key; return (certificate, key).
 
-    The addresses are IP subject alternative names: a client checks the one it connected to against them.
+    ``valid_days``: its validity, from and to, in days from now. The addresses are IP subject alternative
+    names: a client checks the one it connected to against them.
     """
     from cryptography import x509
     from cryptography.hazmat.primitives import hashes, serialization
@@ -28,8 +33,8 @@ def make_certificate(
         .issuer_name(subject)
         .public_key(key.public_key())
         .serial_number(x509.random_serial_number())
-        .not_valid_before(now - dt.timedelta(days=1))
-        .not_valid_after(now + dt.timedelta(days=30))
+        .not_valid_before(now + dt.timedelta(days=valid_days[0]))
+        .not_valid_after(now + dt.timedelta(days=valid_days[1]))
         .add_extension(
             x509.SubjectAlternativeName([x509.IPAddress(ipaddress.ip_address(a)) for a in addresses]),
             critical=False,

@@ -40,6 +40,8 @@ def tls(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     cert, key = make_certificate(folder, "good", ("127.0.0.1",))
     other_cert, other_key = make_certificate(folder, "other", ("127.0.0.1",))
     _, encrypted_key = make_certificate(folder, "encrypted", ("127.0.0.1",), encrypt_key=True)
+    expired_cert, expired_key = make_certificate(folder, "expired", ("127.0.0.1",), valid_days=(-30, -1))
+    future_cert, future_key = make_certificate(folder, "future", ("127.0.0.1",), valid_days=(1, 30))
     garbage = folder / "garbage.pem"
     garbage.write_text("-----BEGIN CERTIFICATE-----\nnot base64 at all\n-----END CERTIFICATE-----\n")
     unreadable = folder / "unreadable.pem"
@@ -53,6 +55,10 @@ def tls(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         "garbage": garbage,
         "unreadable": unreadable,
         "directory": folder,
+        "expired_cert": expired_cert,
+        "expired_key": expired_key,
+        "future_cert": future_cert,
+        "future_key": future_key,
     }
 
 
@@ -96,6 +102,10 @@ def test_bad_tls_files_are_one_line_naming_the_option(tls: dict[str, Path]) -> N
         + "' does not match the certificate of --tls-cert",
         ("--tls-cert", cert, "--tls-key", str(tls["encrypted_key"])): "is encrypted; give an unencrypted key",
     }
+    for when, said in (("expired", "expired on "), ("future", "is valid only from ")):
+        cases[("--tls-cert", str(tls[f"{when}_cert"]), "--tls-key", str(tls[f"{when}_key"]))] = (
+            "--tls-cert: '" + str(tls[f"{when}_cert"]) + "' " + said
+        )
     if os.geteuid() != 0:  # root reads a file whatever its mode
         cases[("--tls-cert", cert, "--tls-key", str(tls["unreadable"]))] = "--tls-key: cannot read"
     for args, said in cases.items():

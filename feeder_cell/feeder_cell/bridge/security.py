@@ -12,6 +12,7 @@ Light to import (no ROS, no ``cryptography`` until a certificate is read).
 
 from __future__ import annotations
 
+import datetime
 import ipaddress
 import os
 import ssl
@@ -71,6 +72,16 @@ def tls_context(certificate_file: str, key_file: str) -> ssl.SSLContext:
         certificate = x509.load_pem_x509_certificate(certificate_pem)
     except ValueError:
         raise InputError("--tls-cert", f"{certificate_file!r} is not a PEM certificate") from None
+    # Every client would refuse it, each with its own words: say it once, here, naming the dates.
+    now = datetime.datetime.now(datetime.timezone.utc)
+    start, end = certificate.not_valid_before_utc, certificate.not_valid_after_utc
+    if not start <= now <= end:
+        when = (
+            f"expired on {end:%Y-%m-%d %H:%M} UTC"
+            if now > end
+            else f"is valid only from {start:%Y-%m-%d %H:%M} UTC"
+        )
+        raise InputError("--tls-cert", f"{certificate_file!r} {when}")
     try:
         key = serialization.load_pem_private_key(key_pem, password=None)
     except TypeError:  # the key is encrypted: nobody is there to type its passphrase
