@@ -369,7 +369,26 @@ def _truth_rows(quick: bool, before: tuple[object, object] | None = None) -> lis
             "target": "1.0",
             "baseline": report.figure() + was + "".join(f" | {m}" for m in (report.mismatches or [])[:5]),
             "met": share == 1.0,
-        }
+        },
+        # Issue 35: on the designs whose attractors agree, every attractor's radius range and every goal
+        # edge's trigger range against the long runs' last halves (truth_corpus.compare_ranges: within
+        # RANGE_GAPS mean gaps of the planner's tails), next to the agreement on edges and cycles.
+        *(
+            {
+                "benchmark": f"throwing: limit set vs long iteration, seeded corpus ({parts} parts)",
+                "measure": f"agreement on {what} (designs agreeing on edges and cycles)",
+                "value": count / report.agree if report.agree else math.nan,
+                "unit": "fraction",
+                "target": "1.0",
+                "baseline": f"{count} of {report.agree}"
+                + "".join(f" | {m}" for m in (report.range_mismatches or [])[:5]),
+                "met": count == report.agree,
+            }
+            for what, count in (
+                ("radius ranges", report.ranges_agree),
+                ("trigger ranges", report.triggers_agree),
+            )
+        ),
     ]
 
 

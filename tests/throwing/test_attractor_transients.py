@@ -117,7 +117,9 @@ def test_the_long_transient_example_agrees_with_its_long_run():
 
 
 # The issue's second design: a wedge whose trigger range for goal edge 0 came out null under the former
-# rule (its tail held the radii of the approach) where one of about 6 mm exists.
+# rule (its tail held the radii of the approach). Issue 35: the range is [147.36, 157.72] mm on the last
+# halves of 19 long runs of 4,000 throws from the grid's starts; limit-set read about 6 mm of it while the
+# approach's first landings were in the tails (a blocking edge's range reached into it), 10.4 mm since.
 WEDGE = [[1.29, 21.05], [-19.44, -10.49], [8.58, -17.46], [11.14, -16.61], [17.03, -14.01]]
 WEDGE_PARAMS = ThrowParams(offset=-1.128 * MM, speed=math.radians(277.7), gravity=-9.66, mu=0.613)
 
@@ -129,7 +131,7 @@ def test_the_wedges_trigger_range_is_read_on_its_attractor_only():
     assert ls.unique and a.cycle == [0, 4, 1] and a.edges == [0, 1, 4]
     assert ls.trigger is not None and ls.trigger_note is None
     lo, hi = ls.trigger
-    assert 5.5 * MM < hi - lo < 7 * MM
+    assert 10 * MM < hi - lo < 10.8 * MM and abs(hi - 157.72 * MM) < 0.1 * MM
     # A sensor in the middle of the range, on the long run's last half: true at rest at least once per
     # cycle, and only on edge 0.
     rows = single_design_rows(part, edge_bounds(part, WEDGE_PARAMS), 1)

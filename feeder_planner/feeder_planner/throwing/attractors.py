@@ -391,41 +391,46 @@ def tail_start(
     return stay if out.size == 0 else stay + int(out[-1]) + 1
 
 
-def _trim_to_group(search: Search, group: list[int], periodic: bool) -> None:
+def _holds_period(edge: np.ndarray, jog: np.ndarray, key: tuple[int, ...]) -> bool:
+    """Return whether a stretch's inner visits (its cut ends dropped) hold one whole period of ``key``."""
+    inner = [int(v) for v in _visits(edge, jog)[0][1:-1]]
+    p = len(key)
+    return any(tuple(inner[k : k + p]) == key for k in range(p))
+
+
+def _trim_to_group(search: Search, group: list[int], key: tuple[int, ...] | None) -> None:
     """Begin each member's tail after its approach to the group's attractor, judged on all members.
 
     The members' tails are one attractor (``_clusters``), so their recent quarters (each row's last n/4
     states, which ``_confirm`` compared with its window) together sample its closure far more densely
     than one row's window: their mean gaps are the members' count times smaller. ``tail_start`` against
     that reference drops what one row's window let in: the approach's states within TAIL_GAPS of its
-    own sparser window and a transient still in the older quarter of its window within ``_confirm``'s
-    allowances (the resolution, OUTSIDE_SHARE of the states). A quasi-periodic tail keeps at least its
-    recent quarter; a ``periodic`` one its whole window, which ``_confirm`` saw repeat the cycle thrice
-    (a quarter may not hold one whole period). ``search.tail`` and ``search.stretches`` of the members
-    are updated in place.
+    own sparser window, and a transient still in the older quarter of its window within ``_confirm``'s
+    allowances (the resolution, OUTSIDE_SHARE of the states; a periodic orbit's visits still converging
+    to its cycle, corpus design 0.3: an edge's first landing of the window 0.11 m below the cycle's).
+    A tail keeps at least its recent quarter; a periodic one (``key``, the group's cycle) also one whole
+    period, or else it keeps its window, which ``_confirm`` saw repeat the cycle thrice. ``search.tail``
+    and ``search.stretches`` of the members are updated in place.
     """
     recent = {b: int(search.tail_end[b]) - int(search.tail_end[b]) // 4 for b in group}
-    keep = {
-        b: int(search.tail_end[b]) - int(search.tail_end[b]) // 2 + 1 if periodic else recent[b]
-        for b in group
-    }
     reference = _reference(
         np.concatenate([search.edge[b, recent[b] : search.tail_end[b] + 1] for b in group]),
         np.concatenate([search.radius[b, recent[b] : search.tail_end[b] + 1] for b in group]),
     )
     for b in group:
         n = int(search.tail_end[b])
-        start = tail_start(
-            search.edge[b, : n + 1], search.radius[b, : n + 1], int(search.tail[b]), keep[b], reference
-        )
+        edge, radius, jog = search.edge[b, : n + 1], search.radius[b, : n + 1], search.jog[b, : n + 1]
+        start = tail_start(edge, radius, int(search.tail[b]), recent[b], reference)
+        if key is not None and not _holds_period(edge[start:], jog[start:], key):
+            start = tail_start(edge, radius, int(search.tail[b]), n - n // 2 + 1, reference)
         if start != search.tail[b]:
             old = search.stretches.get(b)
             search.tail[b] = start
-            sl = search.tail_slice(b)
-            found = stretch(search.edge[b, sl], search.radius[b, sl], search.jog[b, sl])
+            found = stretch(edge[start:], radius[start:], jog[start:])
             # The cluster's cycle stands: a recent quarter may hold too few periods to show it thrice.
-            cycle = old.cycle if old is not None else found.cycle
-            search.stretches[b] = Stretch(found.edges, found.low, found.high, cycle)
+            search.stretches[b] = Stretch(
+                found.edges, found.low, found.high, key if old is None else old.cycle
+            )
 
 
 def _clusters(
@@ -739,7 +744,7 @@ def group_attractors(search: Search, rows: np.ndarray | None = None) -> list[Att
     for group, _ in _clusters(listed, search.width[members[0]]):
         rows_of = sorted(members[k] for k in group)
         key = listed[group[0]].cycle
-        _trim_to_group(search, rows_of, key is not None)
+        _trim_to_group(search, rows_of, key)
         trimmed = {b: search.stretches[b] if b in search.stretches else tails[b] for b in rows_of}
         found.append(_describe(search, rows_of, len(considered), trimmed, key))
     return sorted(found, key=lambda a: (-a.basin, a.edges))
