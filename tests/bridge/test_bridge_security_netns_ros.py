@@ -4,8 +4,9 @@ As the OPC UA gateway's security test does, the module makes two network namespa
 pair (tests/netns.py, as root; only addresses inside them) and removes them at teardown. On host A run
 a small ROS node (a parameter, its parameter services, a topic) and three bridges on A's veth address:
 TLS and --read-only; TLS and --allow-remote-control; plain ws:// by --allow-insecure-remote and
---read-only. From host B the official client (@foxglove/ws-protocol on Node.js, tests/js) connects,
-trusting the test's self-signed certificate through NODE_EXTRA_CA_CERTS as any Node.js program can.
+--read-only; and, on the same address, starts without TLS or with control not allowed are refused.
+From host B the official client (@foxglove/ws-protocol on Node.js, tests/js) connects, trusting the
+test's self-signed certificate through NODE_EXTRA_CA_CERTS as any Node.js program can.
 """
 
 from __future__ import annotations
@@ -55,6 +56,7 @@ class Hosts:
     hosts: netns.TwoHosts
     env: dict[str, str]
     certificate: Path
+    key: Path
     read_only: BridgeProcess
     control: BridgeProcess
     plain: BridgeProcess
@@ -98,7 +100,7 @@ def remote(ros_domain: int, tmp_path_factory: pytest.TempPathFactory) -> Iterato
             (("--address", a.address, "--allow-insecure-remote", "--read-only"), "ws://"),
         ):
             started.append(BridgeProcess(*args, serving=f"{serving}{a.address}:", wrap=a.command, env=env))
-        yield Hosts(hosts, env, cert, *started)
+        yield Hosts(hosts, env, cert, key, *started)
     finally:
         for bridge in started:
             bridge.stop()
@@ -202,3 +204,18 @@ def test_plain_ws_off_loopback_is_an_explicit_opt_out_warned_at_start(remote: Ho
         f"feeder bridge: WARNING: --allow-insecure-remote: plain ws:// on {remote.hosts.a.address}" in log
     ), log
     assert "--allow-remote-control" not in log, log
+
+
+@pytest.mark.parametrize(
+    ("secured", "option"), [(False, "--tls-cert"), (True, "--allow-remote-control")], ids=["plain", "control"]
+)
+def test_on_a_real_interface_an_unsecured_start_is_refused(remote: Hosts, secured: bool, option: str) -> None:
+    a = remote.hosts.a
+    tls = ["--tls-cert", str(remote.certificate), "--tls-key", str(remote.key)] if secured else []
+    command = [sys.executable, "-m", "feeder_cell.cli.main", "bridge", "--address", a.address, *tls]
+    run = subprocess.run(a.command(command), env=remote.env, capture_output=True, text=True, timeout=60)
+    assert run.returncode == 2 and run.stdout == "", (run.returncode, run.stdout, run.stderr)
+    assert run.stderr.splitlines() == [run.stderr.strip()], run.stderr  # one line
+    assert run.stderr.startswith(f"feeder bridge: {option}: {a.address} is not a loopback address"), (
+        run.stderr
+    )
