@@ -110,7 +110,6 @@ class DeviceViz:
         self.static_key: tuple[object, ...] | None = None
         self.frames = StaticFrames(node)
         self.moving: FramePublisher | None = None  # made for the first moving frame: no idle /tf writer
-        self.placed: tuple[object, ...] | None = None  # (cell_pose, cell_frame) of the last drawing
         self.steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.rate = self._valid_rate(node.get_parameter("marker_rate").value)
         self.timer: Any = None
@@ -155,28 +154,14 @@ class DeviceViz:
         if self.update_book.sent:
             self.update_pub.publish(self.update_book.clear(stamp))
         self.static_key = None
-        self.placed = None  # the next drawing is drawn whole, watched or not
-
-    def _unwatched(self) -> bool:
-        """Whether nobody listens to the markers or the moving frames (a placement change aside)."""
-        placed = (
-            tuple(self.node.get_parameter("cell_pose").value),
-            self.node.get_parameter("cell_frame").value,
-        )
-        if placed != self.placed:
-            return False
-        if self.update_pub.get_subscription_count() > 0:
-            return False
-        return self.moving is None or self.moving.publisher.get_subscription_count() == 0
 
     def update(self) -> None:
         """Publish the placement, then (marker_rate > 0) the static geometry if changed and an update.
 
-        Not drawn while nobody subscribes to the markers or /tf and the placement is as last drawn: a cell
-        at many times real time with no viewer spent 7 % of a core on drawings nobody took.
+        Drawn whether or not anybody subscribes: the update is latched, and a viewer that subscribes later
+        must get the present drawing first, not one from before it came (skipping unwatched drawings, tried
+        for the cell host's speed, handed a late bridge client a sensor drawn off).
         """
-        if self._unwatched():
-            return
         drawing = self.draw()
         if drawing is None:
             self._clear()
@@ -184,7 +169,6 @@ class DeviceViz:
         stamp = self.node.get_clock().now().to_msg()
         pose = self.node.get_parameter("cell_pose").value
         cell = self.node.get_parameter("cell_frame").value
-        self.placed = (tuple(pose), cell)
         if check_cell_pose(pose) is None and isinstance(cell, str) and cell:
             # Stamp 0 ("always valid") would be the tf2 idiom for a static transform, but Foxglove and
             # RViz both accept a real stamp; the first stamp is kept so that the message stays unchanged.
