@@ -71,6 +71,14 @@ def test_limit_set_agrees_with_long_runs_on_the_suites_corpus_subset():
         report.figure()
     )
     assert report.agree == report.unambiguous, "\n".join(report.mismatches or [])
+    # Issue 35: every attractor's radius ranges within RANGE_GAPS mean gaps of its members' recent
+    # quarters of the long runs' last halves, and every trigger range likewise. Design 31.0's goal edge 4
+    # has a 1.5 mm trigger on the long runs' last halves only: its cycle's landings on edge 4 still move
+    # 0.3-0.5 mm per cycle in the planner's tails (states 90-350, jogs 10 mm apart), and the visits'
+    # common cover is a gap between jogs that the converged landings open; the ranges agree to 0.02 mm.
+    assert report.ranges_agree == report.agree, "\n".join(report.range_mismatches or [])
+    wrong_triggers = {m.split(":")[0] for m in report.range_mismatches or [] if "trigger" in m}
+    assert wrong_triggers <= {"design 31.0"}, "\n".join(report.range_mismatches or [])
 
 
 def test_the_long_runs_are_the_scalar_throw_map_bit_for_bit():

@@ -54,10 +54,12 @@ FLIPS = 3  # flips each of the last two quarters must hold
 RANGE_SHARE = 0.25  # how far a quarter's radius range may fall short of the half's, as a share of it
 RADIUS_SHARE = 0.01  # ... or as a share of the part radius
 # How far an attractor's radius range end (and so a trigger range end) may lie from the long runs' (issue
-# 35), in mean gaps between the planner's tail states on that edge: span / states. A tail that fills its
-# interval leaves gaps of about that size at its ends, and the planner admits an older state up to
-# TAIL_GAPS = 3 of them beyond its confirmed tail (attractors.tail_start): 3 + 1 gaps. The long runs'
-# own gaps are smaller (their last halves hold more states).
+# 35), in mean gaps (span / states on that edge) of the sample the planner certifies its ranges against:
+# the union of its members' recent quarters (attractors._trim_to_group). The planner admits an older state
+# up to TAIL_GAPS = 3 such gaps beyond that sample (attractors.tail_start), and a sample that fills its
+# interval has its extreme within about one gap of the interval's end: 3 + 1 gaps. The tolerance thus
+# shrinks as the tails fill their intervals (more starts, a longer window); the long runs' own gaps are
+# smaller (their last halves hold more states).
 RANGE_GAPS = 4.0
 # ... and at least this share of the radius: rounding, and a periodic orbit whose radii converge to
 # points, which the long run shows converged and the planner's tail a few ulps to micrometres away.
@@ -334,7 +336,7 @@ class CorpusReport:
             f"{self.agree} agree on every start's attractor edges and periodicity ({share:.1f} %), "
             f"{self.ranges_agree} on every attractor's radius ranges and {self.triggers_agree} on the "
             f"trigger range of every goal edge ({self.triggers} triggers; within {RANGE_GAPS:g} mean gaps "
-            f"of the tail); left out: {left or 'none'}; {self.seconds:.0f} s"
+            f"of the recent quarters); left out: {left or 'none'}; {self.seconds:.0f} s"
         )
 
 
@@ -366,9 +368,18 @@ def _last_half(run: Run) -> tuple[np.ndarray, np.ndarray]:
 
 
 def range_tolerance(ls: Any, a: Any, edge: int) -> float:
-    """Return how far attractor ``a``'s range ends on ``edge`` may lie from the long runs' (RANGE_GAPS)."""
-    states = [_tail_states(ls, b) for b in a.members]
-    r = np.concatenate([rr[ee == edge] for ee, rr in states])
+    """Return how far attractor ``a``'s range ends on ``edge`` may lie from the long runs' (RANGE_GAPS).
+
+    In mean gaps of the members' recent quarters on that edge (each member's last n/4 states, n the
+    end of its confirmed tail), the sample ``attractors._trim_to_group`` judges the tails against.
+    """
+    t = ls.trajectories
+    r = np.concatenate(
+        [
+            t.radius[b, n - n // 4 : n + 1][t.edge[b, n - n // 4 : n + 1] == edge]
+            for b, n in ((b, int(t.tail_end[b])) for b in a.members)
+        ]
+    )
     return max(RANGE_GAPS * float(r.max() - r.min()) / r.size, RANGE_FLOOR * float(r.max()))
 
 
