@@ -218,6 +218,23 @@ def _while_alive(process: NodeProcess, keep_going: Callable[[], bool]) -> Callab
     return lambda: keep_going() and process.alive()
 
 
+def is_managed_node(spec: NodeSpec) -> bool | None:
+    """Whether the node is a lifecycle node, from the class its module offers (``NODE``); None: unknown.
+
+    Asking the graph instead means waiting for lifecycle services that an unmanaged node never offers: two
+    seconds for each planner of a scene, while a recording launch holds the cell clock for the bring-up.
+    """
+    from importlib import import_module
+
+    from rclpy.lifecycle import LifecycleNode
+
+    try:
+        factory = getattr(import_module(f"{spec.package}.nodes.{spec.executable}"), "NODE", None)
+    except ImportError:
+        return None
+    return issubclass(factory, LifecycleNode) if isinstance(factory, type) else None
+
+
 def bring_up(
     node: Any,
     executor: Any,
@@ -240,6 +257,9 @@ def bring_up(
         if between is not None:
             between()  # e.g. the recorder's discovery: the scene is running while it is brought up
         target = process.spec.fully_qualified_name
+        if is_managed_node(process.spec) is False:
+            states[target] = "unmanaged"  # known from its class: no wait for services that never come
+            continue
         client = LifecycleClient(node, executor, target, keep_going=_while_alive(process, keep_going))
         try:
             if not client.is_managed():
