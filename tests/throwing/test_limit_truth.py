@@ -79,6 +79,9 @@ def test_limit_set_agrees_with_long_runs_on_the_suites_corpus_subset():
     assert report.ranges_agree == report.agree, "\n".join(report.range_mismatches or [])
     wrong_triggers = {m.split(":")[0] for m in report.range_mismatches or [] if "trigger" in m}
     assert wrong_triggers <= {"design 31.0"}, "\n".join(report.range_mismatches or [])
+    # ... and that one errs on the safe side: no trigger range reaches beyond the long runs' (a sensor
+    # there could read true off the goal edge).
+    assert report.unsafe_triggers == 0, "\n".join(report.range_mismatches or [])
 
 
 def test_the_long_runs_are_the_scalar_throw_map_bit_for_bit():

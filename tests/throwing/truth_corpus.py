@@ -64,6 +64,11 @@ RANGE_GAPS = 4.0
 # ... and at least this share of the radius: rounding, and a periodic orbit whose radii converge to
 # points, which the long run shows converged and the planner's tail a few ulps to micrometres away.
 RANGE_FLOOR = 1e-6
+# Marks of a disagreement on the unsafe side: a range end inside the long runs' (a visited radius left
+# out), and a trigger range reaching beyond the long runs' (a sensor there could read true off the goal
+# edge, against contract 3's promise); the other side only costs the designer some of the range.
+SHORT = "short of the long runs"
+UNSAFE = "reaches beyond the long runs"
 
 
 @dataclass(frozen=True)
@@ -324,6 +329,7 @@ class CorpusReport:
     triggers_agree: int = 0
     triggers: int = 0
     range_mismatches: list[str] | None = None
+    unsafe_triggers: int = 0
 
     def figure(self) -> str:
         """Return the corpus figure: designs, why some are left out, agreement, what the corpus holds."""
@@ -335,7 +341,8 @@ class CorpusReport:
             f"{self.designs} designs, {self.unambiguous} with an unambiguous truth ({kinds}); "
             f"{self.agree} agree on every start's attractor edges and periodicity ({share:.1f} %), "
             f"{self.ranges_agree} on every attractor's radius ranges and {self.triggers_agree} on the "
-            f"trigger range of every goal edge ({self.triggers} triggers; within {RANGE_GAPS:g} mean gaps "
+            f"trigger range of every goal edge ({self.unsafe_triggers} of the others reaching beyond the "
+            f"long runs'; {self.triggers} triggers; within {RANGE_GAPS:g} mean gaps "
             f"of the recent quarters); left out: {left or 'none'}; {self.seconds:.0f} s"
         )
 
@@ -403,9 +410,10 @@ def compare_ranges(ls: Any, runs: list[Run], part: ArmPart) -> tuple[list[str], 
             tol = range_tolerance(ls, a, e)
             tol_all = max(tol_all, tol)
             if abs(lo - truth.min()) > tol or abs(hi - truth.max()) > tol:
+                short = lo > truth.min() + tol or hi < truth.max() - tol
                 ranges_out.append(
                     f"attractor {k} edge {e}: [{lo:.6g}, {hi:.6g}] m, long runs [{truth.min():.6g}, "
-                    f"{truth.max():.6g}] m (tolerance {tol:.2g} m)"
+                    f"{truth.max():.6g}] m (tolerance {tol:.2g} m{'; ' + SHORT if short else ''})"
                 )
     height = sensing_height_or_default(part, None)
     goals = sorted(set.intersection(*(set(a.edges) for a in ls.attractors))) if ls.attractors else []
@@ -428,11 +436,14 @@ def compare_ranges(ls: Any, runs: list[Run], part: ArmPart) -> tuple[list[str], 
             other = mine or truth
             assert other is not None
             if other[1] - other[0] > tol_all:
-                triggers_out.append(f"goal edge {goal}: trigger {mine}, long runs {truth}")
+                note = f" ({UNSAFE})" if mine is not None else ""
+                triggers_out.append(f"goal edge {goal}: trigger {mine}, long runs {truth}{note}")
         elif abs(mine[0] - truth[0]) > tol_all or abs(mine[1] - truth[1]) > tol_all:
+            wide = mine[0] < truth[0] - tol_all or mine[1] > truth[1] + tol_all
             triggers_out.append(
                 f"goal edge {goal}: trigger [{mine[0]:.6g}, {mine[1]:.6g}] m, long runs "
-                f"[{truth[0]:.6g}, {truth[1]:.6g}] m (tolerance {tol_all:.2g} m)"
+                f"[{truth[0]:.6g}, {truth[1]:.6g}] m (tolerance {tol_all:.2g} m"
+                + (f"; {UNSAFE})" if wide else ")")
             )
     return ranges_out, triggers_out, len(goals)
 
@@ -552,6 +563,7 @@ def evaluate(
                 report.triggers += goals
                 report.ranges_agree += not bad_ranges
                 report.triggers_agree += not bad_triggers
+                report.unsafe_triggers += any(UNSAFE in m for m in bad_triggers)
                 if bad_ranges or bad_triggers:
                     range_mismatches.append(f"design {d.name}: " + "; ".join((bad_ranges + bad_triggers)[:3]))
             if progress:
