@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from feeder_planner import polygon
+from feeder_planner import cad, polygon
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import (
     load_yaml_mapping,
@@ -186,10 +186,8 @@ def load_part(path: str | Path) -> Part:
     A CAD file (``.dxf``...) is read by ``feeder_planner.cad``; so is the file a part YAML's ``cad:``
     mapping names (relative to the YAML), with that mapping's options and the YAML's name and density.
     """
-    from feeder_planner import cad  # imported here: cad imports this module
-
     if cad.is_cad_file(path):
-        return cad.cad_part(path)
+        return cad_part(path)
     document = load_yaml_mapping(path)
     try:
         if "cad" in document:
@@ -206,8 +204,6 @@ def part_document(path: str | Path) -> dict[str, Any]:
     outline and holes as read, in metres and the file's frame. It is what a node publishes as its part
     (``~/part``), so that another node rebuilds the same part without the CAD file.
     """
-    from feeder_planner import cad
-
     if not cad.is_cad_file(path):
         document = load_yaml_mapping(path)
         if "cad" not in document:
@@ -224,8 +220,6 @@ def part_document(path: str | Path) -> dict[str, Any]:
 
 def _cad_document_part(document: dict[str, Any], base: Path) -> Part:
     """Return the part a YAML's ``cad: {file: ..., options}`` names, with the YAML's name and density."""
-    from feeder_planner import cad
-
     raw = document["cad"]
     if not isinstance(raw, dict):
         raise InputError("cad", "expected a mapping with file (and options: docs/cli.md, Importing parts)")
@@ -242,4 +236,30 @@ def _cad_document_part(document: dict[str, Any], base: Path) -> Part:
     options = cad.options_from_mapping(raw, "cad")
     density = positive_number(optional(document, "density", DEFAULT_DENSITY), "density")
     name = optional(document, "name", None)
-    return cad.cad_part(target, options, None if name is None else short_string(name, "name"), density)
+    return cad_part(target, options, None if name is None else short_string(name, "name"), density)
+
+
+def cad_part(
+    path: str | Path,
+    options: cad.CadOptions | None = None,
+    name: str | None = None,
+    density: float = DEFAULT_DENSITY,
+) -> Part:
+    """Read a CAD file as a Part: its outline, holes and unit; the name defaults to the file's stem."""
+    return part_from_outline(cad.read_outline(path, options), path, name, density)
+
+
+def part_from_outline(
+    outline: cad.Outline, path: str | Path, name: str | None = None, density: float = DEFAULT_DENSITY
+) -> Part:
+    """Make a read outline a Part (errors name ``path``); the name defaults to the file's stem."""
+    try:
+        return make_part(
+            outline.outer.points.tolist(),
+            [hole.points.tolist() for hole in outline.holes],
+            density,
+            name if name is not None else Path(path).stem[:256] or "part",
+            outline.unit_scale,
+        )
+    except InputError as error:
+        raise error.with_source(str(path)) from None

@@ -161,7 +161,8 @@ def test_a_block_is_chosen_and_an_insert_is_placed(
 
 
 def test_ellipse_hole_and_spline_outline_within_the_chord_tolerance(tmp_path: Path) -> None:
-    from feeder_planner.cad import CadOptions, cad_part
+    from feeder_planner.cad import CadOptions
+    from feeder_planner.parts import cad_part
 
     def draw(space: Any) -> None:
         space.add_spline_control_frame([(0, 0), (10, -2), (20, 0), (22, 10), (10, 14), (-2, 10), (0, 0)])

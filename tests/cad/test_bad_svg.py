@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 
 from feeder_cell.cli.main import main
-from feeder_planner.cad import CadOptions, cad_part
+from feeder_planner.cad import CadOptions
+from feeder_planner.parts import cad_part
 
 HEAD = '<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="10mm" viewBox="0 0 10 10">'
 

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from feeder_cell.cli.main import main
-from feeder_planner.cad import CadOptions, cad_part
+from feeder_planner.cad import CadOptions
 from feeder_planner.mems import find_equilibria
-from feeder_planner.parts import load_part
+from feeder_planner.parts import cad_part, load_part
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 LIMIT_SET = [

@@ -8,7 +8,7 @@ from typing import Any
 
 from feeder_cell.cli.common import add_json_flag, emit, finite_float
 from feeder_cell.plots.flag import add_plot_flag
-from feeder_planner import cad, polygon
+from feeder_planner import cad, parts, polygon
 from feeder_planner.cad.options import CAD_UNITS, CHORD_TOLERANCE, CadOptions
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import load_yaml_mapping
@@ -75,7 +75,7 @@ def read(args: argparse.Namespace) -> tuple[Part, cad.Outline | None, str]:
     if cad.is_cad_file(path):
         options = _options(args, {})
         outline = cad.read_outline(path, options)
-        return cad.part_from_outline(outline, path), outline, str(path)
+        return parts.part_from_outline(outline, path), outline, str(path)
     part = load_part(path)  # checks the whole YAML, its cad: mapping and the CAD file it names
     mapping = load_yaml_mapping(path).get("cad")
     if not isinstance(mapping, dict):
@@ -88,7 +88,7 @@ def read(args: argparse.Namespace) -> tuple[Part, cad.Outline | None, str]:
         raise error.with_source(str(path)) from None
     outline = cad.read_outline(target, options)
     if options != cad.options_from_mapping(mapping, "cad"):  # a flag changed the reading
-        part = cad.part_from_outline(outline, target, part.name, part.density)
+        part = parts.part_from_outline(outline, target, part.name, part.density)
     return part, outline, str(target)
 
 

@@ -9,21 +9,35 @@ status") or whose services are not yet discovered ("not available"). The gateway
 from __future__ import annotations
 
 import asyncio
+import threading
 from collections.abc import Awaitable, Callable, Mapping
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
+from feeder_cell.gateway.config import DeviceEntry
+
 if TYPE_CHECKING:
-    from feeder_cell.gateway.ros_link import DeviceLink
     from feeder_cell.gateway.server import GatewayServer
 
 __all__ = ["Health"]
 
 # Runs a function in the rclpy executor's thread (RosLink._in_ros_value): rclpy objects are touched there.
 InRos = Callable[[Callable[[], Any]], Awaitable[Any]]
+
+
+class DeviceLink(Protocol):
+    """What the health of a device needs of its link (``ros_link.DeviceLink``, which imports this module)."""
+
+    entry: DeviceEntry
+    lock: threading.Lock
+    online: bool
+
+    def missing(self) -> list[str]:
+        """Return what the device lacks to be commanded: its status, services or action not yet discovered."""
+        ...
 
 
 class Health:

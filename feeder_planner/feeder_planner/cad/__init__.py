@@ -1,8 +1,9 @@
 """Planar parts from CAD files: DXF and SVG outlines, STEP and STL solids (docs/cli.md, "Importing parts").
 
 ``read_outline`` returns what a file gave (``Outline``: the loops, the unit, the source entities);
-``cad_part`` makes it a ``Part`` as a YAML part file would be. ``feeder_planner.parts.load_part`` calls
-these for a CAD file, or for a part YAML with a ``cad:`` mapping that names one with its options.
+``feeder_planner.parts.cad_part`` makes it a ``Part`` as a YAML part file would be, and
+``feeder_planner.parts.load_part`` calls it for a CAD file, or for a part YAML with a ``cad:`` mapping that
+names one with its options. (The parts module imports this package, never the other way round.)
 """
 
 from __future__ import annotations
@@ -12,17 +13,14 @@ from pathlib import Path
 from feeder_planner.cad.options import CHORD_TOLERANCE, CadOptions, options_from_mapping
 from feeder_planner.cad.outline import Outline
 from feeder_planner.errors import InputError
-from feeder_planner.parts import DEFAULT_DENSITY, Part, make_part
 
 __all__ = [
     "CAD_SUFFIXES",
     "CHORD_TOLERANCE",
     "CadOptions",
     "Outline",
-    "cad_part",
     "is_cad_file",
     "options_from_mapping",
-    "part_from_outline",
     "read_outline",
 ]
 
@@ -49,7 +47,7 @@ def read_outline(path: str | Path, options: CadOptions | None = None) -> Outline
 
             return read_svg(path, options)
         if suffix in (".step", ".stp"):
-            from feeder_planner.cad.step import read_step_part
+            from feeder_planner.cad.step_part import read_step_part
 
             return read_step_part(path, options)
         if suffix == ".stl":
@@ -61,29 +59,3 @@ def read_outline(path: str | Path, options: CadOptions | None = None) -> Outline
         )
     except InputError as error:
         raise (error if error.source else error.with_source(str(path))) from None
-
-
-def cad_part(
-    path: str | Path,
-    options: CadOptions | None = None,
-    name: str | None = None,
-    density: float = DEFAULT_DENSITY,
-) -> Part:
-    """Read a CAD file as a Part: its outline, holes and unit; the name defaults to the file's stem."""
-    return part_from_outline(read_outline(path, options), path, name, density)
-
-
-def part_from_outline(
-    outline: Outline, path: str | Path, name: str | None = None, density: float = DEFAULT_DENSITY
-) -> Part:
-    """Make a read outline a Part (errors name ``path``); the name defaults to the file's stem."""
-    try:
-        return make_part(
-            outline.outer.points.tolist(),
-            [hole.points.tolist() for hole in outline.holes],
-            density,
-            name if name is not None else Path(path).stem[:256] or "part",
-            outline.unit_scale,
-        )
-    except InputError as error:
-        raise error.with_source(str(path)) from None

@@ -24,13 +24,11 @@ from pathlib import Path
 
 import numpy as np
 
-from feeder_planner.cad.options import CadOptions, unit_scale
-from feeder_planner.cad.outline import Outline
 from feeder_planner.errors import InputError
 from feeder_planner.limits import quote
 from feeder_planner.reading import read_bytes
 
-__all__ = ["STEP_SUFFIXES", "StepSolid", "read_step_part", "read_step_solids"]
+__all__ = ["STEP_SUFFIXES", "StepSolid", "read_step_solids"]
 
 STEP_SUFFIXES = (".step", ".stp")
 _ANGULAR_DEFLECTION = 0.5  # radians between a curved face's normals at neighbouring nodes
@@ -285,24 +283,3 @@ def _merged(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.nda
     faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 2] != faces[:, 0])]
     used, remap = np.unique(faces, return_inverse=True)
     return vertices[first][used], remap.reshape(-1, 3)
-
-
-def read_step_part(path: str | Path, options: CadOptions) -> Outline:
-    """Read the outline of one STEP solid (``body``, or the only one), resting on ``face`` or in section."""
-    from feeder_planner.assembly.meshes import checked_mesh
-    from feeder_planner.cad.stl import solid_outline
-
-    unit = unit_scale(options.unit, "cad.unit") if options.unit is not None else None
-    solids, scale, unit_name = read_step_solids(path, options.chord_tolerance, unit)
-    if options.body is None and len(solids) > 1:
-        raise InputError(
-            "<file>",
-            f"{len(solids)} solids and no choice made; choose one with body: (1 to {len(solids)}) in the "
-            "part YAML's cad: mapping",
-        )
-    number = options.body or 1
-    if number > len(solids):
-        raise InputError("cad.body", f"the file has {len(solids)} solid(s), not {number}")
-    solid = solids[number - 1]
-    mesh = checked_mesh(Path(path), solid.label, solid.vertices, solid.faces)
-    return solid_outline(mesh.triangles, options, scale, unit_name)
