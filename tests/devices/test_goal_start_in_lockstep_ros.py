@@ -123,7 +123,7 @@ def run(tick_first: bool) -> dict[str, Any]:
         signal_handler_options=SignalHandlerOptions.NO,
     )
     executor = HoldingExecutor()
-    device = client_node = None
+    device = client_node = client = None
     try:
         device = hosted(ProbeDevice)()
         assert device.in_lockstep and device.lockstep is None  # driven by direct calls, no participant
@@ -191,6 +191,10 @@ def run(tick_first: bool) -> dict[str, Any]:
         }
     finally:
         executor.shutdown(timeout_sec=5.0)
+        if client is not None:
+            # rclpy's destroy_node leaves an action client and its DDS endpoints alive: a later test of
+            # this process saw /goal_start/.../_action/status in its graph.
+            client.destroy()
         if client_node is not None:
             client_node.destroy_node()
         if device is not None:
