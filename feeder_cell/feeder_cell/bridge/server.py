@@ -60,6 +60,10 @@ CHECK_PERIOD = 0.05  # s between two looks at the calls in flight (a server matc
 SUBSCRIPTION_DEPTH = 10  # a viewer wants the newest samples, a latched topic its history
 PUBLISH_DEPTH = 10  # a client's messages, as foxglove_bridge publishes them
 SERVER_WAIT = 5.0  # s a call waits for its service's server to be matched before it fails
+# s after which an idempotent request with no answer is sent again: a server drops the reply to a client
+# whose reply reader it has not matched yet (DDS matches the two ends apart), so a new client's first
+# request can go unanswered (a CI run: the bridge's first parameter set on a node came back empty).
+RESEND_S = 1.0
 # A client's first messages on a new publisher wait (at most this long) until DDS has matched the topic's
 # subscribers: a volatile message published before the match is lost to them, and a Foxglove user who
 # clicks "publish" once expects it to arrive.
@@ -120,6 +124,9 @@ class _Call:
     deadline: float
     future: Any = None
     finished: bool = False
+    resend: bool = False  # an idempotent request (a parameter read, or a set of the same values)
+    sent_at: float = 0.0
+    sent: list[Any] = field(default_factory=list)  # every request's future, the earlier ones too
 
 
 @dataclass
@@ -413,21 +420,34 @@ class GraphBridge:
             self.node.destroy_subscription(subscription)
 
     # --- calls ----------------------------------------------------------------------------------------------
-    def _call(self, client: Client, request: Any, done: Done, timeout: float) -> None:
-        """Call a service without blocking: ``done(response, None)`` or ``done(None, why)`` later."""
+    def _call(self, client: Client, request: Any, done: Done, timeout: float, resend: bool = False) -> None:
+        """Call a service without blocking: ``done(response, None)`` or ``done(None, why)`` later.
+
+        ``resend``: the request is idempotent and is sent again every RESEND_S until an answer comes.
+        """
         now = time.monotonic()
-        call = _Call(client, request, done, timeout, now + min(SERVER_WAIT, timeout), now + timeout)
+        call = _Call(
+            client, request, done, timeout, now + min(SERVER_WAIT, timeout), now + timeout, resend=resend
+        )
         self._calls.append(call)
         self._send(call)
 
     def _send(self, call: _Call) -> None:
         if call.client.service_is_ready():
-            call.future = call.client.call_async(call.request)
-            call.future.add_done_callback(lambda _: self._finish(call))
+            call.sent_at = time.monotonic()
+            future = call.client.call_async(call.request)
+            call.future = future
+            call.sent.append(future)
+            future.add_done_callback(lambda _: self._finish(call, answered=future))
 
-    def _finish(self, call: _Call, error: str | None = None) -> None:
+    def _finish(self, call: _Call, error: str | None = None, answered: Any = None) -> None:
         if call.finished:
             return
+        if answered is not None and answered is not call.future:
+            call.future = answered  # an earlier send was answered after all: its answer is as good
+        for future in call.sent:  # the requests not answered are no longer waited for
+            if future is not call.future or error is not None:
+                call.client.remove_pending_request(future)
         call.finished = True
         self._calls.remove(call)
         if error is not None:
@@ -452,8 +472,9 @@ class GraphBridge:
                 if call.future is None and now > call.server_deadline:
                     self._finish(call, f"no server of {call.client.srv_name} within {SERVER_WAIT:g} s")
             elif now > call.deadline:
-                call.client.remove_pending_request(call.future)
                 self._finish(call, f"{call.client.srv_name} did not answer within {call.timeout:g} s")
+            elif call.resend and not call.future.done() and now - call.sent_at > RESEND_S:
+                self._send(call)  # the earlier request stays pending: whichever is answered first counts
 
     def _call_service(self, client: int, service: Service, call_id: int, payload: bytes) -> None:
         def fail(message: str) -> None:
@@ -512,10 +533,16 @@ class GraphBridge:
                     done(dict(zip(wanted, answer.values, strict=False)), problems)
 
             self._call(
-                self._parameter_client(node, 1), GetParameters.Request(names=wanted), got, PARAMETER_TIMEOUT
+                self._parameter_client(node, 1),
+                GetParameters.Request(names=wanted),
+                got,
+                PARAMETER_TIMEOUT,
+                resend=True,
             )
 
-        self._call(self._parameter_client(node, 0), ListParameters.Request(), listed, PARAMETER_TIMEOUT)
+        self._call(
+            self._parameter_client(node, 0), ListParameters.Request(), listed, PARAMETER_TIMEOUT, resend=True
+        )
 
     def _group(
         self, client: int, operation: str, field_of: Callable[[int], str], names: list[str]
@@ -623,7 +650,7 @@ class GraphBridge:
                 self._read_node(node, names, report)
 
             request = SetParameters.Request(parameters=parameters)
-            self._call(self._parameter_client(node, 2), request, answered, PARAMETER_TIMEOUT)
+            self._call(self._parameter_client(node, 2), request, answered, PARAMETER_TIMEOUT, resend=True)
 
         self._read_node(node, names, current)
 
