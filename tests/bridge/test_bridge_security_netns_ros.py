@@ -16,6 +16,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
@@ -29,6 +30,7 @@ from test_bridge_official_client_ros import SUBPROTOCOLS, OfficialClient, cdr, r
 pytestmark = pytest.mark.ros
 
 NODE, PARAMETER, TOPIC = "/remote/probe", "rate", "/remote/probe/chatter"
+DISCOVERY_TIMEOUT = 20.0  # s for a bridge to discover the probe node on the other host
 REFUSAL_TIMEOUT = 15.0  # s: a refused connection closes at once; this only bounds a hang
 
 # A node on host A: one double parameter (rate, 2.0) and a String topic at 10 Hz.
@@ -73,6 +75,21 @@ class Hosts:
         with pytest.raises(AssertionError) as refused:
             self.client(url, SUBPROTOCOLS[0], trusted).close()
         return str(refused.value)
+
+
+def wait_until_seen(client: OfficialClient, name: str) -> None:
+    """Wait until the bridge has discovered the probe's parameter services across the two hosts.
+
+    Until then the bridge rightly answers that no node takes the request; discovery between the
+    namespaces can take a few seconds after the bridge starts, and the module's first tests are faster.
+    """
+    deadline = time.monotonic() + DISCOVERY_TIMEOUT
+    while True:
+        read = client.request("getParameters", names=[name], requestId="seen")["parameters"]
+        if read:
+            return
+        assert time.monotonic() < deadline, f"the bridge did not see {name} within {DISCOVERY_TIMEOUT:g} s"
+        time.sleep(0.2)
 
 
 @pytest.fixture(scope="module")
@@ -159,6 +176,7 @@ def test_without_the_opt_in_services_and_parameter_sets_are_refused(remote: Host
             "connectionGraph",
         }
         name = f"{NODE}.{PARAMETER}"
+        wait_until_seen(client, name)
         mark = client.mark()
         values = client.request("setParameters", parameters=[{"name": name, "value": 7.0}], requestId="r")
         assert values["parameters"] == [{"name": name, "value": 2.0, "type": "float64"}]  # unchanged
@@ -179,8 +197,11 @@ def test_with_the_opt_in_services_and_parameters_are_answered(remote: Hosts) -> 
     try:
         assert {"services", "parameters", "clientPublish"} <= set(client.server_info["capabilities"])
         name = f"{NODE}.{PARAMETER}"
+        wait_until_seen(client, name)
+        mark = client.mark()
         values = client.request("setParameters", parameters=[{"name": name, "value": 7.0}], requestId="c")
-        assert values["parameters"] == [{"name": name, "value": 7.0, "type": "float64"}]
+        said = client.statuses(mark["statuses"], "")
+        assert values["parameters"] == [{"name": name, "value": 7.0, "type": "float64"}], said
         answer = client.request(
             "call", name=f"{NODE}/get_parameters", request=cdr(GetParameters.Request(names=[PARAMETER]))
         )
