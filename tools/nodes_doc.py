@@ -43,9 +43,9 @@ def _default(value: object) -> str:
 
 def table(executable: str) -> str:
     """Return the markdown table of one node's declared parameters, in declaration order."""
-    from feeder_cell.launcher import _declared_parameters
+    from feeder_cell.node_modules import declared_parameters
 
-    specs = _declared_parameters(NODES[executable], executable)
+    specs = declared_parameters(NODES[executable], executable)
     if not specs:
         raise SystemExit(f"nodes_doc: {executable} declares no parameters (or its module did not import)")
     rows = ["| parameter | default | when | description |", "| --- | --- | --- | --- |"]

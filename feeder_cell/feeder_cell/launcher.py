@@ -5,7 +5,6 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import dataclasses
-import importlib
 import json
 import os
 import re
@@ -19,10 +18,10 @@ from typing import Any, Literal, TypeAlias, cast
 
 import yaml
 
+from feeder_cell.node_modules import declared_parameters, node_class
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import load_yaml_mapping, optional, required, short_string
 from feeder_planner.limits import MAX_NAME_CHARS, describe, quote
-from feeder_planner.parameter_specs import ParameterSpec
 
 STOP_GRACE_S = 5.0
 # prctl(2) option: the signal a child gets when its parent dies (linux/prctl.h).
@@ -182,7 +181,7 @@ def _parameter_kind(value: Any, field: str) -> str:
     )
 
 
-def check_declared_parameters(scene: Scene) -> None:
+def checkdeclared_parameters(scene: Scene) -> None:
     """Check each node's parameters against the node's own declarations, before any node starts.
 
     The declarations are the ``PARAMETERS`` (node_kit ``ParameterSpec``) of the module behind the
@@ -195,7 +194,7 @@ def check_declared_parameters(scene: Scene) -> None:
     """
     for index, spec in enumerate(scene.nodes):
         where = f"nodes[{index}].parameters"
-        declared = _declared_parameters(spec.package, spec.executable)
+        declared = declared_parameters(spec.package, spec.executable)
         for name, declaration in declared.items():
             if name not in spec.parameters:
                 problem = declaration.check(declaration.default) if declaration.check else None
@@ -273,7 +272,7 @@ def with_overrides(scene: Scene, assignments: list[str]) -> Scene:
         nodes[matches[0]] = dataclasses.replace(spec, parameters={**spec.parameters, name: resolved})
     changed = dataclasses.replace(scene, nodes=tuple(nodes))
     try:
-        check_declared_parameters(changed)
+        checkdeclared_parameters(changed)
     except InputError as error:
         raise InputError("--set", str(error)) from None
     return changed
@@ -281,32 +280,7 @@ def with_overrides(scene: Scene, assignments: list[str]) -> Scene:
 
 def joins_lockstep(package: str, executable: str) -> bool:
     """Whether an executable's node joins the cell clock's lockstep (it declares ``lockstep``)."""
-    return "lockstep" in _declared_parameters(package, executable)
-
-
-def _declared_parameters(package: str, executable: str) -> dict[str, ParameterSpec]:
-    """Return the ParameterSpecs declared by an executable's node module, by name ({} when unknown)."""
-    from importlib import import_module
-    from importlib.metadata import entry_points
-
-    # The packages' convention first (PACKAGE.nodes.EXECUTABLE), which needs no installed metadata.
-    try:
-        module = import_module(f"{package}.nodes.{executable}")
-    except ImportError:
-        pass
-    else:
-        if hasattr(module, "PARAMETERS"):
-            return {spec.name: spec for spec in module.PARAMETERS}
-    for point in entry_points(group="console_scripts", name=executable):
-        module_name = point.value.partition(":")[0]
-        if module_name.split(".")[0] != package:
-            continue
-        try:
-            module = import_module(module_name)
-        except ImportError:
-            return {}
-        return {spec.name: spec for spec in getattr(module, "PARAMETERS", ())}
-    return {}
+    return "lockstep" in declared_parameters(package, executable)
 
 
 def _namespace(value: Any, field: str) -> str:
@@ -384,7 +358,7 @@ def load_scene(path: str | Path) -> Scene:
     """
     try:
         scene = scene_from_mapping(load_yaml_mapping(path), Path(path).resolve().parent)
-        check_declared_parameters(scene)
+        checkdeclared_parameters(scene)
         return scene
     except InputError as error:
         raise error.with_source(str(path)) from None
@@ -492,6 +466,23 @@ def _die_with_parent() -> None:
         os._exit(1)
 
 
+def _spawn(command: list[str], log_path: Path) -> subprocess.Popen:
+    """Start a node's (or a host's) process with its output to ``log_path``; it dies with the launcher."""
+    with open(log_path, "w") as log:
+        return subprocess.Popen(
+            command,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL,
+            env=dict(os.environ, PYTHONUNBUFFERED="1"),
+            preexec_fn=_die_with_parent,
+            # Its own session: Ctrl-C in a terminal signals the launch's process group, and the launch ends
+            # each process by pid in order; a node that got the SIGINT too would end first and be reported
+            # as having died early (exit 1). The nodes still die with the launch (_die_with_parent).
+            start_new_session=True,
+        )
+
+
 def start_node(
     spec: NodeSpec,
     log_dir: Path,
@@ -516,20 +507,7 @@ def start_node(
         command += ["--params-file", str(params_path)]
     command += list(extra_args)
     log_path = log_dir / f"{stem}.log"
-    with open(log_path, "w") as log:
-        process = subprocess.Popen(
-            command,
-            stdout=log,
-            stderr=subprocess.STDOUT,
-            stdin=subprocess.DEVNULL,
-            env=dict(os.environ, PYTHONUNBUFFERED="1"),
-            preexec_fn=_die_with_parent,
-            # Its own session: Ctrl-C in a terminal signals the launch's process group, and the launch ends
-            # each node by pid in order; a node that got the SIGINT too would end first and be reported
-            # as having died early (exit 1). The nodes still die with the launch (_die_with_parent).
-            start_new_session=True,
-        )
-    return NodeProcess(spec, process, log_path)
+    return NodeProcess(spec, _spawn(command, log_path), log_path)
 
 
 def hostable(specs: list[NodeSpec]) -> list[NodeSpec]:
@@ -541,12 +519,7 @@ def hostable(specs: list[NodeSpec]) -> list[NodeSpec]:
     taken: set[str] = set()
     chosen = []
     for spec in specs:
-        module = f"{spec.package}.nodes.{spec.executable}"
-        try:
-            offered = getattr(importlib.import_module(module), "NODE", None) is not None
-        except ImportError:
-            offered = False
-        if offered and spec.executable not in taken:
+        if node_class(spec.package, spec.executable) is not None and spec.executable not in taken:
             taken.add(spec.executable)
             chosen.append(spec)
     return chosen
@@ -582,14 +555,5 @@ def start_host(
         params_path.write_text(yaml.safe_dump(documents))
         command += ["--params-file", str(params_path)]
     log_path = log_dir / f"{stem}.log"
-    with open(log_path, "w") as log:
-        process = subprocess.Popen(
-            command,
-            stdout=log,
-            stderr=subprocess.STDOUT,
-            stdin=subprocess.DEVNULL,
-            env=dict(os.environ, PYTHONUNBUFFERED="1"),
-            preexec_fn=_die_with_parent,
-            start_new_session=True,  # as start_node: the launch ends it by pid, in order
-        )
+    process = _spawn(command, log_path)
     return [NodeProcess(spec, process, log_path, host=name, end_file=end_file) for spec, _ in specs]

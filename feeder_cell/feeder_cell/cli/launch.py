@@ -24,6 +24,7 @@ from feeder_cell.launcher import (
     with_overrides,
 )
 from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError, LifecycleInterruptedError
+from feeder_cell.node_modules import node_class
 from feeder_cell.ros_session import with_node
 from feeder_planner.errors import FeederError, InputError
 
@@ -224,15 +225,10 @@ def is_managed_node(spec: NodeSpec) -> bool | None:
     Asking the graph instead means waiting for lifecycle services that an unmanaged node never offers: two
     seconds for each planner of a scene, while a recording launch holds the cell clock for the bring-up.
     """
-    from importlib import import_module
-
     from rclpy.lifecycle import LifecycleNode
 
-    try:
-        factory = getattr(import_module(f"{spec.package}.nodes.{spec.executable}"), "NODE", None)
-    except ImportError:
-        return None
-    return issubclass(factory, LifecycleNode) if isinstance(factory, type) else None
+    offered = node_class(spec.package, spec.executable)
+    return None if offered is None else issubclass(offered, LifecycleNode)
 
 
 def bring_up(

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib
 import json
 import sys
 import threading
@@ -16,6 +15,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from feeder_cell.host.executor import HostExecutor
 from feeder_cell.host.hub import ClockHub
+from feeder_cell.node_modules import node_class, node_module
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit import lockstep
 from feeder_planner.node_kit.introspection import configure_service_introspection
@@ -78,23 +78,30 @@ def start_work(
 
 def node_factory(package: str, executable: str) -> Callable[[], Node]:
     """Return the node class a node module offers for hosting (its ``NODE``), naming what is missing."""
-    try:
-        module = importlib.import_module(f"{package}.nodes.{executable}")
-    except ImportError as error:
-        raise InputError(
-            "nodes", f"{package}/{executable}: no module {package}.nodes.{executable}"
-        ) from error
-    factory = getattr(module, "NODE", None)
+    if node_module(package, executable) is None:
+        raise InputError("nodes", f"{package}/{executable}: no module {package}.nodes.{executable}")
+    factory = node_class(package, executable)
     if factory is None:
         raise InputError("nodes", f"{package}/{executable} cannot be hosted (its module has no NODE)")
-    return factory
+    return cast(Callable[[], Node], factory)
 
 
-def _build(nodes: list[tuple[str, str]]) -> list[Node]:
-    """Build every node, the cell clock first: the devices' participants join its hub as they are built."""
+class HostedClock(Protocol):
+    """What the host needs of the hosted cell clock: its hub, and the time readers it feeds by call."""
+
+    hub: ClockHub
+    hosted_readers: list[Callable[..., None]]
+
+
+def _build(nodes: list[tuple[str, str]]) -> tuple[list[Node], HostedClock | None]:
+    """Build every node, the cell clock first: the devices' participants join its hub as they are built.
+
+    Returns the nodes and the hosted clock (the node that offers a hub), None when the host has none.
+    """
     factories = [(package, executable, node_factory(package, executable)) for package, executable in nodes]
     factories.sort(key=lambda item: item[1] != "cell_clock")  # stable: the scene's order otherwise
     built: list[Node] = []
+    clock: HostedClock | None = None
     for _package, executable, factory in factories:
         try:
             node = factory()
@@ -105,13 +112,13 @@ def _build(nodes: list[tuple[str, str]]) -> list[Node]:
             raise SystemExit(EXIT_BAD_CONFIGURATION) from None
         configure_service_introspection(node)
         built.append(node)
-        hub = getattr(node, "hub", None)
-        if executable == "cell_clock" and hub is not None:
-            lockstep.host_in_process(hub)
-    return built
+        if clock is None and getattr(node, "hub", None) is not None:
+            clock = cast(HostedClock, node)
+            lockstep.host_in_process(clock.hub)
+    return built, clock
 
 
-def hand_clock_directly(built: list[Node]) -> None:
+def hand_clock_directly(built: list[Node], clock: HostedClock) -> None:
     """Give the hosted nodes cell time by call from the hosted clock, not through their /clock readers.
 
     Each node on sim time has rclpy's time source reading /clock (best effort, depth 1): in the host that
@@ -120,9 +127,6 @@ def hand_clock_directly(built: list[Node]) -> None:
     when it publishes it. (rclpy offers no public way to feed a time source: ``_time_source`` and its
     ``_clock_sub`` are rclpy 7.1's; a time source re-subscribes by itself if ``use_sim_time`` is set again.)
     """
-    clock = next((n for n in built if hasattr(n, "hosted_readers")), None)
-    if clock is None:
-        return
     for node in built:
         source = getattr(node, "_time_source", None)
         subscription = getattr(source, "_clock_sub", None)
@@ -165,11 +169,12 @@ def main(argv: list[str] | None = None) -> None:
     ended: list[tuple[str, int]] = []
     executor = HostExecutor()
     try:
-        built = _build(nodes)
+        built, clock = _build(nodes)
         for node in built:
             executor.add_node(node)
-        hand_clock_directly(built)
-        hub = next((n.hub for n in built if getattr(n, "hub", None) is not None), None)
+        hub = None if clock is None else clock.hub
+        if clock is not None:
+            hand_clock_directly(built, clock)
         # No timeout on spin_once (rclpy 7.1 makes a timer per call with one and never frees it): a stop
         # wakes the executor, and so does the end of a hosted node's work.
         stop.future.add_done_callback(lambda _: executor.wake())
