@@ -101,6 +101,15 @@ def harness(ros_domain: int, ros_client: Any, tmp_path_factory: pytest.TempPathF
                 break
             assert time.monotonic() < deadline, f"entities after 90 s: {names}"
             time.sleep(0.5)
+        from simulation_interfaces.msg import SimulationState
+        from simulation_interfaces.srv import GetSimulationState
+
+        while True:  # LOADING_WORLD until every lockstep participant has joined
+            state = harness.call(GetSimulationState, "get_simulation_state").state.state
+            if state != SimulationState.STATE_LOADING_WORLD:
+                break
+            assert time.monotonic() < deadline, "still LOADING_WORLD after 90 s"
+            time.sleep(0.5)
         yield harness
     finally:
         process.send_signal(signal.SIGINT)
@@ -218,7 +227,7 @@ def test_spawn_onto_the_array_and_simulate_steps_until_the_part_has_settled(harn
     # Every part of the array with its state in one call.
     array = harness.ok(GetEntitiesStates, "get_entities_states", filters=EntityFilters(filter=f"^{ARRAY}/"))
     assert len(array.entities) == len(array.states) >= 2
-    assert all(s.header.frame_id == "cell/mems_array" for s in array.states)
+    assert all(s.header.frame_id == "world" for s in array.states)
 
 
 def test_the_arms_part_is_placed_with_set_entity_state_at_a_rest_pose(harness: Harness) -> None:
@@ -228,28 +237,25 @@ def test_the_arms_part_is_placed_with_set_entity_state_at_a_rest_pose(harness: H
     arm_parts = [n for n in _entities(harness) if n.startswith(f"{ARM}/")]
     assert len(arm_parts) == 1
     now = harness.state(arm_parts[0])
+    assert now.header.frame_id == "world"
     target = EntityState()
-    target.header.frame_id = now.header.frame_id
+    target.header.frame_id = "world"
     target.pose = now.pose
-    target.pose.position.x = 0.15  # the radius: the edge and height stay those of the rest pose
+    # The arm's pivot sits at x = 0.3 m in the world, rolled a quarter turn: the radius R is along x.
+    target.pose.position.x = 0.3 + 0.15
     harness.ok(SetEntityState, "set_entity_state", entity=arm_parts[0], state=target)
     harness.ok(StepSimulation, "step_simulation", steps=1)
-    assert harness.state(arm_parts[0]).pose.position.x == pytest.approx(0.15, abs=1e-12)
-    # A part file spawned onto the arm at its present rest pose replaces the part it holds.
-    spawn = SpawnEntity.Request(
-        name="second",
-        uri=f"file://{ROOT}/examples/throwing/triangle.yaml",
-        entity_namespace="/cell/throwing_arm",
-    )
-    spawn.initial_pose.header.frame_id = now.header.frame_id
+    assert harness.state(arm_parts[0]).pose.position.x == pytest.approx(0.45, abs=1e-12)
+    # A spawn never removes another entity: the arm holds its one part and refuses a second.
+    spawn = SpawnEntity.Request(name="second", uri=f"file://{ROOT}/examples/throwing/triangle.yaml")
+    spawn.initial_pose.header.frame_id = "world"
     spawn.initial_pose.pose = harness.state(arm_parts[0]).pose
     response = ros_harness.call_service(harness.node, SpawnEntity, f"{NS}/spawn_entity", spawn, 60.0)
-    assert response.result.result == 1, response.result.error_message
-    assert [n for n in _entities(harness) if n.startswith(f"{ARM}/")] == [f"{ARM}/second"]
-    arm_parts = [f"{ARM}/second"]
+    assert response.result.result == 4 and "holds one part" in response.result.error_message
+    assert [n for n in _entities(harness) if n.startswith(f"{ARM}/")] == arm_parts
     off_rest = EntityState()
-    off_rest.pose = now.pose
-    off_rest.pose.position.y += 0.01
+    off_rest.pose = harness.state(arm_parts[0]).pose
+    off_rest.pose.position.z += 0.01  # the arm's y: off the rest height h + d
     code, message = harness.code(SetEntityState, "set_entity_state", entity=arm_parts[0], state=off_rest)
     assert code == SetEntityState.Response.INVALID_POSE and "position.y" in message
 
@@ -293,9 +299,9 @@ def test_hostile_requests_answer_the_standards_codes_and_the_node_serves_on(harn
 def test_reset_state_and_spawned_is_deterministic_and_time_is_unsupported(harness: Harness) -> None:
     from simulation_interfaces.srv import DeleteEntity, ResetSimulation, SpawnEntity, StepSimulation
 
-    assert (
-        harness.code(ResetSimulation, "reset_simulation", scope=ResetSimulation.Request.SCOPE_DEFAULT)[0] == 0
-    )
+    time_only = ResetSimulation.Request.SCOPE_TIME
+    code, message = harness.code(ResetSimulation, "reset_simulation", scope=time_only)
+    assert code == 0 and "TIME" in message
     # SPAWNED alone removes what was spawned (the configured plus stays); DeleteEntity removes one part.
     for name in ("extra", "gone"):
         request = SpawnEntity.Request(

@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Awaitable, Callable
 
+from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
 from rclpy.node import Node
@@ -46,7 +47,7 @@ from simulation_interfaces.srv import (
 
 from feeder_cell.simulation import control
 from feeder_cell.simulation.cell_link import KINDS, CellLink
-from feeder_cell.simulation.entities import Entity
+from feeder_cell.simulation.entities import Entity, Sphere
 from feeder_cell.simulation.msgs import accel_tuple, pose_tuple, result_msg, state_msg, twist_tuples
 from feeder_cell.simulation.results import (
     FEATURE_UNSUPPORTED,
@@ -62,33 +63,13 @@ from feeder_cell.simulation.spawning import (
     check_at_rest,
     read_spawnable,
 )
+from feeder_cell.simulation.support import FEATURES, custom_info
 from feeder_cell.simulation.world import CellWorld
 from feeder_planner.node_kit import declare_parameters, run_node
 from feeder_planner.parameter_specs import from_values, param, positive, specs_of
 
 __all__ = ["SimulationParameters", "PARAMETERS", "CellSimulation", "FEATURES", "main"]
 
-F = SimulatorFeatures
-# Exactly what works (each is exercised by tests/cell/test_simulation_interfaces_ros.py).
-FEATURES = (
-    F.SPAWNING,
-    F.DELETING,
-    F.ENTITY_CATEGORIES,
-    F.SPAWNING_RESOURCE_STRING,
-    F.ENTITY_STATE_GETTING,
-    F.ENTITY_STATE_SETTING,
-    F.ENTITY_INFO_GETTING,
-    F.SPAWNABLES,
-    F.SIMULATION_RESET,
-    F.SIMULATION_RESET_STATE,
-    F.SIMULATION_RESET_SPAWNED,
-    F.SIMULATION_STATE_GETTING,
-    F.SIMULATION_STATE_SETTING,
-    F.SIMULATION_STATE_PAUSE,
-    F.STEP_SIMULATION_SINGLE,
-    F.STEP_SIMULATION_MULTIPLE,
-    F.STEP_SIMULATION_ACTION,
-)
 # Standard services the cell has no use for: served, so that a harness gets FEATURE_UNSUPPORTED, not silence.
 UNSUPPORTED = {
     "get_entity_bounds": (GetEntityBounds, "entity bounds"),
@@ -131,6 +112,8 @@ class SimulationParameters:
 
 
 PARAMETERS = specs_of(SimulationParameters)
+STEPPING = ("step_simulation", "simulate_steps")
+CLOCK_HARDWARE_ID = "sim:cell_clock"  # the hardware_id of the cell clock's lockstep status
 
 
 class CellSimulation(Node):
@@ -143,6 +126,12 @@ class CellSimulation(Node):
         self.link = CellLink(self, self.p.clock_node, devices, float(self.p.call_timeout))
         self.quantum_ns = int(round(self.p.quantum * 1e9))
         self.busy = ""  # the request changing the cell now
+        self.interrupt = ""  # a state change asked for while a step runs: the step ends between chunks
+        # LOADING_WORLD until the clock's lockstep has left its join phase (its /diagnostics say so).
+        self.joined = False
+        self.diagnostics_sub: Any = self.create_subscription(
+            DiagnosticArray, "/diagnostics", self._on_clock_diagnostics, 10, callback_group=self.link.group
+        )
         self.world = CellWorld(self.link, lambda: self.get_clock().now().nanoseconds)
         serve = self._serve
         serve(GetSimulatorFeatures, "get_simulator_features", self._features, changes=False)
@@ -178,6 +167,10 @@ class CellSimulation(Node):
         self, srv: Any, name: str, handler: Callable[..., Awaitable[None]], changes: bool = True
     ) -> None:
         async def callback(request: Any, response: Any) -> Any:
+            if name == "set_simulation_state" and self.busy in STEPPING:
+                self.interrupt = f"SetSimulationState to {int(request.state.state)}"
+                while self.busy:  # the step ends at its next chunk boundary
+                    await self.link.sleep(0.01)
             if changes and self.busy:
                 response.result = result_msg(INCORRECT_STATE, f"busy: {self.busy} is being carried out")
                 return response
@@ -213,17 +206,35 @@ class CellSimulation(Node):
         response.features = SimulatorFeatures(
             features=list(FEATURES),
             spawn_formats=[SPAWN_FORMAT],
-            custom_info=(
-                "feeder cell: a step is one lockstep quantum of cell time "
-                f"({self.p.quantum:g} s); spawn_format {SPAWN_FORMAT} is a part file (contract section 2); "
-                "entities, frames and units: docs/cell.md"
-            ),
+            custom_info=custom_info(self.p.quantum),
         )
 
     async def _current(self) -> int:
+        if not await self._joined():
+            return control.LOADING_WORLD
         if self.world.stopped:
             return control.STOPPED
         return control.PAUSED if await self.link.paused() else control.PLAYING
+
+    async def _joined(self) -> bool:
+        """Whether every expected lockstep participant has joined (a free-running clock: at once)."""
+        if not self.joined and not await self.link.clock_in_lockstep():
+            self._on_joined()
+        return self.joined
+
+    def _on_clock_diagnostics(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            if status.hardware_id != CLOCK_HARDWARE_ID:
+                continue
+            phase = next((v.value for v in status.values if v.key == "phase"), "join")
+            if phase != "join":
+                self._on_joined()
+
+    def _on_joined(self) -> None:
+        self.joined = True
+        if self.diagnostics_sub is not None:
+            self.destroy_subscription(self.diagnostics_sub)  # never again: the join happens once
+            self.diagnostics_sub = None
 
     async def _get_state(self, request: Any, response: GetSimulationState.Response) -> None:
         response.state = SimulationState(state=await self._current())
@@ -240,12 +251,19 @@ class CellSimulation(Node):
     # --- steps ---------------------------------------------------------------------------------------
     async def _step(self, request: StepSimulation.Request, response: Any) -> None:
         steps = control.check_steps(int(request.steps), await self._current())
-        await self.link.step(steps, self.quantum_ns)
+        self.interrupt = ""
+        done = 0
+        while done < steps:
+            if self.interrupt:
+                raise SimulationError(
+                    OPERATION_FAILED, f"steps: interrupted after {done} of {steps} steps by {self.interrupt}"
+                )
+            chunk = min(control.STEP_CHUNK, steps - done)
+            await self.link.step(chunk, self.quantum_ns)
+            done += chunk
 
     def _accept_steps(self, goal: SimulateSteps.Goal) -> GoalResponse:
-        # Checked again when it runs: the state may change between acceptance and execution.
-        if self.busy or not (1 <= goal.steps <= control.MAX_STEPS):
-            return GoalResponse.REJECT
+        # Every goal is accepted: one that cannot run is aborted with a Result that says why.
         return GoalResponse.ACCEPT
 
     async def _simulate_steps(self, handle: ServerGoalHandle) -> SimulateSteps.Result:
@@ -256,10 +274,13 @@ class CellSimulation(Node):
             handle.abort()
             return result
         self.busy = "simulate_steps"
+        self.interrupt = ""
         done = 0
         try:
             control.check_steps(steps, await self._current())
             while done < steps:
+                if self.interrupt:
+                    raise SimulationError(OPERATION_FAILED, f"interrupted by {self.interrupt}")
                 if handle.is_cancel_requested:
                     handle.canceled()
                     result.result = result_msg(OK, f"canceled after {done} of {steps} steps")
@@ -280,14 +301,18 @@ class CellSimulation(Node):
 
     # --- reset ---------------------------------------------------------------------------------------
     async def _reset(self, request: ResetSimulation.Request, response: Any) -> None:
-        await self.world.reset(control.reset_of_scope(int(request.scope)))
+        reset = control.reset_of_scope(int(request.scope))
+        await self.world.reset(reset)
+        if reset.time_left:
+            response.result = result_msg(OK, f"state and spawned entities reset; {control.TIME_NOT_RESET}")
 
     # --- entities ------------------------------------------------------------------------------------
     async def _selected(self, filters: Any) -> list[Entity]:
         await self.world.observe_fixtures()
-        bounded = int(filters.bounds.type) != 0 or len(filters.bounds.points) > 0
+        points = [(float(p.x), float(p.y), float(p.z)) for p in filters.bounds.points]
+        sphere = Sphere.of(int(filters.bounds.type), points)
         categories = [int(c.category) for c in filters.categories]
-        return self.world.selected(filters.filter, categories, list(filters.tags.tags), bounded)
+        return self.world.selected(filters.filter, categories, list(filters.tags.tags), sphere)
 
     async def _get_entities(self, request: GetEntities.Request, response: Any) -> None:
         response.entities = [e.name for e in await self._selected(request.filters)]
@@ -311,7 +336,8 @@ class CellSimulation(Node):
     async def _set_entity_state(self, request: SetEntityState.Request, response: Any) -> None:
         state = request.state
         linear, angular = twist_tuples(state.twist)
-        check_at_rest(linear, angular, accel_tuple(state.acceleration))
+        entity = self.world.entity(request.entity)
+        check_at_rest(entity.kind, linear, angular, accel_tuple(state.acceleration))
         frame_id = state.header.frame_id
         await self.world.set_state(request.entity, frame_id, pose_tuple(state.pose), SET_INVALID_POSE)
 

@@ -11,6 +11,7 @@ fails with a message naming the service; the node keeps serving.
 from __future__ import annotations
 
 import functools
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -64,6 +65,7 @@ class Device:
     base_frame: str
     parts: list[str] = field(default_factory=list)  # in the device's order
     part_documents: dict[str, Part] = field(default_factory=dict)
+    parts_heard: int = 0  # latched part lists heard: a reconfiguration waits for the next one
     states: dict[str, EntityState] = field(default_factory=dict)
     placed: dict[str, EntityState] = field(default_factory=dict)  # set or spawned, not yet ticked
     frame_id: str = ""  # the frame the device's part states are in (from its streams)
@@ -87,6 +89,10 @@ class CellLink:
         self.paused_client = node.create_client(
             IsPaused, f"{self.clock_node}/is_paused", callback_group=self.group
         )
+        self.clock_parameters = node.create_client(
+            GetParameters, f"{self.clock_node}/get_parameters", callback_group=self.group
+        )
+        self.lockstep: bool | None = None  # the clock's lockstep parameter, once read
         self.devices: dict[str, Device] = {}
         # A device's state stream, taken when a request needs it (never a wake-up per sample).
         self._streams: dict[str, PolledSubscription] = {}
@@ -160,6 +166,7 @@ class CellLink:
     def _on_mems_parts(self, device: Device, msg: MemsParts) -> None:
         device.parts = [part.name for part in msg.parts]
         device.part_documents = {part.name: part for part in msg.parts}
+        device.parts_heard += 1
 
     def _on_part_states(self, device: Device, msg: MemsPartStates) -> None:
         stamp = nanoseconds(msg.header.stamp)
@@ -228,6 +235,20 @@ class CellLink:
                     f"{what}: {client.srv_name} did not answer within {self.timeout_s:g} s{gone}",
                 )
         return future.result()
+
+    async def sleep(self, seconds: float) -> None:
+        """Wait ``seconds`` wall seconds without holding the executor."""
+        await self._within(Future(), seconds)
+
+    async def clock_in_lockstep(self) -> bool:
+        """Whether the cell clock runs in lockstep (read once; unknown while it does not answer: True)."""
+        if self.lockstep is None:
+            if not self.clock_parameters.service_is_ready():
+                return True
+            request = GetParameters.Request(names=["lockstep"])
+            response = await self.call(self.clock_parameters, request, "cell clock parameter lockstep")
+            self.lockstep = bool(response.values[0].bool_value) if response.values else True
+        return self.lockstep
 
     async def _within(self, future: Future, timeout_s: float) -> bool:
         """Wait until ``future`` is done or ``timeout_s`` wall seconds have passed; return whether done."""
@@ -318,11 +339,22 @@ class CellLink:
         was_active = state == "active"
         if was_active:
             await self.transition(fqn, "deactivate")
+        device = self.devices[fqn]
+        heard = device.parts_heard
         await self.transition(fqn, "cleanup")
         await self.transition(fqn, "configure")
-        device = self.devices[fqn]
         self.refresh(device)  # the samples of the former configuration are taken, not left to come back
         device.states.clear()
         device.placed.clear()
+        if device.kind == "mems_field_array":
+            # The configured parts come on the latched ~/parts the configuration publishes: until that
+            # list is here, the former one (spawned parts included) must not be listed.
+            deadline = time.monotonic() + self.timeout_s
+            while device.parts_heard == heard and time.monotonic() < deadline:
+                await self.sleep(0.01)
+            if device.parts_heard == heard:
+                raise SimulationError(
+                    OPERATION_FAILED, f"{fqn}: no ~/parts list within {self.timeout_s:g} s of configure"
+                )
         if activate or (activate is None and was_active):
             await self.transition(fqn, "activate")

@@ -11,8 +11,9 @@ STOPPED       the clock paused, every device reset to its configured initial sta
 
 A step is one lockstep quantum of cell time (``cell_clock`` ``quantum``, 0.1 s by default): every device
 ticks every instant of its rate within it, so N steps advance cell time by exactly N quanta. Cell time
-never goes back (every node's clock and every recording follow it), so the TIME reset scope, and with it
-the standard's SCOPE_DEFAULT and SCOPE_ALL, is answered FEATURE_UNSUPPORTED: reset STATE and SPAWNED.
+never goes back (every node's clock and every recording follow it), so a scope naming TIME is answered
+FEATURE_UNSUPPORTED; SCOPE_DEFAULT and SCOPE_ALL reset state and spawned entities and say time was not.
+LOADING_WORLD is the state from launch until every expected lockstep participant has joined the clock.
 """
 
 from __future__ import annotations
@@ -37,6 +38,9 @@ __all__ = [
     "SCOPE_STATE",
     "SCOPE_SPAWNED",
     "Reset",
+    "TIME_NOT_RESET",
+    "LOADING_WORLD",
+    "STEP_CHUNK",
     "check_steps",
     "reset_of_scope",
     "transition",
@@ -58,6 +62,8 @@ SCOPE_DEFAULT, SCOPE_TIME, SCOPE_STATE, SCOPE_SPAWNED, SCOPE_ALL = 0, 1, 2, 4, 2
 # Steps one request may ask for: 10^6 quanta is a day of cell time at the default quantum, more than a
 # test harness needs, and a bound so that a hostile count cannot hold the cell for ever.
 MAX_STEPS = 1_000_000
+# Quanta per clock request while a StepSimulation runs: between two, a state change interrupts it.
+STEP_CHUNK = 10
 
 
 def transition(current: int, target: int) -> list[str]:
@@ -78,6 +84,12 @@ def transition(current: int, target: int) -> list[str]:
             INCORRECT_TRANSITION,
             f"state.state: {STATE_NAMES[target]} is a state the simulator reports, not one to set "
             "(the cell has one world, its scene)",
+        )
+    if current == LOADING_WORLD:
+        raise SimulationError(
+            INCORRECT_TRANSITION,
+            f"state.state: the world is loading (the lockstep waits for its participants to join); "
+            f"{STATE_NAMES[target]} once GetSimulationState says PLAYING or PAUSED",
         )
     if target == current:
         raise SimulationError(ALREADY_IN_TARGET_STATE, f"the simulation is already {STATE_NAMES[target]}")
@@ -109,20 +121,36 @@ def check_steps(steps: int, state: int) -> int:
 
 @dataclass(frozen=True)
 class Reset:
-    """What a ResetSimulation scope resets: device state (to configured), spawned entities (removed)."""
+    """What a ResetSimulation scope resets: device state (to configured), spawned entities (removed).
+
+    ``time_left``: the scope asked for everything (DEFAULT, ALL), time included, which the cell does not
+    reset; the rest is done and the answer says so.
+    """
 
     state: bool
     spawned: bool
+    time_left: bool = False
+
+
+TIME_NOT_RESET = (
+    "cell time was not reset (SIMULATION_RESET_TIME is not a feature: the lockstep clock, the devices' "
+    "tick grids and every recording follow one cell time that only goes forward)"
+)
 
 
 def reset_of_scope(scope: int) -> Reset:
-    """Return the reset a scope asks for; FEATURE_UNSUPPORTED for time (cell time never goes back)."""
-    if scope in (SCOPE_DEFAULT, SCOPE_ALL) or scope & SCOPE_TIME:
-        asked = "SCOPE_DEFAULT (all)" if scope == SCOPE_DEFAULT else f"scope {scope} (includes TIME)"
+    """Return the reset a scope asks for.
+
+    DEFAULT (0, the standard's "same as ALL") and ALL (255) reset state and spawned entities, all the cell
+    can reset, and say that time was not; a scope naming TIME by its bit (1, 3, 5, 7) is FEATURE_UNSUPPORTED.
+    """
+    if scope in (SCOPE_DEFAULT, SCOPE_ALL):
+        return Reset(state=True, spawned=True, time_left=True)
+    if scope & SCOPE_TIME:
         raise SimulationError(
             FEATURE_UNSUPPORTED,
-            f"scope: {asked}: cell time never goes back (every node's clock and every recording follow it); "
-            f"reset STATE and SPAWNED (scope {SCOPE_STATE | SCOPE_SPAWNED}) instead",
+            f"scope: {scope} includes TIME: {TIME_NOT_RESET}; reset STATE and SPAWNED "
+            f"(scope {SCOPE_STATE | SCOPE_SPAWNED}) or everything else (scope 0)",
         )
     unknown = scope & ~(SCOPE_STATE | SCOPE_SPAWNED)
     if unknown:

@@ -10,9 +10,10 @@ A name stays the same for as long as the thing exists, so a harness can keep it 
 
 from __future__ import annotations
 
-import re
+import math
 from dataclasses import dataclass, field
 
+from feeder_cell.simulation.posix import PosixError, compile_ere
 from feeder_cell.simulation.results import FEATURE_UNSUPPORTED, OPERATION_FAILED, SimulationError
 
 __all__ = [
@@ -24,6 +25,7 @@ __all__ = [
     "EntityState",
     "device_entity",
     "select",
+    "Sphere",
 ]
 
 # simulation_interfaces/msg/EntityCategory
@@ -63,29 +65,71 @@ def device_entity(fqn: str, kind: str, description: str) -> Entity:
     return Entity(fqn.lstrip("/"), CATEGORY_ROBOT, description, fqn, kind)
 
 
-def select(
-    entities: list[Entity], pattern: str, categories: list[int], tags: list[str], bounded: bool
-) -> list[Entity]:
-    """Return the entities matching the standard's filters, in name order.
+def select(entities: list[Entity], pattern: str, categories: list[int], tags: list[str]) -> list[Entity]:
+    """Return the entities matching the standard's name, category and tag filters, in name order.
 
-    ``pattern`` is a regular expression searched in the name (POSIX regexec semantics: a match anywhere;
-    Python's syntax, which accepts the POSIX Extended expressions a harness writes); ``categories`` any of;
-    tag and bounds filters are not supported (the cell's entities carry no tags and no bounds).
+    ``pattern`` is a POSIX Extended regular expression searched in the name (regexec: a match anywhere),
+    translated by ``posix``; ``categories`` any of; tag filters are not supported (no entity has tags).
+    Bounds are the caller's (they need states): ``Sphere``.
     """
     if tags:
         raise SimulationError(FEATURE_UNSUPPORTED, "filters.tags: entity tags are not supported")
-    if bounded:
-        raise SimulationError(FEATURE_UNSUPPORTED, "filters.bounds: bounds filters are not supported")
     if len(pattern) > MAX_FILTER_CHARS:
         raise SimulationError(
             OPERATION_FAILED, f"filters.filter: at most {MAX_FILTER_CHARS} characters, got {len(pattern)}"
         )
     try:
-        compiled = re.compile(pattern)
-    except re.error as error:
-        raise SimulationError(OPERATION_FAILED, f"filters.filter: bad regular expression: {error}") from None
+        compiled = compile_ere(pattern)
+    except PosixError as error:
+        raise SimulationError(
+            OPERATION_FAILED, f"filters.filter: not a POSIX Extended regular expression: {error}"
+        ) from None
     wanted = set(categories)
     return sorted(
         (e for e in entities if compiled.search(e.name) and (not wanted or e.category in wanted)),
         key=lambda e: e.name,
     )
+
+
+# simulation_interfaces/msg/Bounds
+BOUNDS_EMPTY, BOUNDS_BOX, BOUNDS_CONVEX_HULL, BOUNDS_SPHERE = 0, 1, 2, 3
+
+
+@dataclass(frozen=True)
+class Sphere:
+    """A sphere bounds filter (Bounds TYPE_SPHERE): centre and radius in the world frame, m."""
+
+    center: tuple[float, float, float]
+    radius: float
+
+    @staticmethod
+    def of(kind: int, points: list[tuple[float, float, float]]) -> Sphere | None:
+        """Return the sphere of a Bounds (None: TYPE_EMPTY, no bounds), or raise naming the field.
+
+        TYPE_BOX and TYPE_CONVEX_HULL are FEATURE_UNSUPPORTED (the standard's rule for a type not
+        supported); the sphere needs two points, a finite centre and a finite radius >= 0 (points[1].x).
+        """
+        if kind == BOUNDS_EMPTY and not points:
+            return None
+        if kind in (BOUNDS_BOX, BOUNDS_CONVEX_HULL):
+            name = "TYPE_BOX" if kind == BOUNDS_BOX else "TYPE_CONVEX_HULL"
+            raise SimulationError(
+                FEATURE_UNSUPPORTED, f"filters.bounds.type: {name} is not supported (TYPE_SPHERE is)"
+            )
+        if kind != BOUNDS_SPHERE:
+            raise SimulationError(OPERATION_FAILED, f"filters.bounds.type: unknown bounds type {kind}")
+        if len(points) != 2:
+            raise SimulationError(
+                OPERATION_FAILED, f"filters.bounds.points: a sphere has 2 points, got {len(points)}"
+            )
+        center, radius = points[0], points[1][0]
+        if not all(math.isfinite(v) for v in center) or not math.isfinite(radius) or radius < 0:
+            raise SimulationError(
+                OPERATION_FAILED,
+                f"filters.bounds.points: a finite centre and a finite radius >= 0, got {center} and {radius}",
+            )
+        return Sphere((float(center[0]), float(center[1]), float(center[2])), float(radius))
+
+    def holds(self, position: tuple[float, float, float]) -> bool:
+        """Whether a point lies in the sphere (its surface included)."""
+        return math.dist(position, self.center) <= self.radius

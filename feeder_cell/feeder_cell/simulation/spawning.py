@@ -10,7 +10,8 @@ finite, a unit quaternion (to ``QUATERNION_TOLERANCE``), and one the device can 
   x = R, y = h + d^i and Theta = -alpha_i for a hull edge i (to ``PLANE_TOLERANCE``): the edge is the one
   whose rest angle the pose's yaw is, the radius its x.
 
-Parts are placed at rest: a non-zero twist or acceleration is refused (the standard's OPERATION_FAILED).
+Parts are placed at rest: a non-zero twist is refused (the standard's OPERATION_FAILED) with the reason
+``support.VELOCITY`` gives for the entity's kind; acceleration is ignored, as the standard allows.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import numpy as np
 
 from feeder_cell.simulation.results import (
     NAME_INVALID,
+    NAMESPACE_INVALID,
     NO_RESOURCE,
     NOT_FOUND,
     OPERATION_FAILED,
@@ -31,6 +33,7 @@ from feeder_cell.simulation.results import (
     UNSUPPORTED_FORMAT,
     SimulationError,
 )
+from feeder_cell.simulation.support import VELOCITY
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import yaml_mapping_from_text
 from feeder_planner.parts import Part, part_from_mapping
@@ -43,6 +46,7 @@ __all__ = [
     "PLANE_TOLERANCE",
     "Spawnable",
     "check_name",
+    "check_namespace",
     "read_spawnable",
     "planar_pose",
     "check_at_rest",
@@ -54,6 +58,7 @@ PART_SUFFIXES = (".yaml", ".yml")
 QUATERNION_TOLERANCE = 1e-6  # |q| - 1
 PLANE_TOLERANCE = 1e-6  # m out of the plane, rad of roll or pitch, rad and m off an arm rest pose
 NAME_RE = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,63}")
+NAMESPACE_RE = re.compile(r"/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*")
 
 
 @dataclass(frozen=True)
@@ -63,6 +68,7 @@ class Spawnable:
     text: str
     part: Part
     source: str
+    named: bool = True  # the document names the part (else the part's name is a default)
 
 
 def check_name(name: str, field: str = "name") -> str:
@@ -74,6 +80,21 @@ def check_name(name: str, field: str = "name") -> str:
             f"got {name!r}",
         )
     return name
+
+
+def check_namespace(namespace: str, field: str = "entity_namespace") -> str:
+    """Return ``namespace`` if it meets ROS naming rules (empty: none), else NAMESPACE_INVALID.
+
+    The rules of a ROS 2 namespace: tokens of letters, digits and underscores, not starting with a digit,
+    separated by single slashes, an optional leading slash and (but for ``/`` itself) no trailing one.
+    """
+    if namespace and namespace != "/" and not NAMESPACE_RE.fullmatch(namespace):
+        raise SimulationError(
+            NAMESPACE_INVALID,
+            f"{field}: not a ROS namespace (tokens of letters, digits and underscores, none starting "
+            f"with a digit, separated by single slashes), got {namespace!r}",
+        )
+    return namespace
 
 
 def read_spawnable(uri: str, resource_string: str) -> Spawnable:
@@ -98,16 +119,25 @@ def read_spawnable(uri: str, resource_string: str) -> Spawnable:
         source, field = path_text, "uri"
     elif resource_string:
         text, source, field = resource_string, "resource_string", "resource_string"
+        head = text.lstrip()[:64].lower()
+        if head.startswith("<") or head.startswith("#usda") or head.startswith("#sdf"):
+            # SDFormat, URDF, MJCF (XML) or USD: formats the standard names that this cell does not read.
+            raise SimulationError(
+                UNSUPPORTED_FORMAT,
+                f"resource_string: XML or USD (SDFormat, URDF, MJCF, USD) is not a spawn format here; "
+                f"spawn_formats is [{SPAWN_FORMAT}] (a part file, contract section 2)",
+            )
     else:
         raise SimulationError(
             NO_RESOURCE, "uri, resource_string: both are empty; name a part file or give one"
         )
     try:
-        part = part_from_mapping(yaml_mapping_from_text(text, source, field))
+        mapping = yaml_mapping_from_text(text, source, field)
+        part = part_from_mapping(mapping)
     except InputError as error:
         message = str(error) if error.source else f"{source}: {error}"
         raise SimulationError(RESOURCE_PARSE_ERROR, message) from None
-    return Spawnable(text, part, source)
+    return Spawnable(text, part, source, bool(mapping.get("name")))
 
 
 def _finite(values: tuple[float, ...], field: str, code: int) -> None:
@@ -140,14 +170,19 @@ def planar_pose(
     return float(position[0]), float(position[1]), math.remainder(yaw, 2 * math.pi)
 
 
-def check_at_rest(linear: tuple[float, ...], angular: tuple[float, ...], accel: tuple[float, ...]) -> None:
-    """Refuse a state with motion: parts are placed at rest (the field or the arm moves them from there)."""
-    for name, values in (("state.twist", (*linear, *angular)), ("state.acceleration", accel)):
-        _finite(values, name, OPERATION_FAILED)
-        if any(v != 0.0 for v in values):
-            raise SimulationError(
-                OPERATION_FAILED, f"{name}: parts are placed at rest; must be zero, got {values}"
-            )
+def check_at_rest(
+    kind: str, linear: tuple[float, ...], angular: tuple[float, ...], accel: tuple[float, ...]
+) -> None:
+    """Refuse a twist on an entity whose velocity the cell cannot set (``support.VELOCITY`` says why).
+
+    Acceleration is ignored, as SetEntityState allows ("may be ignored by simulators"), once finite.
+    """
+    _finite(accel, "state.acceleration", OPERATION_FAILED)
+    values = (*linear, *angular)
+    _finite(values, "state.twist", OPERATION_FAILED)
+    if any(v != 0.0 for v in values):
+        what, why = VELOCITY[kind]
+        raise SimulationError(OPERATION_FAILED, f"state.twist: must be zero for {what}: {why}; got {values}")
 
 
 def arm_rest(

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Callable
 
 from feeder_cell.simulation.cell_link import CellLink, Device
 from feeder_cell.simulation.control import Reset
@@ -18,12 +18,14 @@ from feeder_cell.simulation.entities import (
     CATEGORY_STATIC_OBJECT,
     Entity,
     EntityState,
+    Sphere,
     device_entity,
     select,
 )
+from feeder_cell.simulation.frames import WORLD, Frames
 from feeder_cell.simulation.results import (
+    NAME_INVALID,
     NAME_NOT_UNIQUE,
-    NAMESPACE_INVALID,
     NOT_FOUND,
     OPERATION_FAILED,
     SimulationError,
@@ -33,10 +35,11 @@ from feeder_cell.simulation.spawning import (
     Spawnable,
     arm_rest,
     check_name,
+    check_namespace,
     planar_pose,
     read_spawnable,
 )
-from feeder_msgs.srv import ArmLoadPart, ArmPlacePart, MemsPlaceParts, MemsRemovePart, MemsSpawnPart
+from feeder_msgs.srv import ArmPlacePart, MemsPlaceParts, MemsRemovePart, MemsSpawnPart
 from feeder_planner.assembly.model import Body
 from feeder_planner.assembly.parameters import load_assembly_parameter
 from feeder_planner.errors import InputError
@@ -59,7 +62,8 @@ class SpawnRecord:
     device: str
     name: str
     spawnable: Spawnable
-    pose: tuple[float, float, float]  # array: x, y, theta; arm: edge, R, 0
+    pose: tuple[float, float, float]  # x, y, theta on the array
+    namespace: str = ""  # the request's entity_namespace (a part has no interfaces under it)
 
 
 class CellWorld:
@@ -99,12 +103,12 @@ class CellWorld:
                 await self._spawn_record(record)
         elif reset.spawned:
             for name, record in list(self.spawned.items()):
-                if self.link.devices[record.device].kind == "throwing_arm":
-                    await self.link.reconfigure(record.device, activate=None)  # back to its configured part
-                else:
-                    remove = MemsRemovePart.Request(name=record.name)
-                    await self.link.device_call(record.device, "remove_part", remove, "reset")
+                remove = MemsRemovePart.Request(name=record.name)
+                await self.link.device_call(record.device, "remove_part", remove, "reset")
                 del self.spawned[name]
+                self.link.devices[record.device].parts = [
+                    p for p in self.link.devices[record.device].parts if p != record.name
+                ]
 
     # --- entities ------------------------------------------------------------------------------------
     async def observe_fixtures(self) -> None:
@@ -128,6 +132,8 @@ class CellWorld:
                 name = f"{device.fqn.lstrip('/')}/{part}"
                 record = self.spawned.get(name)
                 origin = f"spawned from {record.spawnable.source}" if record else "configured"
+                if record and record.namespace:
+                    origin += f" in namespace {record.namespace}"
                 description = f"part {part} on {device.fqn} ({origin})"
                 found.append(Entity(name, CATEGORY_OBJECT, description, device.fqn, kind, part, bool(record)))
             for body in self.bodies.get(device.fqn, []):
@@ -149,8 +155,6 @@ class CellWorld:
     def _parts_of(self, device: Device) -> list[str]:
         """Return the device's parts: as its latched topic last said, and what was spawned since."""
         spawned = [r.name for r in self.spawned.values() if r.device == device.fqn]
-        if device.kind == "throwing_arm" and spawned:
-            return spawned[-1:]  # the arm holds one part: the one spawned last
         return [*device.parts, *(name for name in spawned if name not in device.parts)]
 
     def entity(self, name: str) -> Entity:
@@ -160,21 +164,40 @@ class CellWorld:
                 return entity
         raise SimulationError(NOT_FOUND, f"entity: no entity named {name!r} (GetEntities lists them)")
 
-    def selected(self, pattern: str, categories: list[int], tags: list[str], bounded: bool) -> list[Entity]:
-        """Return the entities the standard's filters select."""
-        return select(self.entities(), pattern, categories, tags, bounded)
+    def selected(
+        self, pattern: str, categories: list[int], tags: list[str], sphere: Sphere | None
+    ) -> list[Entity]:
+        """Return the entities the standard's filters select.
+
+        A sphere selects an entity whose state's position (world frame) lies in it: entities are taken
+        as points. An entity with no state yet is in no sphere.
+        """
+        found = select(self.entities(), pattern, categories, tags)
+        if sphere is None:
+            return found
+        inside = []
+        for entity in found:
+            try:
+                state = self.state_of(entity)
+                if state.frame_id != WORLD:
+                    state = self.frames.state_in_world(state)
+            except SimulationError:
+                continue
+            if sphere.holds(state.position):
+                inside.append(entity)
+        return inside
 
     def state_of(self, entity: Entity) -> EntityState:
         """Return the latest observed state (a device: its base frame's pose in the cell, /tf_static)."""
         device = self.link.devices[entity.device]
         if entity.kind == "device":
-            frame = self.link.cell_frames.get(device.base_frame)
-            if frame is None:
+            if device.base_frame not in self.link.cell_frames:
                 raise SimulationError(
                     OPERATION_FAILED,
                     f"entity: no /tf_static transform of {device.base_frame} seen yet (configure the device)",
                 )
-            return frame
+            position, orientation = self.frames.in_world(device.base_frame)
+            return EntityState(WORLD, self.now_ns(), position, orientation)
         if entity.kind == "fixture_body":
             # Held in the assembly frame, which tilts with the table on /tf: the centre of mass, static.
             body = next(b for b in self.bodies[device.fqn] if b.name == entity.local)
@@ -188,7 +211,7 @@ class CellWorld:
                 OPERATION_FAILED,
                 f"entity: {entity.name}: no state since the device was (re)configured; step once",
             )
-        return state
+        return self.frames.state_in_world(state)
 
     # --- setting, spawning, deleting ------------------------------------------------------------------
     async def set_state(self, name: str, frame_id: str, pose: Pose, code: int) -> None:
@@ -203,7 +226,7 @@ class CellWorld:
                 OPERATION_FAILED, f"entity: {entity.name} is held by the fixture: tilt the fixture"
             )
         device = self.link.devices[entity.device]
-        self._check_frame(device, frame_id, "state.header.frame_id", code)
+        pose = self._in_device_frame(device, frame_id, pose, "state.header.frame_id", code)
         if entity.kind == "array_part":
             x, y, theta = planar_pose(*pose, "state.pose", code)
             place = MemsPlaceParts.Request(names=[entity.local], x=[x], y=[y], theta=[theta])
@@ -225,24 +248,42 @@ class CellWorld:
         pose: Pose,
         code: int,
     ) -> str:
-        """Spawn a part onto the device ``namespace`` names; return its entity name."""
-        device = self._device_for_spawn(namespace)
-        name = check_name(name or spawnable.part.name)
-        taken = set(self._parts_of(device)) if device.kind == "mems_field_array" else set()
+        """Spawn a part onto the device the pose's frame names (or whose plane a world pose lies in).
+
+        Returns its entity name. A spawn never removes another entity: the arm, which holds one part,
+        refuses a second. ``namespace`` is the standard's: a ROS namespace for the entity's interfaces
+        (a part has none), checked and recorded, never a device choice.
+        """
+        check_namespace(namespace)
+        device, local = self._device_for_spawn(frame_id, pose, code)
+        if device.kind == "throwing_arm":
+            held = ", ".join(f"{device.fqn.lstrip('/')}/{p}" for p in self._parts_of(device)) or "its part"
+            raise SimulationError(
+                OPERATION_FAILED,
+                f"initial_pose: {device.fqn} holds one part ({held}) and a spawn never removes another "
+                "entity; SetEntityState moves that part, the arm's own ~/load_part replaces it",
+            )
+        if not name:
+            if spawnable.named:
+                name = spawnable.part.name
+            elif allow_renaming:
+                name = "part"
+            else:
+                raise SimulationError(
+                    NAME_INVALID,
+                    "name: empty, the part document names none and allow_renaming is false",
+                )
+        name = check_name(name)
+        taken = set(self._parts_of(device))
         if name in taken:
             if not allow_renaming:
                 raise SimulationError(
                     NAME_NOT_UNIQUE, f"name: {device.fqn} already holds a part named {name!r}"
                 )
             name = next(f"{name}_{k}" for k in range(2, 10_000) if f"{name}_{k}" not in taken)
-        self._check_frame(device, frame_id, "initial_pose.header.frame_id", code)
-        if device.kind == "mems_field_array":
-            at = planar_pose(*pose, "initial_pose.pose", code)
-        else:
-            edge, radius = await self._arm_rest(device, spawnable.part, pose, "initial_pose.pose", code)
-            at = (float(edge), radius, 0.0)
-        await self._spawn_record(SpawnRecord(device.fqn, name, spawnable, at))
-        self._placed(device, name, pose)
+        at = planar_pose(*local, "initial_pose.pose", code)
+        await self._spawn_record(SpawnRecord(device.fqn, name, spawnable, at, namespace))
+        self._placed(device, name, local)
         return f"{device.fqn.lstrip('/')}/{name}"
 
     async def delete(self, name: str) -> None:
@@ -299,13 +340,62 @@ class CellWorld:
         return found, unrecognized
 
     # --- helpers -------------------------------------------------------------------------------------
-    def _check_frame(self, device: Device, frame_id: str, field: str, code: int) -> None:
+    @property
+    def frames(self) -> Frames:
+        """The static frame tree as last seen (``world`` its root)."""
+        return Frames(self.link.cell_frames)
+
+    def _frame_of(self, device: Device) -> str:
         self.link.refresh(device)
-        frame = device.frame_id or device.base_frame
-        if frame_id not in ("", frame):
+        return device.frame_id or device.base_frame
+
+    def _in_device_frame(self, device: Device, frame_id: str, pose: Pose, field: str, code: int) -> Pose:
+        """Return ``pose`` in the device's frame: given in the world ('', world) or in that frame."""
+        frame = self._frame_of(device)
+        if frame_id == frame:
+            return pose
+        if not self.frames.is_world(frame_id):
             raise SimulationError(
-                code, f"{field}: poses on {device.fqn} are in its frame {frame!r}, got {frame_id!r}"
+                code,
+                f"{field}: {frame_id!r} is neither the world ('', {WORLD!r}, {self.frames.root()!r}) nor "
+                f"{device.fqn}'s frame {frame!r}",
             )
+        try:
+            return self.frames.from_world(frame, pose)
+        except SimulationError as error:
+            raise SimulationError(code, f"{field}: {error.message}") from None
+
+    def _device_for_spawn(self, frame_id: str, pose: Pose, code: int) -> tuple[Device, Pose]:
+        """Return the device a spawn goes to and the pose in its frame (SpawnEntity: the pose's frame)."""
+        field = "initial_pose.header.frame_id"
+        holders = [d for d in self.link.devices.values() if d.kind != "assembly_fixture"]
+        frames = {d.fqn: self._frame_of(d) for d in holders}
+        listed = ", ".join(sorted(frames.values()))
+        if not self.frames.is_world(frame_id):
+            for device in holders:
+                if frames[device.fqn] == frame_id:
+                    return device, pose
+            raise SimulationError(
+                code,
+                f"{field}: unknown frame {frame_id!r}: the world ('', {WORLD!r}) or a device frame "
+                f"({listed})",
+            )
+        fits: list[tuple[Device, Pose]] = []
+        for device in holders:
+            try:
+                local = self.frames.from_world(frames[device.fqn], pose)
+                planar_pose(*local, "initial_pose.pose", code)
+            except SimulationError:
+                continue
+            fits.append((device, local))
+        if len(fits) == 1:
+            return fits[0]
+        which = "no device's plane" if not fits else "the planes of " + ", ".join(d.fqn for d, _ in fits)
+        raise SimulationError(
+            code,
+            f"initial_pose: in the world frame the pose lies in {which}; give it in a device frame "
+            f"({listed})",
+        )
 
     async def _arm_rest(
         self, device: Device, part: Part, pose: Pose, field: str, code: int
@@ -316,43 +406,19 @@ class CellWorld:
         return arm_rest(x, y, yaw, geometry.edge_angle, geometry.d, offset, field, code)
 
     def _placed(self, device: Device, name: str, pose: Pose) -> None:
-        """Remember a pose set or spawned: the entity's state until the device's next sample."""
-        self.link.refresh(device)
-        frame = device.frame_id or device.base_frame
-        device.placed[name] = EntityState(frame, self.now_ns(), *pose)
-
-    def _device_for_spawn(self, namespace: str) -> Device:
-        if not namespace:
-            arrays = [d for d in self.link.devices.values() if d.kind == "mems_field_array"]
-            if len(arrays) == 1:
-                return arrays[0]
-            raise SimulationError(NAMESPACE_INVALID, "entity_namespace: name the device to spawn onto")
-        device = self.link.devices.get("/" + namespace.strip("/"))
-        if device is None or device.kind == "assembly_fixture":
-            holders = [d.fqn for d in self.link.devices.values() if d.kind != "assembly_fixture"]
-            raise SimulationError(
-                NAMESPACE_INVALID,
-                f"entity_namespace: {namespace!r} is no device parts spawn onto ({', '.join(holders)})",
-            )
-        return device
+        """Remember a pose set or spawned (device frame): its state until the device's next sample."""
+        device.placed[name] = EntityState(self._frame_of(device), self.now_ns(), *pose)
 
     async def _spawn_record(self, record: SpawnRecord) -> None:
         device = self.link.devices[record.device]
-        text, source = record.spawnable.text, record.spawnable.source
-        request: Any
-        if device.kind == "mems_field_array":
-            x, y, theta = record.pose
-            request = MemsSpawnPart.Request(
-                name=record.name, part_yaml=text, source=source, x=x, y=y, theta=theta
-            )
-            await self.link.device_call(device.fqn, "spawn_part", request, "spawn_entity")
-        else:
-            # The arm holds one part: the one it held before is replaced (and no longer a spawned entity).
-            for key in [k for k, r in self.spawned.items() if r.device == device.fqn]:
-                del self.spawned[key]
-            edge, radius = int(record.pose[0]), record.pose[1]
-            request = ArmLoadPart.Request(
-                name=record.name, part_yaml=text, source=source, edge=edge, radius=radius
-            )
-            await self.link.device_call(device.fqn, "load_part", request, "spawn_entity")
+        x, y, theta = record.pose
+        request = MemsSpawnPart.Request(
+            name=record.name,
+            part_yaml=record.spawnable.text,
+            source=record.spawnable.source,
+            x=x,
+            y=y,
+            theta=theta,
+        )
+        await self.link.device_call(device.fqn, "spawn_part", request, "spawn_entity")
         self.spawned[f"{device.fqn.lstrip('/')}/{record.name}"] = record
