@@ -16,6 +16,7 @@ SUBCOMMAND_MODULES = (
     "feeder_cell.cli.equilibria",
     "feeder_cell.cli.part_info",
     "feeder_cell.cli.throwing",
+    "feeder_cell.cli.squeeze",
     "feeder_cell.cli.assembly",
     "feeder_cell.cli.bridge",
 )
