@@ -24,6 +24,7 @@ from rcl_interfaces.srv import GetParameters
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
+from rclpy.parameter import parameter_value_to_python
 from rclpy.task import Future
 from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
@@ -112,7 +113,9 @@ class CellLink:
         self.devices[fqn] = device
         services: dict[str, Any] = {"change_state": ChangeState, "get_state": GetState}
         if kind == "mems_field_array":
+            # get_parameters: what the array was configured with, its parts' initial state after a reset.
             services |= {
+                "get_parameters": GetParameters,
                 "place_parts": MemsPlaceParts,
                 "spawn_part": MemsSpawnPart,
                 "remove_part": MemsRemovePart,
@@ -308,6 +311,16 @@ class CellLink:
             return str(value.string_value)
         raise SimulationError(OPERATION_FAILED, f"{fqn}: parameter {name} is neither a number nor a string")
 
+    async def parameters(self, fqn: str, names: list[str]) -> dict[str, object]:
+        """Return a device's parameters by name (those it does not declare are left out)."""
+        request = GetParameters.Request(names=names)
+        response = await self.call(self.clients[(fqn, "get_parameters")], request, f"{fqn} parameters")
+        return {
+            name: parameter_value_to_python(value)
+            for name, value in zip(names, response.values, strict=False)
+            if value.type != ParameterType.PARAMETER_NOT_SET
+        }
+
     async def lifecycle(self, fqn: str) -> str:
         """Return the device's primary lifecycle state (unconfigured, inactive, active, ...)."""
         response = await self.call(self.clients[(fqn, "get_state")], GetState.Request(), f"{fqn} get_state")
@@ -327,15 +340,15 @@ class CellLink:
         if not response.success:
             raise SimulationError(OPERATION_FAILED, f"{fqn}: lifecycle transition {name} refused")
 
-    async def reconfigure(self, fqn: str, activate: bool | None) -> None:
+    async def reconfigure(self, fqn: str, activate: bool | None) -> bool:
         """Bring a device back to its configured initial state (cleanup, configure); active again if asked.
 
         ``activate`` None keeps it as it was; an unconfigured device is left unconfigured (it has no
-        configured state to go back to).
+        configured state to go back to): False.
         """
         state = await self.lifecycle(fqn)
         if state == "unconfigured":
-            return
+            return False
         was_active = state == "active"
         if was_active:
             await self.transition(fqn, "deactivate")
@@ -358,3 +371,4 @@ class CellLink:
                 )
         if activate or (activate is None and was_active):
             await self.transition(fqn, "activate")
+        return True

@@ -7,6 +7,7 @@ and the spawned parts a STATE reset spawns again. Poses arrive as plain tuples (
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -44,8 +45,13 @@ from feeder_planner.assembly.model import Body
 from feeder_planner.assembly.parameters import load_assembly_parameter
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit.msg_parts import part_from_msg
+from feeder_planner.parameter_specs import from_values, specs_of
 from feeder_planner.parts import Part
 from feeder_planner.throwing.geometry import arm_part
+from feeder_sim.mems.configure import configure_scene
+from feeder_sim.mems.parameters import MemsParameters
+from feeder_sim.node_kit.msg_mems import part_state_msgs
+from feeder_sim.throwing.parameters import ArmParameters, configure_arm
 
 __all__ = ["CellWorld", "SpawnRecord", "Pose", "MAX_SPAWNABLES", "MAX_FILES_PER_SOURCE"]
 
@@ -81,9 +87,10 @@ class CellWorld:
     async def stop(self) -> None:
         """Reset every device to its configured initial state and hold it inactive (STOPPED)."""
         self.stopped_active = [fqn for fqn in self.link.devices if await self.link.lifecycle(fqn) == "active"]
-        for fqn in self.link.devices:
-            await self.link.reconfigure(fqn, activate=False)
         self.spawned.clear()
+        for fqn in self.link.devices:
+            if await self.link.reconfigure(fqn, activate=False):
+                await self._initial_states(self.link.devices[fqn])
         self.stopped = True
 
     async def start(self) -> None:
@@ -95,12 +102,17 @@ class CellWorld:
     async def reset(self, reset: Reset) -> None:
         """Reset device state (reconfigure, then spawn the spawned parts again) and/or spawned parts."""
         if reset.state:
-            for fqn in self.link.devices:
-                await self.link.reconfigure(fqn, activate=None)
             kept = [] if reset.spawned else list(self.spawned.values())
             self.spawned.clear()
+            for fqn in self.link.devices:
+                if await self.link.reconfigure(fqn, activate=None):
+                    await self._initial_states(self.link.devices[fqn])
             for record in kept:
                 await self._spawn_record(record)
+                x, y, theta = record.pose
+                half = 0.5 * theta
+                pose = ((x, y, 0.0), (0.0, 0.0, math.sin(half), math.cos(half)))
+                self._placed(self.link.devices[record.device], record.name, pose)
         elif reset.spawned:
             for name, record in list(self.spawned.items()):
                 remove = MemsRemovePart.Request(name=record.name)
@@ -109,6 +121,42 @@ class CellWorld:
                 self.link.devices[record.device].parts = [
                     p for p in self.link.devices[record.device].parts if p != record.name
                 ]
+
+    async def _initial_states(self, device: Device) -> None:
+        """Take the configured initial state of the device's parts as their state until its next sample.
+
+        The device's own ROS-free model is built from the parameters it was configured with (the same
+        code its configure runs: ``configure_scene``, ``configure_arm``), so the state is exact, seeds
+        included. A device whose parameters cannot be read or built leaves its parts without a state
+        (GetEntityState says: step once).
+        """
+        frame, now = self._frame_of(device), self.now_ns()
+        try:
+            if device.kind == "mems_field_array":
+                names = [spec.name for spec in specs_of(MemsParameters)]
+                values = await self.link.parameters(device.fqn, names)
+                configured = configure_scene(from_values(MemsParameters, values))
+                for state in part_state_msgs(configured.names, configured.scene.bodies):
+                    p, q, v, w = (
+                        state.pose.position,
+                        state.pose.orientation,
+                        state.twist.linear,
+                        state.twist.angular,
+                    )
+                    device.placed[state.name] = EntityState(
+                        frame, now, (p.x, p.y, p.z), (q.x, q.y, q.z, q.w), (v.x, v.y, v.z), (w.x, w.y, w.z)
+                    )
+            elif device.kind == "throwing_arm":
+                names = [spec.name for spec in specs_of(ArmParameters)]
+                values = await self.link.parameters(device.fqn, names)
+                x, y, theta = configure_arm(from_values(ArmParameters, values)).rest_pose()
+                half = 0.5 * theta
+                for part in device.parts:
+                    device.placed[part] = EntityState(
+                        frame, now, (x, y, 0.0), (0.0, 0.0, math.sin(half), math.cos(half))
+                    )
+        except (InputError, SimulationError, TypeError, ValueError):
+            return
 
     # --- entities ------------------------------------------------------------------------------------
     async def observe_fixtures(self) -> None:
