@@ -21,6 +21,7 @@ setup(
             "mems_field_array = feeder_sim.nodes:mems_field_array_main",
             "throwing_arm = feeder_sim.nodes:throwing_arm_main",
             "assembly_fixture = feeder_sim.nodes:assembly_fixture_main",
+            "squeeze_gripper = feeder_sim.nodes:squeeze_gripper_main",
         ],
     },
 )
