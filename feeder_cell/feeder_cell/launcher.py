@@ -18,6 +18,8 @@ from typing import Any, Literal, TypeAlias, cast
 
 import yaml
 
+from feeder_cell.experiment.arrivals import Arrivals, scene_arrivals, scene_seed
+from feeder_cell.experiment.faults_process import FaultSpec, scene_faults
 from feeder_cell.node_modules import declared_parameters, node_class
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import load_yaml_mapping, optional, required, short_string
@@ -71,10 +73,17 @@ class NodeSpec:
 
 @dataclass(frozen=True)
 class Scene:
-    """A set of nodes run together: a scene runs only the models it names."""
+    """A set of nodes run together: a scene runs only the models it names.
+
+    ``seed`` seeds the scene's random inputs, ``arrivals`` says how parts arrive and ``faults`` when the
+    devices fail (docs/experiments.md); a scene without those sections has fixed arrivals and no faults.
+    """
 
     name: str
     nodes: tuple[NodeSpec, ...]
+    seed: int = 0
+    arrivals: Arrivals | None = None
+    faults: tuple[FaultSpec, ...] | None = None
 
 
 def scene_from_mapping(document: dict[str, Any], base_dir: Path) -> Scene:
@@ -108,7 +117,13 @@ def scene_from_mapping(document: dict[str, Any], base_dir: Path) -> Scene:
                 _host(optional(entry, "host", ""), f"{where}.host"),
             )
         )
-    return Scene(short_string(optional(document, "name", "scene"), "name", "a scene name"), tuple(nodes))
+    return Scene(
+        short_string(optional(document, "name", "scene"), "name", "a scene name"),
+        tuple(nodes),
+        scene_seed(document),
+        scene_arrivals(document),
+        scene_faults(document, tuple(n.node_name for n in nodes)),
+    )
 
 
 # ROS naming rules (rcl/rmw validate_node_name, validate_namespace): a node name and each namespace token
@@ -359,9 +374,32 @@ def load_scene(path: str | Path) -> Scene:
     try:
         scene = scene_from_mapping(load_yaml_mapping(path), Path(path).resolve().parent)
         checkdeclared_parameters(scene)
-        return scene
+        return with_arrivals_file(scene, Path(path))
     except InputError as error:
         raise error.with_source(str(path)) from None
+
+
+# The parameter by which a node reads a scene's arrivals (the reference controller's): the scene file.
+ARRIVALS_PARAMETER = "arrivals_file"
+
+
+def with_arrivals_file(scene: Scene, path: Path) -> Scene:
+    """Return ``scene`` with each node that takes ``arrivals_file`` pointed at the scene file.
+
+    Only when the scene has an ``arrivals:`` section and the node's own parameters leave it unset: a node
+    so told draws each cycle's part from the scene's arrivals and seed (docs/experiments.md).
+    """
+    if scene.arrivals is None:
+        return scene
+    nodes = []
+    for spec in scene.nodes:
+        takes = ARRIVALS_PARAMETER in declared_parameters(spec.package, spec.executable)
+        if takes and ARRIVALS_PARAMETER not in spec.parameters:
+            spec = dataclasses.replace(
+                spec, parameters={**spec.parameters, ARRIVALS_PARAMETER: str(path.resolve())}
+            )
+        nodes.append(spec)
+    return dataclasses.replace(scene, nodes=tuple(nodes))
 
 
 def resolve_executable(package: str, executable: str) -> Path:

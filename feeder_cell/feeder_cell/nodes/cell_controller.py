@@ -47,9 +47,11 @@ from rclpy.task import Future
 from std_srvs.srv import Trigger
 
 from feeder_cell.controller import CellMachine, Outcome, State, Transition
+from feeder_cell.experiment.arrivals import ArrivalStream, scene_arrivals, scene_seed
 from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError, LifecycleInterruptedError
 from feeder_msgs.action import FeedPart, FollowPath, RunProgram
-from feeder_msgs.msg import CellStatus, DeviceStatus, FieldProgram, FieldSpec
+from feeder_msgs.msg import CellStatus, DeviceStatus, FieldProgram, FieldSpec, MemsParts
+from feeder_msgs.msg import Part as PartMsg
 from feeder_msgs.srv import ArmPlacePart, MemsPlaceParts, StablePath
 from feeder_planner.errors import FeederError, InputError
 from feeder_planner.fields_io import load_yaml_mapping
@@ -68,7 +70,9 @@ from feeder_planner.node_kit import (
 from feeder_planner.node_kit.action_client import ActionClient
 from feeder_planner.node_kit.lockstep import Participant
 from feeder_planner.node_kit.msg_fields import fill_field_spec
+from feeder_planner.node_kit.msg_parts import part_from_msg
 from feeder_planner.node_kit.runner import StopRequest, build_node, profiled
+from feeder_planner.throwing.geometry import arm_part
 
 __all__ = ["PARAMETERS", "CellController", "main"]
 
@@ -147,6 +151,22 @@ PARAMETERS = (
     # INFEED and FEED: the throwing arm.
     ParameterSpec("infeed_edge", 2, "hull edge a new part arrives on (~/place_part)", integer, True),
     ParameterSpec("infeed_radius", 0.12, "R (m) a new part arrives at (~/place_part)", positive, True),
+    # Random arrivals (docs/experiments.md): set by feeder launch to a scene with an arrivals: section.
+    ParameterSpec(
+        "arrivals_file",
+        "",
+        "YAML with an arrivals: section and a seed (a scene file): each cycle's part poses are drawn "
+        "from it; empty: infeed_edge, infeed_radius and the array's initial poses",
+        None,
+        True,
+    ),
+    ParameterSpec(
+        "arrivals_replication",
+        0,
+        "replication whose random streams the arrivals draw",
+        integer_at_least(0),
+        True,
+    ),
     ParameterSpec("feed_max_throws", 40, "feed_part max_throws", integer_at_least(1), True),
     ParameterSpec(
         "feed_timeout", 60.0, "feed_part timeout (s, node clock; 0: max_throws only)", non_negative, True
@@ -218,6 +238,7 @@ class CellController(Node):
         for name in ("fixture_route", "fixture_home"):
             self.p[name] = [float(v) for v in self.p[name]]
         self.program = self._program()
+        self.arrivals = self._arrivals()
         self.machine = CellMachine(cycles=self.p["cycles"], max_retries=self.p["max_retries"])
         self.devices = {
             "mems": self.p["mems_device"],
@@ -231,6 +252,12 @@ class CellController(Node):
         for key, name in self.devices.items():
             self.create_subscription(DeviceStatus, f"{name}/status", self._status_callback(key), LATCHED)
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
+        # What the arrivals need of the devices: the names of the array's parts, the arm's part.
+        self.mems_names: list[str] | None = None
+        self.arm_part: PartMsg | None = None
+        if self.arrivals is not None:
+            self.create_subscription(MemsParts, f"{self.devices['mems']}/parts", self._on_mems_parts, LATCHED)
+            self.create_subscription(PartMsg, f"{self.devices['arm']}/part", self._on_arm_part, LATCHED)
         # Every client is made once, here: a server must discover a client before it can answer it.
         self.run_program = ActionClient(self, RunProgram, f"{self.devices['mems']}/run_program")
         self.feed_part = ActionClient(self, FeedPart, f"{self.devices['arm']}/feed_part")
@@ -375,6 +402,14 @@ class CellController(Node):
             response = self.call("mems", self.place_parts, MemsPlaceParts.Request(reset=True))
             if isinstance(response, Outcome):
                 return response
+        if (
+            self.arrivals is not None
+            and self.arrivals.arrivals.mems is not None
+            and self.machine.attempts == 0
+        ):
+            placed = self._place_arrivals()
+            if placed is not None:
+                return placed
         goal = RunProgram.Goal(
             program=self.program,
             timeout=self.p["orient_timeout"],
@@ -389,10 +424,62 @@ class CellController(Node):
         )
 
     def infeed(self) -> Outcome:
-        """Put a new part on the arm at the infeed pose (the presented one was taken)."""
+        """Put a new part on the arm at the infeed pose (the presented one was taken).
+
+        With arrivals, the cycle's drawn edge and radius (the same part again after a reset: the draw is
+        the cycle's, whatever the retries).
+        """
         request = ArmPlacePart.Request(edge=self.p["infeed_edge"], radius=self.p["infeed_radius"])
+        if self.arrivals is not None and self.arrivals.arrivals.arm is not None:
+            if self.arrivals.drop is None:
+                problem = self._arm_drop()
+                if problem is not None:
+                    return problem
+            arrival = self.arrivals.arm(self.machine.cycle)
+            request = ArmPlacePart.Request(edge=arrival.edge, radius=arrival.radius)
+            self.get_logger().info(
+                f"cycle {self.machine.cycle}: part arrives on edge {arrival.edge} at R {arrival.radius:.6g} m"
+            )
         response = self.call("arm", self.place_part, request)
         return response if isinstance(response, Outcome) else Outcome("DONE")
+
+    def _place_arrivals(self) -> Outcome | None:
+        """Place every part on the array at this cycle's drawn pose; an Outcome if that failed."""
+        assert self.arrivals is not None
+        if not self._wait_until(lambda: self.mems_names is not None) or not self.mems_names:
+            return Outcome("ERROR", 0, f"arrivals: no part names from {self.devices['mems']}/parts")
+        names = list(self.mems_names)
+        poses = self.arrivals.mems(self.machine.cycle, len(names))
+        request = MemsPlaceParts.Request(
+            reset=False,
+            names=names,
+            x=[p[0] for p in poses],
+            y=[p[1] for p in poses],
+            theta=[p[2] for p in poses],
+        )
+        response = self.call("mems", self.place_parts, request)
+        if isinstance(response, Outcome):
+            return response
+        placed = ", ".join(
+            f"{n} ({x:.6g}, {y:.6g}, {t:.6g})" for n, (x, y, t) in zip(names, poses, strict=True)
+        )
+        self.get_logger().info(f"cycle {self.machine.cycle}: parts placed on the array at {placed}")
+        return None
+
+    def _arm_drop(self) -> Outcome | None:
+        """Compute the arm part's drop distribution from its ~/part; an Outcome if it cannot be had."""
+        assert self.arrivals is not None
+        if not self._wait_until(lambda: self.arm_part is not None) or self.arm_part is None:
+            return Outcome("ERROR", 0, f"arrivals: no part from {self.devices['arm']}/part")
+        try:
+            drop = self.arrivals.set_part(arm_part(part_from_msg(self.arm_part, "part")))
+        except FeederError as error:
+            return Outcome("ERROR", 0, f"arrivals: the arm part's drop distribution: {error}")
+        shares = ", ".join(f"{p:.4f}" for p in drop.probabilities)
+        self.get_logger().info(
+            f"arrivals: {drop.fidelity} drop distribution of the arm part by edge: {shares}"
+        )
+        return None
 
     def feed(self) -> Outcome:
         """Throw until the arm's sensor says the part is presented (or max throws, timeout, a fault)."""
@@ -590,6 +677,27 @@ class CellController(Node):
             raise InputError("parameter orient_program_file", str(error)) from None
         program.steps = [fill_field_spec(FieldSpec(), step) for step in steps]
         return program
+
+    def _arrivals(self) -> ArrivalStream | None:
+        """Return the arrivals ``arrivals_file`` names (its arrivals: section and seed), or None."""
+        path = self.p["arrivals_file"]
+        if not path:
+            return None
+        try:
+            document = load_yaml_mapping(path)
+            arrivals = scene_arrivals(document)
+            if arrivals is None:
+                raise InputError("arrivals", "is missing: the file has no arrivals: section")
+            seed = scene_seed(document)
+        except InputError as error:
+            raise InputError("parameter arrivals_file", str(error)) from None
+        return ArrivalStream(arrivals, seed, self.p["arrivals_replication"])
+
+    def _on_mems_parts(self, msg: MemsParts) -> None:
+        self.mems_names = [part.name for part in msg.parts]
+
+    def _on_arm_part(self, msg: PartMsg) -> None:
+        self.arm_part = msg
 
     @staticmethod
     def _route(flat: list[float]) -> list[Vector3]:
