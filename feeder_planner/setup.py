@@ -24,6 +24,7 @@ setup(
             "field_equilibria_planner = feeder_planner.nodes:field_equilibria_planner_main",
             "throw_planner = feeder_planner.nodes:throw_planner_main",
             "stable_region_planner = feeder_planner.nodes:stable_region_planner_main",
+            "squeeze_planner = feeder_planner.nodes:squeeze_planner_main",
         ],
     },
 )

@@ -28,6 +28,8 @@ NODES = {
     "field_equilibria_planner": "feeder_planner",
     "throw_planner": "feeder_planner",
     "stable_region_planner": "feeder_planner",
+    "squeeze_gripper": "feeder_sim",
+    "squeeze_planner": "feeder_planner",
     "cell_clock": "feeder_cell",
     "cell_simulation": "feeder_cell",
     "cell_controller": "feeder_cell",

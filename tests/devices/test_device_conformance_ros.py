@@ -51,7 +51,7 @@ from std_srvs.srv import Trigger
 
 from feeder_cell import launcher
 from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError
-from feeder_msgs.action import FeedPart, FollowPath, RunProgram
+from feeder_msgs.action import FeedPart, FollowPath, RunPlan, RunProgram
 from feeder_msgs.msg import DeviceStatus, FieldProgram, FieldSpec
 from feeder_msgs.srv import (
     ArmCommand,
@@ -60,6 +60,7 @@ from feeder_msgs.srv import (
     FixtureMove,
     InjectFault,
     MemsPlaceParts,
+    SqueezePlacePart,
 )
 from feeder_planner.node_kit.request_limits import MAX_MOVE_SAMPLES
 from feeder_sim.fixture import gravity_of
@@ -144,6 +145,13 @@ class Action:
 
 
 @dataclass(frozen=True)
+class Goal:
+    """A goal to the device's action: what makes a fault act that acts only in motion (a squeeze)."""
+
+    request: Any
+
+
+@dataclass(frozen=True)
 class Fault:
     """How to inject one declared fault: InjectFault fields, a bad magnitude, what makes it act or undoes it.
 
@@ -154,7 +162,7 @@ class Fault:
 
     fields: Mapping[str, Any] = field(default_factory=dict)
     bad: Hostile | None = None
-    act: Call | None = None
+    act: Call | Goal | None = None
     stops: bool = False
     restore: Call | None = None
 
@@ -219,6 +227,7 @@ def run_goal(
 
 
 TRIANGLE = str(ROOT / "examples" / "throwing" / "triangle.yaml")
+SQUEEZE_RECTANGLE = str(ROOT / "examples" / "squeeze" / "rectangle.yaml")
 BRACKET = str(ROOT / "examples" / "mems" / "bracket.yaml")
 ARM_TIMEOUT = "timeout: must be finite and >= 0 s (0: no limit), got"
 RUN_TIMEOUT = "timeout: must be a finite number > 0"
@@ -516,6 +525,58 @@ DEVICES = (
             ({"tilt_y_max": 0.5, "initial_tilt_y": 0.8}, ("parameter initial_tilt_y",)),
             ({"publish_rate": -5.0}, ("parameter publish_rate",)),
             ({"inject_faults": ["rate_limit=1.5"]}, ("parameter inject_faults[0] (value)",)),
+        ),
+    ),
+    DeviceCase(
+        "feeder_sim",
+        "squeeze_gripper",
+        # The 2 x 1 cm rectangle between the jaws; Goldberg's plan of two squeezes orients it.
+        {"part_file": SQUEEZE_RECTANGLE, "jaw_speed": 0.2, "turn_speed": 20.0, "fault_seed": 3},
+        ("jaw_speed", -1.0, 0.2),
+        ("friction", 0.3, 5.0),
+        (
+            Service(
+                SqueezePlacePart,
+                "place_part",
+                SqueezePlacePart.Request(orientation=0.3),
+                (
+                    hostile(SqueezePlacePart.Request(orientation=math.nan), "orientation", "finite"),
+                    hostile(SqueezePlacePart.Request(orientation=math.inf), "orientation", "finite"),
+                ),
+                {"orientation": 0.3},
+            ),
+        ),
+        Action(
+            RunPlan,
+            "run_plan",
+            RunPlan.Goal(angles=[0.0, math.pi / 4]),
+            "DONE",
+            "plan_goals",
+            (
+                hostile(RunPlan.Goal(), "angles: a plan needs at least one squeeze"),
+                hostile(RunPlan.Goal(angles=[0.0, math.nan]), "angles[1]: must be finite"),
+                hostile(RunPlan.Goal(angles=[0.0], timeout=-1.0), "timeout: must be finite and >= 0 s"),
+                hostile(RunPlan.Goal(angles=[0.0] * 1001), "angles: 1001 squeezes", "limit per goal is 1000"),
+            ),
+        ),
+        {
+            # Armed: the jaws stall at the next squeeze (FAULT 401); clearing it opens them.
+            "jaw_stall": Fault(act=Goal(RunPlan.Goal(angles=[0.0])), stops=True),
+            # Certain to drop at the next squeeze (FAULT 402); the part must be placed again.
+            "part_dropped": Fault(
+                {"value": 1.0},
+                hostile({"value": 1.5}, "value", "probability"),
+                act=Goal(RunPlan.Goal(angles=[0.0])),
+                stops=True,
+                restore=Call(SqueezePlacePart, "place_part", SqueezePlacePart.Request(orientation=0.3)),
+            ),
+            "jaw_worn": Fault({"value": 0.4}, hostile({"value": 0.0}, "value", "friction increase")),
+        },
+        (
+            ({"part_file": "/nonexistent/part.yaml"}, ("parameter part_file",)),
+            ({"fidelity": "paper"}, ("parameter fidelity",)),
+            ({"open_width": 0.001}, ("parameter open_width",)),
+            ({"inject_faults": ["part_dropped=1.5"]}, ("parameter inject_faults[0] (value)",)),
         ),
     ),
 )
@@ -1013,7 +1074,9 @@ def test_every_declared_fault_is_injected_seen_by_a_subscriber_and_cleared(
     assert labelled(fault, response.active_faults), response.active_faults
     seen = cell.status(case, lambda s: labelled(fault, s.active_faults))
     mark = cell.diagnostics.count()
-    if how.act is not None:
+    if isinstance(how.act, Goal):
+        assert cell.send_goal(case, how.act.request).accepted
+    elif how.act is not None:
         assert cell.call(case, how.act.srv, how.act.name, how.act.request).ok
     if spec.stops_device or how.stops:
         seen = cell.status(case, lambda s: s.state_name == "FAULT" and labelled(fault, s.active_faults))

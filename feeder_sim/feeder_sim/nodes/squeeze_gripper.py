@@ -52,7 +52,10 @@ FAULTS = fault_specs(
     }
 )
 # The model fault each stopping gripper fault raises when it acts.
-ACTING_CODES = {"jaw_stall": SqueezeState.FAULT_JAW_STALL, "part_dropped": SqueezeState.FAULT_PART_DROPPED}
+ACTING_CODES: dict[str, int] = {
+    "jaw_stall": SqueezeState.FAULT_JAW_STALL,
+    "part_dropped": SqueezeState.FAULT_PART_DROPPED,
+}
 
 
 class SqueezeGripperNode(ManagedDevice[GripperParameters]):
@@ -120,7 +123,13 @@ class SqueezeGripperNode(ManagedDevice[GripperParameters]):
             gripper.dynamic = type(gripper.dynamic)(step=float(p.dynamic_step))
 
     def busy(self) -> bool:
-        """Whether a squeeze is in progress (the jaws moving) or a goal executes."""
+        """Whether a squeeze is in progress (the jaws moving) or a goal executes; never once faulted.
+
+        A fault that acts during a goal is raised inside the tick, before the kit advances the goal (which
+        then ends FAULT): the status published with the fault would otherwise say busy for that instant.
+        """
+        if self.model_fault is not None:
+            return False
         return super().busy() or (self.gripper is not None and self.gripper.phase != "IDLE")
 
     def stop_device(self) -> None:
@@ -132,9 +141,19 @@ class SqueezeGripperNode(ManagedDevice[GripperParameters]):
             self.wake_goals()
 
     def reset_device(self) -> None:
-        """Back to IDLE: jaws stopped by a stall open again (a dropped part still needs ~/place_part)."""
+        """Back to IDLE: jaws stopped by a stall open again; a dropped part still needs ~/place_part."""
         if self.gripper is not None:
             self.gripper.recover()
+            self._require_part_again()
+
+    def _require_part_again(self) -> None:
+        """Hold FAULT_PART_DROPPED while the part that dropped is not placed again."""
+        gripper = self.gripper
+        if gripper is not None and gripper.dropped and self.model_fault is None:
+            self.model_fault = (
+                SqueezeState.FAULT_PART_DROPPED,
+                "the part dropped from the jaws (~/place_part puts it back)",
+            )
 
     def apply_fault(self, fault: ActiveFault) -> None:
         """Put an injected fault into the gripper model (checked there: InputError naming the value)."""
@@ -145,12 +164,15 @@ class SqueezeGripperNode(ManagedDevice[GripperParameters]):
         )
 
     def clear_fault(self, name: str) -> None:
-        """Take a fault out of the model; clearing a stall that acted ends its FAULT and opens the jaws."""
+        """Take a fault out of the model; a stall that acted ends with it (the jaws open), a drop does not.
+
+        A dropped part stays dropped (FAULT_PART_DROPPED) until ~/place_part puts one back.
+        """
         if self.gripper is None:
             return
         self.gripper.faults.clear(name)
-        code = ACTING_CODES.get(name)
-        if code is not None and self.model_fault is not None and self.model_fault[0] == code:
+        stalled = self.model_fault is not None and self.model_fault[0] == SqueezeState.FAULT_JAW_STALL
+        if name == "jaw_stall" and stalled:
             self.model_fault = None
             self.gripper.recover()
 
@@ -166,12 +188,20 @@ class SqueezeGripperNode(ManagedDevice[GripperParameters]):
     def _on_place_part(
         self, request: SqueezePlacePart.Request, response: SqueezePlacePart.Response
     ) -> SqueezePlacePart.Response:
-        """Put the part between the open jaws at an orientation (or a random one from the seed)."""
-        self.require_ready("place_part")
+        """Put the part between the open jaws (or at a random orientation); this ends FAULT_PART_DROPPED."""
+        fault = self.stopping_fault()
+        dropped_only = fault is not None and fault[0] == SqueezeState.FAULT_PART_DROPPED
+        if not (dropped_only and self.active and not self.stopped):
+            self.require_ready("place_part")
         if self.goals:
             raise DeviceError("place_part refused: a goal is executing; cancel it first")
         orientation = None if request.random else check_angle(request.orientation, "orientation")
-        response.orientation = self.model().place(orientation)
+        gripper = self.model()
+        if gripper.phase != "IDLE":
+            raise DeviceError(f"place_part refused: the jaws are {gripper.phase}; wait for IDLE")
+        response.orientation = gripper.place(orientation)
+        if dropped_only:
+            self.model_fault = None
         self.count.add("parts_placed")
         self.publish_status()
         return response
@@ -179,7 +209,8 @@ class SqueezeGripperNode(ManagedDevice[GripperParameters]):
     # --- the actions ---------------------------------------------------------------------------------
     def _require_free(self, what: str) -> None:
         """Refuse a goal while the other action's goal executes or no part is between the jaws."""
-        if self.plan is not None and not self.plan.done:
+        # The kit's runner holds the executing goals (a goal its guard aborted is gone from it too).
+        if self.goals:
             raise DeviceError(f"{what} goal refused: a squeeze goal is executing; cancel it first")
         if not self.model().holding:
             raise DeviceError(f"{what} goal refused: no part between the jaws; ~/place_part first")
@@ -221,7 +252,12 @@ class SqueezeGripperNode(ManagedDevice[GripperParameters]):
             gripper.advance(elapsed)
         except GripperFaultError as error:
             self.count.add("jaw_stalls" if error.name == "jaw_stall" else "parts_dropped")
-            self.raise_model_fault(ACTING_CODES[error.name], str(error))
+            remedy = (
+                " (~/place_part puts it back)"
+                if error.name == "part_dropped"
+                else " (~/reset opens the jaws)"
+            )
+            self.raise_model_fault(ACTING_CODES[error.name], f"{error}{remedy}")
         if gripper.squeezes > before:
             self.count.add("squeezes", gripper.squeezes - before)
         self.state_pub.publish(state_msg(now_ns, self.frame_id, gripper))

@@ -106,6 +106,7 @@ class SqueezeGripper:
         self.jaw_width = self.open_width
         self.phase: Phase = "IDLE"
         self.current: _Squeeze | None = None
+        self.dropped = False  # the part fell from the jaws (a fault) and was not placed again
         self.rng = np.random.default_rng(self.seed)
 
     # --- commands ------------------------------------------------------------------------------------
@@ -118,7 +119,7 @@ class SqueezeGripper:
             if orientation is None
             else finite_number(orientation, "orientation")
         )
-        self.orientation, self.holding = theta, True
+        self.orientation, self.holding, self.dropped = theta, True, False
         return theta
 
     @property
@@ -231,6 +232,7 @@ class SqueezeGripper:
         self.squeezes += 1
         if self.faults.drops():
             self.orientation, self.holding, self.current, self.phase = math.nan, False, None, "OPENING"
+            self.dropped = True
             raise GripperFaultError(
                 "part_dropped", f"the part dropped from the jaws at squeeze {self.squeezes}"
             )

@@ -9,7 +9,7 @@ executable (and default node name), and the ``KIND`` of a ``devices`` entry.
 
 from __future__ import annotations
 
-from feeder_cell.gateway.kinds import assembly_fixture, mems_field_array, throwing_arm
+from feeder_cell.gateway.kinds import assembly_fixture, mems_field_array, squeeze_gripper, throwing_arm
 from feeder_cell.gateway.spec import KindProfile
 
 __all__ = ["KINDS"]
@@ -19,4 +19,5 @@ KINDS: dict[str, KindProfile] = {
     "throwing_arm": throwing_arm.PROFILE,
     "mems_field_array": mems_field_array.PROFILE,
     "assembly_fixture": assembly_fixture.PROFILE,
+    "squeeze_gripper": squeeze_gripper.PROFILE,
 }
