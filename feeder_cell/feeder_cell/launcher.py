@@ -374,31 +374,34 @@ def load_scene(path: str | Path) -> Scene:
     try:
         scene = scene_from_mapping(load_yaml_mapping(path), Path(path).resolve().parent)
         checkdeclared_parameters(scene)
-        return with_arrivals_file(scene, Path(path))
+        return with_section_files(scene, Path(path))
     except InputError as error:
         raise error.with_source(str(path)) from None
 
 
-# The parameter by which a node reads a scene's arrivals (the reference controller's): the scene file.
-ARRIVALS_PARAMETER = "arrivals_file"
+# The parameters by which a node reads a scene's random inputs (the reference controller's): the scene file.
+ARRIVALS_PARAMETER, FAULTS_PARAMETER = "arrivals_file", "faults_file"
 
 
-def with_arrivals_file(scene: Scene, path: Path) -> Scene:
-    """Return ``scene`` with each node that takes ``arrivals_file`` pointed at the scene file.
+def with_section_files(scene: Scene, path: Path) -> Scene:
+    """Return ``scene`` with each node that takes ``arrivals_file`` / ``faults_file`` pointed at the scene.
 
-    Only when the scene has an ``arrivals:`` section and the node's own parameters leave it unset: a node
-    so told draws each cycle's part from the scene's arrivals and seed (docs/experiments.md).
+    Only when the scene has that section (``arrivals:``, ``faults:``) and the node's own parameters leave
+    the parameter unset: a node so told draws each cycle's parts from the scene's arrivals, or injects the
+    scene's fault processes, from the scene's seed (docs/experiments.md).
     """
-    if scene.arrivals is None:
+    wanted = [
+        name
+        for name, section in ((ARRIVALS_PARAMETER, scene.arrivals), (FAULTS_PARAMETER, scene.faults))
+        if section is not None
+    ]
+    if not wanted:
         return scene
     nodes = []
     for spec in scene.nodes:
-        takes = ARRIVALS_PARAMETER in declared_parameters(spec.package, spec.executable)
-        if takes and ARRIVALS_PARAMETER not in spec.parameters:
-            spec = dataclasses.replace(
-                spec, parameters={**spec.parameters, ARRIVALS_PARAMETER: str(path.resolve())}
-            )
-        nodes.append(spec)
+        declared = declared_parameters(spec.package, spec.executable)
+        added = {n: str(path.resolve()) for n in wanted if n in declared and n not in spec.parameters}
+        nodes.append(dataclasses.replace(spec, parameters={**spec.parameters, **added}) if added else spec)
     return dataclasses.replace(scene, nodes=tuple(nodes))
 
 

@@ -75,6 +75,8 @@ def test_seeded_per_replication_and_per_device_whatever_the_other_devices() -> N
         ({**ARM, "repair": "normal"}, "faults.throwing_arm.repair", "exponential, fixed"),
         ({"mtbf": 1.0, "mttr": 1.0}, "faults.throwing_arm.fault", "is required"),
         ({**ARM, "mean": 1.0}, "faults.throwing_arm.mean", "not a field"),
+        ({**ARM, "state": "yes"}, "faults.throwing_arm.state", "true or false"),
+        ({**ARM, "value": "high"}, "faults.throwing_arm.value", "expected a number"),
         ("often", "faults.throwing_arm", "expected a mapping"),
     ],
 )
@@ -97,6 +99,9 @@ def test_the_scene_section_names_devices_of_the_scene(tmp_path: Path) -> None:
     path.write_text(yaml.safe_dump({**document, "faults": {"throwing_arm": ARM}}))
     scene = load_scene(path)
     assert scene.faults is not None and scene.faults[0].device == "throwing_arm"
+    (controller,) = [n for n in scene.nodes if n.executable == "cell_controller"]
+    assert controller.parameters["faults_file"] == str(path.resolve())
+    assert "arrivals_file" not in controller.parameters  # the scene has no arrivals: section
     path.write_text(yaml.safe_dump({**document, "faults": {"welder": ARM}}))
     with pytest.raises(InputError) as caught:
         load_scene(path)

@@ -9,6 +9,7 @@ A scene's ``faults:`` section, one entry per device (by its node name in the sce
         mttr: 30.0                 # s of cell time a failure lasts before it is repaired
         distribution: exponential  # or fixed: every up time mtbf, every repair mttr
         # or per time: up: exponential, repair: fixed
+        # value: 0.0, state: false   what ~/inject_fault is told besides the fault (docs/cell.md)
 
 A device's process alternates up times U_1, U_2, ... and repair times D_1, D_2, ...: failure j starts at
 t_j = sum_{l<=j} U_l + sum_{l<j} D_l and ends at t_j + D_j. Exponential times have the given means
@@ -54,6 +55,8 @@ class FaultSpec:
     mttr: float
     up: str = "exponential"
     repair: str = "exponential"
+    value: float = 0.0  # the injection's value (~/inject_fault: a probability, sigma...; docs/cell.md)
+    state: bool = False  # the injection's state (sensor_stuck: the stuck reading)
 
     @property
     def availability(self) -> float:
@@ -122,7 +125,7 @@ def _mean(value: Any, field: str) -> float:
     return number
 
 
-FIELDS: Final = ("fault", "mtbf", "mttr", "distribution", "up", "repair")
+FIELDS: Final = ("fault", "mtbf", "mttr", "distribution", "up", "repair", "value", "state")
 
 
 def faults_from_mapping(
@@ -149,6 +152,9 @@ def faults_from_mapping(
         for key in ("fault", "mtbf", "mttr"):
             if key not in entry:
                 raise InputError(f"{where}.{key}", "is required but missing")
+        state = optional(entry, "state", False)
+        if not isinstance(state, bool):
+            raise InputError(f"{where}.state", f"expected true or false, got {describe(state)}")
         both = _distribution(optional(entry, "distribution", "exponential"), f"{where}.distribution")
         specs.append(
             FaultSpec(
@@ -158,6 +164,8 @@ def faults_from_mapping(
                 _mean(entry["mttr"], f"{where}.mttr"),
                 _distribution(optional(entry, "up", both), f"{where}.up"),
                 _distribution(optional(entry, "repair", both), f"{where}.repair"),
+                finite_number(optional(entry, "value", 0.0), f"{where}.value"),
+                state,
             )
         )
     return tuple(specs)

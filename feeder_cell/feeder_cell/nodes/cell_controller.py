@@ -34,7 +34,7 @@ import math
 import sys
 import threading
 import time
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -48,11 +48,12 @@ from std_srvs.srv import Trigger
 
 from feeder_cell.controller import CellMachine, Outcome, State, Transition
 from feeder_cell.experiment.arrivals import ArrivalStream, scene_arrivals, scene_seed
+from feeder_cell.experiment.faults_process import FaultEvent, FaultProcess, FaultSpec, scene_faults
 from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError, LifecycleInterruptedError
 from feeder_msgs.action import FeedPart, FollowPath, RunProgram
 from feeder_msgs.msg import CellStatus, DeviceStatus, FieldProgram, FieldSpec, MemsParts
 from feeder_msgs.msg import Part as PartMsg
-from feeder_msgs.srv import ArmPlacePart, MemsPlaceParts, StablePath
+from feeder_msgs.srv import ArmPlacePart, InjectFault, MemsPlaceParts, StablePath
 from feeder_planner.errors import FeederError, InputError
 from feeder_planner.fields_io import load_yaml_mapping
 from feeder_planner.mems import program_from_mapping
@@ -151,7 +152,7 @@ PARAMETERS = (
     # INFEED and FEED: the throwing arm.
     ParameterSpec("infeed_edge", 2, "hull edge a new part arrives on (~/place_part)", integer, True),
     ParameterSpec("infeed_radius", 0.12, "R (m) a new part arrives at (~/place_part)", positive, True),
-    # Random arrivals (docs/experiments.md): set by feeder launch to a scene with an arrivals: section.
+    # Random arrivals and faults (docs/experiments.md): feeder launch sets the files to a scene with them.
     ParameterSpec(
         "arrivals_file",
         "",
@@ -161,9 +162,17 @@ PARAMETERS = (
         True,
     ),
     ParameterSpec(
-        "arrivals_replication",
+        "faults_file",
+        "",
+        "YAML with a faults: section and a seed (a scene file): each device's failures are injected "
+        "through its ~/inject_fault and repaired after their time; empty: none",
+        None,
+        True,
+    ),
+    ParameterSpec(
+        "replication",
         0,
-        "replication whose random streams the arrivals draw",
+        "replication whose random streams the arrivals and faults draw",
         integer_at_least(0),
         True,
     ),
@@ -239,6 +248,7 @@ class CellController(Node):
             self.p[name] = [float(v) for v in self.p[name]]
         self.program = self._program()
         self.arrivals = self._arrivals()
+        self.fault_specs = self._fault_specs()
         self.machine = CellMachine(cycles=self.p["cycles"], max_retries=self.p["max_retries"])
         self.devices = {
             "mems": self.p["mems_device"],
@@ -266,6 +276,14 @@ class CellController(Node):
         self.place_part = self.create_client(ArmPlacePart, f"{self.devices['arm']}/place_part")
         self.resets = {k: self.create_client(Trigger, f"{n}/reset") for k, n in self.devices.items()}
         self.safe_path = self.create_client(StablePath, f"{planner}/safe_path")
+        # Fault processes: each device's next failure, the repairs to come, when the cell time began.
+        self.injections = {
+            s.device: self.create_client(InjectFault, f"{s.device}/inject_fault") for s in self.fault_specs
+        }
+        self.next_failure: dict[str, tuple[Iterator[FaultEvent], FaultEvent]] = {}
+        self.repairs: list[FaultEvent] = []  # injected, not yet repaired (cleared at their end)
+        self.repair_at: dict[str, float] = {}  # device -> cell time (s, node clock) its failure ends
+        self.fault_origin = math.nan  # node-clock time of the first cycle's start: fault times count from it
         self.lifecycle = {
             k: LifecycleClient(self, None, n, keep_going=lambda: not self.stopping())
             for k, n in self.devices.items()
@@ -329,6 +347,7 @@ class CellController(Node):
                     return EXIT_STOPPED
             while not self.machine.finished:
                 self._check_stop()
+                self._inject_due()
                 state, started = self.machine.state, self.now()
                 outcome = work[state]()
                 self.step_times[state.value] = self.step_times.get(state.value, 0.0) + self.now() - started
@@ -519,6 +538,13 @@ class CellController(Node):
         key = self.machine.device
         if key == "planner":
             return Outcome("DONE")  # the planner holds no state to reset
+        end = self.repair_at.get(self.devices[key].rsplit("/", 1)[-1], -math.inf)
+        if end > self.now():
+            # A failure of the device's fault process lasts until its repair: the cell waits for it.
+            self.get_logger().info(
+                f"RECOVER: {self.devices[key]} is under repair until +{end - self.fault_origin:.3f} s"
+            )
+            self.wait(Future(), end - self.now())
         response = self.call(key, self.resets[key], Trigger.Request())
         if isinstance(response, Outcome):
             return response
@@ -579,6 +605,7 @@ class CellController(Node):
                 return False
             if self.lockstep is None:
                 time.sleep(POLL_S)
+                self._inject_due()
                 continue
             self.lockstep.release(self.settled_ns)
             settled = self.lockstep.wait_announcement(
@@ -588,6 +615,7 @@ class CellController(Node):
             if settled < 0:
                 return False
             self.settled_ns = settled
+            self._inject_due()
         return True
 
     def wait_wall(self, future: Any) -> bool:
@@ -691,7 +719,72 @@ class CellController(Node):
             seed = scene_seed(document)
         except InputError as error:
             raise InputError("parameter arrivals_file", str(error)) from None
-        return ArrivalStream(arrivals, seed, self.p["arrivals_replication"])
+        return ArrivalStream(arrivals, seed, self.p["replication"])
+
+    def _fault_specs(self) -> tuple[FaultSpec, ...]:
+        """Return the fault processes ``faults_file`` names (its faults: section), or none."""
+        path = self.p["faults_file"]
+        self.faults_seed = 0
+        if not path:
+            return ()
+        try:
+            document = load_yaml_mapping(path)
+            specs = scene_faults(document)
+            if specs is None:
+                raise InputError("faults", "is missing: the file has no faults: section")
+            self.faults_seed = scene_seed(document)
+        except InputError as error:
+            raise InputError("parameter faults_file", str(error)) from None
+        return specs
+
+    def _inject_due(self) -> None:
+        """Inject every failure whose time has come, and clear every one whose repair time has come.
+
+        Times count from the first cycle's start. An injection is sent and not waited on: the device's
+        answer comes within the quantum, its effect shows in the step's outcome, which the fault policy
+        handles. A clear at the repair time ends a fault the device keeps until then (a stuck sensor);
+        one the controller's ~/reset already cleared answers that it is not active, which is fine.
+        """
+        if not self.fault_specs or self.machine.state is State.BRING_UP:
+            return
+        now = self.now()
+        if math.isnan(self.fault_origin):
+            self.fault_origin = now
+            for spec in self.fault_specs:
+                events = FaultProcess(spec, self.faults_seed, self.p["replication"]).events()
+                self.next_failure[spec.device] = (events, next(events))
+        for spec in self.fault_specs:
+            events, event = self.next_failure[spec.device]
+            while self.fault_origin + event.start <= now:
+                self._send_fault(spec, event, clear=False)
+                self.repairs.append(event)
+                self.repair_at[spec.device] = self.fault_origin + event.end
+                event = next(events)
+            self.next_failure[spec.device] = (events, event)
+        for event in [e for e in self.repairs if self.fault_origin + e.end <= now]:
+            self.repairs.remove(event)
+            spec = next(s for s in self.fault_specs if s.device == event.device)
+            self._send_fault(spec, event, clear=True)
+
+    def _send_fault(self, spec: FaultSpec, event: FaultEvent, clear: bool) -> None:
+        """Send ~/inject_fault (or its clear) for ``event`` and log it; a refusal is logged when it comes."""
+        client = self.injections[spec.device]
+        request = InjectFault.Request(fault=spec.fault, clear=clear, value=spec.value, state=spec.state)
+        what = "repaired (cleared)" if clear else "injected"
+        self.get_logger().info(
+            f"fault process: {spec.fault} {what} in {spec.device} at +{self.now() - self.fault_origin:.3f} s "
+            f"(failure +{event.start:.3f} s to +{event.end:.3f} s)"
+        )
+        if not client.service_is_ready():
+            self.get_logger().warning(f"fault process: {client.srv_name} is not available")
+            return
+
+        def answered(future: Future) -> None:
+            response = future.result()
+            if response is not None and not response.ok and not clear:
+                self.get_logger().warning(f"fault process: {client.srv_name}: {response.error}")
+
+        client.call_async(request).add_done_callback(answered)
 
     def _on_mems_parts(self, msg: MemsParts) -> None:
         self.mems_names = [part.name for part in msg.parts]
