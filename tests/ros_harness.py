@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import fcntl
 import random
+import subprocess
 import sys
 import tempfile
 import threading
@@ -16,6 +17,24 @@ from feeder_cell.launcher import NodeProcess
 from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError
 
 DOMAIN_RANGE = range(1, 102)  # Fast DDS ports for domains above ~101 can collide with ephemeral ports
+
+
+# A busy loop that dies with the test process, even when pytest itself is killed (SIGTERM or SIGKILL skip
+# fixture teardown): prctl(PR_SET_PDEATHSIG = 1, SIGKILL = 9), then a check that the parent had not
+# already gone before the request took effect.
+_BURNER = (
+    "import ctypes, os, sys\n"
+    "ctypes.CDLL(None).prctl(1, 9)\n"
+    "if os.getppid() != int(sys.argv[1]): os._exit(0)\n"
+    "while True: pass\n"
+)
+
+
+def cpu_burners(count: int) -> list[subprocess.Popen[bytes]]:
+    """Start ``count`` busy processes (load for a test under load); each ends with the test process."""
+    import os
+
+    return [subprocess.Popen([sys.executable, "-c", _BURNER, str(os.getpid())]) for _ in range(count)]
 
 
 class DomainLease:

@@ -81,9 +81,7 @@ class CpuHog:
     """A busy loop on every core, ended by pid."""
 
     def __enter__(self) -> CpuHog:
-        self.processes = [
-            subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(os.cpu_count() or 2)
-        ]
+        self.processes = ros_harness.cpu_burners(os.cpu_count() or 2)
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -84,7 +84,7 @@ COMMANDS: dict[str, tuple[list[str], float, float]] = {
 @pytest.fixture(scope="module")
 def load() -> Iterator[None]:
     """Two busy processes, one per core, for the module's life; ended by pid."""
-    burners = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
+    burners = ros_harness.cpu_burners(2)
     yield
     for burner in burners:
         burner.kill()
