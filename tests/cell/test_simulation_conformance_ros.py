@@ -215,7 +215,7 @@ def tool(
             "-m",
             "feeder_cell.cli.main",
             "launch",
-            str(ROOT / "feeder_cell" / "scenes" / f"{scene}.yaml"),
+            str(ROOT / "feeder_cell" / "scenes" / scene),
         ]
         + ["--real-time-factor", "max", "--log-dir", str(logs), *SCENES[str(request.param)]],
         env=dict(os.environ),
