@@ -20,7 +20,8 @@ import yaml
 
 from feeder_cell.experiment.arrivals import Arrivals, scene_arrivals, scene_seed
 from feeder_cell.experiment.faults_process import FaultSpec, scene_faults
-from feeder_cell.node_modules import declared_parameters, node_class
+from feeder_cell.node_modules import declared_parameters, node_class, node_module
+from feeder_device.declarations import unknown_fault
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import load_yaml_mapping, optional, required, short_string
 from feeder_planner.limits import MAX_NAME_CHARS, describe, quote
@@ -374,9 +375,28 @@ def load_scene(path: str | Path) -> Scene:
     try:
         scene = scene_from_mapping(load_yaml_mapping(path), Path(path).resolve().parent)
         checkdeclared_parameters(scene)
+        check_fault_names(scene)
         return with_section_files(scene, Path(path))
     except InputError as error:
         raise error.with_source(str(path)) from None
+
+
+def check_fault_names(scene: Scene) -> None:
+    """Refuse a ``faults:`` entry whose node is no device, or whose fault that device does not know.
+
+    The faults a device knows are its node module's ``FAULTS`` (what its ``~/inject_fault`` accepts).
+    """
+    for spec in scene.faults or ():
+        node = next(n for n in scene.nodes if n.node_name == spec.device)
+        module = node_module(node.package, node.executable)
+        faults = getattr(module, "FAULTS", None)
+        if not isinstance(faults, dict):
+            raise InputError(
+                f"faults.{spec.device}",
+                f"{node.package}/{node.executable} is not a device with injectable faults",
+            )
+        if spec.fault not in faults:
+            raise InputError(f"faults.{spec.device}.fault", unknown_fault(spec.fault, faults))
 
 
 # The parameters by which a node reads a scene's random inputs (the reference controller's): the scene file.

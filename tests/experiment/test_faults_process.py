@@ -15,14 +15,14 @@ from feeder_cell.launcher import load_scene
 from feeder_planner.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[2]
-ARM = {"fault": "motor_stall", "mtbf": 100.0, "mttr": 10.0}
+ARM = {"fault": "part_lost", "mtbf": 100.0, "mttr": 10.0}
 
 
 def test_fixed_times_fail_and_repair_on_the_dot() -> None:
     (spec,) = faults_from_mapping({"throwing_arm": {**ARM, "distribution": "fixed"}})
     events = FaultProcess(spec, seed=1).until(400.0)
     assert [(e.start, e.end) for e in events] == [(100.0, 110.0), (210.0, 220.0), (320.0, 330.0)]
-    assert {(e.device, e.fault) for e in events} == {("throwing_arm", "motor_stall")}
+    assert {(e.device, e.fault) for e in events} == {("throwing_arm", "part_lost")}
 
 
 def test_exponential_times_have_the_given_means_and_availability() -> None:
@@ -59,7 +59,7 @@ def test_seeded_per_replication_and_per_device_whatever_the_other_devices() -> N
     assert arm_in_both != FaultProcess(alone[0], seed=7, replication=3).until(5000.0)
     assert arm_in_both != FaultProcess(both[0], seed=7, replication=2).until(5000.0)[: len(arm_in_both)]
     # switching one time's distribution leaves the other draws where they were: the repairs stay
-    fixed_up = FaultSpec("throwing_arm", "motor_stall", 100.0, 10.0, up="fixed")
+    fixed_up = FaultSpec("throwing_arm", "part_lost", 100.0, 10.0, up="fixed")
     repairs = [e.end - e.start for e in FaultProcess(fixed_up, seed=7, replication=2).until(5000.0)]
     assert repairs[:5] == pytest.approx([e.end - e.start for e in arm_in_both[:5]])
 
@@ -106,6 +106,16 @@ def test_the_scene_section_names_devices_of_the_scene(tmp_path: Path) -> None:
     with pytest.raises(InputError) as caught:
         load_scene(path)
     assert caught.value.field == "faults.welder" and "names no node of the scene" in caught.value.problem
+    path.write_text(yaml.safe_dump({**document, "faults": {"throwing_arm": {**ARM, "fault": "rust"}}}))
+    with pytest.raises(InputError) as caught:
+        load_scene(path)
+    assert (
+        caught.value.field == "faults.throwing_arm.fault" and "unknown fault 'rust'" in caught.value.problem
+    )
+    assert "part_lost" in caught.value.problem  # the device's own faults are listed
+    path.write_text(yaml.safe_dump({**document, "faults": {"throw_planner": ARM}}))
+    with pytest.raises(InputError, match=r"faults\.throw_planner: .* is not a device"):
+        load_scene(path)
     path.write_text(yaml.safe_dump({**document, "faults": {"throwing_arm": {**ARM, "mtbf": -1.0}}}))
     with pytest.raises(InputError, match=r"faults\.throwing_arm\.mtbf: must be a time > 0"):
         load_scene(path)

@@ -4,7 +4,7 @@ A scene's ``faults:`` section, one entry per device (by its node name in the sce
 
     faults:
       throwing_arm:
-        fault: motor_stall         # the device's injectable fault (docs/cell.md lists each device's)
+        fault: part_lost           # the device's injectable fault (docs/cell.md lists each device's)
         mtbf: 1800.0               # s of cell time from a repair (or the start) to the next failure
         mttr: 30.0                 # s of cell time a failure lasts before it is repaired
         distribution: exponential  # or fixed: every up time mtbf, every repair mttr
