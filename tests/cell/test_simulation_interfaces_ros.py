@@ -317,10 +317,27 @@ def test_reset_state_and_spawned_is_deterministic_and_time_is_unsupported(harnes
     harness.ok(ResetSimulation, "reset_simulation", scope=ResetSimulation.Request.SCOPE_SPAWNED)
     assert f"{ARRAY}/extra" not in _entities(harness) and f"{ARRAY}/plus" in _entities(harness)
     runs = []
+    arm_part = next(n for n in _entities(harness) if n.startswith(f"{ARM}/"))
     for _ in range(2):
         harness.ok(ResetSimulation, "reset_simulation", scope=6)  # STATE | SPAWNED
         assert f"{ARRAY}/square" not in _entities(harness)
-        harness.ok(StepSimulation, "step_simulation", steps=20)
+        # Readable at once: the configured initial state. The plus starts within the array's placement
+        # radius (1 mm, seed 7); the arm's part rests where it was configured, and a step (no autostart)
+        # leaves it there to the last bit, so the state read before the step was the device's own.
+        initial = harness.state(f"{ARRAY}/plus").pose.position
+        assert math.hypot(initial.x, initial.y) <= 1e-3 and initial.z == 0.0
+        resting = harness.state(arm_part).pose
+        harness.ok(StepSimulation, "step_simulation", steps=1)
+        ticked = harness.state(arm_part).pose
+        assert (ticked.position.x, ticked.position.y, ticked.position.z) == pytest.approx(
+            (resting.position.x, resting.position.y, resting.position.z), abs=1e-12
+        )
+        assert (ticked.orientation.x, ticked.orientation.w) == pytest.approx(
+            (resting.orientation.x, resting.orientation.w), abs=1e-12
+        )
+        moved = harness.state(f"{ARRAY}/plus").pose.position
+        assert (moved.x, moved.y) != (initial.x, initial.y)  # the field moved it (0.63 mm in x this quantum)
+        harness.ok(StepSimulation, "step_simulation", steps=19)
         plus = harness.state(f"{ARRAY}/plus")
         runs.append(
             (plus.pose.position.x, plus.pose.position.y, plus.pose.orientation.z, plus.twist.linear.x)

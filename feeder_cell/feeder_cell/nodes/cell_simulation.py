@@ -44,6 +44,7 @@ from simulation_interfaces.srv import (
     StepSimulation,
     UnloadWorld,
 )
+from std_msgs.msg import Header
 
 from feeder_cell.simulation import control
 from feeder_cell.simulation.cell_link import KINDS, CellLink
@@ -66,6 +67,7 @@ from feeder_cell.simulation.spawning import (
 from feeder_cell.simulation.support import FEATURES, custom_info
 from feeder_cell.simulation.world import CellWorld
 from feeder_planner.node_kit import declare_parameters, run_node
+from feeder_planner.node_kit.lockstep import ANNOUNCE_TOPIC, LOCKSTEP_QOS
 from feeder_planner.parameter_specs import from_values, param, positive, specs_of
 
 __all__ = ["SimulationParameters", "PARAMETERS", "CellSimulation", "FEATURES", "main"]
@@ -128,10 +130,17 @@ class CellSimulation(Node):
         self.busy = ""  # the request changing the cell now
         self.interrupt = ""  # a state change asked for while a step runs: the step ends between chunks
         # LOADING_WORLD until the clock's lockstep has left its join phase (its /diagnostics say so).
+        # The first react announcement says the same at once (the clock announces react phases only once
+        # every expected participant has joined); the diagnostics, once a second, cover a clock whose
+        # first announcement came before this node listened.
         self.joined = False
         self.diagnostics_sub: Any = self.create_subscription(
             DiagnosticArray, "/diagnostics", self._on_clock_diagnostics, 10, callback_group=self.link.group
         )
+        self.settled_sub: Any = self.create_subscription(
+            Header, ANNOUNCE_TOPIC["react"], lambda _: self._on_joined(), LOCKSTEP_QOS,
+            callback_group=self.link.group,
+        )  # fmt: skip
         self.world = CellWorld(self.link, lambda: self.get_clock().now().nanoseconds)
         serve = self._serve
         serve(GetSimulatorFeatures, "get_simulator_features", self._features, changes=False)
@@ -232,9 +241,11 @@ class CellSimulation(Node):
 
     def _on_joined(self) -> None:
         self.joined = True
-        if self.diagnostics_sub is not None:
-            self.destroy_subscription(self.diagnostics_sub)  # never again: the join happens once
-            self.diagnostics_sub = None
+        for name in ("diagnostics_sub", "settled_sub"):  # never again: the join happens once
+            subscription = getattr(self, name)
+            if subscription is not None:
+                self.destroy_subscription(subscription)
+                setattr(self, name, None)
 
     async def _get_state(self, request: Any, response: GetSimulationState.Response) -> None:
         response.state = SimulationState(state=await self._current())
