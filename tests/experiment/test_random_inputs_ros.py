@@ -44,6 +44,9 @@ FAULTS = {
     "throwing_arm": {"fault": "part_lost", "mtbf": 8.0, "mttr": 1.0, "up": "fixed", "repair": "exponential"}
 }
 SEED, REPLICATION = 21, 1
+# For the lockstep run, whose cell times are the same in every run: the part falls off 11.6 s after the
+# first cycle starts (in its feed, which runs from about 10.5 s to 12.8 s at this seed) and every 12.1 s.
+LOCKSTEP_FAULTS = {"throwing_arm": {"fault": "part_lost", "mtbf": 11.6, "mttr": 0.5, "distribution": "fixed"}}
 
 
 @pytest.fixture(scope="module")
@@ -125,3 +128,59 @@ def test_a_fault_process_is_injected_repaired_and_handled_by_the_policy(
     # each failure the cell met was handled by the policy (reset, a part again, the step again)
     assert status.faults_seen >= 1 and status.faults_handled == status.faults_seen, status
     assert status.last_fault, status
+
+
+@pytest.mark.ros
+def test_feeder_launch_in_lockstep_draws_and_injects_from_the_scene(tmp_path: Path) -> None:
+    """The cell scene with seed, arrivals and faults through `feeder launch --real-time-factor max`."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    import ros_harness
+
+    from feeder_cell.launcher import scene_copy
+
+    path = scene_copy(ROOT / "feeder_cell/scenes/cell.yaml", tmp_path, {"cell_controller": {"cycles": 2}})
+    document = yaml.safe_load(path.read_text())
+    path.write_text(
+        yaml.safe_dump({**document, "seed": SEED, "arrivals": ARRIVALS, "faults": LOCKSTEP_FAULTS})
+    )
+    logs = tmp_path / "logs"
+    lease = ros_harness.DomainLease()
+    try:
+        result = subprocess.run(
+            [sys.executable, "-m", "feeder_cell.cli.main", "launch", str(path), "--real-time-factor", "max"]
+            + ["--log-dir", str(logs), "--json"],
+            env=dict(os.environ, ROS_DOMAIN_ID=str(lease.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST"),
+            capture_output=True,
+            text=True,
+            timeout=400,
+        )
+    finally:
+        lease.release()
+    (controller_log,) = sorted(logs.glob("cell.cell_controller-*.log"))
+    log = controller_log.read_text()
+    assert result.returncode == 0, f"{result.stderr[-1500:]}\n{log[-3000:]}"
+    summary = json.loads(result.stdout)
+    controller = next(n for n in summary["nodes"] if n["executable"] == "cell_controller")
+    assert controller["ended_scene"] and controller["exit_code"] == 0
+    assert "cell FINISHED: 2 cycles, 2 parts" in log, log[-3000:]
+    # replication 0 of the scene's seed: the placements and the failures are the streams' own
+    arrivals = ArrivalStream(arrivals_from_mapping(ARRIVALS), SEED, 0)
+    arrivals.set_part(arm_part(load_part(ROOT / "examples/throwing/triangle.yaml")))
+    for cycle in (1, 2):
+        drawn = arrivals.arm(cycle)
+        assert f"cycle {cycle}: part arrives on edge {drawn.edge} at R {drawn.radius:.6g} m" in log
+    injected = re.findall(r"part_lost injected in throwing_arm at \+([\d.]+) s \(failure \+([\d.]+) s", log)
+    (spec,) = faults_from_mapping(LOCKSTEP_FAULTS)
+    events = FaultProcess(spec, SEED, 0).events()
+    starts = [f"{next(events).start:.3f}" for _ in injected]
+    assert injected and [s for _, s in injected] == starts, log[-3000:]
+    assert starts[:2] == ["11.600", "23.700"]
+    # in lockstep each failure is injected within one quantum (0.1 s) of its time
+    assert all(0.0 <= float(at) - float(s) <= 0.1 + 1e-9 for at, s in injected), injected
+    # the first falls in cycle 1's feed: the policy resets the arm once the repair is done, feeds again
+    assert "FEED: FAULT 102" in log and "RECOVER: throwing_arm is under repair until +12.100 s" in log, log
+    assert "faults seen 1 handled 1" in log, log[-3000:]
