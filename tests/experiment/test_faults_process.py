@@ -69,6 +69,7 @@ def test_seeded_per_replication_and_per_device_whatever_the_other_devices() -> N
     [
         ({**ARM, "mtbf": -5.0}, "faults.throwing_arm.mtbf", "must be a time > 0"),
         ({**ARM, "mttr": 0}, "faults.throwing_arm.mttr", "must be a time > 0"),
+        ({**ARM, "mtbf": 1e-300}, "faults.throwing_arm.mtbf", "at least 0.001 s"),
         ({**ARM, "mtbf": math.inf}, "faults.throwing_arm.mtbf", "finite"),
         ({**ARM, "mtbf": "often"}, "faults.throwing_arm.mtbf", "expected a number"),
         ({**ARM, "distribution": "weibull"}, "faults.throwing_arm.distribution", "exponential, fixed"),

@@ -41,6 +41,9 @@ __all__ = [
 ]
 
 TIME_DISTRIBUTIONS: Final = ("exponential", "fixed")
+# Shortest mean up or repair time (s): far below any cell's steps (its quantum is 0.1 s), and it bounds
+# the failures a controller injects per second of cell time (a mean of 1e-300 s would never end a look).
+MIN_MEAN_TIME: Final = 1e-3
 # Fault processes per scene: far more than any cell has devices, few enough to read the section whole.
 MAX_DEVICES: Final = 100
 
@@ -122,6 +125,8 @@ def _mean(value: Any, field: str) -> float:
     number = finite_number(value, field)
     if number <= 0.0:
         raise InputError(field, f"must be a time > 0 (s), got {number:g}")
+    if number < MIN_MEAN_TIME:
+        raise InputError(field, f"must be at least {MIN_MEAN_TIME:g} s (a cell time step), got {number:g}")
     return number
 
 
