@@ -159,5 +159,9 @@ def test_bad_settings_name_their_field() -> None:
         DropSettings(friction=math.nan)
     with pytest.raises(InputError, match="drops"):
         DropSettings(drops=0)
+    with pytest.raises(InputError, match=r"drops: must be an integer in \[1, 100000\]"):
+        DropSettings(drops=10**12)
+    with pytest.raises(InputError, match=r"drop_height: must be a length in \[0, 1\] m"):
+        DropSettings(drop_height=1e3)
     with pytest.raises(InputError, match="drop"):
         drop_distribution(arm_part(load_part(TRIANGLE)), "exact")

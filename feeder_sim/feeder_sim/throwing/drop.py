@@ -53,6 +53,11 @@ DEFAULT_DROP_HEIGHT: Final = 1e-4  # m, lowest vertex above the floor at release
 DEFAULT_DROP_FRICTION: Final = 0.5
 DEFAULT_DROPS: Final = 4000
 DEFAULT_DROP_SEED: Final = 0
+# Limits of the settings: 100,000 drops take about 10 CPU minutes (a table is made once, but a typo must
+# not hold a controller for hours); a part falls from at most 1 m (for a 1 mm part 1,000 radii, a fall
+# of about 45 time units, well inside TIME_LIMIT).
+MAX_DROPS: Final = 100_000
+MAX_DROP_HEIGHT: Final = 1.0
 # --- Model constants (part radii r, time unit sqrt(r / g)) -------------------------------------------
 # Step in units of sqrt(r / g): a 1 cm part under 9.81 m/s^2 steps 32 us. A fall from 0.1 mm is
 # about 0.14 time units (70 steps); halving the step moved no share of the bracket by more than its
@@ -87,12 +92,18 @@ class DropSettings:
     seed: int = DEFAULT_DROP_SEED
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.drop_height) and self.drop_height >= 0.0):
-            raise InputError("drop_height", f"must be a finite length >= 0 (m), got {self.drop_height!r}")
+        if not (math.isfinite(self.drop_height) and 0.0 <= self.drop_height <= MAX_DROP_HEIGHT):
+            raise InputError(
+                "drop_height", f"must be a length in [0, {MAX_DROP_HEIGHT:g}] m, got {self.drop_height!r}"
+            )
         if not (math.isfinite(self.friction) and self.friction >= 0.0):
             raise InputError("friction", f"must be a finite coefficient >= 0, got {self.friction!r}")
-        if isinstance(self.drops, bool) or not isinstance(self.drops, int) or self.drops < 1:
-            raise InputError("drops", f"must be an integer >= 1, got {self.drops!r}")
+        if (
+            isinstance(self.drops, bool)
+            or not isinstance(self.drops, int)
+            or not 1 <= self.drops <= MAX_DROPS
+        ):
+            raise InputError("drops", f"must be an integer in [1, {MAX_DROPS}], got {self.drops!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise InputError("seed", f"must be an integer >= 0, got {self.seed!r}")
 
