@@ -127,3 +127,37 @@ def test_functions_and_bad_requests_name_their_field(nodes: None, ros_client: An
         SqueezePlanCompute.Request(part=part_msg(document), first_angle=math.inf),
     )
     assert not infinite.ok and "first_angle: must be finite" in infinite.error, infinite.error
+
+
+def test_the_dynamic_fidelity_squeezes_once_with_feedback(launch_node: Any, ros_client: Any) -> None:
+    from feeder_msgs.action import Squeeze
+    from feeder_planner.node_kit.action_client import ActionClient
+    from feeder_planner.parts import load_part
+    from feeder_sim.squeeze.ideal import ideal_squeeze
+
+    launch_node(
+        "feeder_sim",
+        "squeeze_gripper",
+        {"part_file": str(RECTANGLE), "fidelity": "dynamic", "jaw_speed": 0.2, "initial_orientation": 0.3},
+        name="squeeze_dynamic",
+        wait_services=("/squeeze_dynamic/place_part",),
+    )
+    feedback: list[Any] = []
+    client = ActionClient(ros_client, Squeeze, "/squeeze_dynamic/squeeze")
+    try:
+        assert client.wait_for_server(timeout_sec=30.0)
+        goal = Squeeze.Goal(angle=1.0)
+        handle = wait(
+            client.send_goal_async(goal, feedback_callback=feedback.append), 30.0, "the goal response"
+        )
+        assert handle.accepted
+        result = wait(handle.get_result_async(), 60.0, "the result").result
+    finally:
+        client.destroy()
+    assert result.outcome_name == "DONE", result.message
+    # Frictionless pymunk against Goldberg's squeeze from 0.3 - 1.0 rad relative to the jaws.
+    ideal = ideal_squeeze(load_part(RECTANGLE).outer, 0.3 - 1.0)
+    assert result.jaw_width == pytest.approx(ideal.width, abs=5e-5)
+    assert abs(math.remainder(result.part_orientation - (1.0 + ideal.orientation), 2 * math.pi)) < 0.02
+    phases = [f.feedback.phase for f in feedback]
+    assert "CLOSING" in phases and "OPENING" in phases, phases
