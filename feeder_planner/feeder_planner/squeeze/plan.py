@@ -14,8 +14,8 @@ ends inside an arc of width |s(Theta)|. So, with Theta_1 the widest single step 
 
 until the first squeeze's image fits: from complete uncertainty one squeeze leaves every fixed point of
 a period, an arc of width T - g (g the widest gap between consecutive fixed points); if T - g < |Theta_i|
-the plan has i + 1 squeezes. The runs are O(n^2) and each is one comparison, so the plan costs O(n^2)
-after sorting (Goldberg's bound O(n^2 log n)); here the longest run under a width is a scan.
+the plan has i + 1 squeezes. The O(n^2) runs are sorted by image width once, with the running maximum of
+their lengths, so each step of the chain is a binary search: O(n^2 log n) in all, Goldberg's bound.
 
 The plan is then executed forward on the exact finite sets of fixed points, and its certificate lists the
 initial intervals covering [0, 2 pi), each with its final orientation; ``check_certificate`` re-derives it.
@@ -26,6 +26,7 @@ length it reports is certified to be the shortest.
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -166,16 +167,21 @@ def plan_squeezes(squeeze: SqueezeFunction, first_angle: float = 0.0) -> Plan:
     first_width = period - max(gaps)
     chain: list[Interval] = []
     if n > 1:
-        runs = _runs(bounds, fixed, period)
+        runs = sorted(_runs(bounds, fixed, period), key=lambda r: r.image_width)
+        widths = [r.image_width for r in runs]
+        # longest[k]: the longest of the runs whose image is at most widths[k] wide.
+        longest: list[Interval] = []
+        for run in runs:
+            longest.append(run if not longest or run.length > longest[-1].length else longest[-1])
         current = max((r for r in runs if r.steps == 1), key=lambda r: r.length)
         chain.append(current)
         while not first_width < current.length - FINAL_TOLERANCE:
-            allowed = [r for r in runs if r.image_width < current.length - FINAL_TOLERANCE]
-            best = max(allowed, key=lambda r: r.length)
-            if best.length <= current.length + FINAL_TOLERANCE:
+            # Runs whose image is strictly narrower than the current run (with the tolerance).
+            k = bisect.bisect_left(widths, current.length - FINAL_TOLERANCE) - 1
+            if k < 0 or longest[k].length <= current.length + FINAL_TOLERANCE:
                 raise SolverError(f"the backchaining stalled at an interval of {current.length:.6f} rad")
-            chain.append(best)
-            current = best
+            current = longest[k]
+            chain.append(current)
     angles = [first_angle]
     # After the first squeeze every fixed point of the squeeze function is possible (each basin has
     # positive measure); the set is exact and finite from here on.
