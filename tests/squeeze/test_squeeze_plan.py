@@ -213,3 +213,7 @@ def test_bad_input_is_refused_naming_the_field() -> None:
     with pytest.raises(InputError, match=r"^friction: must be finite"):
         check_friction(math.nan)
     assert check_friction(0.0) == 0.0 and check_friction(2.0) == 2.0
+    with pytest.raises(
+        InputError, match=r"^vertices: the squeeze function has 6 stable orientations a period"
+    ):
+        plan_squeezes(squeeze_function(outline("squeeze/hexagon6.yaml")), max_steps=5)

@@ -26,7 +26,6 @@ length it reports is certified to be the shortest.
 
 from __future__ import annotations
 
-import bisect
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -37,7 +36,12 @@ from feeder_planner.errors import InputError, SolverError
 from feeder_planner.limits import check_count
 from feeder_planner.squeeze.diameter import TWO_PI, wrap
 from feeder_planner.squeeze.squeeze_function import SqueezeFunction, check_angle
-from feeder_planner.squeeze.tolerances import FINAL_TOLERANCE, MAX_PLAN_SQUEEZES, MAX_SEARCH_STATES
+from feeder_planner.squeeze.tolerances import (
+    FINAL_TOLERANCE,
+    MAX_PLAN_SQUEEZES,
+    MAX_SEARCH_STATES,
+    MAX_STEPS_PER_PERIOD,
+)
 
 __all__ = [
     "Interval",
@@ -115,18 +119,28 @@ def apply_plan(squeeze: SqueezeFunction, angles: Sequence[float], theta: float) 
     return theta
 
 
-def _runs(bounds: np.ndarray, fixed: np.ndarray, period: float) -> list[Interval]:
-    """Every run of 1..n-1 consecutive steps of one period (lifted across the period's end)."""
+def _runs(bounds: np.ndarray, fixed: np.ndarray, period: float) -> tuple[np.ndarray, ...]:
+    """Every run of 1..n-1 consecutive steps of one period (lifted across the period's end), as arrays.
+
+    Returns (first, steps, length, image_width), one entry a run: the O(n^2) runs as numpy arrays, not
+    objects, so that a part with a thousand stable orientations a period plans in seconds.
+    """
     n = len(fixed)
-    runs: list[Interval] = []
-    for first in range(n):
-        for steps in range(1, n):
-            last = first + steps - 1
-            start = bounds[first]
-            end = bounds[(first + steps) % n] + period * ((first + steps) // n)
-            image = fixed[last % n] + period * (last // n) - fixed[first]
-            runs.append(Interval(first, steps, float(end - start), float(image)))
-    return runs
+    grid_first, grid_steps = np.meshgrid(np.arange(n), np.arange(1, n), indexing="ij")
+    first, steps = grid_first.ravel(), grid_steps.ravel()
+    end = first + steps
+    last = end - 1
+    length = bounds[end % n] + period * (end // n) - bounds[first]
+    image = fixed[last % n] + period * (last // n) - fixed[first]
+    return first, steps, length, image
+
+
+def _running_argmax(values: np.ndarray) -> np.ndarray:
+    """Index of the largest of values[0..k] for each k (the first of equals)."""
+    running = np.maximum.accumulate(values)
+    # The first position at which each running maximum is reached.
+    change = np.flatnonzero(np.r_[True, running[1:] != running[:-1]])
+    return change[np.searchsorted(change, np.arange(len(values)), side="right") - 1]
 
 
 def _covering_arc(points: Sequence[float], period: float) -> tuple[float, float]:
@@ -153,13 +167,21 @@ def _distinct(points: Sequence[float], period: float) -> list[float]:
     return merged
 
 
-def plan_squeezes(squeeze: SqueezeFunction, first_angle: float = 0.0) -> Plan:
+def plan_squeezes(
+    squeeze: SqueezeFunction, first_angle: float = 0.0, max_steps: int = MAX_STEPS_PER_PERIOD
+) -> Plan:
     """Goldberg's shortest plan for the part of ``squeeze``, starting with a squeeze at ``first_angle``.
 
     Raises SolverError if the backchaining stalls or the forward execution does not end at one
     orientation modulo the symmetry period (neither happens for a polygon; nothing uncertified returns).
     """
     first_angle = check_angle(first_angle, "first_angle")
+    if squeeze.steps_per_period() > max_steps:
+        raise InputError(
+            "vertices",
+            f"the squeeze function has {squeeze.steps_per_period()} stable orientations a period; "
+            f"the planner's limit is {max_steps}",
+        )
     period = squeeze.period
     bounds, fixed = squeeze.period_steps()
     n = len(fixed)
@@ -167,20 +189,24 @@ def plan_squeezes(squeeze: SqueezeFunction, first_angle: float = 0.0) -> Plan:
     first_width = period - max(gaps)
     chain: list[Interval] = []
     if n > 1:
-        runs = sorted(_runs(bounds, fixed, period), key=lambda r: r.image_width)
-        widths = [r.image_width for r in runs]
-        # longest[k]: the longest of the runs whose image is at most widths[k] wide.
-        longest: list[Interval] = []
-        for run in runs:
-            longest.append(run if not longest or run.length > longest[-1].length else longest[-1])
-        current = max((r for r in runs if r.steps == 1), key=lambda r: r.length)
+        first, steps, length, image = _runs(bounds, fixed, period)
+        order = np.argsort(image, kind="stable")
+        widths = image[order]
+        # best[k]: the index (into the runs) of the longest run whose image is at most widths[k] wide.
+        best = order[_running_argmax(length[order])]
+
+        def run_at(i: int) -> Interval:
+            return Interval(int(first[i]), int(steps[i]), float(length[i]), float(image[i]))
+
+        singles = np.flatnonzero(steps == 1)
+        current = run_at(int(singles[np.argmax(length[singles])]))
         chain.append(current)
         while not first_width < current.length - FINAL_TOLERANCE:
             # Runs whose image is strictly narrower than the current run (with the tolerance).
-            k = bisect.bisect_left(widths, current.length - FINAL_TOLERANCE) - 1
-            if k < 0 or longest[k].length <= current.length + FINAL_TOLERANCE:
+            k = int(np.searchsorted(widths, current.length - FINAL_TOLERANCE, side="left")) - 1
+            if k < 0 or length[best[k]] <= current.length + FINAL_TOLERANCE:
                 raise SolverError(f"the backchaining stalled at an interval of {current.length:.6f} rad")
-            current = longest[k]
+            current = run_at(int(best[k]))
             chain.append(current)
     angles = [first_angle]
     # After the first squeeze every fixed point of the squeeze function is possible (each basin has

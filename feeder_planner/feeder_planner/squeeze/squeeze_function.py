@@ -19,6 +19,7 @@ from __future__ import annotations
 import bisect
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -59,10 +60,15 @@ class SqueezeFunction:
         x = self.maxima[0] + wrap(theta - self.maxima[0], math.pi)
         return bisect.bisect_right(self.maxima, x) - 1
 
+    @cached_property
+    def _offsets(self) -> list[float]:
+        """The step boundaries from maxima[0], with pi closing the period (made once)."""
+        return [m - self.maxima[0] for m in self.maxima] + [math.pi]
+
     def boundary_distance(self, theta: float) -> float:
         """Distance (rad) from ``theta`` to the nearest unstable orientation (a step boundary)."""
         x = wrap(theta - self.maxima[0], math.pi)
-        offsets = [m - self.maxima[0] for m in self.maxima] + [math.pi]
+        offsets = self._offsets
         j = bisect.bisect_right(offsets, x) - 1
         return min(x - offsets[j], offsets[j + 1] - x)
 

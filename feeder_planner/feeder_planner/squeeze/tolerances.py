@@ -23,3 +23,6 @@ MAX_FRICTION: Final = 2.0
 # The exhaustive shortest-plan search visits at most this many distinct states before giving up (it
 # raises SolverError rather than report an uncertified bound).
 MAX_SEARCH_STATES: Final = 200_000
+# Stable orientations a period the planner takes: its O(n^2) runs are arrays of n^2 entries (2,000: 4
+# million, about 200 MB and a few seconds); a part beyond it is refused naming its vertices.
+MAX_STEPS_PER_PERIOD: Final = 2_000
