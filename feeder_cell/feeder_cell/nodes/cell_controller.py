@@ -30,14 +30,13 @@ acceptances are answered within the quantum. So every decision happens at a defi
 
 from __future__ import annotations
 
-import math
 import sys
 import threading
 import time
-from typing import Any, Callable, Iterator
+from typing import Any, Callable
 
 import rclpy
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException, ShutdownException, SingleThreadedExecutor
@@ -47,8 +46,11 @@ from rclpy.task import Future
 from std_srvs.srv import Trigger
 
 from feeder_cell.controller import CellMachine, Outcome, State, Transition
+from feeder_cell.controller.fault_schedule import FaultAction, FaultSchedule
+from feeder_cell.controller.parameters import PARAMETERS
+from feeder_cell.controller.reporting import cell_status, diagnostic_entry
 from feeder_cell.experiment.arrivals import ArrivalStream, scene_arrivals, scene_seed
-from feeder_cell.experiment.faults_process import FaultEvent, FaultProcess, FaultSpec, scene_faults
+from feeder_cell.experiment.faults_process import scene_faults
 from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError, LifecycleInterruptedError
 from feeder_msgs.action import FeedPart, FollowPath, RunProgram
 from feeder_msgs.msg import CellStatus, DeviceStatus, FieldProgram, FieldSpec, MemsParts
@@ -59,14 +61,7 @@ from feeder_planner.fields_io import load_yaml_mapping
 from feeder_planner.mems import program_from_mapping
 from feeder_planner.node_kit import (
     LATCHED,
-    ParameterSpec,
     declare_parameters,
-    in_range,
-    integer,
-    integer_at_least,
-    non_empty_string,
-    non_negative,
-    positive,
 )
 from feeder_planner.node_kit.action_client import ActionClient
 from feeder_planner.node_kit.lockstep import Participant
@@ -86,153 +81,6 @@ EXIT_FINISHED, EXIT_STOPPED = 0, 1  # a bad parameter exits 2 (node_kit.runner.b
 EXIT_SHUT_DOWN = 0  # Ctrl-C or SIGTERM: a clean end for a ROS node, whatever state the cell was in
 
 
-def _directions(value: object) -> str | None:
-    """Check a flattened list of gravity directions: x, y, z per direction, finite, not zero."""
-    values = list(value) if isinstance(value, (list, tuple)) else None
-    if not values or len(values) % 3 or not all(isinstance(v, (int, float)) for v in values):
-        return f"must be gravity directions as x, y, z triples (a multiple of 3 numbers), got {value!r}"
-    for i in range(0, len(values), 3):
-        triple = values[i : i + 3]
-        if not all(math.isfinite(v) for v in triple) or math.hypot(*triple) == 0.0:
-            return f"direction {i // 3} must be finite and non-zero, got {triple}"
-    return None
-
-
-PARAMETERS = (
-    # The devices and the planner, by name relative to the controller's namespace.
-    ParameterSpec("mems_device", "mems_field_array", "MEMS array node", non_empty_string("a node"), True),
-    ParameterSpec("arm_device", "throwing_arm", "throwing arm node", non_empty_string("a node"), True),
-    ParameterSpec(
-        "fixture_device", "assembly_fixture", "assembly fixture node", non_empty_string("a node"), True
-    ),
-    ParameterSpec(
-        "region_planner", "stable_region_planner", "stable region planner", non_empty_string("a node"), True
-    ),
-    ParameterSpec("cycles", 1, "production cycles to run (0: until stopped)", integer_at_least(0), True),
-    ParameterSpec(
-        "max_retries",
-        2,
-        "times one step may be retried in a cycle before the cell stops",
-        integer_at_least(0),
-        True,
-    ),
-    ParameterSpec(
-        "bring_up", True, "configure and activate the devices first (false: they must be active)", None, True
-    ),
-    # ORIENT: the MEMS array.
-    ParameterSpec(
-        "orient_program_file",
-        "",
-        "field program YAML for ~/run_program ({steps: [{field, duration}]}, metres); "
-        "empty: one combined field with orient_delta, forever",
-        None,
-        True,
-    ),
-    ParameterSpec(
-        "orient_delta",
-        0.2,
-        "delta of the default combined field (0 <= delta < 1)",
-        in_range(0.0, 1.0, include_high=False),
-        True,
-    ),
-    ParameterSpec("orient_timeout", 20.0, "run_program timeout (s, node clock)", positive, True),
-    ParameterSpec(
-        "orient_tolerance", 0.0, "run_program settle tolerance (0: the array's default)", non_negative, True
-    ),
-    ParameterSpec(
-        "orient_dwell", 0.0, "run_program settle dwell (s; 0: the array's default)", non_negative, True
-    ),
-    ParameterSpec(
-        "new_batch",
-        True,
-        "~/place_parts reset before each program: a new batch at the initial poses",
-        None,
-        True,
-    ),
-    # INFEED and FEED: the throwing arm.
-    ParameterSpec("infeed_edge", 2, "hull edge a new part arrives on (~/place_part)", integer, True),
-    ParameterSpec("infeed_radius", 0.12, "R (m) a new part arrives at (~/place_part)", positive, True),
-    # Random arrivals and faults (docs/experiments.md): feeder launch sets the files to a scene with them.
-    ParameterSpec(
-        "arrivals_file",
-        "",
-        "YAML with an arrivals: section and a seed (a scene file): each cycle's part poses are drawn "
-        "from it; empty: infeed_edge, infeed_radius and the array's initial poses",
-        None,
-        True,
-    ),
-    ParameterSpec(
-        "faults_file",
-        "",
-        "YAML with a faults: section and a seed (a scene file): each device's failures are injected "
-        "through its ~/inject_fault and repaired after their time; empty: none",
-        None,
-        True,
-    ),
-    ParameterSpec(
-        "replication",
-        0,
-        "replication whose random streams the arrivals and faults draw",
-        integer_at_least(0),
-        True,
-    ),
-    ParameterSpec("feed_max_throws", 40, "feed_part max_throws", integer_at_least(1), True),
-    ParameterSpec(
-        "feed_timeout", 60.0, "feed_part timeout (s, node clock; 0: max_throws only)", non_negative, True
-    ),
-    # TILT and RETURN: the fixture and the planner.
-    ParameterSpec(
-        "fixture_route",
-        [-0.5, 0.0, -0.8660254037844386],
-        "the commanded route to the target orientation: gravity directions (x, y, z per waypoint, "
-        "assembly frame); the last one is the target",
-        _directions,
-        True,
-    ),
-    ParameterSpec(
-        "fixture_home",
-        [0.0, 0.0, -1.0],
-        "gravity direction the fixture returns to (x, y, z)",
-        _directions,
-        True,
-    ),
-    ParameterSpec("path_step", 0.0, "safe_path step (rad; 0: the planner's 1 degree)", non_negative, True),
-    # Bounds on every wait.
-    ParameterSpec(
-        "step_timeout",
-        120.0,
-        "most one step may take beyond its goal's own timeout (s, node clock)",
-        positive,
-        True,
-    ),
-    ParameterSpec(
-        "wall_timeout",
-        300.0,
-        "most any one wait may take on the wall clock, whatever the cell clock does (s)",
-        positive,
-        True,
-    ),
-    ParameterSpec(
-        "answer_timeout",
-        10.0,
-        "wall seconds for a server to appear, accept a goal or answer a call",
-        positive,
-        True,
-    ),
-    ParameterSpec(
-        "exit_when_done", False, "end the process when the machine ends (0 FINISHED, 1 STOPPED)", None, True
-    ),
-    ParameterSpec(
-        "lockstep",
-        False,
-        "decide in the cell clock's lockstep, once per quantum (docs/cell.md; feeder launch "
-        "--real-time-factor sets it with use_sim_time)",
-        None,
-        True,
-    ),
-)
-
-
 class ShutdownError(FeederError):
     """The node is shutting down (Ctrl-C): the cycle ends where it is."""
 
@@ -248,7 +96,7 @@ class CellController(Node):
             self.p[name] = [float(v) for v in self.p[name]]
         self.program = self._program()
         self.arrivals = self._arrivals()
-        self.fault_specs = self._fault_specs()
+        self.faults = self._fault_schedule()
         self.machine = CellMachine(cycles=self.p["cycles"], max_retries=self.p["max_retries"])
         self.devices = {
             "mems": self.p["mems_device"],
@@ -276,14 +124,10 @@ class CellController(Node):
         self.place_part = self.create_client(ArmPlacePart, f"{self.devices['arm']}/place_part")
         self.resets = {k: self.create_client(Trigger, f"{n}/reset") for k, n in self.devices.items()}
         self.safe_path = self.create_client(StablePath, f"{planner}/safe_path")
-        # Fault processes: each device's next failure, the repairs to come, when the cell time began.
+        # Fault processes: each device's failures are injected through its ~/inject_fault.
         self.injections = {
-            s.device: self.create_client(InjectFault, f"{s.device}/inject_fault") for s in self.fault_specs
+            s.device: self.create_client(InjectFault, f"{s.device}/inject_fault") for s in self.faults.specs
         }
-        self.next_failure: dict[str, tuple[Iterator[FaultEvent], FaultEvent]] = {}
-        self.repairs: list[FaultEvent] = []  # injected, not yet repaired (cleared at their end)
-        self.repair_at: dict[str, float] = {}  # device -> cell time (s, node clock) its failure ends
-        self.fault_origin = math.nan  # node-clock time of the first cycle's start: fault times count from it
         self.lifecycle = {
             k: LifecycleClient(self, None, n, keep_going=lambda: not self.stopping())
             for k, n in self.devices.items()
@@ -538,11 +382,11 @@ class CellController(Node):
         key = self.machine.device
         if key == "planner":
             return Outcome("DONE")  # the planner holds no state to reset
-        end = self.repair_at.get(self.devices[key].rsplit("/", 1)[-1], -math.inf)
+        end = self.faults.under_repair_until(self.devices[key].rsplit("/", 1)[-1])
         if end > self.now():
             # A failure of the device's fault process lasts until its repair: the cell waits for it.
             self.get_logger().info(
-                f"RECOVER: {self.devices[key]} is under repair until +{end - self.fault_origin:.3f} s"
+                f"RECOVER: {self.devices[key]} is under repair until +{end - self.faults.origin:.3f} s"
             )
             self.wait(Future(), end - self.now())
         response = self.call(key, self.resets[key], Trigger.Request())
@@ -721,58 +565,43 @@ class CellController(Node):
             raise InputError("parameter arrivals_file", str(error)) from None
         return ArrivalStream(arrivals, seed, self.p["replication"])
 
-    def _fault_specs(self) -> tuple[FaultSpec, ...]:
-        """Return the fault processes ``faults_file`` names (its faults: section), or none."""
+    def _fault_schedule(self) -> FaultSchedule:
+        """Return the fault processes ``faults_file`` names (its faults: section and seed); none if empty."""
         path = self.p["faults_file"]
-        self.faults_seed = 0
         if not path:
-            return ()
+            return FaultSchedule(())
         try:
             document = load_yaml_mapping(path)
             specs = scene_faults(document)
             if specs is None:
                 raise InputError("faults", "is missing: the file has no faults: section")
-            self.faults_seed = scene_seed(document)
+            seed = scene_seed(document)
         except InputError as error:
             raise InputError("parameter faults_file", str(error)) from None
-        return specs
+        return FaultSchedule(specs, seed, self.p["replication"])
 
     def _inject_due(self) -> None:
         """Inject every failure whose time has come, and clear every one whose repair time has come.
 
-        Times count from the first cycle's start. An injection is sent and not waited on: the device's
-        answer comes within the quantum, its effect shows in the step's outcome, which the fault policy
-        handles. A clear at the repair time ends a fault the device keeps until then (a stuck sensor);
-        one the controller's ~/reset already cleared answers that it is not active, which is fine.
+        An injection is sent and not waited on: the device's answer comes within the quantum, its effect
+        shows in the step's outcome, which the fault policy handles. A clear at the repair time ends a
+        fault the device keeps until then (a stuck sensor); one the controller's ~/reset already cleared
+        answers that it is not active, which is fine.
         """
-        if not self.fault_specs or self.machine.state is State.BRING_UP:
+        if self.machine.state is State.BRING_UP:
             return
-        now = self.now()
-        if math.isnan(self.fault_origin):
-            self.fault_origin = now
-            for spec in self.fault_specs:
-                events = FaultProcess(spec, self.faults_seed, self.p["replication"]).events()
-                self.next_failure[spec.device] = (events, next(events))
-        for spec in self.fault_specs:
-            events, event = self.next_failure[spec.device]
-            while self.fault_origin + event.start <= now:
-                self._send_fault(spec, event, clear=False)
-                self.repairs.append(event)
-                self.repair_at[spec.device] = self.fault_origin + event.end
-                event = next(events)
-            self.next_failure[spec.device] = (events, event)
-        for event in [e for e in self.repairs if self.fault_origin + e.end <= now]:
-            self.repairs.remove(event)
-            spec = next(s for s in self.fault_specs if s.device == event.device)
-            self._send_fault(spec, event, clear=True)
+        for action in self.faults.due(self.now()):
+            self._send_fault(action)
 
-    def _send_fault(self, spec: FaultSpec, event: FaultEvent, clear: bool) -> None:
-        """Send ~/inject_fault (or its clear) for ``event`` and log it; a refusal is logged when it comes."""
+    def _send_fault(self, action: FaultAction) -> None:
+        """Send ~/inject_fault (or its clear) and log it; a refusal is logged when it comes."""
+        spec, event, clear = action.spec, action.event, action.clear
         client = self.injections[spec.device]
         request = InjectFault.Request(fault=spec.fault, clear=clear, value=spec.value, state=spec.state)
         what = "repaired (cleared)" if clear else "injected"
+        at = self.now() - self.faults.origin
         self.get_logger().info(
-            f"fault process: {spec.fault} {what} in {spec.device} at +{self.now() - self.fault_origin:.3f} s "
+            f"fault process: {spec.fault} {what} in {spec.device} at +{at:.3f} s "
             f"(failure +{event.start:.3f} s to +{event.end:.3f} s)"
         )
         if not client.service_is_ready():
@@ -812,26 +641,7 @@ class CellController(Node):
 
     def status_msg(self) -> CellStatus:
         """Return the controller's status now."""
-        machine, m, t = self.machine, self.machine.metrics, self.last
-        msg = CellStatus()
-        msg.header.stamp = self.get_clock().now().to_msg()
-        msg.state = machine.state.value
-        msg.previous_state = t.source.value if t else ""
-        msg.device = machine.device
-        msg.last_outcome = t.outcome.label() if t else ""
-        msg.last_policy = t.policy.value if t and t.policy else ""
-        msg.cycle, msg.cycles = machine.cycle, machine.cycles
-        msg.cycles_completed, msg.parts_presented = m.cycles_completed, m.parts_presented
-        msg.faults_seen, msg.faults_handled = m.faults_seen, m.faults_handled
-        msg.retries, msg.reroutes = m.retries, m.reroutes
-        msg.last_cycle_time, msg.mean_cycle_time = m.last_cycle_time, m.mean_cycle_time
-        msg.parts_per_minute = m.parts_per_minute(self.now())
-        msg.last_fault = m.last_fault
-        msg.finished = machine.finished
-        msg.stopped = machine.state is State.STOPPED
-        msg.stop_reason = machine.stop_reason
-        msg.fault_code = t.outcome.fault_code if msg.stopped and t else 0
-        return msg
+        return cell_status(self.machine, self.last, self.get_clock().now().to_msg(), self.now())
 
     def _heartbeat(self) -> None:
         """Publish the status again (in lockstep the last one as it was: the cycle's thread makes news)."""
@@ -855,27 +665,7 @@ class CellController(Node):
 
     def _publish_diagnostics(self, msg: CellStatus) -> None:
         """Publish the controller's /diagnostics entry for the status ``msg``."""
-        entry = DiagnosticStatus(name=self.get_fully_qualified_name(), hardware_id=f"sim:{self.get_name()}")
-        if msg.stopped:
-            entry.level, entry.message = DiagnosticStatus.ERROR, f"STOPPED: {msg.stop_reason}"
-        elif msg.last_policy:
-            entry.level, entry.message = DiagnosticStatus.WARN, f"{msg.state}: {msg.last_outcome}"
-        else:
-            entry.level, entry.message = DiagnosticStatus.OK, msg.state
-        values = {
-            "state": msg.state,
-            "cycle": msg.cycle,
-            "cycles_completed": msg.cycles_completed,
-            "parts_presented": msg.parts_presented,
-            "faults_seen": msg.faults_seen,
-            "faults_handled": msg.faults_handled,
-            "retries": msg.retries,
-            "reroutes": msg.reroutes,
-            "last_cycle_time": f"{msg.last_cycle_time:.6g}",
-            "parts_per_minute": f"{msg.parts_per_minute:.6g}",
-            "last_fault": msg.last_fault,
-        }
-        entry.values = [KeyValue(key=k, value=str(v)) for k, v in values.items()]
+        entry = diagnostic_entry(msg, self.get_fully_qualified_name(), f"sim:{self.get_name()}")
         self.diagnostics_pub.publish(DiagnosticArray(header=msg.header, status=[entry]))
 
 
