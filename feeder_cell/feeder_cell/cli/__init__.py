@@ -19,4 +19,5 @@ SUBCOMMAND_MODULES = (
     "feeder_cell.cli.squeeze",
     "feeder_cell.cli.assembly",
     "feeder_cell.cli.bridge",
+    "feeder_cell.cli.experiment",
 )

@@ -31,7 +31,7 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterator
+from typing import TYPE_CHECKING, Any, Callable, Iterator
 
 import numpy as np
 
@@ -70,6 +70,7 @@ __all__ = [
     "CellLoop",
     "controller_parameters",
     "read_scene",
+    "check_scene",
     "scene_loop",
 ]
 
@@ -194,6 +195,11 @@ class CycleRecord:
     faults_seen: int
     faults_handled: int
     complete: bool = True  # False: the cell stopped in this cycle (time: until the stop)
+    end: float = 0.0  # s from the first cycle's start to this cycle's end
+    # Cumulative since the first cycle's start, at this cycle's end: quanta per device and state, and
+    # quanta the cell was down (a device in FAULT, or the controller in RECOVER).
+    device_quanta: dict[str, dict[str, int]] = field(default_factory=dict)
+    down_quanta: int = 0
 
 
 @dataclass
@@ -635,6 +641,7 @@ class CellLoop:
         self.fault_tables = {s.device: _fault_specs_of(s.device) for s in faults}
         # Quanta per device and state (counted, not summed: no rounding drift over thousands of cycles).
         self.device_quanta = {d.name: dict.fromkeys(DEVICE_STATES, 0) for d in self.by_key.values()}
+        self.down_quanta = 0
         self.stood = np.array(self.c["fixture_home"][-3:], float)
         self.cycle_throws = 0
         self.cycle_presented = 0
@@ -662,8 +669,12 @@ class CellLoop:
         self.now += self.q
         for device in (self.mems, self.arm, self.fixture):  # the cell host's order; they do not interact
             device.advance(self.now)
+        down = self.machine.state is State.RECOVER
         for each in self.by_key.values():
-            self.device_quanta[each.name][each.state()] += 1
+            state = each.state()
+            self.device_quanta[each.name][state] += 1
+            down = down or state == "FAULT"
+        self.down_quanta += down
         self._inject_due()
 
     def _wait(self, done: Any, timeout: float) -> bool:
@@ -709,8 +720,13 @@ class CellLoop:
             pass  # the device refused (the ROS controller logs it): the failure has no effect
 
     # --- the work of each state -----------------------------------------------------------------------------
-    def run(self) -> LoopResult:
-        """Run the machine to its end; return the cycles and the shares."""
+    def run(self, until: Callable[[list[CycleRecord]], bool] | None = None) -> LoopResult:
+        """Run the machine to its end, or (``until``) to the first cycle end at which ``until(cycles)``.
+
+        With ``until`` the machine runs whatever its ``cycles`` (the end state is then HORIZON).
+        """
+        if until is not None:
+            self.machine.cycles = 0
         work = {
             State.BRING_UP: lambda: Outcome("DONE"),
             State.ORIENT: self.orient,
@@ -735,13 +751,15 @@ class CellLoop:
                 self.first_start = self.t()
             if state in (State.RETURN, State.RETURN_SAFE) and transition.policy is None:
                 self._end_cycle()
+                if until is not None and until(self.cycles):
+                    break
         m = self.machine
         if m.state is State.STOPPED and m.cycle > len(self.cycles):
             self.cycle_rejected += 1  # the cycle's part never reached the fixture
             self._end_cycle(complete=False)
         return LoopResult(
             self.cycles,
-            m.state.value,
+            m.state.value if m.finished else "HORIZON",
             m.stop_reason,
             self.t() - (self.first_start if math.isfinite(self.first_start) else self.t()),
             {d: {k: n * QUANTUM for k, n in counts.items()} for d, counts in self.device_quanta.items()},
@@ -762,6 +780,9 @@ class CellLoop:
                 m.faults_seen - seen0,
                 m.faults_handled - handled0,
                 complete,
+                self.t() - self.first_start,
+                {d: dict(counts) for d, counts in self.device_quanta.items()},
+                self.down_quanta,
             )
         )
         self._seen_at_cycle_start = (m.faults_seen, m.faults_handled)
@@ -913,44 +934,46 @@ PARAMETER_CLASSES: dict[str, type] = {
 
 
 def read_scene(path: str | Path) -> Scene:
-    """Read and check a cell scene for the loop (no node module imported: no rclpy); errors name the field.
-
-    The scene must hold the three devices and the reference controller (by executable, as
-    ``feeder_cell/scenes/cell.yaml``); other nodes (the planners) are what the loop computes itself. A
-    ``faults:`` entry must name one of the three devices and a fault it knows.
-    """
+    """Read and check a cell scene for the loop (no node module imported: no rclpy); errors name the field."""
     from feeder_cell.launcher import scene_from_mapping
 
     try:
-        scene = scene_from_mapping(load_yaml_mapping(path), Path(path).resolve().parent)
-        # Each device's and the controller's parameters, checked as their nodes check them (not through
-        # the launcher's check, which imports the node modules and with them rclpy).
-        for node in scene.nodes:
-            if node.executable in DEVICES:
-                _device_parameters(PARAMETER_CLASSES[node.executable], node.parameters, node.executable)
-            elif node.executable == "cell_controller":
-                controller_parameters(node.parameters)
-        executables = {n.executable for n in scene.nodes}
-        for needed in (*DEVICES, "cell_controller"):
-            if needed not in executables:
-                raise InputError(
-                    "nodes", f"the cell loop needs a {needed} node; the scene has {sorted(executables)}"
-                )
-        by_name = {n.node_name: n.executable for n in scene.nodes}
-        for spec in scene.faults or ():
-            executable = by_name.get(spec.device, "")
-            if executable not in DEVICES:
-                raise InputError(
-                    f"faults.{spec.device}", f"is not a device of the cell loop ({', '.join(DEVICES)})"
-                )
-            known = _fault_specs_of(executable)
-            if spec.fault not in known:
-                raise InputError(
-                    f"faults.{spec.device}.fault",
-                    f"unknown fault {spec.fault!r}; {executable} knows {sorted(known)}",
-                )
+        return check_scene(scene_from_mapping(load_yaml_mapping(path), Path(path).resolve().parent))
     except InputError as error:
         raise error.with_source(str(path)) from None
+
+
+def check_scene(scene: Scene) -> Scene:
+    """Check a parsed scene for the loop; return it.
+
+    The scene must hold the three devices and the reference controller (by executable, as
+    ``feeder_cell/scenes/cell.yaml``); other nodes (the planners) are what the loop computes itself. Each
+    device's and the controller's parameters are checked as their nodes check them (not through the
+    launcher's check, which imports the node modules and with them rclpy). A ``faults:`` entry must name
+    one of the three devices and a fault it knows.
+    """
+    for node in scene.nodes:
+        if node.executable in DEVICES:
+            _device_parameters(PARAMETER_CLASSES[node.executable], node.parameters, node.executable)
+        elif node.executable == "cell_controller":
+            controller_parameters(node.parameters)
+    executables = {n.executable for n in scene.nodes}
+    for needed in (*DEVICES, "cell_controller"):
+        if needed not in executables:
+            have = ", ".join(sorted(executables))
+            raise InputError("nodes", f"the cell loop needs a {needed} node; the scene has {have}")
+    by_name = {n.node_name: n.executable for n in scene.nodes}
+    for spec in scene.faults or ():
+        executable = by_name.get(spec.device, "")
+        if executable not in DEVICES:
+            devices = ", ".join(DEVICES)
+            raise InputError(f"faults.{spec.device}", f"is not a device of the cell loop ({devices})")
+        known = _fault_specs_of(executable)
+        if spec.fault not in known:
+            raise InputError(
+                f"faults.{spec.device}.fault",
+                f"unknown fault {spec.fault!r}; {executable} knows {', '.join(sorted(known))}",
+            )
     return scene
 
 
