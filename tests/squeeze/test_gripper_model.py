@@ -132,3 +132,23 @@ def test_bad_goals_and_parameters_are_refused_naming_the_field() -> None:
     gripper.place(0.0)
     with pytest.raises(InputError, match=r"^angle: must be finite"):
         gripper.start(math.nan)
+
+
+@pytest.mark.parametrize("mu", [0.3, 0.6])
+def test_dynamic_with_friction_jams_where_the_friction_cone_says(mu: float) -> None:
+    # Independent of pymunk: a quasi-static squeeze jams at once when the chord between the two contact
+    # vertices lies in the friction cone, |theta - beta| <= atan(mu); else it ends where Goldberg's does.
+    from feeder_planner.squeeze import frictional_squeeze, jams
+
+    part = outline("rectangle")
+    sf = squeeze_function(part)
+    starts = np.random.default_rng(5).uniform(0, 2 * math.pi, 30)
+    jammed = 0
+    for theta in starts:
+        predicted = frictional_squeeze(sf, float(theta), mu)
+        dynamic = dynamic_squeeze(part, float(theta), mu, 0.1).orientation
+        assert abs(math.remainder(predicted - dynamic, 2 * math.pi)) < 0.05, (theta, predicted, dynamic)
+        jammed += jams(sf, float(theta), mu)
+    # Some starts jam and some do not: the rectangle's crests take +-atan(mu) each (4 atan(mu) / pi of all
+    # starts up to mu 0.5, where a window reaches the flush orientation).
+    assert 0 < jammed < len(starts)

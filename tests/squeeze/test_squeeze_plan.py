@@ -21,6 +21,7 @@ from feeder_planner.squeeze import (
     check_plan_angles,
     diameter_function,
     distinguishable_groups,
+    frictional_squeeze,
     hull_symmetry_order,
     plan_squeezes,
     read_width,
@@ -212,6 +213,8 @@ def test_bad_input_is_refused_naming_the_field() -> None:
         check_friction(2.5)
     with pytest.raises(InputError, match=r"^friction: must be finite"):
         check_friction(math.nan)
+    with pytest.raises(InputError, match=r"^friction: must be in \[0, 2\]"):
+        frictional_squeeze(squeeze_function(regular(4)), 0.1, -1.0)
     assert check_friction(0.0) == 0.0 and check_friction(2.0) == 2.0
     with pytest.raises(
         InputError, match=r"^vertices: the squeeze function has 6 stable orientations a period"

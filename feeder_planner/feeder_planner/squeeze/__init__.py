@@ -7,7 +7,7 @@ along its x axis.
 """
 
 from feeder_planner.squeeze.diameter import DiameterFunction, Extremum, Piece, convex_hull, diameter_function
-from feeder_planner.squeeze.friction import check_friction
+from feeder_planner.squeeze.friction import check_friction, frictional_squeeze, jams
 from feeder_planner.squeeze.plan import (
     Interval,
     Plan,
@@ -48,7 +48,9 @@ __all__ = [
     "convex_hull",
     "diameter_function",
     "distinguishable_groups",
+    "frictional_squeeze",
     "hull_symmetry_order",
+    "jams",
     "orientations_for_width",
     "plan_squeezes",
     "read_width",
