@@ -44,7 +44,7 @@ from feeder_msgs.srv import (
 )
 from feeder_planner.node_kit import LATCHED
 from feeder_planner.node_kit.polled import PolledSubscription
-from feeder_planner.node_kit.tf import TF_STATIC_QOS
+from feeder_planner.node_kit.tf import TF_STATIC_QOS, check_cell_pose, quaternion_from_rpy
 
 __all__ = ["Device", "CellLink", "KINDS"]
 
@@ -70,6 +70,7 @@ class Device:
     states: dict[str, EntityState] = field(default_factory=dict)
     placed: dict[str, EntityState] = field(default_factory=dict)  # set or spawned, not yet ticked
     frame_id: str = ""  # the frame the device's part states are in (from its streams)
+    placed_in_cell: bool = False  # its cell_pose read (its base frame known without /tf_static)
 
 
 class CellLink:
@@ -320,6 +321,35 @@ class CellLink:
             for name, value in zip(names, response.values, strict=False)
             if value.type != ParameterType.PARAMETER_NOT_SET
         }
+
+    async def observe_device_frames(self) -> None:
+        """Place every device's base frame in the cell from its own read-only cell_pose and cell_frame.
+
+        The same numbers its /tf_static carries, which a device sends only from its drawing timer (once a
+        second while nobody draws): read here, a device's frame is known as soon as the device answers.
+        A device not up yet is asked again on the next request.
+        """
+        for device in self.devices.values():
+            if device.placed_in_cell:
+                continue
+            try:
+                values = await self.parameters(device.fqn, ["cell_pose", "cell_frame", "frame_id"])
+            except SimulationError:
+                continue
+            pose, cell = values.get("cell_pose"), values.get("cell_frame")
+            if check_cell_pose(pose) is not None or not isinstance(pose, list):
+                continue
+            if not isinstance(cell, str) or not cell:
+                continue
+            numbers = [float(v) for v in pose]
+            child = device.base_frame
+            if device.kind != "assembly_fixture" and values.get("frame_id"):
+                child = str(values["frame_id"])  # the array's and the arm's drawings place their own frame
+            if child not in self.cell_frames:
+                self.cell_frames[child] = EntityState(
+                    cell, 0, (numbers[0], numbers[1], numbers[2]), quaternion_from_rpy(*numbers[3:6])
+                )
+            device.placed_in_cell = True
 
     async def lifecycle(self, fqn: str) -> str:
         """Return the device's primary lifecycle state (unconfigured, inactive, active, ...)."""

@@ -160,7 +160,11 @@ class CellWorld:
 
     # --- entities ------------------------------------------------------------------------------------
     async def observe_fixtures(self) -> None:
-        """Read the assembly of every fixture not read yet (its assembly_file parameter, read-only)."""
+        """Read the assembly of every fixture not read yet (its assembly_file parameter, read-only).
+
+        And place every device's frame in the cell not placed yet (``CellLink.observe_device_frames``).
+        """
+        await self.link.observe_device_frames()
         for device in self.link.devices.values():
             if device.kind != "assembly_fixture" or device.fqn in self.bodies:
                 continue
@@ -264,6 +268,7 @@ class CellWorld:
     # --- setting, spawning, deleting ------------------------------------------------------------------
     async def set_state(self, name: str, frame_id: str, pose: Pose, code: int) -> None:
         """Place a part at rest at ``pose`` (twist and acceleration checked by the caller)."""
+        await self.link.observe_device_frames()
         entity = self.entity(name)
         if entity.kind == "device":
             raise SimulationError(
@@ -303,6 +308,7 @@ class CellWorld:
         (a part has none), checked and recorded, never a device choice.
         """
         check_namespace(namespace)
+        await self.link.observe_device_frames()
         device, local = self._device_for_spawn(frame_id, pose, code)
         if device.kind == "throwing_arm":
             held = ", ".join(f"{device.fqn.lstrip('/')}/{p}" for p in self._parts_of(device)) or "its part"
@@ -348,8 +354,8 @@ class CellWorld:
         if entity.kind == "arm_part":
             raise SimulationError(
                 OPERATION_FAILED,
-                f"entity: the throwing arm always holds one part: spawn a part onto it to replace "
-                f"{entity.name}",
+                f"entity: the throwing arm always holds one part ({entity.name}): SetEntityState moves "
+                "it, the arm's own ~/load_part replaces it",
             )
         remove = MemsRemovePart.Request(name=entity.local)
         await self.link.device_call(entity.device, "remove_part", remove, "delete_entity")
