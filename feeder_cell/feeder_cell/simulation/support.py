@@ -69,8 +69,9 @@ FEATURES = tuple(row.value for row in SUPPORT if row.supported)
 VELOCITY = {
     "array_part": (
         "OBJECT on the MEMS array",
-        "refused: the array's model has velocity state, but its ~/place_parts sets a pose only, and "
-        "the field moves the part from rest",
+        "refused: in the ideal and array fidelities the model is quasi-static (the velocity follows from "
+        "the field's force, v = F / (damping A): no velocity state); the dynamic fidelity has one, but "
+        "the array's ~/place_parts sets a pose only",
     ),
     "arm_part": ("OBJECT on the throwing arm", "refused: the part rests on the arm, which moves it"),
     "fixture_body": ("OBJECT or STATIC_OBJECT of the fixture", "refused: the fixture holds it"),
