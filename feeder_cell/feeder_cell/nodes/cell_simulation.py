@@ -6,7 +6,9 @@ with the scene's devices as parameters; its services and action are under its ow
 docs/cell.md, "Driving the cell with simulation_interfaces". The rules live in ``feeder_cell.simulation``
 (states, steps and resets; entities and filters; what a spawn or a set accepts); the calls to the clock
 and the devices in ``simulation.cell_link``. One request that changes the cell runs at a time; a second
-is answered INCORRECT_STATE while it runs. Reads answer from what the node has observed.
+is answered INCORRECT_STATE while it runs, except a SetSimulationState during a step, which ends the step
+at its next chunk of quanta and is then carried out. Reads answer from what the node has observed. What
+is supported, row by row as the standard's features: ``simulation.support`` (docs/cell.md repeats it).
 """
 
 from __future__ import annotations
