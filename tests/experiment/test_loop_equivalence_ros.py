@@ -119,3 +119,42 @@ def test_a_replication_equals_the_ros_lockstep_run(tmp_path: Path, case: str) ->
         assert ros_policies == [("FEED", "FAULT", 102, "RESET_RETRY")]
         assert [(f.start, f.end) for f in loop.failures[:1]] == [(11.6, 12.1)]
         assert times == [15.9, 19.9]
+
+
+def test_replay_runs_a_replication_as_a_ros_scene_with_a_bag(tmp_path: Path) -> None:
+    """`feeder experiment FILE --replay 1 --scenario 1 --record DIR`: the ROS run's cycles are the loop's
+    (scenario 1's period 0.4 s, arrivals, a part_lost process), and the bag holds the arm's throw events."""
+    import ros_harness
+
+    experiment = {
+        "scene": str(ROOT / "feeder_cell/scenes/cell.yaml"),
+        "seed": 7,
+        "arrivals": ARRIVALS,
+        "faults": {"throwing_arm": {"fault": "part_lost", "mtbf": 30.0, "mttr": 2.0}},
+        "factors": {"throwing_arm.period": [0.5, 0.4]},
+        "replications": 2,
+        "horizon": {"cycles": 2},
+    }
+    path = tmp_path / "exp.yaml"
+    path.write_text(yaml.safe_dump(experiment))
+    bag = tmp_path / "bag"
+    lease = ros_harness.DomainLease()
+    try:
+        result = subprocess.run(
+            [sys.executable, "-m", "feeder_cell.cli.main", "experiment", str(path), "--replay", "1"]
+            + ["--scenario", "1", "--record", str(bag)],
+            env=dict(os.environ, ROS_DOMAIN_ID=str(lease.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST"),
+            capture_output=True,
+            text=True,
+            timeout=400,
+        )
+    finally:
+        lease.release()
+    assert result.returncode == 0, result.stderr[-3000:]
+    expected = re.search(r"the loop's cycles: (.*)", result.stderr)
+    scene = re.search(r"as a ROS scene: (\S+)", result.stderr)
+    assert expected and scene, result.stderr[-3000:]
+    (log_file,) = sorted((Path(scene.group(1)).parent / "logs").glob("cell.cell_controller-*.log"))
+    ros = [f"cycle {c}: {t} s, {n} throws" for c, t, n, *_ in CYCLE.findall(log_file.read_text())]
+    assert ros == expected.group(1).split("; ") and len(ros) == 2, (ros, expected.group(1))
+    assert "/cell/throwing_arm/throw_events" in (bag / "metadata.yaml").read_text()

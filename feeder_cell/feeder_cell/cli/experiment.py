@@ -7,16 +7,20 @@ numbers, Student-t intervals, OEE) and the output.
 from __future__ import annotations
 
 import argparse
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Callable
 
 from feeder_cell.cli.main import EXIT_INTERRUPTED, check_ctrl_c
 from feeder_cell.experiment.experiment import (
+    Experiment,
     Results,
     format_report,
     load_experiment,
+    replay_scene,
     report,
     run_dask,
     run_local,
@@ -66,6 +70,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--scheduler", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument(
+        "--replay",
+        type=int,
+        metavar="K",
+        help="run replication K as a full ROS scene (feeder launch --real-time-factor max) instead",
+    )
+    parser.add_argument(
+        "--scenario",
+        type=int,
+        default=None,
+        metavar="S",
+        help="--replay: the scenario (default the baseline)",
+    )
+    parser.add_argument("--record", metavar="DIR", help="--replay: record the run into this new bag")
     parser.set_defaults(handler=run)
 
 
@@ -95,6 +113,10 @@ def run(args: argparse.Namespace) -> int:
     if args.workers < 1:
         raise InputError("--workers", f"must be an integer >= 1, got {args.workers}")
     experiment = load_experiment(args.experiment)
+    if args.replay is not None:
+        return replay(args, experiment)
+    if args.record or args.scenario is not None:
+        raise InputError("--record" if args.record else "--scenario", "applies to --replay only")
     stem = Path(args.experiment)
     results_path = Path(args.results) if args.results else stem.with_suffix(".results.csv")
     report_path = Path(args.report) if args.report else stem.with_suffix(".report.md")
@@ -120,3 +142,22 @@ def run(args: argparse.Namespace) -> int:
     sys.stdout.write(text)
     sys.stdout.write(f"\nresults: {results_path}\nreport: {report_path}\n")
     return 0
+
+
+def replay(args: argparse.Namespace, experiment: Experiment) -> int:
+    """Run one replication as a ROS scene (feeder launch in lockstep); say the loop's cycles first."""
+    scenario = experiment.baseline if args.scenario is None else args.scenario
+    folder = Path(tempfile.mkdtemp(prefix="feeder-replay-"))
+    path, expected = replay_scene(experiment, scenario, args.replay, folder)
+    sys.stderr.write(
+        f"replaying scenario {scenario} ({experiment.scenarios[scenario].label()}), replication "
+        f"{args.replay} as a ROS scene: {path}\nthe loop's cycles: {'; '.join(expected)}\n"
+    )
+    command = [sys.executable, "-m", "feeder_cell.cli.main", "launch", str(path), "--real-time-factor", "max"]
+    command += ["--log-dir", str(folder / "logs")]
+    if args.record:
+        command += ["--record", args.record]
+    try:
+        return subprocess.call(command)
+    except KeyboardInterrupt:
+        return EXIT_INTERRUPTED

@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator
 
 import numpy as np
+import yaml
 
 from feeder_cell.experiment.arrivals import arrivals_from_mapping, scene_seed
 from feeder_cell.experiment.faults_process import faults_from_mapping
@@ -62,6 +63,7 @@ __all__ = [
     "run_replication",
     "run_local",
     "run_dask",
+    "replay_scene",
     "Results",
     "report",
     "t_quantile_975",
@@ -310,23 +312,17 @@ def run_replication(
 
     A plain function of plain data, so that a Dask worker runs it as this process does.
     """
-    from feeder_cell.launcher import scene_from_mapping
-
     start = time.process_time()
-    scene = scene_from_mapping(scene_document, Path(scene_dir))
-    executables = {n.node_name: n.executable for n in scene.nodes}
-
-    def until(cycles: list[CycleRecord]) -> bool:
-        cut = warmup_cut(cycles, warmup_cycles, warmup_time)
-        if cut is None:
-            return False
-        if horizon_cycles is not None:
-            return len(cycles) - cut >= horizon_cycles
-        assert horizon_time is not None
-        start_end = cycles[cut - 1].end if cut > 0 else 0.0
-        return cycles[-1].end - start_end >= horizon_time - 1e-9
-
-    result = scene_loop(scene, replication, _overrides(levels, executables)).run(until)
+    result = _run_loop(
+        scene_document,
+        scene_dir,
+        levels,
+        replication,
+        horizon_cycles,
+        horizon_time,
+        warmup_cycles,
+        warmup_time,
+    )
     return _measure(result, warmup_cycles, warmup_time, time.process_time() - start)
 
 
@@ -697,3 +693,65 @@ def run_dask(
             client.close()
         if cluster is not None:
             cluster.close()
+
+
+# --- replay as a ROS scene ---------------------------------------------------------------------------------
+def replay_scene(
+    experiment: Experiment, scenario: int, replication: int, folder: Path
+) -> tuple[Path, list[str]]:
+    """Write the scene that replays one replication in ROS; return it and the loop's cycle lines.
+
+    The scene file with the experiment's seed, arrivals and faults, the scenario's levels, the controller's
+    ``replication`` set to the replication and its ``cycles`` to as many as the loop's run of it had (the
+    warm-up's and the horizon's). The loop's lines say what the ROS run must show (``cycle k: T s``).
+    """
+    from feeder_cell.launcher import scene_copy
+
+    if not 0 <= scenario < len(experiment.scenarios):
+        raise InputError("--scenario", f"must be in 0..{len(experiment.scenarios) - 1}, got {scenario}")
+    if not 0 <= replication < experiment.replications:
+        raise InputError("--replay", f"must be in 0..{experiment.replications - 1}, got {replication}")
+    chosen = experiment.scenarios[scenario]
+    scene = _scene_of(experiment.document, experiment.scene)
+    executables = {n.node_name: n.executable for n in scene.nodes}
+    arguments = task_arguments(experiment, chosen, replication)
+    cycles = _run_loop(*arguments).cycles
+    overrides = _overrides(chosen.levels, executables)
+    overrides.setdefault("cell_controller", {}).update(cycles=len(cycles), replication=replication)
+    folder.mkdir(parents=True, exist_ok=True)
+    path = scene_copy(experiment.scene, folder, overrides)
+    document = yaml.safe_load(path.read_text())
+    for key in ("seed", "arrivals", "faults"):
+        if experiment.document.get(key) is not None:
+            document[key] = experiment.document[key]
+    path.write_text(yaml.safe_dump(document))
+    lines = [f"cycle {c.cycle}: {c.time:.2f} s, {c.throws} throws" for c in cycles]
+    return path, lines
+
+
+def _run_loop(
+    scene_document: dict[str, Any],
+    scene_dir: str,
+    levels: dict[str, Any],
+    replication: int,
+    horizon_cycles: int | None,
+    horizon_time: float | None,
+    warmup_cycles: int,
+    warmup_time: float,
+) -> LoopResult:
+    """Run the loop of one replication until the warm-up and the horizon are complete."""
+    from feeder_cell.launcher import scene_from_mapping
+
+    scene = scene_from_mapping(scene_document, Path(scene_dir))
+    executables = {n.node_name: n.executable for n in scene.nodes}
+
+    def until(cycles: list[CycleRecord]) -> bool:
+        cut = warmup_cut(cycles, warmup_cycles, warmup_time)
+        if cut is None:
+            return False
+        if horizon_cycles is not None:
+            return len(cycles) - cut >= horizon_cycles
+        assert horizon_time is not None
+        return cycles[-1].end - (cycles[cut - 1].end if cut > 0 else 0.0) >= horizon_time - 1e-9
+
+    return scene_loop(scene, replication, _overrides(levels, executables)).run(until)
