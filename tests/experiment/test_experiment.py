@@ -216,3 +216,20 @@ def test_ctrl_c_keeps_every_finished_replication(tmp_path: Path) -> None:
     assert 2 <= len(kept.rows) < 40
     assert all(row["status"] == "ok" for row in kept.rows.values())
     assert sorted(kept.rows) == [(0, r) for r in range(len(kept.rows))]
+
+
+def test_the_picture_and_the_main_effects(tmp_path: Path) -> None:
+    """One factor: each level's main effect is that scenario's throughput and interval; the PNG is written."""
+    from feeder_cell.experiment.plot import experiment_figure, main_effects
+    from feeder_cell.plots.common import write_figure
+
+    path = _file(tmp_path, factors={"throwing_arm.period": [0.5, 0.4]})
+    table = _run(path, tmp_path / "r.csv")
+    experiment = ex.load_experiment(path)
+    levels = ex.report(experiment, table)
+    effects = main_effects(experiment, table)["throwing_arm.period"]
+    for (level, mean, half), report in zip(effects, levels, strict=True):
+        assert level == report.scenario.levels["throwing_arm.period"]
+        assert math.isclose(mean, report.throughput[0]) and math.isclose(half, report.throughput[1])
+    picture = write_figure(experiment_figure(experiment, table, levels), tmp_path / "exp.png")
+    assert picture.stat().st_size > 10_000 and picture.read_bytes()[:4] == b"\x89PNG"

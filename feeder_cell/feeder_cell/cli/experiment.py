@@ -69,6 +69,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--workers", type=int, default=1, metavar="N", help="Dask LocalCluster worker processes (1: none)"
     )
     parser.add_argument("--scheduler", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS")
+    parser.add_argument(
+        "--plot",
+        metavar="PNG",
+        help="the picture: cycle-time histograms, utilisation bars, main effects (default: EXPERIMENT's "
+        "name with .png)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.add_argument(
         "--replay",
@@ -117,6 +123,10 @@ def run(args: argparse.Namespace) -> int:
         return replay(args, experiment)
     if args.record or args.scenario is not None:
         raise InputError("--record" if args.record else "--scenario", "applies to --replay only")
+    if args.plot:
+        from feeder_cell.plots.common import check_plot_path
+
+        check_plot_path(args.plot, "--plot")  # before hours of replications, not after
     stem = Path(args.experiment)
     results_path = Path(args.results) if args.results else stem.with_suffix(".results.csv")
     report_path = Path(args.report) if args.report else stem.with_suffix(".report.md")
@@ -137,10 +147,18 @@ def run(args: argparse.Namespace) -> int:
             f"{results_path} (run again to resume)\n"
         )
         return EXIT_INTERRUPTED
-    text = format_report(experiment, report(experiment, results))
+    levels = report(experiment, results)
+    text = format_report(experiment, levels)
     report_path.write_text(text)
+    from feeder_cell.experiment.plot import experiment_figure
+    from feeder_cell.plots.common import write_figure
+
+    picture = write_figure(
+        experiment_figure(experiment, results, levels),
+        Path(args.plot) if args.plot else stem.with_suffix(".png"),
+    )
     sys.stdout.write(text)
-    sys.stdout.write(f"\nresults: {results_path}\nreport: {report_path}\n")
+    sys.stdout.write(f"\nresults: {results_path}\nreport: {report_path}\npicture: {picture}\n")
     return 0
 
 

@@ -645,8 +645,11 @@ def run_dask(
     workers: int,
     scheduler: str | None,
     progress: Callable[[int, int], None] | None = None,
-) -> None:
-    """Run the missing replications on Dask, appending each row as it ends (in the order they end).
+) -> tuple[float, float]:
+    """Run the missing replications on Dask, appending each row as it ends; return (start-up s, work s).
+
+    Rows go in the order they end. The start-up is the cluster's start or connection and the workers'
+    arrival; the work runs from the submission to the last row.
 
     ``scheduler`` None: a LocalCluster of ``workers`` single-threaded processes (the setup of the
     throwing-design studies, ``feeder_planner.throwing.studies``); else the cluster at that address.
@@ -658,6 +661,7 @@ def run_dask(
     if not 1 <= workers <= MAX_WORKERS:
         raise InputError("--workers", f"must be in 1..{MAX_WORKERS}, got {workers}")
     todo = tasks(experiment, results)
+    begin = time.perf_counter()
     cluster: LocalCluster | None = None
     client: Client | None = None
     try:
@@ -679,6 +683,7 @@ def run_dask(
                     message = f"cannot reach the Dask scheduler at {scheduler!r}: {why}"
                     raise InputError("--scheduler", message) from None
         client.wait_for_workers(1 if scheduler is not None else workers, timeout=WORKERS_TIMEOUT)
+        submitted = time.perf_counter()
         futures = {
             client.submit(guarded, run_replication, *task_arguments(experiment, s, r), pure=False): (s, r)
             for s, r in todo
@@ -688,6 +693,7 @@ def run_dask(
             results.append(scenario, replication, future.result())
             if progress is not None:
                 progress(done, len(todo))
+        return submitted - begin, time.perf_counter() - submitted
     finally:
         if client is not None:
             client.close()
