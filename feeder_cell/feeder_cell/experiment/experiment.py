@@ -23,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import hashlib
+import importlib
 import itertools
 import json
 import math
@@ -39,7 +40,7 @@ import yaml
 from feeder_cell.experiment.arrivals import arrivals_from_mapping, scene_seed
 from feeder_cell.experiment.faults_process import faults_from_mapping
 from feeder_cell.experiment.loop import (
-    CONTROLLER_DEFAULTS,
+    CONTROLLER_SPECS,
     DEVICE_STATES,
     DEVICES,
     PARAMETER_CLASSES,
@@ -164,7 +165,7 @@ def _factor_target(name: str, executables: dict[str, str]) -> tuple[str, str]:
     if executable in DEVICES:
         known = {s.name for s in specs_of(PARAMETER_CLASSES[executable])}
     elif executable == "cell_controller":
-        known = set(CONTROLLER_DEFAULTS)
+        known = set(CONTROLLER_SPECS)
     else:
         raise InputError(where, f"{node} ({executable}) is not a node the cell loop runs")
     if parameter not in known:
@@ -683,6 +684,9 @@ def run_dask(
                     message = f"cannot reach the Dask scheduler at {scheduler!r}: {why}"
                     raise InputError("--scheduler", message) from None
         client.wait_for_workers(1 if scheduler is not None else workers, timeout=WORKERS_TIMEOUT)
+        # The models' imports (numpy, scipy, the planner, the simulators: seconds per process) belong to
+        # the start-up, not to the first replication each worker runs.
+        client.run(importlib.import_module, "feeder_cell.experiment.loop")
         submitted = time.perf_counter()
         futures = {
             client.submit(guarded, run_replication, *task_arguments(experiment, s, r), pure=False): (s, r)

@@ -27,17 +27,18 @@ scene and seed.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, Iterator
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
 from feeder_cell.controller import CellMachine, Outcome, State
+from feeder_cell.controller.fault_schedule import FaultSchedule
+from feeder_cell.controller.parameters import PARAMETERS as CONTROLLER_PARAMETERS
 from feeder_cell.experiment.arrivals import ArrivalStream
-from feeder_cell.experiment.faults_process import FaultEvent, FaultProcess, FaultSpec
+from feeder_cell.experiment.faults_process import FaultEvent, FaultSpec
 from feeder_device.declarations import ActiveFault
 from feeder_planner.assembly import prepare
 from feeder_planner.assembly.parameters import load_assembly_parameter
@@ -82,83 +83,40 @@ FAULT_MOTOR, FAULT_PART_LOST = 101, 102
 FAULT_POWER_LOSS = 201
 FAULT_AXIS_STALL, FAULT_RATE_LIMIT = 301, 302
 FAULT_TIME_STEP = 203
-# The controller's parameters the loop reads, with the node's defaults (nodes/cell_controller.py).
-CONTROLLER_DEFAULTS: dict[str, Any] = {
-    "cycles": 1,
-    "max_retries": 2,
-    "orient_program_file": "",
-    "orient_delta": 0.2,
-    "orient_timeout": 20.0,
-    "orient_tolerance": 0.0,
-    "orient_dwell": 0.0,
-    "new_batch": True,
-    "infeed_edge": 2,
-    "infeed_radius": 0.12,
-    "feed_max_throws": 40,
-    "feed_timeout": 60.0,
-    "fixture_route": [-0.5, 0.0, -0.8660254037844386],
-    "fixture_home": [0.0, 0.0, -1.0],
-    "path_step": 0.0,
-    "step_timeout": 120.0,
-}
-
-
-# Parameters of the ROS nodes that mean nothing in one process (names, files the loop is handed directly,
-# wall-clock bounds): accepted and not used.
-ROS_ONLY = frozenset(
-    {
-        "use_sim_time",
-        "lockstep",
-        "real_time_factor",
-        "exit_when_done",
-        "bring_up",
-        "answer_timeout",
-        "wall_timeout",
-        "mems_device",
-        "arm_device",
-        "fixture_device",
-        "region_planner",
-        "arrivals_file",
-        "faults_file",
-        "replication",
-        "hardware_id",
-        "frame_id",
-        "cell_pose",
-        "publish_markers",
-        "marker_rate",
-    }
-)
+# The controller's parameters: the node's own specs (feeder_cell.controller.parameters), defaults and checks.
+CONTROLLER_SPECS = {spec.name: spec for spec in CONTROLLER_PARAMETERS}
+# What the ROS side adds to every node (use_sim_time) and to the devices (the markers' parameters,
+# node_kit.viz): accepted and not used.
+ROS_ONLY = frozenset({"use_sim_time", "marker_rate", "cell_pose", "cell_frame"})
 
 
 def controller_parameters(values: dict[str, Any]) -> dict[str, Any]:
-    """Return the controller's parameters the loop uses: the node's defaults overridden by ``values``.
+    """Return the controller's parameters: its defaults overridden by ``values``, checked as the node does.
 
-    A name the controller does not have is refused naming it; a value of the wrong kind (a number where
-    the default is one, a list where it is one) too.
+    A name it does not have, or a bad value, is an InputError naming ``cell_controller.parameters.NAME``.
     """
-    merged = dict(CONTROLLER_DEFAULTS)
+    merged = {name: spec.default for name, spec in CONTROLLER_SPECS.items()}
     for name, value in values.items():
         where = f"cell_controller.parameters.{name}"
         if name in ROS_ONLY:
             continue
-        if name not in CONTROLLER_DEFAULTS:
+        spec = CONTROLLER_SPECS.get(name)
+        if spec is None:
             raise InputError(where, "is not a parameter of cell_controller")
-        default = CONTROLLER_DEFAULTS[name]
+        default = spec.default
+        # rclpy refuses a value of another type than the declared one; say so here as one line.
         if isinstance(default, bool) != isinstance(value, bool) or (
             isinstance(default, (int, float)) and not isinstance(value, (int, float))
         ):
             raise InputError(where, f"must be like {default!r}, got {value!r}")
         if isinstance(default, int) and not isinstance(default, bool) and not isinstance(value, int):
             raise InputError(where, f"must be an integer, got {value!r}")
-        if isinstance(default, float) and (not math.isfinite(value) or value < 0):
-            raise InputError(where, f"must be a finite number >= 0, got {value!r}")
-        if isinstance(default, list) and (
-            not isinstance(value, list)
-            or not value
-            or len(value) % 3
-            or not all(isinstance(v, (int, float)) for v in value)
-        ):
-            raise InputError(where, f"must be x, y, z triples of numbers, got {value!r}")
+        if isinstance(default, str) and not isinstance(value, str):
+            raise InputError(where, f"must be a string, got {value!r}")
+        try:
+            check_value(spec, value)
+        except InputError as error:
+            raise InputError(where, error.problem) from None
         merged[name] = value
     return merged
 
@@ -647,14 +605,15 @@ class CellLoop:
         self.machine = CellMachine(cycles=int(self.c["cycles"]), max_retries=int(self.c["max_retries"]))
         self.program = self._program()
         self.arrivals = arrivals
-        self.fault_specs = faults
         self.seed, self.replication = seed, replication
-        self.fault_origin = math.nan
-        self.next_failure: dict[str, tuple[Iterator[FaultEvent], FaultEvent]] = {}
-        self.repairs: list[FaultEvent] = []
-        self.repair_at: dict[str, float] = {}
+        # The node names the controller drives (its *_device parameters), as the fault processes name them.
+        self.node_of = {key: str(self.c[f"{key}_device"]).rsplit("/", 1)[-1] for key in self.by_key}
+        self.by_node = {self.node_of[key]: device for key, device in self.by_key.items()}
+        self.schedule = FaultSchedule(faults, seed, replication)
         self.failures: list[FaultEvent] = []
-        self.fault_tables = {s.device: _fault_specs_of(s.device) for s in faults}
+        self.fault_tables = {
+            s.device: _fault_specs_of(self.by_node[s.device].name) for s in faults if s.device in self.by_node
+        }
         # Quanta per device and state (counted, not summed: no rounding drift over thousands of cycles).
         self.device_quanta = {d.name: dict.fromkeys(DEVICE_STATES, 0) for d in self.by_key.values()}
         self.down_quanta = 0
@@ -704,36 +663,19 @@ class CellLoop:
 
     # --- faults ---------------------------------------------------------------------------------------------
     def _inject_due(self) -> None:
-        if not self.fault_specs or self.machine.state is State.BRING_UP:
+        """Apply what the fault schedule says is due now (the ROS controller's ``_inject_due``)."""
+        if self.machine.state is State.BRING_UP:
             return
-        now = self.t()
-        if math.isnan(self.fault_origin):
-            self.fault_origin = now
-            for spec in self.fault_specs:
-                events = FaultProcess(spec, self.seed, self.replication).events()
-                self.next_failure[spec.device] = (events, next(events))
-        for spec in self.fault_specs:
-            events, event = self.next_failure[spec.device]
-            while self.fault_origin + event.start <= now:
-                self._send_fault(spec, event, clear=False)
-                self.repairs.append(event)
-                self.failures.append(event)
-                self.repair_at[spec.device] = self.fault_origin + event.end
-                event = next(events)
-            self.next_failure[spec.device] = (events, event)
-        for event in [e for e in self.repairs if self.fault_origin + e.end <= now]:
-            self.repairs.remove(event)
-            spec = next(s for s in self.fault_specs if s.device == event.device)
-            self._send_fault(spec, event, clear=True)
-
-    def _send_fault(self, spec: FaultSpec, event: FaultEvent, clear: bool) -> None:
-        device = self.by_name.get(spec.device)
-        if device is None:
-            return
-        try:
-            device.inject(spec, clear, 0, self.fault_tables[spec.device])
-        except FeederError:
-            pass  # the device refused (the ROS controller logs it): the failure has no effect
+        for action in self.schedule.due(self.t()):
+            if not action.clear:
+                self.failures.append(action.event)
+            device = self.by_node.get(action.spec.device)
+            if device is None:
+                continue  # no such device in the cell: the ROS controller finds no service either
+            try:
+                device.inject(action.spec, action.clear, 0, self.fault_tables[action.spec.device])
+            except FeederError:
+                pass  # the device refused (the ROS controller logs it): the failure has no effect
 
     # --- the work of each state -----------------------------------------------------------------------------
     def run(self, until: Callable[[list[CycleRecord]], bool] | None = None) -> LoopResult:
@@ -918,7 +860,7 @@ class CellLoop:
         if key == "planner":
             return Outcome("DONE")
         device: _Device = self.by_key[key]
-        end = self.repair_at.get(device.name, -math.inf)
+        end = self.schedule.under_repair_until(self.node_of[key])
         if end > self.t():
             self._wait(lambda: False, end - self.t())
         device.reset()
@@ -1005,9 +947,7 @@ def scene_loop(
     for node in scene.nodes:
         parameters[node.executable] = {**node.parameters, **overrides.get(node.executable, {})}
     arrivals = ArrivalStream(scene.arrivals, scene.seed, replication) if scene.arrivals is not None else None
-    by_name = {n.node_name: n.executable for n in scene.nodes}
-    # The loop's devices go by executable: a fault process names its node, the device's model answers.
-    faults = tuple(dataclasses.replace(s, device=by_name[s.device]) for s in scene.faults or ())
+    faults = tuple(scene.faults or ())  # by node name, as the controller's *_device parameters name them
     return CellLoop(
         {k: v for k, v in parameters.items() if k in DEVICES},
         parameters.get("cell_controller", {}),
