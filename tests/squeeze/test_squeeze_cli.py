@@ -25,6 +25,7 @@ def test_rectangle_plan_as_json_and_its_picture(tmp_path: Path, capsys: pytest.C
     assert result["symmetry_period"] == pytest.approx(math.pi)
     assert sorted(s["width"] for s in result["stable_orientations"]) == pytest.approx([0.01, 0.02])
     assert len(result["sensor_groups"]) == 2 and result["margin"] > 0.3
+    assert result["friction_tolerance"] == pytest.approx(1.0 / 3.0)
     assert plot.stat().st_size > 10_000 and plot.read_bytes()[:4] == b"\x89PNG"
 
 
@@ -32,6 +33,7 @@ def test_square_summary_says_one_squeeze_up_to_a_quarter_turn(capsys: pytest.Cap
     assert main(["squeeze-plan", str(ROOT / "examples/mems/square.yaml"), "--first-angle", "30deg"]) == 0
     text = capsys.readouterr().out
     assert "plan: 1 squeezes at 0.523599 rad" in text and "(90.000 deg)" in text
+    assert "friction tolerance: any (one squeeze)" in text
 
 
 @pytest.mark.parametrize(

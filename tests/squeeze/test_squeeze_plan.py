@@ -23,6 +23,7 @@ from feeder_planner.squeeze import (
     distinguishable_groups,
     frictional_squeeze,
     hull_symmetry_order,
+    jams,
     plan_squeezes,
     read_width,
     shortest_plan_length,
@@ -220,3 +221,24 @@ def test_bad_input_is_refused_naming_the_field() -> None:
         InputError, match=r"^vertices: the squeeze function has 6 stable orientations a period"
     ):
         plan_squeezes(squeeze_function(outline("squeeze/hexagon6.yaml")), max_steps=5)
+
+
+def test_friction_tolerance_is_where_the_later_squeezes_start_to_jam() -> None:
+    # The rectangle's second squeeze meets the part 45 deg from the jaws, 18.43 deg from the diagonal's
+    # crest at 26.57 deg: it jams for mu >= tan(18.43 deg) = 1/3 in the quasi-static frictional model.
+    sf = squeeze_function(outline("squeeze/rectangle.yaml"))
+    plan = plan_squeezes(sf)
+    assert plan.certificate.friction_tolerance == pytest.approx(1.0 / 3.0, rel=1e-12)
+    starts = np.random.default_rng(9).uniform(0, 2 * math.pi, 400)
+    first = plan.angles[0]
+    clean = [float(t) for t in starts if not jams(sf, float(t) - first, 0.34)]
+
+    def ends(theta: float, mu: float) -> float:
+        for alpha in plan.angles:
+            theta = alpha + frictional_squeeze(sf, theta - alpha, mu)
+        return theta
+
+    # Below it, every start the first squeeze does not hold is oriented; above it, none is.
+    assert all(same_mod(ends(t, 0.33), plan.certificate.final, sf.period) for t in clean)
+    assert not any(same_mod(ends(t, 0.34), plan.certificate.final, sf.period) for t in clean)
+    assert math.isinf(plan_squeezes(squeeze_function(regular(4))).certificate.friction_tolerance)

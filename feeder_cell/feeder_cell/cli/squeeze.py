@@ -99,6 +99,12 @@ def _summary(result: dict[str, Any]) -> str:
         f"  final orientation {result['final_orientation']:.6f} rad modulo {period:.6f}; "
         f"margin {result['margin']:.6f} rad",
         f"  certificate: {len(result['intervals'])} initial intervals cover [0, 2 pi), every one ends there",
+        "  friction tolerance: "
+        + (
+            "any (one squeeze)"
+            if result["friction_tolerance"] is None
+            else f"no squeeze after the first jams below mu {result['friction_tolerance']:.4g}"
+        ),
         f"  jaw-width sensor: {len(result['sensor_groups'])} groups of stable orientations told apart",
     ]
     return "\n".join(lines)
@@ -114,8 +120,9 @@ def run(args: argparse.Namespace) -> int:
     plan = plan_squeezes(squeeze, args.first_angle)
     check_certificate(squeeze, plan)
     result = describe(part.name, squeeze, plan, args.resolution)
-    if not math.isfinite(result["margin"]):
-        result["margin"] = None  # one squeeze: no orientation in between (JSON has no infinity)
+    for key in ("margin", "friction_tolerance"):
+        if not math.isfinite(result[key]):
+            result[key] = None  # one squeeze: no orientation in between (JSON has no infinity)
     emit(args, result, _summary_safe)
     if args.plot is not None:
         from feeder_cell.cli.squeeze_plot import squeeze_figure

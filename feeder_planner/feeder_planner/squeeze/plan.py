@@ -79,6 +79,10 @@ class PlanCertificate:
     final: float
     period: float
     margin: float
+    # The largest Coulomb friction (jaws and part) under which no squeeze after the first jams: the tangent
+    # of the smallest angle between a contact chord and the jaws' normal at any intermediate orientation
+    # (``friction.jams``). Infinite for a plan of one squeeze.
+    friction_tolerance: float = math.inf
 
 
 @dataclass(frozen=True)
@@ -98,6 +102,7 @@ class Plan:
             "final_orientation": c.final,
             "symmetry_period": c.period,
             "margin": c.margin,
+            "friction_tolerance": c.friction_tolerance,
             "intervals": [{"start": s, "final": f} for s, f in zip(c.starts, c.finals, strict=True)],
         }
 
@@ -231,19 +236,29 @@ def _certificate(squeeze: SqueezeFunction, angles: Sequence[float]) -> PlanCerti
     starts: list[float] = []
     finals: list[float] = []
     margin = math.inf
+    chord = math.pi / 2  # the smallest |theta - beta| met by a squeeze after the first
     for half in (0.0, math.pi):
         for m, f in zip(squeeze.maxima, squeeze.minima, strict=True):
             starts.append(first + m + half)
             theta = first + f + half
             for alpha in angles[1:]:
                 margin = min(margin, squeeze.boundary_distance(theta - alpha))
+                chord = min(chord, _chord_angle(squeeze, theta - alpha))
                 theta = alpha + squeeze(theta - alpha)
             finals.append(wrap(theta, TWO_PI))
     final = wrap(finals[0], period)
     for value in finals:
         if abs(math.remainder(value - final, period)) > FINAL_TOLERANCE:
             raise SolverError(f"the plan ends at {value:.9f} and {final:.9f} rad, apart modulo {period:.6f}")
-    return PlanCertificate(tuple(starts), tuple(finals), final, period, margin)
+    tolerance = math.tan(chord) if len(angles) > 1 else math.inf
+    return PlanCertificate(tuple(starts), tuple(finals), final, period, margin, tolerance)
+
+
+def _chord_angle(squeeze: SqueezeFunction, theta: float) -> float:
+    """Return |theta - beta|: the contact chord's angle from the jaws' normal at ``theta`` (rad)."""
+    diameter = squeeze.diameter
+    reduced = diameter.pieces[0].start + wrap(theta - diameter.pieces[0].start, math.pi)
+    return abs(reduced - diameter.piece_at(theta).phase)
 
 
 def check_certificate(squeeze: SqueezeFunction, plan: Plan) -> None:
