@@ -1,8 +1,14 @@
 """Build script of the feeder_cell ament_python package."""
 
+from pathlib import Path
+
 from setuptools import find_packages, setup
 
 PACKAGE = "feeder_cell"
+# Every node module is an executable of its own name (docs/devices.md); its entry NAME_main is made on
+# demand by feeder_cell.nodes (feeder_planner.entry_points.node_main), so a new node adds no line here.
+NODES = sorted(p.stem for p in (Path(__file__).resolve().parent / PACKAGE / "nodes").glob("[a-z]*.py"))
+NODE_SCRIPTS = [f"{node} = {PACKAGE}.nodes:{node}_main" for node in NODES]
 
 setup(
     name=PACKAGE,
@@ -22,11 +28,8 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
+            *NODE_SCRIPTS,
             "feeder = feeder_cell.cli.main:run",
-            "cell_clock = feeder_cell.nodes:cell_clock_main",
-            "cell_controller = feeder_cell.nodes:cell_controller_main",
-            "cell_simulation = feeder_cell.nodes:cell_simulation_main",
-            "opcua_gateway = feeder_cell.nodes:opcua_gateway_main",
         ],
     },
 )

@@ -1,8 +1,14 @@
 """Build script of the feeder_planner ament_python package."""
 
+from pathlib import Path
+
 from setuptools import find_packages, setup
 
 PACKAGE = "feeder_planner"
+# Every node module is an executable of its own name (docs/devices.md); its entry NAME_main is made on
+# demand by feeder_planner.nodes (feeder_planner.entry_points.node_main), so a new node adds no line here.
+NODES = sorted(p.stem for p in (Path(__file__).resolve().parent / PACKAGE / "nodes").glob("[a-z]*.py"))
+NODE_SCRIPTS = [f"{node} = {PACKAGE}.nodes:{node}_main" for node in NODES]
 
 setup(
     name=PACKAGE,
@@ -20,11 +26,6 @@ setup(
     ),
     license="Apache-2.0",
     entry_points={
-        "console_scripts": [
-            "field_equilibria_planner = feeder_planner.nodes:field_equilibria_planner_main",
-            "throw_planner = feeder_planner.nodes:throw_planner_main",
-            "stable_region_planner = feeder_planner.nodes:stable_region_planner_main",
-            "squeeze_planner = feeder_planner.nodes:squeeze_planner_main",
-        ],
+        "console_scripts": NODE_SCRIPTS,
     },
 )

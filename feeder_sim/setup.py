@@ -1,8 +1,14 @@
 """Build script of the feeder_sim ament_python package."""
 
+from pathlib import Path
+
 from setuptools import find_packages, setup
 
 PACKAGE = "feeder_sim"
+# Every node module is an executable of its own name (docs/devices.md); its entry NAME_main is made on
+# demand by feeder_sim.nodes (feeder_planner.entry_points.node_main), so a new node adds no line here.
+NODES = sorted(p.stem for p in (Path(__file__).resolve().parent / PACKAGE / "nodes").glob("[a-z]*.py"))
+NODE_SCRIPTS = [f"{node} = {PACKAGE}.nodes:{node}_main" for node in NODES]
 
 setup(
     name=PACKAGE,
@@ -14,14 +20,12 @@ setup(
     ],
     install_requires=["setuptools"],
     zip_safe=True,
-    description="Simulator nodes of the emulated feeders: MEMS field array, throwing arm, assembly fixture.",
+    description=(
+        "Simulator nodes of the emulated feeders: MEMS field array, throwing arm, assembly fixture, "
+        "squeeze gripper."
+    ),
     license="Apache-2.0",
     entry_points={
-        "console_scripts": [
-            "mems_field_array = feeder_sim.nodes:mems_field_array_main",
-            "throwing_arm = feeder_sim.nodes:throwing_arm_main",
-            "assembly_fixture = feeder_sim.nodes:assembly_fixture_main",
-            "squeeze_gripper = feeder_sim.nodes:squeeze_gripper_main",
-        ],
+        "console_scripts": NODE_SCRIPTS,
     },
 )

@@ -20,20 +20,13 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "nodes.md"
-# Each node of the page, by the package that installs it.
+# Each node of the page, by the package that installs it: every node module of the three node packages
+# (an executable of its own name, docs/devices.md), so a new node needs its section here, not a line.
+PACKAGES = ("feeder_sim", "feeder_planner", "feeder_cell")
 NODES = {
-    "mems_field_array": "feeder_sim",
-    "throwing_arm": "feeder_sim",
-    "assembly_fixture": "feeder_sim",
-    "field_equilibria_planner": "feeder_planner",
-    "throw_planner": "feeder_planner",
-    "stable_region_planner": "feeder_planner",
-    "squeeze_gripper": "feeder_sim",
-    "squeeze_planner": "feeder_planner",
-    "cell_clock": "feeder_cell",
-    "cell_simulation": "feeder_cell",
-    "cell_controller": "feeder_cell",
-    "opcua_gateway": "feeder_cell",
+    path.stem: package
+    for package in PACKAGES
+    for path in sorted((ROOT / package / package / "nodes").glob("[a-z]*.py"))
 }
 BLOCK = re.compile(r"(<!-- parameters (\w+) -->\n)(.*?)(<!-- end parameters -->)", re.S)
 

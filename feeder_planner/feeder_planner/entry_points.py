@@ -11,10 +11,11 @@ scripts do this: importing a node module (tests, docs) installs nothing.
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import signal
 from typing import Callable
 
-__all__ = ["STOP_SIGNALS", "held_signal", "hold_stop_signals", "lazy_main"]
+__all__ = ["STOP_SIGNALS", "held_signal", "hold_stop_signals", "lazy_main", "node_main"]
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _held: list[int] = []
@@ -44,3 +45,20 @@ def lazy_main(module: str) -> Callable[[], None]:
 
     main.__doc__ = f"Run {module}.main() with the stop signals held from the start."
     return main
+
+
+MAIN_SUFFIX = "_main"
+
+
+def node_main(package: str, attribute: str) -> Callable[[], None]:
+    """Return ``PACKAGE.nodes``'s console-script entry ``NAME_main``: ``lazy_main`` of the module ``NAME``.
+
+    A node package's ``__init__`` answers its module ``__getattr__`` (PEP 562) with this, so every node
+    module there is an executable of its own name with no line of its own (its setup.py lists the
+    directory). Finding the module's spec does not import it: the signals are still held first.
+    """
+    name = attribute.removesuffix(MAIN_SUFFIX)
+    if attribute.endswith(MAIN_SUFFIX) and name.isidentifier() and not name.startswith("_"):
+        if importlib.util.find_spec(f"{package}.{name}") is not None:
+            return lazy_main(f"{package}.{name}")
+    raise AttributeError(f"module {package!r} has no attribute {attribute!r}")

@@ -1,12 +1,14 @@
 """Nodes that serve the whole cell rather than one device (the cell clock)."""
 
-# Node modules are executables (their `main`), not an import surface: nothing imports them. Their console
-# scripts are these entries, which hold the stop signals before the module's imports (entry_points).
-from feeder_planner.entry_points import lazy_main
+# Node modules are executables (their `main`), not an import surface: nothing imports them. The console
+# script of node module NAME is the entry NAME_main here, made on demand (feeder_planner.entry_points:
+# it holds the stop signals before the module's imports), so a new node module adds no line.
+from __future__ import annotations
 
-__all__ = ["cell_clock_main", "cell_controller_main", "cell_simulation_main", "opcua_gateway_main"]
+from typing import Callable
 
-cell_clock_main = lazy_main(f"{__name__}.cell_clock")
-cell_controller_main = lazy_main(f"{__name__}.cell_controller")
-cell_simulation_main = lazy_main(f"{__name__}.cell_simulation")
-opcua_gateway_main = lazy_main(f"{__name__}.opcua_gateway")
+from feeder_planner.entry_points import node_main
+
+
+def __getattr__(attribute: str) -> Callable[[], None]:
+    return node_main(__name__, attribute)

@@ -1,17 +1,14 @@
 """ROS 2 planner nodes: thin rclpy adapters around the feeder_planner mechanics."""
 
-# Node modules are executables (their `main`), not an import surface: nothing imports them. Their console
-# scripts are these entries, which hold the stop signals before the module's imports (entry_points).
-from feeder_planner.entry_points import lazy_main
+# Node modules are executables (their `main`), not an import surface: nothing imports them. The console
+# script of node module NAME is the entry NAME_main here, made on demand (feeder_planner.entry_points:
+# it holds the stop signals before the module's imports), so a new node module adds no line.
+from __future__ import annotations
 
-__all__ = [
-    "field_equilibria_planner_main",
-    "throw_planner_main",
-    "stable_region_planner_main",
-    "squeeze_planner_main",
-]
+from typing import Callable
 
-field_equilibria_planner_main = lazy_main(f"{__name__}.field_equilibria_planner")
-throw_planner_main = lazy_main(f"{__name__}.throw_planner")
-stable_region_planner_main = lazy_main(f"{__name__}.stable_region_planner")
-squeeze_planner_main = lazy_main(f"{__name__}.squeeze_planner")
+from feeder_planner.entry_points import node_main
+
+
+def __getattr__(attribute: str) -> Callable[[], None]:
+    return node_main(__name__, attribute)

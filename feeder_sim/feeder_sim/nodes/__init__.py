@@ -1,12 +1,14 @@
 """ROS 2 simulator nodes: thin rclpy adapters around the feeder_sim models."""
 
-# Node modules are executables (their `main`), not an import surface: nothing imports them. Their console
-# scripts are these entries, which hold the stop signals before the module's imports (entry_points).
-from feeder_planner.entry_points import lazy_main
+# Node modules are executables (their `main`), not an import surface: nothing imports them. The console
+# script of node module NAME is the entry NAME_main here, made on demand (feeder_planner.entry_points:
+# it holds the stop signals before the module's imports), so a new node module adds no line.
+from __future__ import annotations
 
-__all__ = ["mems_field_array_main", "throwing_arm_main", "assembly_fixture_main", "squeeze_gripper_main"]
+from typing import Callable
 
-mems_field_array_main = lazy_main(f"{__name__}.mems_field_array")
-throwing_arm_main = lazy_main(f"{__name__}.throwing_arm")
-assembly_fixture_main = lazy_main(f"{__name__}.assembly_fixture")
-squeeze_gripper_main = lazy_main(f"{__name__}.squeeze_gripper")
+from feeder_planner.entry_points import node_main
+
+
+def __getattr__(attribute: str) -> Callable[[], None]:
+    return node_main(__name__, attribute)
