@@ -33,6 +33,7 @@ ARRIVALS = {
 def _file(tmp_path: Path, **fields: Any) -> Path:
     document = {"scene": SCENE, "seed": 3, "arrivals": ARRIVALS, "replications": 2, "horizon": {"cycles": 2}}
     document.update(fields)
+    document = {key: value for key, value in document.items() if value is not None}  # None: left out
     path = tmp_path / "exp.yaml"
     path.write_text(yaml.safe_dump(document))
     return path
@@ -233,3 +234,17 @@ def test_the_picture_and_the_main_effects(tmp_path: Path) -> None:
         assert math.isclose(mean, report.throughput[0]) and math.isclose(half, report.throughput[1])
     picture = write_figure(experiment_figure(experiment, table, levels), tmp_path / "exp.png")
     assert picture.stat().st_size > 10_000 and picture.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_a_cell_that_stops_ends_its_replication_with_the_time_lost(tmp_path: Path) -> None:
+    """power_loss on the array at +20 s (fixed): cycle 2's ORIENT meets it, the policy stops the cell; the
+    row says why, counts cycle 1's part good and none rejected, and keeps cycle 2's time as lost."""
+    faults = {"mems_field_array": {"fault": "power_loss", "mtbf": 20.0, "mttr": 1.0, "distribution": "fixed"}}
+    path = _file(tmp_path, replications=1, faults=faults, horizon={"cycles": 3}, arrivals=None)
+    (row,) = _run(path, tmp_path / "r.csv").rows.values()
+    assert row["status"] == "ok" and row["end_state"].startswith("STOPPED: ORIENT: FAULT 201"), row
+    assert (row["cycles"], row["good"], row["rejected"]) == ("1", "1", "0")
+    assert row["cycle_times"] == "17.100"
+    assert 20.0 <= float(row["window_s"]) <= 20.5, row["window_s"]
+    (level,) = ex.report(ex.load_experiment(path), ex.Results(tmp_path / "r.csv", ex.load_experiment(path)))
+    assert math.isclose(level.performance * (float(row["window_s"]) - float(row["down_s"])), 17.1)

@@ -18,9 +18,10 @@ lockstep drives them (docs/cell.md, docs/devices.md "Who drives the tick"):
 What the loop returns per cycle: cell time, throws, presented and rejected parts, faults seen and handled;
 per replication each device's cell time RUNNING, IDLE and FAULT (one quantum at a time, as the device's
 state is at the quantum's end). A part is rejected when the sensor said PRESENTED but the true reading at
-rest is false (a stuck or lying sensor: the part is not on the goal edge), or when the cell stops with the
-cycle's part not presented. A feed that ends in MAX_THROWS, TIMEOUT or a lost part is no reject by itself:
-the fault policy resets the arm and places the same cycle's part again (as the ROS controller does).
+rest is false (a stuck or lying sensor: the part is not on the goal edge). A feed that ends in
+MAX_THROWS, TIMEOUT or a lost part is no reject by itself: the fault policy resets the arm and places the
+same cycle's part again (as the ROS controller does). A cell that stops (a motor fault, a power loss, a
+spent retry budget) ends the replication; the cycle it stopped in is recorded incomplete, its time lost.
 tests/experiment/test_loop_equivalence_ros.py compares the loop with the ROS lockstep run of the same
 scene and seed.
 """
@@ -713,7 +714,7 @@ class CellLoop:
                     break
         m = self.machine
         if m.state is State.STOPPED and m.cycle > len(self.cycles):
-            self.cycle_rejected += 1  # the cycle's part never reached the fixture
+            # The cycle the cell stopped in: its time counts (lost), its part is neither good nor a reject.
             self._end_cycle(complete=False)
         return LoopResult(
             self.cycles,
