@@ -59,6 +59,12 @@ def _run(path: Path, results: Path) -> ex.Results:
             "faults.throwing_arm.mtbf",
             ">",
         ),
+        # the squeeze gripper as orienter has no model in the loop: refused naming the parameter
+        (
+            {"factors": {"cell_controller.orienter": ["squeeze"]}},
+            "factors.cell_controller.orienter",
+            "orienter",
+        ),
         ({"replications": 0}, "replications", "integer in [1"),
         ({"horizon": {"cycles": 2, "time": 5}}, "horizon", "{cycles: N} or {time: S}"),
         ({"warmup": {"time": -1}}, "warmup.time", "in [0"),

@@ -119,6 +119,12 @@ def controller_parameters(values: dict[str, Any]) -> dict[str, Any]:
         except InputError as error:
             raise InputError(where, error.problem) from None
         merged[name] = value
+    if merged.get("orienter", "mems") != "mems":
+        # The squeeze gripper as the orienting station has no model in the loop yet.
+        raise InputError(
+            "cell_controller.parameters.orienter",
+            f"the cell loop runs the MEMS array's ORIENT only, got {merged['orienter']!r}",
+        )
     return merged
 
 
