@@ -371,8 +371,9 @@ def _truth_rows(quick: bool, before: tuple[object, object] | None = None) -> lis
             "met": share == 1.0,
         },
         # Issue 35: on the designs whose attractors agree, every attractor's radius range and every goal
-        # edge's trigger range against the long runs' last halves (truth_corpus.compare_ranges: within
-        # RANGE_GAPS mean gaps of the planner's tails), next to the agreement on edges and cycles.
+        # edge's trigger range (as limit_set reads it) against the long runs' last halves
+        # (truth_corpus.compare_ranges: within RANGE_GAPS mean gaps of the members' recent quarters), next
+        # to the agreement on edges and cycles; the full corpus without --quick (80 parts, 45-60 min here).
         *(
             {
                 "benchmark": f"throwing: limit set vs long iteration, seeded corpus ({parts} parts)",

@@ -2,14 +2,17 @@
 
 import math
 
+import numpy as np
 import pytest
 from throwing_helpers import EXAMPLES, TRIANGLE_PARAMS, triangle
+from truth_corpus import tail_states
 
 from feeder_planner.errors import SolverError
 from feeder_planner.parts import load_part
-from feeder_planner.throwing.attractors import blocks, round_pattern
+from feeder_planner.throwing.attractors import _confirm, blocks, round_pattern, widening
 from feeder_planner.throwing.geometry import arm_part
-from feeder_planner.throwing.limit_set import limit_set
+from feeder_planner.throwing.limit_set import limit_set, sensed_states
+from feeder_planner.throwing.sensor import read_trigger
 from feeder_planner.throwing.throw_map import ThrowParams
 
 # convex12 (mm in the file): g = -9660 mm/s^2, h = -0.3 mm, W = 320 deg/s, mu = 0.5 (issue 14), in SI.
@@ -87,3 +90,42 @@ def test_too_few_throws_say_the_attractor_search_did_not_converge():
     with pytest.raises(SolverError) as info:
         limit_set(convex12(), CONVEX12_PARAMS, starts_per_edge=2, throws=12)
     assert "did not converge" in str(info.value) and "--throws" in str(info.value)
+
+
+def test_a_range_the_recent_half_still_widens_is_growing_not_confirmed():
+    # Issue 35: the mirror of the transient test. A tail whose recent half reaches well beyond its older
+    # half's range (an orbit still spiralling out to its attractor) would read its range too narrow.
+    rng = np.random.default_rng(0)
+    n = 200
+    edge = np.tile([0, 1], n // 2)
+    width = np.full(2, 1e-4)
+    steady = np.where(edge == 0, 0.10, 0.20) + 0.01 * rng.random(n)
+    assert widening(edge, steady, width) == []
+    growing = steady.copy()
+    growing[n // 2 :][edge[n // 2 :] == 1] += np.linspace(0.0, 0.01, n // 4)  # edge 1 keeps reaching out
+    assert widening(edge, growing, width) == [1]
+    # One rare extreme in the recent half is sampling, not growth.
+    rare = steady.copy()
+    rare[-1] += 0.01
+    assert widening(edge, rare, width) == []
+    jog = np.zeros(n, dtype=bool)
+    assert _confirm(edge, growing, jog, width) is None
+    assert _confirm(edge, growing, jog, width, growth=False) is not None
+
+
+def test_the_trigger_is_read_on_the_tails_and_more_and_never_wider():
+    # Issue 35: the trigger range is read on each start's tail and on the older states of its stay that
+    # may be visits (sensed <= tail); more states only shrink the goal visits' common cover and grow the
+    # other edges' covers, so it lies inside the trigger read on the tails alone.
+    part = triangle()
+    ls = limit_set(part, TRIANGLE_PARAMS, goal_edge=1, starts_per_edge=6, keep_trajectories=True)
+    t = ls.trajectories
+    assert t is not None and t.sensed is not None and t.tail is not None
+    assert (t.sensed <= t.tail).all() and (t.sensed >= 0).all()
+    groups = [[sensed_states(t, b) for b in a.members] for a in ls.attractors]
+    tails = [[tail_states(t, b) for b in a.members] for a in ls.attractors]
+    height = ls.sensing_height
+    assert read_trigger(part, 1, height, groups).trigger == ls.trigger
+    lo, hi = ls.trigger
+    tlo, thi = read_trigger(part, 1, height, tails).trigger
+    assert tlo <= lo < hi <= thi

@@ -5,7 +5,8 @@ enter it. Three designs whose radii are quasi-periodic (the throws per round var
 integer), each part drawn in millimetres: the issue's quadrilateral (examples/throwing/quad35.yaml), the
 wedge of test_attractor_transients and examples/throwing/transient5.yaml. Every start of limit-set's
 default grid is also thrown LONG times one throw after the other, and its last half is its attractor
-(truth_corpus.compare_ranges: within RANGE_GAPS mean gaps of the planner's recent quarters).
+(truth_corpus.compare_ranges: within RANGE_GAPS mean gaps of the planner's recent quarters). The trigger
+range is read as limit-set reads it: on the tails and the older states of their stays that may be visits.
 """
 
 from __future__ import annotations
@@ -16,11 +17,20 @@ from typing import Any
 import numpy as np
 import pytest
 from throwing_helpers import EXAMPLES
-from truth_corpus import RANGE_GAPS, CorpusDesign, Run, compare_ranges, long_runs, range_tolerance
+from truth_corpus import (
+    RANGE_GAPS,
+    CorpusDesign,
+    Run,
+    compare_ranges,
+    long_runs,
+    range_tolerance,
+    tail_states,
+)
 
 from feeder_planner.parts import load_part, make_part
 from feeder_planner.throwing.geometry import ArmPart, arm_part
 from feeder_planner.throwing.limit_set import limit_set
+from feeder_planner.throwing.sensor import read_trigger
 from feeder_planner.throwing.throw_map import ThrowParams
 
 MM = 0.001
@@ -67,21 +77,28 @@ def test_ranges_and_trigger_are_the_long_runs_tails(name: str) -> None:
     assert not bad_ranges and not bad_triggers, bad_ranges + bad_triggers
 
 
-def test_the_wedges_ranges_fall_short_only_where_its_visits_thin_out() -> None:
-    # A limitation, measured: edge 1's highest visits are rare (the members' recent quarters hold 1,639
-    # states on edge 1, their top ones 0.01-0.04 mm apart, 195.84 mm; the long runs reach 195.95 mm),
-    # and _trim_to_group takes a member's older visit up there, 3 mean gaps beyond its reference, for
-    # the approach. So edge 1 reads about 0.08 mm short at its top, and the trigger range, whose low end
-    # that top edge sets, about 0.09 mm too low: narrower than either tolerance can hide, both named.
+def test_the_wedges_range_falls_short_where_its_visits_thin_out_and_its_trigger_does_not() -> None:
+    # A limitation of the ranges, measured: edge 1's highest visits are rare (the members' recent quarters
+    # hold 1,639 states on edge 1, their top ones 0.01-0.04 mm apart, 195.84 mm; the long runs reach
+    # 195.95 mm), and _trim_to_group takes a member's older visit up there, 3 mean gaps beyond its
+    # reference, for the approach. So edge 1 reads about 0.08 mm short at its top, named.
     ls, a, runs, bad_ranges, bad_triggers = _compare("wedge")
     assert len(bad_ranges) == 1 and bad_ranges[0].startswith("attractor 0 edge 1:"), bad_ranges
     top = max(float(r.radius[LONG // 2 :][r.edge[LONG // 2 :] == 1].max()) for r in runs)
     lo, hi = a.edge_radius_ranges[1]
     assert 0 < top - hi < 0.15 * MM and abs(lo - 174.60 * MM) < 0.01 * MM, (lo, hi, top)
-    assert ls.trigger is not None and all(m.startswith("goal edge 0:") for m in bad_triggers)
-    # The trigger's low end is set by edge 1's top (the part resting there covers up to it): too low by
-    # about as much; its high end agrees.
-    assert 147.20 * MM < ls.trigger[0] < 147.37 * MM and abs(ls.trigger[1] - 157.72 * MM) < 0.01 * MM
+    # The trigger range must not reach beyond the attractor's (contract 3). Read on the tails alone its
+    # low end would be 147.28 mm, 0.09 mm below the long runs' 147.36, beyond the tolerance: goal visits
+    # to edge 0 that the tails' cut left out cover less (a sensor there would miss them). It is read on
+    # the tails and the older states of their stays within TRIGGER_GAPS of the recent quarters, and agrees.
+    assert not bad_triggers, bad_triggers
+    assert ls.trigger is not None
+    assert 147.32 * MM < ls.trigger[0] < 147.37 * MM and abs(ls.trigger[1] - 157.72 * MM) < 0.01 * MM
+    t = ls.trajectories
+    tails = [tail_states(t, b) for b in a.members]
+    part, _, goal = _design("wedge")
+    only_tails = read_trigger(part, goal, ls.sensing_height, [tails]).trigger
+    assert only_tails is not None and only_tails[0] < 147.30 * MM, only_tails
 
 
 def test_quad35_edge0_range_starts_where_the_long_runs_do() -> None:

@@ -240,3 +240,22 @@ def test_core_limit_set_and_search_name_the_offset_field():
     with pytest.raises(InputError) as info:
         search(part, 1, np.array([math.nan]), np.array([low.speed]), -2.2, 0.5)
     assert info.value.field == "offsets" and "finite" in info.value.problem
+
+
+def test_limit_set_with_a_range_still_growing_asks_for_more_throws(capsys):
+    # Issue 35: quad35 (the issue's design, mm) from 2 starts per edge and 100 throws: one start's tail
+    # would confirm but that its recent states still widen a radius range. The answer is printed (that
+    # start unconverged, in no attractor: its states widen no range), one line on stderr names the
+    # edges, and the exit status is 3, which asks for more throws; with enough throws it is 0.
+    quad = str(EXAMPLES / "quad35.yaml")
+    flags = ["--offset", "-7.2", "--release-speed", "300deg", "--gravity", "-9660", "--mu", "0.5"]
+    code, out, err = _run(
+        capsys, ["limit-set", quad, *flags, "--starts-per-edge", "2", "--throws", "100", "--json"]
+    )
+    assert code == 3, err
+    result = json.loads(out)
+    assert not result["converged"] and result["unconverged_starts"] >= 1 and result["attractors"]
+    (line,) = err.strip().splitlines()
+    assert "still widened the radius range of edge(s)" in line and line.endswith("raise --throws"), line
+    code, out, err = _run(capsys, ["limit-set", quad, *flags, "--starts-per-edge", "2", "--json"])
+    assert code == 0 and json.loads(out)["converged"], err

@@ -361,11 +361,10 @@ def compare(ls_attractors: list, truths: list[StartTruth]) -> list[str]:
     return out
 
 
-def _tail_states(ls: Any, b: int) -> tuple[np.ndarray, np.ndarray]:
-    """Return the edges and radii of start b's confirmed tail in limit_set (kept trajectories)."""
-    t = ls.trajectories
-    sl = slice(int(t.tail[b]), int(t.tail_end[b]) + 1)
-    return t.edge[b, sl], t.radius[b, sl]
+def tail_states(traj: Any, b: int) -> list[tuple[int, float]]:
+    """Return the resting states (edge, R) of start b's confirmed tail in limit_set's kept trajectories."""
+    sl = slice(int(traj.tail[b]), int(traj.tail_end[b]) + 1)
+    return list(zip(traj.edge[b, sl].tolist(), traj.radius[b, sl].tolist(), strict=True))
 
 
 def _last_half(run: Run) -> tuple[np.ndarray, np.ndarray]:
@@ -394,12 +393,14 @@ def compare_ranges(ls: Any, runs: list[Run], part: ArmPart) -> tuple[list[str], 
     """Return what differs in radius ranges, and in trigger ranges, between limit_set and the long runs.
 
     Per attractor, its range on each edge against the union of its member starts' last halves, each end
-    within ``range_tolerance``. Per goal edge every attractor visits, the trigger range read on
-    limit_set's tails against the one read on the same starts' last halves (grouped as limit_set groups
-    them), each end within the largest tolerance of the attractors' edges (a trigger end is a range
-    end moved by the part's geometry); a trigger present on one side only counts when it is longer than
-    that tolerance. Also the number of triggers compared.
+    within ``range_tolerance``. Per goal edge every attractor visits, the trigger range limit_set reads
+    (on its tails and the older states of their stays that may be visits, ``sensed_states``) against
+    the one read on the same starts' last halves (grouped as limit_set groups them), each end within
+    the largest tolerance of the attractors' edges (a trigger end is a range end moved by the part's
+    geometry); a trigger present on one side only counts when it is longer than that tolerance. Also
+    the number of triggers compared.
     """
+    from feeder_planner.throwing.limit_set import sensed_states
     from feeder_planner.throwing.sensor import read_trigger, sensing_height_or_default
 
     ranges_out: list[str] = []
@@ -419,17 +420,22 @@ def compare_ranges(ls: Any, runs: list[Run], part: ArmPart) -> tuple[list[str], 
     goals = sorted(set.intersection(*(set(a.edges) for a in ls.attractors))) if ls.attractors else []
     triggers_out: list[str] = []
     for goal in goals:
-        found = []
-        for states in (lambda b: _tail_states(ls, b), lambda b: _last_half(runs[b])):
-            groups = [
-                [
-                    list(zip((int(v) for v in ee), (float(v) for v in rr), strict=True))
-                    for ee, rr in map(states, a.members)
-                ]
-                for a in ls.attractors
+        # The planner's trigger as limit_set reads it (its tails and the older states of their stays that
+        # may be visits), the truth's on the long runs' last halves.
+        mine = read_trigger(
+            part,
+            goal,
+            height,
+            [[sensed_states(ls.trajectories, b) for b in a.members] for a in ls.attractors],
+        ).trigger
+        halves = [
+            [
+                list(zip((int(v) for v in ee), (float(v) for v in rr), strict=True))
+                for ee, rr in (_last_half(runs[b]) for b in a.members)
             ]
-            found.append(read_trigger(part, goal, height, groups).trigger)
-        mine, truth = found
+            for a in ls.attractors
+        ]
+        truth = read_trigger(part, goal, height, halves).trigger
         if mine is None and truth is None:
             continue
         if mine is None or truth is None:

@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Callable
 
 import numpy as np
 
 from feeder_cell.cli.common import add_json_flag, angle, emit, finite_float
+from feeder_cell.cli.main import EXIT_NOT_CERTIFIED
 from feeder_cell.cli.throwing_studies import (
     EXIT_INTERRUPTED,
     add_robust_flags,
     attractor_lines,
+    growing_text,
     run_robust,
     run_with_progress,
 )
@@ -66,7 +69,11 @@ most throws any start of its basin took before its state stayed on the attractor
 its radius range; a sensor in the trigger range tells the goal edge only after that many throws from
 such a start. "unique": one attractor from every start; "cycle" only for a periodic unique one.
 "trigger_note" says why there is no trigger range, naming the attractor and edge that rule one out.
-Exit 3 when no start confirms within --throws ("raise --throws")."""
+A radius range is the closure of the tails' visits (the approach to the attractor cut off); the trigger
+range is read on the tails and on the older states of their stays that may be visits. A start whose
+tail would confirm but that a radius range still widens when --throws runs out is unconverged (counted
+in "unconverged_starts", in no attractor): the answer is printed, one line on stderr names the edges,
+and the exit status is 3 ("raise --throws"). Exit 3 also when no start confirms within --throws."""
 
 FLAGS = {
     "radius": "--radius",
@@ -309,6 +316,11 @@ def run_limit_set(args: argparse.Namespace) -> int:
         return EXIT_INTERRUPTED
     emit(args, result.to_json(), lambda _: _summary_limit(result, part.unit_scale))
     write_plot(args, "limit-set", result, part.unit_scale, part.name)
+    if result.growing:
+        # A range still widening when the throws ran out would read too narrow: the answer stands for
+        # the starts that confirmed, and asks for more throws (issue 35).
+        sys.stderr.write(f"feeder limit-set: {growing_text(result)}; raise --throws\n")
+        return EXIT_NOT_CERTIFIED
     return 0
 
 

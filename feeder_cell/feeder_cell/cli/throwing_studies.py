@@ -23,6 +23,7 @@ __all__ = [
     "PROGRESS_AFTER",
     "add_robust_flags",
     "attractor_lines",
+    "growing_text",
     "run_with_progress",
     "run_robust",
 ]
@@ -41,6 +42,15 @@ PROGRESS_AFTER = 2.0
 T = TypeVar("T")
 
 
+def growing_text(result: LimitSet) -> str:
+    """Return what a limit set says of the starts whose radius range still grew at the cap (issue 35)."""
+    edges = ", ".join(str(e) for e in result.growing_edges)
+    return (
+        f"{len(result.growing)} start(s) still widened the radius range of edge(s) {edges} when the "
+        f"{result.throws} throws ran out: those ranges would read too narrow, so they are in no attractor"
+    )
+
+
 def attractor_lines(result: LimitSet, unit: float) -> list[str]:
     """Return the summary lines of a limit set's attractors, lengths in file units."""
     lines = []
@@ -49,6 +59,8 @@ def attractor_lines(result: LimitSet, unit: float) -> list[str]:
             f"attractor search: {result.unconverged} of {result.starts} starts did not recur within "
             f"{result.throws} throws (raise --throws)"
         )
+    if result.growing:
+        lines.append(f"  {growing_text(result)}")
     for k, a in enumerate(result.attractors):
         kind = f"periodic, cycle {a.cycle}" if a.periodic else "quasi-periodic"
         if a.pattern and not a.periodic:

@@ -9,15 +9,19 @@ The convergence rule (issue 25). A start is thrown, and at every check (a quarte
 the first two windows its last n/2 states are compared with their own second half, the last n/4
 (``confirms``): both must hold flips (Prop. IV.1: jogs alone are a slow transit, never an attractor),
 show the same edges and radius ranges to the resolution (``resolution``; a few older states beyond are
-the sampling of a chaotic attractor's extremes, a stretch of them is a transient), and the whole n/2
+the sampling of a chaotic attractor's extremes, a stretch of them is a transient; a stretch of recent
+states beyond the older ones is a range still growing, ``widening``), and the whole n/2
 must repeat one exact cycle thrice, with radii that do not drift period after period, or, with enough
 visits, none. Then the run must have kept to that tail, on its edges within its ranges and in phase
 with its cycle, twice as long as it ever kept to it before leaving it (``settled``): the earlier stays
 are how long a stretch of a richer attractor without its rarest edge or break can last. A transient
 that the tail still holds shows in its older half only, so the start waits; as n grows the tail moves
-past it. The start's tail is then its whole stay since it last left (the transient ends there), and
-the attractor's edges, ranges, cycle, pattern, throws per round and basin come from such tails only; a
-start that never confirms within the cap is unconverged, never folded into an attractor. A start whose
+past it. The start's tail is then its whole stay since it last left, the approach to the attractor cut
+off (``tail_start``, ``_trim_to_group``; the transient ends there), and the attractor's edges, ranges,
+cycle, pattern, throws per round and basin come from such tails only; the trigger range is read on them
+and on the older states of their stays that may be visits (``Search.sensed``). A start that never
+confirms within the cap is unconverged, never folded into an attractor (``Search.growing`` names those
+whose tails a growing range alone kept from confirming). A start whose
 tail a richer attractor of its design holds (more edges, or no exact cycle; ``_nested``) is thrown on
 and judged again. Starts whose tails have the same edges and cycle and meeting radius ranges form one
 attractor (``_clusters``).
@@ -52,6 +56,7 @@ from feeder_planner.throwing.tolerances import (
     ROUNDING,
     SOJOURN_FACTOR,
     TAIL_GAPS,
+    TRIGGER_GAPS,
 )
 
 __all__ = [
@@ -64,6 +69,7 @@ __all__ = [
     "confirms",
     "settled",
     "tail_start",
+    "widening",
     "iterate_to_attractor",
     "Attractor",
     "group_attractors",
@@ -101,6 +107,11 @@ class Search:
     ``end[b]`` is the last state of row b; ``tail[b]`` and ``tail_end[b]`` the first and last states of
     its confirmed tail (-1: the row did not converge); ``escaped[b]``: a throw left the domain;
     ``width``: the rows' resolution unit; ``stretches[b]``: what row b's confirmed tail shows.
+    ``stay[b]``: where row b's run began keeping to its confirmed tail (``settled``), before the approach
+    is cut off (``tail_start``); ``sensed[b]``: the first of row b's states the trigger range is read on
+    (``_trim_to_group``: the tail and the older states of the stay that may be visits), at most ``tail[b]``.
+    ``growing[b]``: the edges whose radius range row b's last window was still widening when the throws
+    ran out, its tail confirming but for that (``widening``); such a row is in no attractor.
     """
 
     edge: np.ndarray
@@ -113,7 +124,10 @@ class Search:
     width: np.ndarray
     window: int
     tail_end: np.ndarray
+    stay: np.ndarray
+    sensed: np.ndarray
     stretches: dict[int, Stretch] = field(default_factory=dict)
+    growing: dict[int, list[int]] = field(default_factory=dict)
 
     @property
     def converged(self) -> np.ndarray:
@@ -221,16 +235,22 @@ def confirms(edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, width: np.nd
 
 
 def _confirm(
-    edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, width: np.ndarray, quasi_min: int = 0
+    edge: np.ndarray,
+    radius: np.ndarray,
+    jog: np.ndarray,
+    width: np.ndarray,
+    quasi_min: int = 0,
+    growth: bool = True,
 ) -> _Tail | None:
     """Return the tail's edges, ranges and cycle when it shows the same attractor as its last N states.
 
     Both halves hold CONFIRM_FLIPS flips (Prop. IV.1); the whole tail and its recent half visit the same
     edges; each edge's radius range over the recent half reaches the whole tail's to the resolution
     (``resolution``, ``width[e]`` the unit of edge e), or at most OUTSIDE_SHARE of the older half's
-    states lie beyond it; and the whole tail repeats one exact cycle CYCLE_REPEATS times without drifting
-    (``_drifting``), or, holding QUASI_VISITS visits and ``quasi_min`` states, has no cycle and neither
-    has its recent half. Cheap tests first: most rejections are an edge the older half still visits.
+    states lie beyond it; no range is still growing (``widening``; ``growth`` False skips this test);
+    and the whole tail repeats one exact cycle CYCLE_REPEATS times without drifting (``_drifting``), or,
+    holding QUASI_VISITS visits and ``quasi_min`` states, has no cycle and neither has its recent half.
+    Cheap tests first: most rejections are an edge the older half still visits.
     """
     recent = len(edge) - len(edge) // 2
     if int((~jog[1:recent]).sum()) < CONFIRM_FLIPS or int((~jog[recent:]).sum()) < CONFIRM_FLIPS:
@@ -250,6 +270,8 @@ def _confirm(
         beyond = (mine < low_new[k] - tol) | (mine > high_new[k] + tol)
         if beyond.sum() > max(1, OUTSIDE_SHARE * mine.size):
             return None
+    if growth and widening(edge, radius, width):
+        return None
     visits, lengths = _visits(edge, jog)
     key = cycle_key(visits)
     if key is not None:
@@ -260,6 +282,44 @@ def _confirm(
     if cycle_key(_visits(edge[recent:], jog[recent:])[0]) is None:
         return edges, low, high, None
     return None
+
+
+def widening(edge: np.ndarray, radius: np.ndarray, width: np.ndarray) -> list[int]:
+    """Return the edges whose radius range a tail's recent half (its last N of 2N states) still widens.
+
+    The mirror of ``_confirm``'s test of a transient in the older half: a range the recent half reaches
+    beyond the older half's by more than the resolution, with more than OUTSIDE_SHARE of its states on
+    that edge (at least two) out there, is still growing: the part has not yet reached the extremes of
+    its attractor, and a range read now would be too narrow (issue 35; quad35 thrown 60-100 times from
+    2 starts per edge shows it). A few such states are the sampling of a chaotic attractor's rare
+    extremes. An edge only the recent half visits has no older range to widen.
+    """
+    recent = len(edge) - len(edge) // 2
+    edges, low, high = _ranges(edge, radius)
+    older_e, older_r = edge[:recent], radius[:recent]
+    out = []
+    for k, e in enumerate(edges):
+        mine_old = older_r[older_e == e]
+        if mine_old.size == 0:
+            continue
+        tol = resolution(float(width[e]), float(low[k]), float(high[k]))
+        lo, hi = float(mine_old.min()), float(mine_old.max())
+        if lo - low[k] <= tol and high[k] - hi <= tol:
+            continue
+        mine = radius[recent:][edge[recent:] == e]
+        beyond = (mine < lo - tol) | (mine > hi + tol)
+        if beyond.sum() > max(1, OUTSIDE_SHARE * mine.size):
+            out.append(int(e))
+    return out
+
+
+def _grown(
+    edge: np.ndarray, radius: np.ndarray, jog: np.ndarray, width: np.ndarray, quasi_min: int
+) -> list[int]:
+    """Return the edges of a tail's growing ranges when they alone keep it from confirming, else []."""
+    if _confirm(edge, radius, jog, width, quasi_min, growth=False) is None:
+        return []
+    return widening(edge, radius, width)
 
 
 def _drifting(radius: np.ndarray, visits: np.ndarray, lengths: np.ndarray, p: int) -> bool:
@@ -362,7 +422,12 @@ def _reference(edge: np.ndarray, radius: np.ndarray) -> _Reference:
 
 
 def tail_start(
-    edge: np.ndarray, radius: np.ndarray, stay: int, first: int, reference: _Reference | None = None
+    edge: np.ndarray,
+    radius: np.ndarray,
+    stay: int,
+    first: int,
+    reference: _Reference | None = None,
+    gaps: float = TAIL_GAPS,
 ) -> int:
     """Return where a confirmed row's tail begins: its stay (``settled``) without the approach to it.
 
@@ -376,7 +441,9 @@ def tail_start(
     visit of that closure but the approach to it, which the resolution band let in (issue 35: on
     examples/throwing/quad35.yaml each start's first landing on the attractor made edge 0's range end,
     155.4 mm where long runs never go below 159.25 mm). The tail begins after the last such state, so
-    an attractor's ranges, pattern and throws per round come from its visits only.
+    an attractor's ranges, pattern and throws per round come from its visits only. ``gaps``: how many
+    mean gaps beyond the reference a state may lie and still count as a visit (TAIL_GAPS; the trigger
+    range's states are cut with TRIGGER_GAPS, ``_trim_to_group``).
     """
     if stay >= first:
         return stay
@@ -385,7 +452,7 @@ def tail_start(
     # ``settled`` kept the stay on the tail's edges; an edge the reference lacks is no visit of it.
     outside = ~np.isin(e_old, np.fromiter(ref, dtype=np.int64, count=len(ref)))
     for e, (lo, hi, count) in ref.items():
-        gap = max(TAIL_GAPS * (hi - lo) / count, ROUNDING * abs(hi))
+        gap = max(gaps * (hi - lo) / count, ROUNDING * abs(hi))
         outside |= (e_old == e) & ((r_old < lo - gap) | (r_old > hi + gap))
     out = np.flatnonzero(outside)
     return stay if out.size == 0 else stay + int(out[-1]) + 1
@@ -411,6 +478,15 @@ def _trim_to_group(search: Search, group: list[int], key: tuple[int, ...] | None
     A tail keeps at least its recent quarter; a periodic one (``key``, the group's cycle) also one whole
     period, or else it keeps its window, which ``_confirm`` saw repeat the cycle thrice. ``search.tail``
     and ``search.stretches`` of the members are updated in place.
+
+    The trigger range is read on more states (``search.sensed``): the tail and the older states of the
+    stay back to the last one lying more than TRIGGER_GAPS mean gaps beyond the same reference. Where an
+    attractor's visits thin out towards an end of an interval, the gap test at TAIL_GAPS cannot tell a
+    rare visit from the approach (issue 35: corpus design 2.1's edge 1 reads its top 1.5 mm short), and a
+    trigger read without such a visit reaches beyond the truth: a blocking edge's visit left out lets a
+    sensor there read true off the goal edge, a goal visit left out one that never reads true in it. A
+    trigger read on more states is never wider (the goal visits' common cover only shrinks, the other
+    edges' covers only grow), so what the wider band lets in of the approach costs width only.
     """
     recent = {b: int(search.tail_end[b]) - int(search.tail_end[b]) // 4 for b in group}
     reference = _reference(
@@ -423,6 +499,8 @@ def _trim_to_group(search: Search, group: list[int], key: tuple[int, ...] | None
         start = tail_start(edge, radius, int(search.tail[b]), recent[b], reference)
         if key is not None and not _holds_period(edge[start:], jog[start:], key):
             start = tail_start(edge, radius, int(search.tail[b]), n - n // 2 + 1, reference)
+        wide = tail_start(edge, radius, int(search.stay[b]), recent[b], reference, TRIGGER_GAPS)
+        search.sensed[b] = min(wide, start)
         if start != search.tail[b]:
             old = search.stretches.get(b)
             search.tail[b] = start
@@ -498,7 +576,8 @@ def iterate_to_attractor(
     left it. A confirmed row whose tail a richer group of confirmed tails of its design holds
     (``_nested``; ``design[b]``, one design when None) is thrown on from where it stopped and judged
     again (its latest confirmed tail counts) until it no longer nests or reaches the cap. A row that
-    never confirms within ``throws`` stays unconverged.
+    never confirms within ``throws`` stays unconverged; when a growing range alone kept its last tail from
+    confirming (``widening``), ``growing`` names the row and those edges.
     Each row advances from its own state, one throw per call of ``throw(idx, edge, radius)`` (which
     applies the map to rows ``idx``); ``progress(done, total)`` is told after each check.
     """
@@ -515,6 +594,8 @@ def iterate_to_attractor(
     tail = np.full(starts, -1, dtype=np.int64)
     tail_end = np.full(starts, -1, dtype=np.int64)
     tails: dict[int, Stretch] = {}
+    stays = np.full(starts, -1, dtype=np.int64)
+    growing: dict[int, list[int]] = {}
     escaped = np.zeros(starts, dtype=bool)
     running = np.full(starts, throws > 0)
     while running.any():
@@ -543,9 +624,16 @@ def iterate_to_attractor(
             sl = slice(first, n + 1)
             found = _confirm(edge[b, sl], radius[b, sl], jog[b, sl], rows.width[b], QUASI_WINDOWS * w)
             if found is None:
+                if n == throws and tail[b] < 0:
+                    # The throws ran out: a tail that a growing range alone kept from confirming is said
+                    # to be so (a range read now would be too narrow), never folded in as it stands.
+                    grown = _grown(edge[b, sl], radius[b, sl], jog[b, sl], rows.width[b], QUASI_WINDOWS * w)
+                    if grown:
+                        growing[int(b)] = grown
                 continue
             stay = settled(edge[b, : n + 1], radius[b, : n + 1], jog[b, : n + 1], first, rows.width[b], found)
             if stay >= 0:
+                stays[b] = stay
                 stay = tail_start(edge[b, : n + 1], radius[b, : n + 1], stay, first)
                 tail[b], tail_end[b] = stay, n
                 tails[int(b)] = stretch(edge[b, stay : n + 1], radius[b, stay : n + 1], jog[b, stay : n + 1])
@@ -557,7 +645,22 @@ def iterate_to_attractor(
                 running[confirmed] = small & (end[confirmed] < throws) & ~escaped[confirmed]
         if progress is not None:
             progress(starts - int(running.sum()), starts)
-    return Search(edge, radius, jog, flags, end, tail, escaped, rows.width, w, tail_end, tails)
+    return Search(
+        edge,
+        radius,
+        jog,
+        flags,
+        end,
+        tail,
+        escaped,
+        rows.width,
+        w,
+        tail_end,
+        stay=stays,
+        sensed=tail.copy(),  # the trigger's states, widened per attractor by _trim_to_group
+        stretches=tails,
+        growing=growing,
+    )
 
 
 @dataclass(frozen=True)

@@ -50,6 +50,7 @@ __all__ = [
     "escape_error",
     "not_converged_error",
     "trigger_note",
+    "sensed_states",
 ]
 
 
@@ -57,7 +58,8 @@ __all__ = [
 class Trajectories:
     """States after each throw: edge[b, n], radius[b, n], jog[b, n] (jog[:, 0] is meaningless), escaped[b].
 
-    From the attractor search also ``tail[b]``..``tail_end[b]``, row b's confirmed tail (-1: none).
+    From the attractor search also ``tail[b]``..``tail_end[b]``, row b's confirmed tail (-1: none), and
+    ``sensed[b]``..``tail_end[b]``, the states the trigger range is read on (``sensed_states``).
     """
 
     edge: np.ndarray
@@ -66,6 +68,7 @@ class Trajectories:
     escaped: np.ndarray
     tail: np.ndarray | None = None
     tail_end: np.ndarray | None = None
+    sensed: np.ndarray | None = None
 
 
 def iterate(
@@ -237,11 +240,22 @@ class LimitSet:
     unconverged: int = 0
     trigger_note: str | None = None
     throws_used: int = 0
+    growing: dict[int, list[int]] = field(default_factory=dict)
 
     @property
     def converged(self) -> bool:
         """Whether every start reached an attractor within the cap on throws."""
         return self.unconverged == 0
+
+    @property
+    def growing_edges(self) -> list[int]:
+        """Return the edges whose radius range some start was still widening when the throws ran out.
+
+        Such a start is unconverged (in ``unconverged``, in no attractor): its tail confirmed but for a
+        range its recent states still widened (``attractors.widening``), so no range is read from it
+        as it stands, and the answer asks for more throws (`feeder limit-set` exits 3).
+        """
+        return sorted({e for edges in self.growing.values() for e in edges})
 
     def to_json(self) -> dict[str, Any]:
         """Return the contract's limit-set object: bounds per edge, cycle, ranges, trigger, attractors."""
@@ -380,11 +394,17 @@ def not_converged_error(throws: int, window: int) -> SolverError:
     )
 
 
-def _tail_states(search: Search, b: int) -> list[tuple[int, float]]:
-    """Return the resting states (edge, R) of row b's confirmed tail."""
-    sl = search.tail_slice(b)
+def sensed_states(found: Search | Trajectories, b: int) -> list[tuple[int, float]]:
+    """Return the resting states (edge, R) row b's trigger range is read on: its tail and more.
+
+    From ``sensed[b]`` to the end of its confirmed tail (``attractors._trim_to_group``): the tail, and the
+    older states of its stay that may be visits of the attractor, which the trigger range must hold in.
+    ``found``: the search, or a limit set's kept trajectories.
+    """
+    assert found.sensed is not None and found.tail_end is not None
+    sl = slice(int(found.sensed[b]), int(found.tail_end[b]) + 1)
     return list(
-        zip((int(v) for v in search.edge[b, sl]), (float(r) for r in search.radius[b, sl]), strict=True)
+        zip((int(v) for v in found.edge[b, sl]), (float(r) for r in found.radius[b, sl]), strict=True)
     )
 
 
@@ -398,7 +418,8 @@ def trigger_note(attractors: list[Attractor], goal_edge: int, reading: TriggerRe
 
     Either an attractor never visits the goal edge (``reading`` None), or the goal edge's visits share no
     covered radius, or other edges of named attractors cover every radius the goal edge's visits share
-    (their resting states, in SI metres, from the confirmed tails only; ``sensor.read_trigger``).
+    (their resting states, in SI metres, from the states the trigger is read on, ``sensed_states``:
+    the confirmed tails and the older states of their stays that may be visits; ``sensor.read_trigger``).
     """
     missing = [_name(k, a) for k, a in enumerate(attractors) if goal_edge not in a.edges]
     if missing or reading is None:
@@ -432,8 +453,10 @@ def read_limit_set(
 ) -> tuple[list[Attractor], tuple[float, float] | None, str | None, list[list[int] | None]]:
     """Return the attractors of ``members`` (rows of one design), its trigger range and why there is none.
 
-    Everything comes from the rows' confirmed tails (the transients are not in them). The trigger range
-    is None with a note naming the attractor and edge that rule it out (``trigger_note``).
+    The attractors come from the rows' confirmed tails (the transients are not in them); the trigger
+    range is read on those tails and the older states of their stays that may be visits
+    (``sensed_states``), and is None with a note naming the attractor and edge that rule it out
+    (``trigger_note``).
     ``only_unique`` (a design search): no trigger and no per-start cycles unless every start reached
     one attractor.
     """
@@ -450,7 +473,7 @@ def read_limit_set(
     if goal_edge is not None:
         reading = None
         if all(goal_edge in a.edges for a in attractors):
-            groups = [[_tail_states(search, b) for b in a.members] for a in attractors]
+            groups = [[sensed_states(search, b) for b in a.members] for a in attractors]
             reading = read_trigger(part, goal_edge, height, groups)
             trigger = reading.trigger
         if trigger is None:
@@ -477,7 +500,8 @@ def limit_set(
     ``window`` on); starts whose confirmed tails agree form one attractor (``group_attractors``), and
     a start that does not confirm is counted unconverged, in no attractor. ``unique``: every start
     reached the same attractor (Theorem IV.6 for a periodic one); ``cycle`` is filled when that
-    attractor is periodic. The trigger range is read on the attractors' tails only; ``trigger_note``
+    attractor is periodic. The trigger range is read on the attractors' tails and the older states of
+    their stays that may be visits (``sensed_states``); ``trigger_note``
     names the attractor and edge that rule it out. ``sensing_height`` None means the default
     (``sensing_height_or_default``). An offset at or below -d_min is refused (``check_limit_offset``).
     Raises SolverError when a start leaves the domain or no start converges.
@@ -513,7 +537,9 @@ def limit_set(
         for e, (lo_r, hi_r) in a.edge_radius_ranges.items():
             old = ranges.get(e)
             ranges[e] = (lo_r, hi_r) if old is None else (min(old[0], lo_r), max(old[1], hi_r))
-    traj = Trajectories(search.edge, search.radius, search.jog, search.escaped, search.tail, search.tail_end)
+    traj = Trajectories(
+        search.edge, search.radius, search.jog, search.escaped, search.tail, search.tail_end, search.sensed
+    )
     return LimitSet(
         stable_edges=part.stable_edges,
         bounds=bounds,
@@ -531,4 +557,5 @@ def limit_set(
         unconverged=unconverged,
         trigger_note=note,
         throws_used=int(search.end.max()),
+        growing=dict(search.growing),
     )
