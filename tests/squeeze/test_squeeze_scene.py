@@ -15,7 +15,10 @@ SCENE = ROOT / "feeder_cell" / "scenes" / "cell_squeeze.yaml"
 
 def test_the_scene_names_the_gripper_and_its_planner() -> None:
     scene = load_scene(SCENE)
-    assert [n.executable for n in scene.nodes] == ["squeeze_gripper", "squeeze_planner"]
+    executables = [n.executable for n in scene.nodes]
+    # The gripper first (the refusals below name nodes[0]), its planner, the cell the controller drives.
+    assert executables[:2] == ["squeeze_gripper", "squeeze_planner"]
+    assert "cell_controller" in executables and "mems_field_array" not in executables
 
 
 @pytest.mark.parametrize(

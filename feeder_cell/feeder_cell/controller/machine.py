@@ -10,7 +10,9 @@ Tests drive it with scripted outcomes: pure logic.
 
 One cycle, as a controller sees it::
 
-    ORIENT      MEMS array: ~/place_parts (a new batch arrives), then ~/run_program until SETTLED
+    ORIENT      MEMS array: ~/place_parts (a new batch arrives), then ~/run_program until SETTLED;
+                or (``orienter: squeeze``) the squeeze gripper: ~/place_part (a new part), then ~/run_plan
+                with the squeeze planner's plan (asked once) until DONE
     INFEED      throwing arm: ~/place_part at the infeed pose (the last part was taken, a new one arrives)
     FEED        throwing arm: ~/feed_part until PRESENTED (the sensor bit at rest decides)
     TILT        fixture: ~/follow_path along the commanded route to the target orientation
@@ -19,8 +21,9 @@ One cycle, as a controller sees it::
     RETURN      fixture: ~/follow_path back home (PLAN_RETURN, RETURN_SAFE as above when refused)
 
 A failed step goes to the fault policy: RETRY the step, RESET_RETRY (``RECOVER``: ~/reset the device,
-for the arm also a fresh part at the infeed, then the step again), or STOP the cell and report. Retries
-are bounded per step and cycle (``max_retries``); an outcome the table does not name stops the cell.
+for the arm and the squeeze gripper also a fresh part, then the step again), or STOP the cell and report.
+Retries are bounded per step and cycle (``max_retries``); an outcome the table does not name stops the
+cell.
 """
 
 from __future__ import annotations
@@ -41,6 +44,7 @@ __all__ = [
     "TRANSITIONS",
     "FAULT_POLICY",
     "DEVICE_OF",
+    "ORIENTERS",
     "ANY_CODE",
     "policy_for",
     "transition_table",
@@ -88,7 +92,8 @@ ANY_CODE = -1  # a FAULT_POLICY key that matches every fault code
 # Successful outcomes: (state, event) -> next state. Nothing else is a success.
 TRANSITIONS: dict[tuple[State, str], State] = {
     (State.BRING_UP, DONE): State.ORIENT,
-    (State.ORIENT, "SETTLED"): State.INFEED,
+    (State.ORIENT, "SETTLED"): State.INFEED,  # the MEMS array's parts have settled
+    (State.ORIENT, "DONE"): State.INFEED,  # the squeeze gripper ran every squeeze of the plan
     (State.INFEED, DONE): State.FEED,
     (State.FEED, "PRESENTED"): State.TILT,
     (State.TILT, "REACHED"): State.RETURN,
@@ -117,6 +122,10 @@ FAULT_POLICY: dict[tuple[State, str, int], Policy] = {
     (State.ORIENT, "TIMEOUT", ANY_CODE): Policy.RETRY,
     # No field at all: stop.
     (State.ORIENT, "FAULT", 201): Policy.STOP,
+    # The part left the squeeze gripper's jaws: reset, place a new part, run the plan again.
+    (State.ORIENT, "FAULT", 402): Policy.RESET_RETRY,
+    # A stalled jaw is mechanical: stop the cell and name it.
+    (State.ORIENT, "FAULT", 401): Policy.STOP,
     # A stalled axis is mechanical: stop where the fixture stands (on a certified-stable sample).
     (State.TILT, "STALLED", ANY_CODE): Policy.STOP,
     (State.TILT_SAFE, "STALLED", ANY_CODE): Policy.STOP,
@@ -139,6 +148,9 @@ DEVICE_OF: dict[State, str] = {
     State.PLAN_TILT: "planner",
     State.PLAN_RETURN: "planner",
 }
+
+# The orienting stations ORIENT may command (the controller's ``orienter``): the device RECOVER resets.
+ORIENTERS = ("mems", "squeeze")
 
 # The first state of every cycle.
 CYCLE_START = State.ORIENT
@@ -218,10 +230,13 @@ class CellMachine:
         Production cycles to run; 0 runs until stopped.
     max_retries
         Times one step may be performed again within a cycle (RETRY or RESET_RETRY) before the cell stops.
+    orienter
+        The orienting station ORIENT commands, one of ``ORIENTERS``: the device RECOVER resets after it.
     """
 
     cycles: int = 1
     max_retries: int = 2
+    orienter: str = "mems"
     state: State = State.BRING_UP
     metrics: CellMetrics = field(default_factory=CellMetrics)
     stop_reason: str = ""
@@ -241,6 +256,8 @@ class CellMachine:
             or self.max_retries < 0
         ):
             raise InputError("max_retries", f"must be an integer >= 0, got {self.max_retries!r}")
+        if self.orienter not in ORIENTERS:
+            raise InputError("orienter", f"must be one of {', '.join(ORIENTERS)}, got {self.orienter!r}")
 
     @property
     def finished(self) -> bool:
@@ -251,7 +268,11 @@ class CellMachine:
     def device(self) -> str:
         """The device the present state commands ('' for bring-up), or for RECOVER the one to reset."""
         state = self.retry_state if self.state is State.RECOVER else self.state
-        return DEVICE_OF.get(state, "") if state is not None else ""
+        return self.device_of(state) if state is not None else ""
+
+    def device_of(self, state: State) -> str:
+        """Return the device ``state`` commands: ``DEVICE_OF``'s, with ORIENT on the configured orienter."""
+        return self.orienter if state is State.ORIENT else DEVICE_OF.get(state, "")
 
     def stop(self, reason: str) -> Transition:
         """Stop the cell from outside the table (a stop request, the node shutting down)."""
@@ -332,7 +353,7 @@ class CellMachine:
         if policy is Policy.RETRY:
             return self._go(outcome, policy, source, f"retry {self.attempts} of {self.max_retries}")
         self.retry_state = source
-        note = f"reset {DEVICE_OF.get(source, 'device')}, then retry {self.attempts} of {self.max_retries}"
+        note = f"reset {self.device_of(source) or 'device'}, then retry {self.attempts} of {self.max_retries}"
         return self._go(outcome, policy, State.RECOVER, note)
 
     def _after_recover(self, outcome: Outcome, now: float) -> Transition:
@@ -340,12 +361,12 @@ class CellMachine:
         assert retry is not None  # RECOVER is entered only with the step to retry
         if outcome.event != DONE:
             self.metrics.faults_seen += 1
-            self.metrics.last_fault = f"RECOVER {DEVICE_OF.get(retry, '')}: {outcome.label()}"
+            self.metrics.last_fault = f"RECOVER {self.device_of(retry)}: {outcome.label()}"
             return self._go(
                 outcome, Policy.STOP, State.STOPPED, f"recovering {retry.value}: {outcome.label()}"
             )
         self.retry_state = None
-        return self._go(outcome, None, retry, f"{DEVICE_OF.get(retry, 'device')} reset")
+        return self._go(outcome, None, retry, f"{self.device_of(retry) or 'device'} reset")
 
 
 def transition_table() -> list[tuple[str, str, str]]:

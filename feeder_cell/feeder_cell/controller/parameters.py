@@ -8,13 +8,16 @@ from __future__ import annotations
 
 import math
 
+from feeder_cell.controller.machine import ORIENTERS
 from feeder_planner.parameter_specs import (
     ParameterSpec,
+    finite,
     in_range,
     integer,
     integer_at_least,
     non_empty_string,
     non_negative,
+    one_of,
     positive,
 )
 
@@ -42,6 +45,19 @@ PARAMETERS = (
     ),
     ParameterSpec(
         "region_planner", "stable_region_planner", "stable region planner", non_empty_string("a node"), True
+    ),
+    ParameterSpec(
+        "squeeze_device", "squeeze_gripper", "squeeze gripper node", non_empty_string("a node"), True
+    ),
+    ParameterSpec(
+        "squeeze_planner", "squeeze_planner", "squeeze planner node", non_empty_string("a node"), True
+    ),
+    ParameterSpec(
+        "orienter",
+        "mems",
+        "the orienting station ORIENT commands: mems (the MEMS array) or squeeze (the squeeze gripper)",
+        one_of(ORIENTERS),
+        True,
     ),
     ParameterSpec("cycles", 1, "production cycles to run (0: until stopped)", integer_at_least(0), True),
     ParameterSpec(
@@ -84,6 +100,30 @@ PARAMETERS = (
         None,
         True,
     ),
+    # ORIENT on the squeeze gripper (orienter: squeeze).
+    ParameterSpec(
+        "squeeze_part_file",
+        "",
+        "part YAML the squeeze planner's ~/plan is asked for once (the gripper's part_file); required "
+        "with orienter squeeze",
+        None,
+        True,
+    ),
+    ParameterSpec(
+        "squeeze_first_angle", 0.0, "gripper angle of the plan's first squeeze (rad)", finite, True
+    ),
+    ParameterSpec(
+        "squeeze_random",
+        True,
+        "~/place_part a new part at an orientation from the gripper's seeded stream (false: "
+        "squeeze_orientation)",
+        None,
+        True,
+    ),
+    ParameterSpec(
+        "squeeze_orientation", 0.0, "orientation of a new part when not random (rad)", finite, True
+    ),
+    ParameterSpec("squeeze_timeout", 30.0, "run_plan timeout (s, node clock)", positive, True),
     # INFEED and FEED: the throwing arm.
     ParameterSpec("infeed_edge", 2, "hull edge a new part arrives on (~/place_part)", integer, True),
     ParameterSpec("infeed_radius", 0.12, "R (m) a new part arrives at (~/place_part)", positive, True),

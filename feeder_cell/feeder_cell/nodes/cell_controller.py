@@ -1,9 +1,10 @@
 """ROS 2 node: the reference cell controller, the example a user copies to drive the feeder cell.
 
 Written only against standard ROS 2 client interfaces: the devices' lifecycle services, their action
-servers (``~/run_program``, ``~/feed_part``, ``~/follow_path``), their services (``~/place_parts``,
-``~/place_part``, ``~/reset``), their latched ``~/status`` and ``/diagnostics``, and the region planner's
-``~/safe_path``. It imports no device or planner node: swap the simulators for hardware with the same
+servers (``~/run_program`` or ``~/run_plan``, ``~/feed_part``, ``~/follow_path``), their services
+(``~/place_parts``, ``~/place_part``, ``~/reset``), their latched ``~/status`` and ``/diagnostics``, the
+region planner's ``~/safe_path`` and, orienting on the squeeze gripper (``orienter: squeeze``), the squeeze
+planner's ``~/plan``. It imports no device or planner node: swap the simulators for hardware with the same
 interfaces and it runs unchanged. Device names are relative, so the controller moves with its namespace
 (started in ``/cell`` it drives ``/cell/throwing_arm``...).
 
@@ -30,6 +31,7 @@ acceptances are answered within the quantum. So every decision happens at a defi
 
 from __future__ import annotations
 
+import math
 import sys
 import threading
 import time
@@ -52,10 +54,17 @@ from feeder_cell.controller.reporting import cell_status, diagnostic_entry
 from feeder_cell.experiment.arrivals import ArrivalStream, scene_arrivals, scene_seed
 from feeder_cell.experiment.faults_process import scene_faults
 from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError, LifecycleInterruptedError
-from feeder_msgs.action import FeedPart, FollowPath, RunProgram
+from feeder_msgs.action import FeedPart, FollowPath, RunPlan, RunProgram
 from feeder_msgs.msg import CellStatus, DeviceStatus, FieldProgram, FieldSpec, MemsParts
 from feeder_msgs.msg import Part as PartMsg
-from feeder_msgs.srv import ArmPlacePart, InjectFault, MemsPlaceParts, StablePath
+from feeder_msgs.srv import (
+    ArmPlacePart,
+    InjectFault,
+    MemsPlaceParts,
+    SqueezePlacePart,
+    SqueezePlanCompute,
+    StablePath,
+)
 from feeder_planner.errors import FeederError, InputError
 from feeder_planner.fields_io import load_yaml_mapping
 from feeder_planner.mems import program_from_mapping
@@ -66,8 +75,9 @@ from feeder_planner.node_kit import (
 from feeder_planner.node_kit.action_client import ActionClient
 from feeder_planner.node_kit.lockstep import Participant
 from feeder_planner.node_kit.msg_fields import fill_field_spec
-from feeder_planner.node_kit.msg_parts import part_from_msg
+from feeder_planner.node_kit.msg_parts import part_from_msg, part_to_msg
 from feeder_planner.node_kit.runner import StopRequest, build_node, profiled
+from feeder_planner.parts import load_part
 from feeder_planner.throwing.geometry import arm_part
 
 __all__ = ["PARAMETERS", "CellController", "main"]
@@ -75,6 +85,7 @@ __all__ = ["PARAMETERS", "CellController", "main"]
 NODE_NAME = "cell_controller"
 HEARTBEAT_RATE = 1.0  # Hz (steady clock) of ~/status and /diagnostics besides every transition
 POLL_S = 0.02  # wall seconds between looks at a pending future
+PLAN_CALLS = 3  # a fresh server may drop its first reply: the plan request is idempotent, sent again
 # A transition refused while another client moves the same device is looked at again after a moment.
 BRING_UP_ATTEMPTS, BRING_UP_SETTLE_S = 3, 0.5
 EXIT_FINISHED, EXIT_STOPPED = 0, 1  # a bad parameter exits 2 (node_kit.runner.build_node)
@@ -94,12 +105,18 @@ class CellController(Node):
         self.p = declare_parameters(self, PARAMETERS)
         for name in ("fixture_route", "fixture_home"):
             self.p[name] = [float(v) for v in self.p[name]]
+        # The orienting station ORIENT commands: the MEMS array ("mems") or the squeeze gripper ("squeeze").
+        self.orienter: str = self.p["orienter"]
+        squeezing = self.orienter == "squeeze"
         self.program = self._program()
+        self.squeeze_part = self._squeeze_part() if squeezing else None
         self.arrivals = self._arrivals()
         self.faults = self._fault_schedule()
-        self.machine = CellMachine(cycles=self.p["cycles"], max_retries=self.p["max_retries"])
+        self.machine = CellMachine(
+            cycles=self.p["cycles"], max_retries=self.p["max_retries"], orienter=self.orienter
+        )
         self.devices = {
-            "mems": self.p["mems_device"],
+            self.orienter: self.p["squeeze_device" if squeezing else "mems_device"],
             "arm": self.p["arm_device"],
             "fixture": self.p["fixture_device"],
         }
@@ -114,13 +131,27 @@ class CellController(Node):
         self.mems_names: list[str] | None = None
         self.arm_part: PartMsg | None = None
         if self.arrivals is not None:
-            self.create_subscription(MemsParts, f"{self.devices['mems']}/parts", self._on_mems_parts, LATCHED)
+            if not squeezing:
+                self.create_subscription(
+                    MemsParts, f"{self.devices['mems']}/parts", self._on_mems_parts, LATCHED
+                )
             self.create_subscription(PartMsg, f"{self.devices['arm']}/part", self._on_arm_part, LATCHED)
-        # Every client is made once, here: a server must discover a client before it can answer it.
-        self.run_program = ActionClient(self, RunProgram, f"{self.devices['mems']}/run_program")
+        # Every client is made once, here: a server must discover a client before it can answer it. The
+        # orienting station's clients are made for the station the cell has.
+        station = self.devices[self.orienter]
+        self.run_program = None if squeezing else ActionClient(self, RunProgram, f"{station}/run_program")
+        self.place_parts = None if squeezing else self.create_client(MemsPlaceParts, f"{station}/place_parts")
+        self.run_plan = ActionClient(self, RunPlan, f"{station}/run_plan") if squeezing else None
+        self.squeeze_place = (
+            self.create_client(SqueezePlacePart, f"{station}/place_part") if squeezing else None
+        )
+        self.squeeze_planner = (
+            self.create_client(SqueezePlanCompute, f"{self.p['squeeze_planner']}/plan") if squeezing else None
+        )
+        self.plan_angles: list[float] | None = None  # the squeeze planner's plan, asked for once
+        self.plan_answer: SqueezePlanCompute.Response | None = None
         self.feed_part = ActionClient(self, FeedPart, f"{self.devices['arm']}/feed_part")
         self.follow_path = ActionClient(self, FollowPath, f"{self.devices['fixture']}/follow_path")
-        self.place_parts = self.create_client(MemsPlaceParts, f"{self.devices['mems']}/place_parts")
         self.place_part = self.create_client(ArmPlacePart, f"{self.devices['arm']}/place_part")
         self.resets = {k: self.create_client(Trigger, f"{n}/reset") for k, n in self.devices.items()}
         self.safe_path = self.create_client(StablePath, f"{planner}/safe_path")
@@ -140,6 +171,7 @@ class CellController(Node):
         self.stood = Vector3()  # where the fixture stands (gravity), from its last follow_path result
         self.safe: list[Vector3] = []  # the planner's last path
         self.throws = 0  # throws the feeds of this cycle used
+        self.squeezes = 0  # squeezes the gripper's plans of this cycle completed
         self.step_times: dict[str, float] = {}  # s of node clock per state in this cycle
         # Lockstep: the cell time whose decisions are being made (the last /lockstep/settled taken in).
         self.lockstep = Participant(self, "react", hold=True) if self.p["lockstep"] else None
@@ -171,7 +203,7 @@ class CellController(Node):
         """Run the machine to its end; return the exit code (0 FINISHED or shut down, 1 STOPPED)."""
         work = {
             State.BRING_UP: self.bring_up,
-            State.ORIENT: self.orient,
+            State.ORIENT: self.squeeze if self.orienter == "squeeze" else self.orient,
             State.INFEED: self.infeed,
             State.FEED: self.feed,
             State.TILT: lambda: self.tilt(self._route(self.p["fixture_route"])),
@@ -210,13 +242,15 @@ class CellController(Node):
         m = self.machine.metrics
         if t.source in (State.RETURN, State.RETURN_SAFE) and t.policy is None:
             steps = " ".join(f"{k.lower()} {v:.1f}" for k, v in self.step_times.items() if k != "BRING_UP")
+            squeezes = f", {self.squeezes} squeezes" if self.orienter == "squeeze" else ""
             log.info(
                 f"cycle {self.machine.cycle - (t.target is State.ORIENT)}: {m.last_cycle_time:.2f} s "
-                f"({steps}), {self.throws} throws; {m.cycles_completed} cycles, {m.parts_presented} parts, "
+                f"({steps}), {self.throws} throws{squeezes}; {m.cycles_completed} cycles, "
+                f"{m.parts_presented} parts, "
                 f"{m.parts_per_minute(self.now()):.2f} parts/min, faults seen {m.faults_seen} handled "
                 f"{m.faults_handled}, reroutes {m.reroutes}"
             )
-            self.throws, self.step_times = 0, {}
+            self.throws, self.squeezes, self.step_times = 0, 0, {}
         elif t.policy is not None and t.target is not State.STOPPED:
             log.warning(f"{t.source.value}: {t.outcome.label()} -> {t.policy.value}: {t.note}")
         elif t.target is State.STOPPED:
@@ -261,6 +295,7 @@ class CellController(Node):
 
     def orient(self) -> Outcome:
         """Place a new batch on the MEMS array and run the field program until every part has settled."""
+        assert self.place_parts is not None and self.run_program is not None  # made for orienter mems
         if self.p["new_batch"] and self.machine.attempts == 0:  # a retry goes on from where they are
             response = self.call("mems", self.place_parts, MemsPlaceParts.Request(reset=True))
             if isinstance(response, Outcome):
@@ -286,6 +321,81 @@ class CellController(Node):
             else Outcome(result.outcome_name, result.fault_code, result.message)
         )
 
+    def squeeze(self) -> Outcome:
+        """Orient on the squeeze gripper: a new part between its jaws, then the squeeze planner's plan.
+
+        The plan is asked for once (it orients every initial orientation, Goldberg 1993, so every cycle
+        runs the same one). A retry runs the plan again on the part where it lies (after a dropped part,
+        RECOVER has placed a new one).
+        """
+        if self.plan_angles is None:
+            planned = self._squeeze_plan()
+            if planned is not None:
+                return planned
+        if self.machine.attempts == 0:
+            placed = self._squeeze_place()
+            if placed is not None:
+                return placed
+        assert self.run_plan is not None and self.plan_angles is not None
+        goal = RunPlan.Goal(angles=self.plan_angles, timeout=self.p["squeeze_timeout"])
+        result = self.action("squeeze", self.run_plan, "run_plan", goal, self.p["squeeze_timeout"])
+        if isinstance(result, Outcome):
+            return result
+        self.squeezes += result.squeezes
+        message = f"{result.squeezes} squeezes; {result.message}"
+        if result.outcome_name == "DONE" and self.plan_answer is not None:
+            # Ground truth (the gripper reports it for logging): how far the plan left the part from its
+            # final orientation, modulo the symmetry period.
+            error = math.remainder(
+                result.part_orientation - self.plan_answer.final_orientation,
+                self.plan_answer.symmetry_period,
+            )
+            widths = ", ".join(f"{w:.6g}" for w in result.jaw_widths)
+            message = (
+                f"{result.squeezes} squeezes, jaw widths [{widths}] m, part at "
+                f"{result.part_orientation:.6f} rad ({error:+.2e} rad from the plan's final orientation)"
+            )
+            self.get_logger().info(f"cycle {self.machine.cycle}: ORIENT on the squeeze gripper: {message}")
+        return Outcome(result.outcome_name, result.fault_code, message)
+
+    def _squeeze_plan(self) -> Outcome | None:
+        """Ask the squeeze planner for the plan of the gripper's part; an Outcome if there is none."""
+        assert self.squeeze_planner is not None and self.squeeze_part is not None
+        request = SqueezePlanCompute.Request(
+            part=self.squeeze_part, first_angle=self.p["squeeze_first_angle"]
+        )
+        response: Any = Outcome("NO_ANSWER", 0, "no call made")
+        for _ in range(PLAN_CALLS):
+            response = self.call("squeeze_planner", self.squeeze_planner, request)
+            if not (isinstance(response, Outcome) and response.event == "NO_ANSWER"):
+                break
+        if isinstance(response, Outcome):
+            return response
+        self.plan_answer = response
+        self.plan_angles = [float(a) for a in response.angles]
+        angles = ", ".join(f"{a:.6f}" for a in self.plan_angles)
+        self.get_logger().info(
+            f"squeeze plan from {self.squeeze_planner.srv_name}: {len(self.plan_angles)} squeezes at "
+            f"[{angles}] rad, final orientation {response.final_orientation:.6f} rad modulo "
+            f"{response.symmetry_period:.6f}, margin {response.margin:.6f} rad"
+        )
+        return None
+
+    def _squeeze_place(self) -> Outcome | None:
+        """Put a new part between the gripper's open jaws; an Outcome if that failed."""
+        assert self.squeeze_place is not None
+        request = SqueezePlacePart.Request(
+            orientation=self.p["squeeze_orientation"], random=self.p["squeeze_random"]
+        )
+        response = self.call("squeeze", self.squeeze_place, request)
+        if isinstance(response, Outcome):
+            return response
+        self.get_logger().info(
+            f"cycle {self.machine.cycle}: a part arrives in the squeeze gripper at "
+            f"{response.orientation:.6f} rad"
+        )
+        return None
+
     def infeed(self) -> Outcome:
         """Put a new part on the arm at the infeed pose (the presented one was taken).
 
@@ -308,7 +418,7 @@ class CellController(Node):
 
     def _place_arrivals(self) -> Outcome | None:
         """Place every part on the array at this cycle's drawn pose; an Outcome if that failed."""
-        assert self.arrivals is not None
+        assert self.arrivals is not None and self.place_parts is not None
         if not self._wait_until(lambda: self.mems_names is not None) or not self.mems_names:
             return Outcome("ERROR", 0, f"arrivals: no part names from {self.devices['mems']}/parts")
         names = list(self.mems_names)
@@ -378,7 +488,7 @@ class CellController(Node):
         )
 
     def recover(self) -> Outcome:
-        """~/reset the device that failed (the arm: then a fresh part at the infeed); wait until ready."""
+        """~/reset the device that failed (the arm, the gripper: then a fresh part); wait until ready."""
         key = self.machine.device
         if key == "planner":
             return Outcome("DONE")  # the planner holds no state to reset
@@ -398,6 +508,11 @@ class CellController(Node):
             placed = self.infeed()
             if placed.event != "DONE":
                 return placed
+        if key == "squeeze":
+            # A dropped part keeps the gripper in FAULT after the reset until a part is placed again.
+            problem = self._squeeze_place()
+            if problem is not None:
+                return problem
         return self._ready(key)
 
     # --- bounded waits ------------------------------------------------------------------------------
@@ -550,6 +665,19 @@ class CellController(Node):
         program.steps = [fill_field_spec(FieldSpec(), step) for step in steps]
         return program
 
+    def _squeeze_part(self) -> PartMsg:
+        """Return the part ``squeeze_part_file`` names, for the squeeze planner's ~/plan."""
+        path = self.p["squeeze_part_file"]
+        if not path:
+            raise InputError(
+                "parameter squeeze_part_file", "is required with orienter squeeze (the gripper's part_file)"
+            )
+        try:
+            load_part(path)  # checked here: a bad part is named at start, not at the first cycle
+            return part_to_msg(load_yaml_mapping(path))
+        except InputError as error:
+            raise InputError("parameter squeeze_part_file", str(error)) from None
+
     def _arrivals(self) -> ArrivalStream | None:
         """Return the arrivals ``arrivals_file`` names (its arrivals: section and seed), or None."""
         path = self.p["arrivals_file"]
@@ -563,6 +691,11 @@ class CellController(Node):
             seed = scene_seed(document)
         except InputError as error:
             raise InputError("parameter arrivals_file", str(error)) from None
+        if arrivals.mems is not None and self.orienter != "mems":
+            raise InputError(
+                "parameter arrivals_file",
+                f"arrivals.mems places parts on the MEMS array, but the orienter is {self.orienter}",
+            )
         return ArrivalStream(arrivals, seed, self.p["replication"])
 
     def _fault_schedule(self) -> FaultSchedule:

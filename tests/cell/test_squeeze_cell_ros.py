@@ -1,0 +1,117 @@
+"""The squeeze cell over DDS: `feeder launch cell_squeeze.yaml --real-time-factor max`, the gripper orienting.
+
+One launch for the module, in lockstep at ``max`` with a fixed start and a recorded bag: the reference
+controller brings up the squeeze gripper, the arm and the fixture, asks the squeeze planner for the
+rectangle's plan once, and runs the scene's three cycles with the gripper as the orienting station (a new
+part at a random orientation, the plan, then infeed, feed, tilt and return). The tests read what the
+controller logged and what the bag holds: the gripper's own counters and the controller's last status.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pytest
+import ros_harness
+
+pytestmark = pytest.mark.ros
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENE = ROOT / "feeder_cell" / "scenes" / "cell_squeeze.yaml"
+START_S = 1000.0
+CYCLES = 3  # the scene's
+RECTANGLE_PLAN = (0.0, math.pi / 4)  # Goldberg's two squeezes for the 2 x 1 rectangle (docs/squeeze.md)
+ORIENT_TOLERANCE = 1e-7  # rad: the ideal fidelity ends at the plan's final orientation to rounding
+
+
+@dataclass
+class Run:
+    """One launch of the scene: its exit code, the controller's log, the last message of each topic."""
+
+    returncode: int
+    stderr: str
+    log: str
+    last: dict[str, Any]
+    topics: set[str]
+
+
+def _read_bag(bag: Path) -> tuple[dict[str, Any], set[str]]:
+    """Return the last message of every status topic (decoded) and the set of topics recorded."""
+    from mcap.reader import make_reader
+    from rclpy.serialization import deserialize_message
+
+    from feeder_cell.bag.types import message_class
+
+    last: dict[str, Any] = {}
+    topics: set[str] = set()
+    for path in sorted(bag.glob("*.mcap")):
+        with open(path, "rb") as handle:
+            for schema, channel, message in make_reader(handle).iter_messages(log_time_order=True):
+                topics.add(channel.topic)
+                if channel.topic.endswith("/status"):
+                    last[channel.topic] = deserialize_message(message.data, message_class(schema.name))
+    return last, topics
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory: pytest.TempPathFactory) -> Run:
+    folder = tmp_path_factory.mktemp("squeeze_cell")
+    bag, logs = folder / "bag", folder / "logs"
+    lease = ros_harness.DomainLease()
+    env = dict(os.environ, ROS_DOMAIN_ID=str(lease.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    command = [sys.executable, "-m", "feeder_cell.cli.main", "launch", str(SCENE)]
+    command += ["--real-time-factor", "max", "--start-time", str(START_S), "--record", str(bag)]
+    command += ["--log-dir", str(logs), "--json"]
+    try:
+        result = subprocess.run(command, env=env, capture_output=True, text=True, timeout=400, cwd=folder)
+    finally:
+        lease.release()
+    controller = sorted(logs.glob("cell.cell_controller-*.log"))
+    log = controller[0].read_text() if controller else ""
+    last, topics = _read_bag(bag) if bag.is_dir() else ({}, set())
+    return Run(result.returncode, result.stderr, log, last, topics)
+
+
+def test_the_controller_finishes_its_cycles_orienting_on_the_gripper(run: Run) -> None:
+    assert run.returncode == 0, f"{run.stderr[-1500:]}\n{run.log[-2000:]}"
+    assert f"cell FINISHED: {CYCLES} cycles, {CYCLES} parts" in run.log
+    status = run.last["/cell/cell_controller/status"]
+    assert (status.state, status.cycles_completed, status.parts_presented) == ("FINISHED", CYCLES, CYCLES)
+    assert (status.faults_seen, status.stopped) == (0, False)
+    # Each cycle's line counts the plan's squeezes beside the arm's throws.
+    cycle_lines = re.findall(r"cycle \d+: [\d.]+ s \(orient [\d.]+ .*, \d+ throws, (\d+) squeezes", run.log)
+    assert cycle_lines == ["2"] * CYCLES, cycle_lines
+    # The MEMS array is not in this cell: the controller never waited on it.
+    assert not any("mems_field_array" in topic for topic in run.topics), sorted(run.topics)
+
+
+def test_the_planners_plan_is_asked_once_and_orients_every_new_part(run: Run) -> None:
+    plans = re.findall(r"squeeze plan from \S+: (\d+) squeezes at \[([^\]]*)\] rad", run.log)
+    assert len(plans) == 1, plans
+    angles = [float(a) for a in plans[0][1].split(",")]
+    assert angles == pytest.approx(RECTANGLE_PLAN, abs=1e-6)
+    arrivals = [float(a) for a in re.findall(r"a part arrives in the squeeze gripper at (\S+) rad", run.log)]
+    assert len(arrivals) == CYCLES and len(set(arrivals)) == CYCLES  # random, seeded: all different
+    errors = re.findall(r"ORIENT on the squeeze gripper: 2 squeezes.*\((\S+) rad from the plan", run.log)
+    assert len(errors) == CYCLES and all(abs(float(e)) < ORIENT_TOLERANCE for e in errors), errors
+
+
+def test_the_grippers_counters_show_the_plans_run(run: Run) -> None:
+    status = run.last["/cell/squeeze_gripper/status"]
+    counters = dict(zip(status.counter_names, status.counter_values, strict=True))
+    # One part at configure (place_part: true) and one arriving each cycle; each cycle one plan of two.
+    expected = {
+        "plan_goals": CYCLES,
+        "plans_done": CYCLES,
+        "squeezes": 2 * CYCLES,
+        "parts_placed": CYCLES + 1,
+    }
+    assert {k: counters[k] for k in expected} == expected, counters
+    assert counters["parts_dropped"] == counters["jaw_stalls"] == counters["squeeze_goals"] == 0
