@@ -3,8 +3,11 @@
 One launch for the module, in lockstep at ``max`` with a fixed start and a recorded bag: the reference
 controller brings up the squeeze gripper, the arm and the fixture, asks the squeeze planner for the
 rectangle's plan once, and runs the scene's three cycles with the gripper as the orienting station (a new
-part at a random orientation, the plan, then infeed, feed, tilt and return). The tests read what the
-controller logged and what the bag holds: the gripper's own counters and the controller's last status.
+part at a random orientation, the plan, then infeed, feed, tilt and return). The scene's copy adds a
+fault process to the gripper (``part_dropped`` certain for 0.3 s every 9 s of cell time, the first in the
+second cycle's ORIENT): the fault policy's RESET_RETRY resets the gripper, waits for its jaws to open,
+places a new part and runs the plan again. The tests read what the controller logged and what the bag
+holds: the gripper's own counters and the controller's last status.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from typing import Any
 
 import pytest
 import ros_harness
+import yaml
 
 pytestmark = pytest.mark.ros
 
@@ -29,6 +33,18 @@ START_S = 1000.0
 CYCLES = 3  # the scene's
 RECTANGLE_PLAN = (0.0, math.pi / 4)  # Goldberg's two squeezes for the 2 x 1 rectangle (docs/squeeze.md)
 ORIENT_TOLERANCE = 1e-7  # rad: the ideal fidelity ends at the plan's final orientation to rounding
+# A dropped part while injected (probability 1 a squeeze); fixed times: failures at +9, +18.3 s... The
+# first drops the part at the second squeeze of cycle 2, its repair over before the goal ends: RECOVER
+# resets at once and must wait for the jaws to open before ~/place_part (refused while OPENING).
+FAULTS = {
+    "squeeze_gripper": {
+        "fault": "part_dropped",
+        "value": 1.0,
+        "mtbf": 9.0,
+        "mttr": 0.3,
+        "distribution": "fixed",
+    }
+}
 
 
 @dataclass
@@ -62,11 +78,16 @@ def _read_bag(bag: Path) -> tuple[dict[str, Any], set[str]]:
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory: pytest.TempPathFactory) -> Run:
+    from feeder_cell.launcher import scene_copy
+
     folder = tmp_path_factory.mktemp("squeeze_cell")
     bag, logs = folder / "bag", folder / "logs"
+    scene = scene_copy(SCENE, folder, {})
+    document = yaml.safe_load(scene.read_text())
+    scene.write_text(yaml.safe_dump({**document, "seed": 3, "faults": FAULTS}))
     lease = ros_harness.DomainLease()
     env = dict(os.environ, ROS_DOMAIN_ID=str(lease.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    command = [sys.executable, "-m", "feeder_cell.cli.main", "launch", str(SCENE)]
+    command = [sys.executable, "-m", "feeder_cell.cli.main", "launch", str(scene)]
     command += ["--real-time-factor", "max", "--start-time", str(START_S), "--record", str(bag)]
     command += ["--log-dir", str(logs), "--json"]
     try:
@@ -79,15 +100,23 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> Run:
     return Run(result.returncode, result.stderr, log, last, topics)
 
 
+def drops(log: str) -> int:
+    """Return the dropped parts the fault policy reset and retried."""
+    return len(re.findall(r"ORIENT: FAULT 402 .* -> RESET_RETRY: reset squeeze, then retry", log))
+
+
 def test_the_controller_finishes_its_cycles_orienting_on_the_gripper(run: Run) -> None:
     assert run.returncode == 0, f"{run.stderr[-1500:]}\n{run.log[-2000:]}"
     assert f"cell FINISHED: {CYCLES} cycles, {CYCLES} parts" in run.log
     status = run.last["/cell/cell_controller/status"]
     assert (status.state, status.cycles_completed, status.parts_presented) == ("FINISHED", CYCLES, CYCLES)
-    assert (status.faults_seen, status.stopped) == (0, False)
-    # Each cycle's line counts the plan's squeezes beside the arm's throws.
-    cycle_lines = re.findall(r"cycle \d+: [\d.]+ s \(orient [\d.]+ .*, \d+ throws, (\d+) squeezes", run.log)
-    assert cycle_lines == ["2"] * CYCLES, cycle_lines
+    # Every fault seen was a dropped part, and each was handled: the cell went on.
+    dropped = drops(run.log)
+    assert dropped >= 1 and (status.faults_seen, status.faults_handled) == (dropped, dropped)
+    assert status.stopped is False and status.retries == dropped
+    # Each cycle's line counts the plan's squeezes beside the arm's throws (a dropped part's too).
+    per_cycle = re.findall(r"cycle \d+: [\d.]+ s \(orient [\d.]+ .*, \d+ throws, (\d+) squeezes", run.log)
+    assert len(per_cycle) == CYCLES and all(int(n) >= 2 for n in per_cycle), per_cycle
     # The MEMS array is not in this cell: the controller never waited on it.
     assert not any("mems_field_array" in topic for topic in run.topics), sorted(run.topics)
 
@@ -98,20 +127,25 @@ def test_the_planners_plan_is_asked_once_and_orients_every_new_part(run: Run) ->
     angles = [float(a) for a in plans[0][1].split(",")]
     assert angles == pytest.approx(RECTANGLE_PLAN, abs=1e-6)
     arrivals = [float(a) for a in re.findall(r"a part arrives in the squeeze gripper at (\S+) rad", run.log)]
-    assert len(arrivals) == CYCLES and len(set(arrivals)) == CYCLES  # random, seeded: all different
+    # A part each cycle and one after each drop, from the gripper's seeded stream: all different.
+    assert len(arrivals) == CYCLES + drops(run.log) and len(set(arrivals)) == len(arrivals)
     errors = re.findall(r"ORIENT on the squeeze gripper: 2 squeezes.*\((\S+) rad from the plan", run.log)
     assert len(errors) == CYCLES and all(abs(float(e)) < ORIENT_TOLERANCE for e in errors), errors
 
 
-def test_the_grippers_counters_show_the_plans_run(run: Run) -> None:
+def test_the_grippers_counters_show_the_plans_run_and_the_drops(run: Run) -> None:
     status = run.last["/cell/squeeze_gripper/status"]
     counters = dict(zip(status.counter_names, status.counter_values, strict=True))
-    # One part at configure (place_part: true) and one arriving each cycle; each cycle one plan of two.
+    dropped = drops(run.log)
+    # One part at configure (place_part: true), one arriving each cycle and one after each drop; one plan
+    # a cycle and one more for each drop; the squeezes are the ones the cycle lines count.
     expected = {
-        "plan_goals": CYCLES,
+        "plan_goals": CYCLES + dropped,
         "plans_done": CYCLES,
-        "squeezes": 2 * CYCLES,
-        "parts_placed": CYCLES + 1,
+        "parts_placed": 1 + CYCLES + dropped,
+        "parts_dropped": dropped,
     }
     assert {k: counters[k] for k in expected} == expected, counters
-    assert counters["parts_dropped"] == counters["jaw_stalls"] == counters["squeeze_goals"] == 0
+    per_cycle = re.findall(r", \d+ throws, (\d+) squeezes;", run.log)
+    assert counters["squeezes"] == sum(int(n) for n in per_cycle) >= 2 * CYCLES, (counters, per_cycle)
+    assert counters["jaw_stalls"] == counters["squeeze_goals"] == 0

@@ -55,7 +55,7 @@ from feeder_cell.experiment.arrivals import ArrivalStream, scene_arrivals, scene
 from feeder_cell.experiment.faults_process import scene_faults
 from feeder_cell.lifecycle_client import LifecycleClient, LifecycleError, LifecycleInterruptedError
 from feeder_msgs.action import FeedPart, FollowPath, RunPlan, RunProgram
-from feeder_msgs.msg import CellStatus, DeviceStatus, FieldProgram, FieldSpec, MemsParts
+from feeder_msgs.msg import CellStatus, DeviceStatus, FieldProgram, FieldSpec, MemsParts, SqueezeState
 from feeder_msgs.msg import Part as PartMsg
 from feeder_msgs.srv import (
     ArmPlacePart,
@@ -70,6 +70,7 @@ from feeder_planner.fields_io import load_yaml_mapping
 from feeder_planner.mems import program_from_mapping
 from feeder_planner.node_kit import (
     LATCHED,
+    STREAM_DEPTH,
     declare_parameters,
 )
 from feeder_planner.node_kit.action_client import ActionClient
@@ -149,6 +150,11 @@ class CellController(Node):
             self.create_client(SqueezePlanCompute, f"{self.p['squeeze_planner']}/plan") if squeezing else None
         )
         self.plan_angles: list[float] | None = None  # the squeeze planner's plan, asked for once
+        # After a reset the gripper opens its jaws before it takes a part: RECOVER waits for a ~/state
+        # stamped after the reset that says IDLE, (after ns, completed by it).
+        self.jaws_open: tuple[int, Future] | None = None
+        if squeezing:
+            self.create_subscription(SqueezeState, f"{station}/state", self._on_squeeze_state, STREAM_DEPTH)
         self.plan_answer: SqueezePlanCompute.Response | None = None
         self.feed_part = ActionClient(self, FeedPart, f"{self.devices['arm']}/feed_part")
         self.follow_path = ActionClient(self, FollowPath, f"{self.devices['fixture']}/follow_path")
@@ -396,6 +402,25 @@ class CellController(Node):
         )
         return None
 
+    def _wait_jaws_open(self) -> Outcome | None:
+        """Wait (``squeeze_timeout`` of node clock) for a gripper ~/state after now saying IDLE."""
+        future: Future = Future()
+        self.jaws_open = (self.get_clock().now().nanoseconds, future)
+        if self.wait(future, self.p["squeeze_timeout"]):
+            return None
+        return Outcome(
+            "NO_ANSWER",
+            0,
+            f"{self.devices['squeeze']}/state did not say IDLE (the jaws open) within "
+            f"{self.p['squeeze_timeout']:g} s of the reset",
+        )
+
+    def _on_squeeze_state(self, msg: SqueezeState) -> None:
+        pending = self.jaws_open
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        if pending is not None and msg.phase == "IDLE" and stamp > pending[0] and not pending[1].done():
+            pending[1].set_result(True)
+
     def infeed(self) -> Outcome:
         """Put a new part on the arm at the infeed pose (the presented one was taken).
 
@@ -509,8 +534,9 @@ class CellController(Node):
             if placed.event != "DONE":
                 return placed
         if key == "squeeze":
-            # A dropped part keeps the gripper in FAULT after the reset until a part is placed again.
-            problem = self._squeeze_place()
+            # A dropped part keeps the gripper in FAULT after the reset until a part is placed again, which
+            # it takes only once the jaws the reset opens are open.
+            problem = self._wait_jaws_open() or self._squeeze_place()
             if problem is not None:
                 return problem
         return self._ready(key)
