@@ -20,14 +20,12 @@ complete cycle of the scenario over all its replications):
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import hashlib
 import importlib
 import itertools
 import json
 import math
-import signal
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -52,10 +50,10 @@ from feeder_cell.experiment.loop import (
     controller_parameters,
     scene_loop,
 )
+from feeder_planner.dask_cluster import MAX_WORKERS, dask_client
 from feeder_planner.errors import InputError
 from feeder_planner.fields_io import load_yaml_mapping
 from feeder_planner.parameter_specs import specs_of
-from feeder_planner.throwing.studies import CONNECT_TIMEOUT, MAX_WORKERS, QUIET_WORKERS, WORKERS_TIMEOUT
 
 __all__ = [
     "Experiment",
@@ -633,16 +631,6 @@ def sorted_rows_text(results: Results) -> str:
 
 
 # --- Dask ---------------------------------------------------------------------------------------------------
-@contextlib.contextmanager
-def _sigint_blocked() -> Iterator[None]:
-    """Block SIGINT while a cluster starts (a half-made LocalCluster fails at exit); deliver it after."""
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
-
-
 def run_dask(
     experiment: Experiment,
     results: Results,
@@ -660,33 +648,13 @@ def run_dask(
     Rows are keyed by (scenario, replication) and each replication is seeded by its index alone, so the
     table's values do not depend on the workers or the order.
     """
-    from dask.distributed import Client, LocalCluster, as_completed
+    from dask.distributed import as_completed
 
     if not 1 <= workers <= MAX_WORKERS:
         raise InputError("--workers", f"must be in 1..{MAX_WORKERS}, got {workers}")
     todo = tasks(experiment, results)
     begin = time.perf_counter()
-    cluster: LocalCluster | None = None
-    client: Client | None = None
-    try:
-        with _sigint_blocked():
-            if scheduler is None:
-                cluster = LocalCluster(
-                    n_workers=workers,
-                    threads_per_worker=1,
-                    processes=True,
-                    dashboard_address=None,
-                    env=QUIET_WORKERS,
-                )
-                client = Client(cluster)
-            else:
-                try:
-                    client = Client(scheduler, timeout=CONNECT_TIMEOUT)
-                except (OSError, TimeoutError, ValueError) as error:
-                    why = " ".join(str(error).split()) or type(error).__name__
-                    message = f"cannot reach the Dask scheduler at {scheduler!r}: {why}"
-                    raise InputError("--scheduler", message) from None
-        client.wait_for_workers(1 if scheduler is not None else workers, timeout=WORKERS_TIMEOUT)
+    with dask_client(workers, scheduler, field="--scheduler") as client:
         # The models' imports (numpy, scipy, the planner, the simulators: seconds per process) belong to
         # the start-up, not to the first replication each worker runs.
         client.run(importlib.import_module, "feeder_cell.experiment.loop")
@@ -701,11 +669,6 @@ def run_dask(
             if progress is not None:
                 progress(done, len(todo))
         return submitted - begin, time.perf_counter() - submitted
-    finally:
-        if client is not None:
-            client.close()
-        if cluster is not None:
-            cluster.close()
 
 
 # --- replay as a ROS scene ---------------------------------------------------------------------------------

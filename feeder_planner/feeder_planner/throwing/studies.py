@@ -10,38 +10,23 @@ run give the same numbers for the same seed.
 
 from __future__ import annotations
 
-import contextlib
 import math
-import signal
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Callable, Iterator
+from typing import Any, Callable
 
 import numpy as np
 
-from feeder_planner.errors import FeederError, InputError
+from feeder_planner.dask_cluster import MAX_WORKERS, dask_client
+from feeder_planner.errors import InputError
 from feeder_planner.throwing.design import Design, DesignRow, check_grid, evaluate
 from feeder_planner.throwing.geometry import ArmPart
 from feeder_planner.throwing.sensor import check_sensing_height
-
-if TYPE_CHECKING:
-    from dask.distributed import Client, LocalCluster
 
 __all__ = ["RobustPoint", "RobustStudy", "perturbed_designs", "robust_study", "MAX_PERTURBED", "MAX_WORKERS"]
 
 # Perturbed designs of one study at most: 10^5 limit sets take about an hour on two cores here.
 MAX_PERTURBED = 100_000
-# Worker processes of a LocalCluster at most: each imports numpy and the planner (~100 MB); more than
-# this on one machine only adds memory and start-up time.
-MAX_WORKERS = 64
-# Seconds to wait for an existing scheduler to answer (Dask retries a refused connection until then),
-# and for the workers to be there (a LocalCluster's start in a few seconds here).
-CONNECT_TIMEOUT = 10
-WORKERS_TIMEOUT = 60
-# The worker processes' own logging: a study's task errors reach the client as exceptions, so what a
-# worker logs itself is the cluster's shutdown (a heartbeat to a scheduler that has closed, logged with
-# its traceback when Ctrl-C ends a study), which is not the user's business.
-QUIET_WORKERS = {"DASK_LOGGING__DISTRIBUTED": "critical"}
 
 
 @dataclass(frozen=True)
@@ -228,20 +213,6 @@ def robust_study(
     )
 
 
-@contextlib.contextmanager
-def _stop_signals_blocked() -> Iterator[None]:
-    """Block SIGINT in this thread (and in the threads and processes it starts) while the block runs.
-
-    A SIGINT that comes meanwhile stays pending and is delivered (KeyboardInterrupt) as the block ends.
-    SIGTERM stays unblocked: the nanny ends its workers with it.
-    """
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
-
-
 def _on_dask(
     part: ArmPart,
     goal_edge: int,
@@ -253,31 +224,10 @@ def _on_dask(
     progress: Callable[[int, int], None] | None,
 ) -> tuple[list[tuple[int, int, int]], float, float]:
     """Run every task on Dask: (results in task order, start-up s, compute s); the cluster always closes."""
-    from dask.distributed import Client, LocalCluster, as_completed
+    from dask.distributed import as_completed
 
     begin = time.perf_counter()
-    cluster: LocalCluster | None = None
-    client: Client | None = None
-    try:
-        # Ctrl-C (KeyboardInterrupt) inside a LocalCluster's start left it half made, and distributed's
-        # own exit handler then failed on it with a traceback: the start runs with the stop signals
-        # blocked, and one that came meanwhile is raised here, where the finally below closes it all.
-        with _stop_signals_blocked():
-            if scheduler is None:
-                cluster = LocalCluster(
-                    n_workers=workers,
-                    threads_per_worker=1,
-                    processes=True,
-                    dashboard_address=None,
-                    env=QUIET_WORKERS,
-                )
-                client = Client(cluster)
-            else:
-                try:
-                    client = Client(scheduler, timeout=CONNECT_TIMEOUT)
-                except (OSError, TimeoutError, ValueError) as error:
-                    raise FeederError(f"cannot reach the Dask scheduler at {scheduler!r}: {error}") from None
-        client.wait_for_workers(1 if scheduler is not None else workers, timeout=WORKERS_TIMEOUT)
+    with dask_client(workers, scheduler) as client:
         startup = time.perf_counter() - begin
         start = time.perf_counter()
         shared = client.scatter(part, broadcast=True)
@@ -292,8 +242,3 @@ def _on_dask(
             if progress is not None:
                 progress(done, len(tasks))
         return [r for r in results if r is not None], startup, time.perf_counter() - start
-    finally:
-        if client is not None:
-            client.close()
-        if cluster is not None:
-            cluster.close()

@@ -1,0 +1,90 @@
+"""The Dask cluster the throwing-design studies and the production experiments run on. ROS-free.
+
+Either a LocalCluster of single-threaded worker processes on this machine, or an existing scheduler at an
+address; set up one way for every caller, and always closed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+from typing import TYPE_CHECKING, Iterator
+
+from feeder_planner.errors import InputError
+
+if TYPE_CHECKING:
+    from dask.distributed import Client
+
+__all__ = ["CONNECT_TIMEOUT", "MAX_WORKERS", "QUIET_WORKERS", "WORKERS_TIMEOUT", "dask_client"]
+
+# Worker processes of a LocalCluster at most: each imports numpy and the models (~100 MB); more than
+# this on one machine only adds memory and start-up time.
+MAX_WORKERS = 64
+# Seconds to wait for an existing scheduler to answer (Dask retries a refused connection until then),
+# and for the workers to arrive.
+CONNECT_TIMEOUT = 10
+WORKERS_TIMEOUT = 60
+# The worker processes' own logging: task errors reach the client as exceptions, so what a worker logs
+# itself is the cluster's shutdown (a heartbeat to a scheduler that has closed, logged with its traceback
+# when Ctrl-C ends a run), which is not the user's business.
+QUIET_WORKERS = {"DASK_LOGGING__DISTRIBUTED": "critical"}
+
+
+@contextlib.contextmanager
+def stop_signals_blocked() -> Iterator[None]:
+    """Block SIGINT in this thread (and in the threads and processes it starts) while the block runs.
+
+    A SIGINT that comes meanwhile stays pending and is delivered (KeyboardInterrupt) as the block ends.
+    SIGTERM stays unblocked: the nanny ends its workers with it.
+    """
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+@contextlib.contextmanager
+def dask_client(workers: int, scheduler: str | None, field: str = "scheduler") -> Iterator[Client]:
+    """Yield a client whose workers have arrived; it and its cluster close when the block ends, however.
+
+    The cluster is a LocalCluster of ``workers`` (``scheduler`` None), or the one at ``scheduler``.
+
+    Raises
+    ------
+    InputError
+        ``field`` (the caller's name for the address) when the scheduler cannot be reached.
+    """
+    from dask.distributed import Client, LocalCluster
+
+    cluster: LocalCluster | None = None
+    client: Client | None = None
+    try:
+        # Ctrl-C (KeyboardInterrupt) inside a LocalCluster's start left it half made, and distributed's
+        # own exit handler then failed on it with a traceback: the start runs with the stop signals
+        # blocked, and one that came meanwhile is raised here, where the finally below closes it all.
+        with stop_signals_blocked():
+            if scheduler is None:
+                cluster = LocalCluster(
+                    n_workers=workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                    env=QUIET_WORKERS,
+                )
+                client = Client(cluster)
+            else:
+                try:
+                    client = Client(scheduler, timeout=CONNECT_TIMEOUT)
+                except (OSError, TimeoutError, ValueError) as error:
+                    why = " ".join(str(error).split()) or type(error).__name__
+                    raise InputError(
+                        field, f"cannot reach the Dask scheduler at {scheduler!r}: {why}"
+                    ) from None
+        client.wait_for_workers(1 if scheduler is not None else workers, timeout=WORKERS_TIMEOUT)
+        yield client
+    finally:
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
