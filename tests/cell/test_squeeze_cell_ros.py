@@ -149,3 +149,36 @@ def test_the_grippers_counters_show_the_plans_run_and_the_drops(run: Run) -> Non
     per_cycle = re.findall(r", \d+ throws, (\d+) squeezes;", run.log)
     assert counters["squeezes"] == sum(int(n) for n in per_cycle) >= 2 * CYCLES, (counters, per_cycle)
     assert counters["jaw_stalls"] == counters["squeeze_goals"] == 0
+
+
+@pytest.mark.parametrize(
+    ("parameters", "named"),
+    [
+        ({"orienter": "gripper"}, "parameter orienter: must be one of mems, squeeze, got 'gripper'"),
+        ({"orienter": "squeeze"}, "parameter squeeze_part_file: is required with orienter squeeze"),
+        (
+            {"orienter": "squeeze", "squeeze_part_file": "/nonexistent/part.yaml"},
+            "parameter squeeze_part_file:",
+        ),
+        (
+            {
+                "orienter": "squeeze",
+                "squeeze_part_file": str(ROOT / "examples/squeeze/rectangle.yaml"),
+                "arrivals_file": str(ROOT / "examples/experiments/arm_period.yaml"),
+            },
+            "parameter arrivals_file: arrivals.mems places parts on the MEMS array, but the orienter is "
+            "squeeze",
+        ),
+    ],
+)
+def test_a_bad_squeeze_setting_exits_2_naming_it(
+    ros_domain: int, tmp_path: Path, parameters: dict[str, Any], named: str
+) -> None:
+    node = ros_harness.start_node(
+        "feeder_cell", "cell_controller", parameters, tmp_path, namespace="/nowhere"
+    )
+    try:
+        assert node.process.wait(timeout=60) == 2
+    finally:
+        node.stop()
+    assert named in node.output() and "Traceback" not in node.output(), node.output()[-1500:]
