@@ -4,10 +4,10 @@ One launch for the module, in lockstep at ``max`` with a fixed start and a recor
 controller brings up the squeeze gripper, the arm and the fixture, asks the squeeze planner for the
 rectangle's plan once, and runs the scene's three cycles with the gripper as the orienting station (a new
 part at a random orientation, the plan, then infeed, feed, tilt and return). The scene's copy adds a
-fault process to the gripper (``part_dropped`` certain for 0.3 s every 9 s of cell time, the first in the
-second cycle's ORIENT): the fault policy's RESET_RETRY resets the gripper, waits for its jaws to open,
-places a new part and runs the plan again. The tests read what the controller logged and what the bag
-holds: the gripper's own counters and the controller's last status.
+fault process to the gripper (``part_dropped`` certain for 0.6 s every 8.7 s of cell time: a drop in the
+second and in the third cycle's ORIENT): the fault policy's RESET_RETRY resets the gripper, waits for its
+jaws to open, places a new part and runs the plan again. The tests read what the controller logged and
+what the bag holds: the gripper's own counters and the controller's last status.
 """
 
 from __future__ import annotations
@@ -33,15 +33,17 @@ START_S = 1000.0
 CYCLES = 3  # the scene's
 RECTANGLE_PLAN = (0.0, math.pi / 4)  # Goldberg's two squeezes for the 2 x 1 rectangle (docs/squeeze.md)
 ORIENT_TOLERANCE = 1e-7  # rad: the ideal fidelity ends at the plan's final orientation to rounding
-# A dropped part while injected (probability 1 a squeeze); fixed times: failures at +9, +18.3 s... The
-# first drops the part at the second squeeze of cycle 2, its repair over before the goal ends: RECOVER
-# resets at once and must wait for the jaws to open before ~/place_part (refused while OPENING).
+# A dropped part while injected (probability 1 a squeeze); fixed times: failures from +8.7 s and +18.0 s,
+# 0.6 s each (the controller injects at the first quantum after, 0.1 s later). The first drops the part at
+# the first squeeze of cycle 2 (it ends at +9.22 s), its repair over before RECOVER begins: the reset
+# comes at once and RECOVER must wait for the jaws to open before ~/place_part (refused while OPENING). The
+# second drops cycle 3's, RECOVER waiting out the repair.
 FAULTS = {
     "squeeze_gripper": {
         "fault": "part_dropped",
         "value": 1.0,
-        "mtbf": 9.0,
-        "mttr": 0.3,
+        "mtbf": 8.7,
+        "mttr": 0.6,
         "distribution": "fixed",
     }
 }
