@@ -138,26 +138,15 @@ class CellController(Node):
                 )
             self.create_subscription(PartMsg, f"{self.devices['arm']}/part", self._on_arm_part, LATCHED)
         # Every client is made once, here: a server must discover a client before it can answer it. The
-        # orienting station's clients are made for the station the cell has.
+        # orienting station's clients are made for the station the cell has. The MEMS cell's entities are
+        # made in the order they always were: a fault process's injection is sent without waiting, and
+        # the executor's order of ready entities decides which quantum it lands in (tests/experiment/
+        # test_loop_equivalence_ros measured a 0.1 s shorter cycle with the order changed).
         station = self.devices[self.orienter]
         self.run_program = None if squeezing else ActionClient(self, RunProgram, f"{station}/run_program")
-        self.place_parts = None if squeezing else self.create_client(MemsPlaceParts, f"{station}/place_parts")
-        self.run_plan = ActionClient(self, RunPlan, f"{station}/run_plan") if squeezing else None
-        self.squeeze_place = (
-            self.create_client(SqueezePlacePart, f"{station}/place_part") if squeezing else None
-        )
-        self.squeeze_planner = (
-            self.create_client(SqueezePlanCompute, f"{self.p['squeeze_planner']}/plan") if squeezing else None
-        )
-        self.plan_angles: list[float] | None = None  # the squeeze planner's plan, asked for once
-        # After a reset the gripper opens its jaws before it takes a part: RECOVER waits for a ~/state
-        # stamped after the reset that says IDLE, (after ns, completed by it).
-        self.jaws_open: tuple[int, Future] | None = None
-        if squeezing:
-            self.create_subscription(SqueezeState, f"{station}/state", self._on_squeeze_state, STREAM_DEPTH)
-        self.plan_answer: SqueezePlanCompute.Response | None = None
         self.feed_part = ActionClient(self, FeedPart, f"{self.devices['arm']}/feed_part")
         self.follow_path = ActionClient(self, FollowPath, f"{self.devices['fixture']}/follow_path")
+        self.place_parts = None if squeezing else self.create_client(MemsPlaceParts, f"{station}/place_parts")
         self.place_part = self.create_client(ArmPlacePart, f"{self.devices['arm']}/place_part")
         self.resets = {k: self.create_client(Trigger, f"{n}/reset") for k, n in self.devices.items()}
         self.safe_path = self.create_client(StablePath, f"{planner}/safe_path")
@@ -169,6 +158,21 @@ class CellController(Node):
             k: LifecycleClient(self, None, n, keep_going=lambda: not self.stopping())
             for k, n in self.devices.items()
         }
+        # The squeeze gripper and its planner (orienter: squeeze).
+        self.run_plan = ActionClient(self, RunPlan, f"{station}/run_plan") if squeezing else None
+        self.squeeze_place = (
+            self.create_client(SqueezePlacePart, f"{station}/place_part") if squeezing else None
+        )
+        self.squeeze_planner = (
+            self.create_client(SqueezePlanCompute, f"{self.p['squeeze_planner']}/plan") if squeezing else None
+        )
+        self.plan_angles: list[float] | None = None  # the squeeze planner's plan, asked for once
+        self.plan_answer: SqueezePlanCompute.Response | None = None
+        # After a reset the gripper opens its jaws before it takes a part: RECOVER waits for a ~/state
+        # stamped after the reset that says IDLE, (after ns, completed by it).
+        self.jaws_open: tuple[int, Future] | None = None
+        if squeezing:
+            self.create_subscription(SqueezeState, f"{station}/state", self._on_squeeze_state, STREAM_DEPTH)
         self.status_pub = self.create_publisher(CellStatus, "~/status", LATCHED)
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
