@@ -119,7 +119,7 @@ def test_the_long_transient_example_agrees_with_its_long_run():
 # The issue's second design: a wedge whose trigger range for goal edge 0 came out null under the former
 # rule (its tail held the radii of the approach). Issue 35: the range is [147.36, 157.72] mm on the last
 # halves of 19 long runs of 4,000 throws from the grid's starts; limit-set read about 6 mm of it while the
-# approach's first landings were in the tails (a blocking edge's range reached into it), [147.34, 157.72]
+# approach's first landings were in the tails (a blocking edge's range reached into it), [147.33, 157.72]
 # since the trigger is read on the tails and the older states of their stays that may be visits.
 WEDGE = [[1.29, 21.05], [-19.44, -10.49], [8.58, -17.46], [11.14, -16.61], [17.03, -14.01]]
 WEDGE_PARAMS = ThrowParams(offset=-1.128 * MM, speed=math.radians(277.7), gravity=-9.66, mu=0.613)
