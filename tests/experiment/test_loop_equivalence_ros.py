@@ -118,7 +118,7 @@ def test_a_replication_equals_the_ros_lockstep_run(tmp_path: Path, case: str) ->
         # The failure met in cycle 1's feed, reset after its repair, the part fed again.
         assert ros_policies == [("FEED", "FAULT", 102, "RESET_RETRY")]
         assert [(f.start, f.end) for f in loop.failures[:1]] == [(11.6, 12.1)]
-        assert times == [15.9, 19.9]
+        assert times == [15.8, 19.9]
 
 
 def test_replay_runs_a_replication_as_a_ros_scene_with_a_bag(tmp_path: Path) -> None:

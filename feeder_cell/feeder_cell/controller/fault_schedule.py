@@ -14,7 +14,12 @@ from typing import Iterator
 
 from feeder_cell.experiment.faults_process import FaultEvent, FaultProcess, FaultSpec
 
-__all__ = ["FaultAction", "FaultSchedule"]
+__all__ = ["REPAIR_EARLY_S", "FaultAction", "FaultSchedule"]
+
+# A controller waiting out a repair goes on at the first react time at or after its end: its wait's bound
+# is this much earlier, so that the float rounding of two equal cell times (whole nanoseconds as seconds,
+# from different origins) cannot add a quantum. The ROS controller and the ROS-free loop both use it.
+REPAIR_EARLY_S = 1e-6
 
 
 @dataclass(frozen=True)

@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING, Any, Callable
 import numpy as np
 
 from feeder_cell.controller import CellMachine, Outcome, State
-from feeder_cell.controller.fault_schedule import FaultSchedule
+from feeder_cell.controller.fault_schedule import REPAIR_EARLY_S, FaultSchedule
 from feeder_cell.controller.parameters import PARAMETERS as CONTROLLER_PARAMETERS
 from feeder_cell.experiment.arrivals import ArrivalStream
 from feeder_cell.experiment.faults_process import FaultEvent, FaultSpec
@@ -869,7 +869,7 @@ class CellLoop:
         device: _Device = self.by_key[key]
         end = self.schedule.under_repair_until(self.node_of[key])
         if end > self.t():
-            self._wait(lambda: False, end - self.t())
+            self._wait(lambda: False, end - self.t() - REPAIR_EARLY_S)
         device.reset()
         if key == "arm":
             placed = self.infeed()

@@ -48,7 +48,7 @@ from rclpy.task import Future
 from std_srvs.srv import Trigger
 
 from feeder_cell.controller import CellMachine, Outcome, State, Transition
-from feeder_cell.controller.fault_schedule import FaultAction, FaultSchedule
+from feeder_cell.controller.fault_schedule import REPAIR_EARLY_S, FaultAction, FaultSchedule
 from feeder_cell.controller.parameters import PARAMETERS
 from feeder_cell.controller.reporting import cell_status, diagnostic_entry
 from feeder_cell.experiment.arrivals import ArrivalStream, scene_arrivals, scene_seed
@@ -86,6 +86,7 @@ __all__ = ["PARAMETERS", "CellController", "main"]
 NODE_NAME = "cell_controller"
 HEARTBEAT_RATE = 1.0  # Hz (steady clock) of ~/status and /diagnostics besides every transition
 POLL_S = 0.02  # wall seconds between looks at a pending future
+
 PLAN_CALLS = 3  # a fresh server may drop its first reply: the plan request is idempotent, sent again
 # A transition refused while another client moves the same device is looked at again after a moment.
 BRING_UP_ATTEMPTS, BRING_UP_SETTLE_S = 3, 0.5
@@ -527,7 +528,7 @@ class CellController(Node):
             self.get_logger().info(
                 f"RECOVER: {self.devices[key]} is under repair until +{end - self.faults.origin:.3f} s"
             )
-            self.wait(Future(), end - self.now())
+            self.wait(Future(), end - self.now() - REPAIR_EARLY_S)
         response = self.call(key, self.resets[key], Trigger.Request())
         if isinstance(response, Outcome):
             return response
@@ -746,10 +747,10 @@ class CellController(Node):
     def _inject_due(self) -> None:
         """Inject every failure whose time has come, and clear every one whose repair time has come.
 
-        An injection is sent and not waited on: the device's answer comes within the quantum, its effect
-        shows in the step's outcome, which the fault policy handles. A clear at the repair time ends a
-        fault the device keeps until then (a stuck sensor); one the controller's ~/reset already cleared
-        answers that it is not active, which is fine.
+        Each request is answered before the controller goes on (``_send_fault``); its effect shows in the
+        step's outcome, which the fault policy handles. A clear at the repair time ends a fault the device
+        keeps until then (a stuck sensor); one the controller's ~/reset already cleared answers that it is
+        not active, which is fine.
         """
         if self.machine.state is State.BRING_UP:
             return
@@ -757,7 +758,7 @@ class CellController(Node):
             self._send_fault(action)
 
     def _send_fault(self, action: FaultAction) -> None:
-        """Send ~/inject_fault (or its clear) and log it; a refusal is logged when it comes."""
+        """Send ~/inject_fault (or its clear), log it, and wait for the answer; a refusal is logged."""
         spec, event, clear = action.spec, action.event, action.clear
         client = self.injections[spec.device]
         request = InjectFault.Request(fault=spec.fault, clear=clear, value=spec.value, state=spec.state)
@@ -771,12 +772,19 @@ class CellController(Node):
             self.get_logger().warning(f"fault process: {client.srv_name} is not available")
             return
 
-        def answered(future: Future) -> None:
-            response = future.result()
-            if response is not None and not response.ok and not clear:
-                self.get_logger().warning(f"fault process: {client.srv_name}: {response.error}")
-
-        client.call_async(request).add_done_callback(answered)
+        # Waited for: in lockstep the controller holds the clock meanwhile, so the device takes the fault
+        # in at the cell time it is due, before its next tick (as the ROS-free loop applies it). Sent and
+        # left, it landed in that quantum or the next as the device's executor happened to order its
+        # callbacks: the fresh-clone CI run's loop-equivalence and squeeze-cell runs differed so.
+        future = client.call_async(request)
+        if not self.wait_wall(future):
+            self.get_logger().warning(
+                f"fault process: {client.srv_name} did not answer in {self.p['answer_timeout']:g} s"
+            )
+            return
+        response = future.result()
+        if response is not None and not response.ok and not clear:
+            self.get_logger().warning(f"fault process: {client.srv_name}: {response.error}")
 
     def _on_mems_parts(self, msg: MemsParts) -> None:
         self.mems_names = [part.name for part in msg.parts]
