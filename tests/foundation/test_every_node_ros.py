@@ -25,7 +25,7 @@ def readme_nodes() -> list[tuple[str, str]]:
 NODES = readme_nodes()
 # The managed devices start, join the graph and are ended by pid (unconfigured and finalized, exit checked)
 # in the device conformance suite, tests/devices/test_device_conformance_ros.py.
-DEVICES = {"mems_field_array", "throwing_arm", "assembly_fixture"}
+DEVICES = {"mems_field_array", "throwing_arm", "assembly_fixture", "squeeze_gripper"}
 
 
 # The least each node needs to start; everything else has a documented default.
@@ -50,6 +50,8 @@ def test_readme_lists_every_node() -> None:
             ("field_equilibria_planner", "feeder_planner"),
             ("throw_planner", "feeder_planner"),
             ("stable_region_planner", "feeder_planner"),
+            ("squeeze_gripper", "feeder_sim"),
+            ("squeeze_planner", "feeder_planner"),
             ("cell_controller", "feeder_cell"),
             ("opcua_gateway", "feeder_cell"),
             ("cell_clock", "feeder_cell"),
