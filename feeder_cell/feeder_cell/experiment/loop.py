@@ -446,17 +446,14 @@ class _Mems(_Device):
         place_parts(self.scene, names, (names, *columns), reach)
 
     def apply_fault(self, fault: ActiveFault) -> None:
-        nx, ny = self.p.array_size
-        faults = self.scene.faults.with_fault(
+        self.scene.inject_fault(
             fault.spec.name,
             value=fault.value,
             indices=fault.indices,
             angle=fault.angle,
             seed=fault.seed,
-            cells=(nx, ny),
-            fidelity=self.scene.fidelity,
+            cells=self.p.array_size,
         )
-        self.scene.set_faults(faults)
 
     def clear_fault(self, name: str) -> None:
         self.scene.set_faults(self.scene.faults.without(name))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from functools import partial
 
 import numpy as np
@@ -114,6 +115,29 @@ class Scene:
             )
         self.forces.set_faults(faults)
         self.stepper.wake()
+
+    def inject_fault(
+        self,
+        name: str,
+        *,
+        value: float,
+        indices: Sequence[int],
+        angle: float,
+        seed: int,
+        cells: Sequence[int],
+    ) -> None:
+        """Put one more fault in force (``ArrayFaults.with_fault`` validates it, naming the field)."""
+        self.set_faults(
+            self.faults.with_fault(
+                name,
+                value=value,
+                indices=indices,
+                angle=angle,
+                seed=seed,
+                cells=(cells[0], cells[1]),
+                fidelity=self.fidelity,
+            )
+        )
 
     def set_damping(self, damping: float) -> None:
         """Change the viscous surface drag (N s/m^3) from the next step on."""

@@ -184,17 +184,14 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         """Put an injected fault into the force model (validated there: InputError naming the field)."""
         if self.scene is None:
             return
-        nx, ny = self.p.array_size
-        faults = self.scene.faults.with_fault(
+        self.scene.inject_fault(
             fault.spec.name,
             value=fault.value,
             indices=fault.indices,
             angle=fault.angle,
             seed=fault.seed,
-            cells=(nx, ny),
-            fidelity=self.scene.fidelity,
+            cells=self.p.array_size,
         )
-        self.scene.set_faults(faults)
         self.publish_cells()
 
     def clear_fault(self, name: str) -> None:
