@@ -11,7 +11,9 @@ STOPPED       the clock paused, every device reset to its configured initial sta
 
 A step is one lockstep quantum of cell time (``cell_clock`` ``quantum``, 0.1 s by default): every device
 ticks every instant of its rate within it, so N steps advance cell time by exactly N quanta. Cell time
-never goes back (every node's clock and every recording follow it), so a scope naming TIME is answered
+never goes back: every lockstep participant (``feeder_planner.node_kit.lockstep.Participant``, a device's
+``LockstepDriver``) takes an earlier time as one already seen, so a rewound clock would hold the cell
+(measured in tests/cell/test_simulation_time_reset_ros.py). A scope naming TIME is answered
 FEATURE_UNSUPPORTED; SCOPE_DEFAULT and SCOPE_ALL reset state and spawned entities and say time was not.
 LOADING_WORLD is the state from launch until every expected lockstep participant has joined the clock.
 """
@@ -133,8 +135,9 @@ class Reset:
 
 
 TIME_NOT_RESET = (
-    "cell time was not reset (SIMULATION_RESET_TIME is not a feature: the lockstep clock, the devices' "
-    "tick grids and every recording follow one cell time that only goes forward)"
+    "cell time was not reset (SIMULATION_RESET_TIME is not a feature: every lockstep participant, the "
+    "devices, the controller and the recorder, takes a cell time earlier than one it has taken as already "
+    "seen, so a rewound clock would wait for answers that never come; docs/cell.md, Reset)"
 )
 
 

@@ -45,7 +45,7 @@ SUPPORT = (
         "SIMULATION_RESET_TIME",
         21,
         False,
-        "cell time only goes forward: the lockstep clock, the devices' tick grids and recordings follow it",
+        "a rewound clock would hold the cell: every lockstep participant takes an earlier time as seen",
     ),
     Support("SIMULATION_RESET_STATE", 22, True, "every device reconfigured, spawned parts spawned again"),
     Support("SIMULATION_RESET_SPAWNED", 23, True, "spawned parts removed"),
