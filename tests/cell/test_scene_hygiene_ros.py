@@ -95,8 +95,8 @@ def test_no_published_frame_id_starts_with_a_slash(tmp_path: Path) -> None:
     names |= {"/cell_clock", "/cell_simulation"}
     lease = ros_harness.DomainLease()
     launch = subprocess.Popen(
-        # Enough cycles that the launch outlives the walk: the scene's own 3 can end it at `max` before
-        # the walk's 8 s without a new topic (a CI run saw it: exit 0 after 14.8 s), and that end is not a fault.
+        # Enough cycles that the launch outlives the walk: the scene's own 3 can end it at `max` before the
+        # walk's 8 s without a new topic (a CI run saw it: exit 0 after 14.8 s), and that end is no fault.
         [*FEEDER, str(ROOT / "feeder_cell/scenes/cell.yaml"), "--real-time-factor", "max"]
         + ["--set", "cell_controller.cycles=1000", "--log-dir", str(tmp_path / "logs"), "--json"],
         env=_env(lease.domain),
