@@ -8,34 +8,53 @@ and the exact Coulomb cone is measured against the paper's pyramid (``exact_cone
 CLI and the nodes call; ``tolerances`` holds every tolerance and model constant.
 """
 
-from feeder_planner.assembly.contacts import Contact, assembly_contacts
-from feeder_planner.assembly.default import DEFAULT_ASSEMBLY_YAML
-from feeder_planner.assembly.exact_cone import ExactVerdict, PyramidComparison, check_exact, compare_pyramids
-from feeder_planner.assembly.model import Assembly, assembly_from_document, assembly_from_text, load_assembly
-from feeder_planner.assembly.path import great_arc, safe_path
-from feeder_planner.assembly.planner import (
-    CheckResult,
-    ContactLoad,
-    PathResult,
-    PreparedAssembly,
-    RegionResult,
-    check_result,
-    contact_loads,
-    path_result,
-    prepare,
-    region_result,
-    validate_mu,
-)
-from feeder_planner.assembly.region import KINDS, RegionKind, StableRegion, stable_region
-from feeder_planner.assembly.stability import StabilityChecker, StabilityVerdict, unit_gravity
-from feeder_planner.assembly.tolerances import (
-    DEFAULT_FACETS,
-    DEFAULT_PATH_STEP,
-    MIN_DIRECTION_NORM,
-    MIN_FACETS,
-    STANDARD_GRAVITY,
-)
-from feeder_planner.assembly.wrench import EquilibriumSystem, build_system, validate_facets
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from feeder_planner.lazy import lazy_exports
+
+if TYPE_CHECKING:  # the package's names; each module is imported on first use (feeder_planner.lazy)
+    from feeder_planner.assembly.contacts import Contact, assembly_contacts
+    from feeder_planner.assembly.default import DEFAULT_ASSEMBLY_YAML
+    from feeder_planner.assembly.exact_cone import (
+        ExactVerdict,
+        PyramidComparison,
+        check_exact,
+        compare_pyramids,
+    )
+    from feeder_planner.assembly.model import (
+        Assembly,
+        assembly_from_document,
+        assembly_from_text,
+        load_assembly,
+    )
+    from feeder_planner.assembly.path import great_arc, safe_path
+    from feeder_planner.assembly.planner import (
+        CheckResult,
+        ContactLoad,
+        PathResult,
+        PreparedAssembly,
+        RegionResult,
+        check_result,
+        contact_loads,
+        path_result,
+        prepare,
+        region_result,
+        validate_mu,
+    )
+    from feeder_planner.assembly.region import KINDS, RegionKind, StableRegion, stable_region
+    from feeder_planner.assembly.stability import StabilityChecker, StabilityVerdict, unit_gravity
+    from feeder_planner.assembly.tolerances import (
+        DEFAULT_FACETS,
+        DEFAULT_PATH_STEP,
+        MIN_DIRECTION_NORM,
+        MIN_FACETS,
+        STANDARD_GRAVITY,
+    )
+    from feeder_planner.assembly.wrench import EquilibriumSystem, build_system, validate_facets
+
+__getattr__, __dir__ = lazy_exports(__name__, __file__)
 
 __all__ = [
     "DEFAULT_ASSEMBLY_YAML",

@@ -6,7 +6,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
 from feeder_planner.assembly.tolerances import (
     FLAT_TOLERANCE,
@@ -112,6 +111,8 @@ def hull_piece(points: np.ndarray, field: str) -> ConvexPiece:
     centered = points - points.mean(axis=0)
     if size == 0.0 or np.linalg.matrix_rank(centered, tol=FLAT_TOLERANCE * size) < 3:
         raise InputError(field, "degenerate polyhedron: its vertices are coplanar (zero volume)")
+    from scipy.spatial import ConvexHull, QhullError  # here: a scene without an assembly skips scipy.spatial
+
     try:
         hull = ConvexHull(points)
     except QhullError as exc:

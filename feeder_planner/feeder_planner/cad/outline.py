@@ -20,7 +20,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from feeder_planner import polygon
 from feeder_planner.errors import InputError
@@ -111,6 +110,8 @@ def _chain(pieces: list[Piece], diagonal: float) -> list[Loop]:
         return []
     ends = np.array([[p.points[0], p.points[-1]] for p in pieces]).reshape(-1, 2)  # 2k: start, 2k+1: end
     tolerance = JOIN_TOLERANCE * max(diagonal, np.finfo(float).tiny)
+    from scipy.spatial import cKDTree  # here, not at the top: parts and every node import this module
+
     tree = cKDTree(ends)
     neighbours: list[list[int]] = [[] for _ in ends]
     for a, b in tree.query_pairs(tolerance):

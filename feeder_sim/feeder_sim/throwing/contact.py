@@ -34,7 +34,6 @@ from dataclasses import dataclass, field
 from functools import partial
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from feeder_planner.errors import SolverError
 from feeder_planner.throwing.flight import (
@@ -495,6 +494,8 @@ def _slide(run: _Run, st: _State, k: int, sigma: float = 0.0) -> _Outcome:
         run.log("lift_off", k, st)
         t, hit = _flight(run, st, k)
         return _Next(partial(_impact, run, _fly(run, st, t), hit, "catch"))
+    from scipy.integrate import solve_ivp  # only the dynamic fidelity slides: the arm's start skips scipy
+
     sol = solve_ivp(
         rates,
         (0.0, SLIDE_TIME_LIMIT * scale),
