@@ -17,8 +17,8 @@ from feeder_msgs.srv import MemsPlaceParts, MemsRemovePart, MemsSpawnPart
 from feeder_planner.node_kit.request_limits import MAX_NAMES, MAX_YAML_CHARS, check_count, check_text
 from feeder_sim.mems import Scene
 from feeder_sim.mems.parameters import MemsParameters
-from feeder_sim.mems.placing import place_parts, placement_reach
 from feeder_sim.mems.spawning import ArrayParts
+from feeder_sim.mems.station import MemsStation
 
 __all__ = ["ArrayPartServices", "PartsArray"]
 
@@ -27,6 +27,7 @@ class PartsArray(Protocol):
     """What the part services need of the MEMS node (a protocol: no import of the node module)."""
 
     scene: Scene | None
+    station: MemsStation | None
     array_parts: ArrayParts | None
     count: Counters
 
@@ -73,7 +74,8 @@ class ArrayPartServices:
         """Put named parts at requested poses at rest, or reset: the array as configured (docs/mems.md)."""
         node = self.node
         node.require_ready("place_parts")
-        assert node.scene is not None and node.array_parts is not None  # ready implies configured
+        station = node.station
+        assert station is not None and node.array_parts is not None  # ready implies configured
         parts = node.array_parts
         if request.reset:
             if node.goal_executing() and not parts.as_configured():
@@ -85,9 +87,7 @@ class ArrayPartServices:
                 node.parts_changed()
         else:
             check_count(len(request.names), MAX_NAMES, "names", "names")
-            reach = placement_reach(node.p.array_size, float(node.p.pitch))
-            coordinates = (list(request.x), list(request.y), list(request.theta))
-            place_parts(node.scene, node.names, (list(request.names), *coordinates), reach)
+            station.place(list(request.names), list(request.x), list(request.y), list(request.theta))
         node.count.add("placements")
         node.publish_status()
         return response
@@ -98,9 +98,9 @@ class ArrayPartServices:
         """Add a part at rest at a pose; it moves with the field from the next tick (docs/mems.md)."""
         node = self.node
         self._require_no_goal("spawn_part")
-        assert node.array_parts is not None  # ready implies configured
+        assert node.array_parts is not None and node.station is not None  # ready implies configured
         check_text(request.part_yaml, MAX_YAML_CHARS, "part_yaml")
-        reach = placement_reach(node.p.array_size, float(node.p.pitch))
+        reach = node.station.reach()
         pose = (request.x, request.y, request.theta)
         entry = node.array_parts.spawn(request.name, request.part_yaml, request.source, pose, reach)
         node.parts_changed()

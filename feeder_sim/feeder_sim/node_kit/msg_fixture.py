@@ -39,6 +39,7 @@ from feeder_sim.fixture import (
 from feeder_sim.fixture.parameters import FixtureParameters
 from feeder_sim.fixture.path_goal import PathGoal, PathOutcome
 from feeder_sim.fixture.stability import stability_result
+from feeder_sim.fixture.station import FixtureStation
 
 __all__ = [
     "FOLLOW_PATH",
@@ -115,6 +116,7 @@ class PathFixture(Protocol):
     stopped: bool
     count: Counters
     table: Table | None
+    station: FixtureStation | None
     last_stability: tuple[bool, float]
 
     def reading(self) -> np.ndarray:
@@ -181,12 +183,8 @@ class FollowPathGoal:
         node, machine = self.node, self.machine
         if machine is None or machine.done:
             return
-        every = max(1, math.ceil(float(node.p.publish_rate) / float(node.p.feedback_rate) - 1e-9))
-        try:
-            machine.advance(node.stopping_fault(), node.stopped, node.count["stalls"], every, ticked)
-        except FeederError as error:  # an LP that cannot certify the cancel's stop ends the goal
-            machine.table.halt()
-            machine.end("FAULT", f"not certified: {error}; the table halted")
+        if node.station is not None:
+            node.station.advance_goal(machine, node.stopping_fault(), node.stopped, ticked)
         self._feedback_if_due()
         self._finish()
 

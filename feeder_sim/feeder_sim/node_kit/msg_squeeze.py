@@ -24,6 +24,7 @@ from feeder_planner.node_kit import yaw_quaternion
 from feeder_sim.node_kit.stamp import header
 from feeder_sim.squeeze.gripper import SqueezeGripper
 from feeder_sim.squeeze.plan_goal import PlanGoal
+from feeder_sim.squeeze.station import SqueezeStation
 
 __all__ = [
     "GripperNode",
@@ -70,6 +71,7 @@ class GripperNode(Protocol):
     """What ``SqueezeActionGoal`` needs of the gripper node (a protocol: no import of the node module)."""
 
     gripper: SqueezeGripper | None
+    station: SqueezeStation | None
     count: Counters
 
     def stopping_fault(self) -> tuple[int, str] | None:
@@ -103,11 +105,11 @@ class SqueezeActionGoal:
 
     def advance(self, now_ns: int) -> None:
         """Take in the tick that is over: the squeezes read, then end or start the next squeeze."""
-        gripper = self.node.gripper
-        if gripper is None:
+        station = self.node.station
+        if station is None:
             self.goal.end_now("FAULT", "the gripper is not configured", None)
             return
-        self.goal.tick(now_ns, gripper, self.node.stopping_fault())
+        station.advance_goal(self.goal, now_ns, self.node.stopping_fault())
 
     def cancel(self, reason: str) -> None:
         """End once the jaws are open again (the squeeze in progress halted)."""

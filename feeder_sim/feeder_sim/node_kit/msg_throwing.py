@@ -26,6 +26,7 @@ from feeder_sim.throwing import ThrowOutcome
 from feeder_sim.throwing.cycle import Pose, Shown, ThrowCycle
 from feeder_sim.throwing.feeding import FeedGoal
 from feeder_sim.throwing.loading import HeldPart
+from feeder_sim.throwing.station import ArmStation
 
 __all__ = [
     "FeedPartGoal",
@@ -85,6 +86,7 @@ class FeedingArm(Protocol):
     """What ``FeedPartGoal`` needs of the throwing arm node (a protocol: no import of the node module)."""
 
     cycle: ThrowCycle | None
+    station: ArmStation[ThrowEvent] | None
     count: Counters
 
     def ground_truth(self) -> tuple[int, float]:
@@ -121,8 +123,11 @@ class FeedPartGoal:
 
     def advance(self, now_ns: int) -> None:
         """Take in the tick that is over: judge the bit, end, or ask for a throw."""
-        cycle = self.node.cycle
-        self.feed.tick(now_ns, self.node.stopping_fault(), cycle is not None and cycle.motion is not None)
+        station = self.node.station
+        if station is None:  # released under the goal: nothing in flight
+            self.feed.tick(now_ns, self.node.stopping_fault(), False)
+        else:
+            station.advance_goal(self.feed, now_ns, self.node.stopping_fault())
 
     def cancel(self, reason: str) -> None:
         """End after the throw in flight, at once at rest (unless a ~/command stop already asked it to)."""

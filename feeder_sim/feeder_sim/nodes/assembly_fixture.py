@@ -1,13 +1,15 @@
 """ROS 2 node: a two-axis tilting fixture holding an assembly, with a stability interlock (Figs. 1-2).
 
-An adapter (docs/devices.md): the model is ``feeder_sim.fixture`` (the table, its faults, the interlock,
-the follow-path goal of ``path_goal``), the parameters ``fixture.parameters``, the counters
-``fixture.counters``, the faults as the kit declares them ``fixture.fault_specs``, the messages
-``feeder_sim.node_kit.msg_fixture``; the device kit (``feeder_device``) owns the lifecycle, the tick, the
-streams and the goal runner. ``~/move`` and ``~/follow_path`` plan on one code path
-(``fixture.follow.plan_path``). Lifecycle, time (node clock; at most ``max_advance_per_tick`` per tick,
-a longer gap counted in ``capped_ticks``) and faults: docs/assembly.md. ``~/stability`` is the model's
-ground truth; the encoder faults change only what ``~/joint_states`` and ``~/gravity`` report.
+An adapter (docs/devices.md): the station ``feeder_sim.fixture.station`` holds what a tick and a
+follow-path goal do to the table (the same station the ROS-free cell loop ticks); the model is
+``feeder_sim.fixture`` (the table, its faults, the interlock, the follow-path goal of ``path_goal``), the
+parameters ``fixture.parameters``, the counters ``fixture.counters``, the faults as the kit declares them
+``fixture.fault_specs``, the messages ``feeder_sim.node_kit.msg_fixture``; the device kit
+(``feeder_device``) owns the lifecycle, the tick, the streams and the goal runner. ``~/move`` and
+``~/follow_path`` plan on one code path (``fixture.follow.plan_path``). Lifecycle, time (node clock; at
+most ``max_advance_per_tick`` per tick, a longer gap counted in ``capped_ticks``) and faults:
+docs/assembly.md. ``~/stability`` is the model's ground truth; the encoder faults change only what
+``~/joint_states`` and ``~/gravity`` report.
 """
 
 from __future__ import annotations
@@ -25,8 +27,7 @@ from feeder_device.goals import serve_goal
 from feeder_msgs.action import FollowPath
 from feeder_msgs.msg import DeviceStatus, StabilityStatus
 from feeder_msgs.srv import FixtureMove
-from feeder_planner.assembly import PreparedAssembly, prepare
-from feeder_planner.assembly.parameters import load_assembly_parameter
+from feeder_planner.assembly import PreparedAssembly
 from feeder_planner.errors import FeederError
 from feeder_planner.node_kit import STREAM_DEPTH, run_node, service_guard
 from feeder_planner.node_kit.request_limits import MAX_MOVE_SAMPLES, check_arc_samples
@@ -47,16 +48,10 @@ from feeder_sim.fixture import (
 from feeder_sim.fixture.counters import COUNTERS
 from feeder_sim.fixture.drawing import body_shapes, gravity_shape, table_rotation, table_shapes
 from feeder_sim.fixture.fault_specs import fault_specs
-from feeder_sim.fixture.interlock import InterlockRefusedError, certifier
-from feeder_sim.fixture.parameters import (
-    BASE_FRAME,
-    TABLE_BASE_FRAME,
-    FixtureParameters,
-    max_advance_per_tick,
-    retimed_limits,
-    table_limits,
-)
-from feeder_sim.fixture.path_goal import PathGoal, PathOutcome
+from feeder_sim.fixture.interlock import InterlockRefusedError
+from feeder_sim.fixture.parameters import BASE_FRAME, TABLE_BASE_FRAME, FixtureParameters, retimed_limits
+from feeder_sim.fixture.path_goal import PathOutcome
+from feeder_sim.fixture.station import FixtureStation
 from feeder_sim.node_kit.msg_fixture import (
     FOLLOW_PATH,
     FollowPathGoal,
@@ -72,7 +67,6 @@ from feeder_sim.node_kit.stamp import header
 __all__ = ["PARAMETERS", "FAULTS", "AssemblyFixtureNode", "InterlockRefusedError", "main"]
 
 NODE_NAME = "assembly_fixture"
-NANOSECONDS = 1_000_000_000
 PARAMETERS = device_parameter_specs(FixtureParameters, VIZ_PARAMETERS)
 
 # The kit's specs of the table's faults (fixture/fault_specs.py) with their DeviceStatus codes.
@@ -96,6 +90,7 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
 
     def _forget(self) -> None:
         """Forget the model and what the last tick read (the kit destroys the streams, resets counters)."""
+        self.station: FixtureStation | None = None
         self.table: Table | None = None
         self.prepared: PreparedAssembly | None = None
         self.limits = TableLimits()
@@ -110,11 +105,9 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
     def configure_device(self, p: FixtureParameters) -> None:
         """Load the assembly, prepare its LP and region, build the table; InputError names a bad field."""
         self._forget()
-        limits = table_limits(p)
-        assembly = load_assembly_parameter(p.assembly_file)
-        self.prepared = prepare(assembly, p.mu if p.override_mu else None, p.facets)
-        self.table = Table(np.array([p.initial_tilt_x, p.initial_tilt_y], float), limits)
-        self.limits = limits
+        self.station = station = FixtureStation(p, DeviceStatus.FAULT_AXIS_STALL)
+        self.table, self.prepared, self.limits = station.table, station.prepared, station.limits
+        assembly = station.assembly
         self.frame_id = p.frame_id or self.frame(BASE_FRAME)
         self.expect_rate(p.publish_rate)
         self.joint_pub = self.stream(JointState, "~/joint_states", STREAM_DEPTH)
@@ -133,13 +126,16 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
     def apply_parameter(self, name: str, p: FixtureParameters) -> None:
         """Apply max_rate_x/y to the running table (the move in progress speeds up or slows down).
 
-        interlock, path_step and max_advance_per_tick are read from ``self.p`` at every move or tick, which
-        the kit updates once this returns; every other parameter is read-only.
+        interlock and max_advance_per_tick are read from the station's ``p`` at every move or tick, path_step
+        from the node's, which the kit updates once this returns; every other parameter is read-only.
         """
-        if self.table is None or name not in ("max_rate_x", "max_rate_y"):
+        if self.station is None:
+            return
+        self.station.p = p
+        if name not in ("max_rate_x", "max_rate_y"):
             return
         limits = retimed_limits(self.limits, name, p)
-        self.limits = self.table.limits = limits
+        self.limits = self.station.limits = self.station.table.limits = limits
 
     def busy(self) -> bool:
         """Whether a move is in progress or a ~/follow_path goal executes."""
@@ -153,29 +149,18 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
 
     def apply_fault(self, fault: ActiveFault) -> None:
         """Put an injected fault into the table model (validated there: InputError naming the field)."""
-        if self.table is None:
+        if self.station is None:
             return
         self._advance_to(self.get_clock().now().nanoseconds)  # a fault acts from now, not from the last tick
-        self.table.faults.inject(
-            fault.spec.name,
-            self.limits,
-            value=fault.value,
-            indices=fault.indices,
-            angle=fault.angle,
-            seed=fault.seed,
-        )
+        self.station.apply_fault(fault)
         self.get_logger().warning(
-            f"injected fault {fault.spec.name}: {self.table.faults.describe(fault.spec.name)}"
+            f"injected fault {fault.spec.name}: {self.station.table.faults.describe(fault.spec.name)}"
         )
 
     def clear_fault(self, name: str) -> None:
         """Take an injected fault out of the table model; clearing a stall that acted ends its FAULT."""
-        if self.table is None:
-            return
-        self.table.faults.clear(name)
-        if name == "axis_stall" and self.model_fault is not None:
-            if self.model_fault[0] == DeviceStatus.FAULT_AXIS_STALL:
-                self.model_fault = None
+        if self.station is not None and self.station.clear_fault(name, self.model_fault):
+            self.model_fault = None
 
     def warning_fault(self) -> tuple[int, str] | None:
         """Return (code, text) of a coded fault in force that does not stop the fixture (rate_limit)."""
@@ -250,29 +235,19 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
             waypoints, planned = self._plan_follow_path(handle.request)
         except FeederError as error:
             return goal.ended_early(PathOutcome("FAULT", f"not started: {error}"))
-        table, prepared = self.table, self.prepared
-        assert table is not None and prepared is not None
-        try:
-            verdict = certify(prepared, planned.samples)
-        except FeederError as error:  # an LP that cannot certify ends the goal, never the node
-            return goal.ended_early(PathOutcome("FAULT", f"not certified: {error}; the table halted"))
-        warning = ""
-        if not verdict.stable:
-            goal.unstable_at(verdict)
-            if self.p.interlock:
+        assert self.station is not None
+        started = self.station.follow(waypoints, planned)
+        if started.verdict is not None and not started.verdict.stable:
+            goal.unstable_at(started.verdict)
+        if started.goal is None:
+            assert started.early is not None
+            if started.early.name == "REFUSED":
                 self.count.add("path_goals_refused")
-                refused = f"refused by the interlock: {verdict.problem()}; nothing moved"
-                return goal.ended_early(PathOutcome("REFUSED", refused))
-            warning = f"interlock off, moving anyway: {verdict.problem()}"
-            self.get_logger().warning(f"{FOLLOW_PATH}: {warning}")
-        stalls = self.count["stalls"]
-        certified = certifier(prepared, planned.samples, verdict)
-        machine = PathGoal(
-            table, planned, verdict, waypoints, warning, stalls, certified, DeviceStatus.FAULT_AXIS_STALL
-        )
-        table.start(planned.path)
+            return goal.ended_early(started.early)
+        if started.warning:
+            self.get_logger().warning(f"{FOLLOW_PATH}: {started.warning}")
         self.publish_status()
-        return goal.following(machine)
+        return goal.following(started.goal)
 
     def reading(self) -> np.ndarray:
         """Return the last tick's encoder reading (the table's before the first tick)."""
@@ -284,20 +259,15 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
     # --- time and the streams ------------------------------------------------------------------------
     def _advance_to(self, now_ns: int) -> None:
         """Advance the table by the node-clock time since the last advance (capped); report a stall."""
-        table = self.table
-        if table is None or not self.active:
+        if self.station is None or not self.active:
             return
-        elapsed = self.elapsed_ns(now_ns) / NANOSECONDS
-        cap = max_advance_per_tick(self.p)
-        if elapsed > cap:
+        advanced = self.station.advance(self.elapsed_ns(now_ns))
+        if advanced.capped:
             self.count.add("capped_ticks")
-            elapsed = cap
-        was_moving = table.moving
-        stall = table.advance(elapsed)
-        if stall is not None:
+        if advanced.stall is not None:
             self.count.add("stalls")
-            self.raise_model_fault(DeviceStatus.FAULT_AXIS_STALL, stall.describe())
-        elif was_moving and not table.moving:
+            self.raise_model_fault(DeviceStatus.FAULT_AXIS_STALL, advanced.stall.describe())
+        elif advanced.move_ended:
             if not self.goals:  # a goal's end is counted by the goal (path_goals_reached)
                 self.count.add("moves_completed")
             self.publish_status()

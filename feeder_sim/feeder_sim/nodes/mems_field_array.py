@@ -1,8 +1,10 @@
 """ROS 2 node: the simulated MEMS field array, a managed device (thin adapter around feeder_sim.mems).
 
-An adapter (docs/devices.md): model ``feeder_sim.mems`` (``configure``, ``placing``, ``program_goal``,
-``faults``; parameters, counters and fault specs beside them), messages ``node_kit.msg_mems``, part
-services ``node_kit.mems_parts``; the device kit owns lifecycle, tick, streams and goal runner. Time
+An adapter (docs/devices.md): the station ``feeder_sim.mems.station`` holds what a tick and a program
+goal do to the scene (the same station the ROS-free cell loop ticks); model ``feeder_sim.mems``
+(``configure``, ``placing``, ``program_goal``, ``faults``; parameters, counters and fault specs beside
+them), messages ``node_kit.msg_mems``, part services ``node_kit.mems_parts``; the device kit owns
+lifecycle, tick, streams and goal runner; the node publishes and counts what the station reports. Time
 (whole ``time_step`` steps per tick, at most ``max_steps_per_tick``, the rest dropped and counted), the
 stiff-step warning and parts at runtime: docs/mems.md, "Time" and "Parts at runtime".
 """
@@ -26,21 +28,14 @@ from feeder_planner.node_kit.msg_fields import program_from_msg
 from feeder_planner.node_kit.services import serve
 from feeder_planner.node_kit.viz import VIZ_PARAMETERS, DeviceViz, Drawing
 from feeder_sim.mems import Grid, Scene
-from feeder_sim.mems.configure import configure_scene
 from feeder_sim.mems.counters import COUNTERS
 from feeder_sim.mems.drawing import ArrayDrawing
 from feeder_sim.mems.fault_specs import fault_specs
 from feeder_sim.mems.faults import ArrayFaults
-from feeder_sim.mems.parameters import BASE_FRAME, NANOSECONDS, MemsParameters, max_steps_per_tick
-from feeder_sim.mems.program_goal import ProgramGoal
-from feeder_sim.mems.settling import (
-    Predictions,
-    check_timeout,
-    holding_start,
-    holding_step,
-    settling_criterion,
-)
+from feeder_sim.mems.parameters import BASE_FRAME, MemsParameters
+from feeder_sim.mems.settling import Predictions, check_timeout, holding_step, settling_criterion
 from feeder_sim.mems.spawning import ArrayParts
+from feeder_sim.mems.station import MemsStation
 from feeder_sim.node_kit.mems_parts import ArrayPartServices
 from feeder_sim.node_kit.msg_mems import (
     RunProgramGoal,
@@ -83,11 +78,10 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
 
     def _forget(self) -> None:
         """Forget the scene and what was last published (the kit destroys the streams, resets counters)."""
+        self.station: MemsStation | None = None
         self.scene: Scene | None = None
         self.array_parts: ArrayParts | None = None
         self.frame_id = ""
-        self.step_ns = 1
-        self.owed_ns = 0
         self.last_cells: tuple[Field, ArrayFaults] | None = None
         self.last_grid_forces = np.zeros((0, 0, 2))
         self.array_drawing = ArrayDrawing()
@@ -99,10 +93,9 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
     def configure_device(self, p: MemsParameters) -> None:
         """Build the scene from the parameters (InputError names the field), then its streams."""
         self._forget()
-        configured = configure_scene(p)
-        self.scene, self.array_parts = configured.scene, configured.parts()
+        self.station = MemsStation(p)
+        self.scene, self.array_parts = self.station.scene, self.station.parts
         self.frame_id = p.frame_id or self.frame(BASE_FRAME)
-        self.step_ns = int(round(p.time_step * NANOSECONDS))
         self.expect_rate(p.publish_rate)
         self.program_pub = self.stream(FieldProgram, "~/field_program", LATCHED, lifecycle=False)
         self.cells_pub = self.stream(MemsCellForces, "~/cell_forces", LATCHED, lifecycle=False)
@@ -116,7 +109,8 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
 
     def activate_device(self) -> None:
         """Start the physics from now: the paused time is not simulated."""
-        self.owed_ns = 0
+        if self.station is not None:
+            self.station.owed_ns = 0
         self.last_activity = None
         now = self.get_clock().now().nanoseconds
         if self.program_stamp <= 0 < now:  # configured before the (sim) clock had started
@@ -130,8 +124,9 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
     # --- runtime parameters, status, stop/reset ----------------------------------------------------
     def apply_parameter(self, name: str, p: MemsParameters) -> None:
         """Apply damping, friction or max_steps_per_tick to the running scene (the others are read-only)."""
-        if self.scene is None:
+        if self.scene is None or self.station is None:
             return
+        self.station.p = p
         try:
             if name == "damping":
                 self.scene.set_damping(float(p.damping))
@@ -139,15 +134,13 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
                 self.scene.set_friction(float(p.friction))
         except InputError as error:
             raise InputError(f"parameter {name}", error.problem) from None
-        # max_steps_per_tick is read from self.p at every tick, which the kit updates after this returns
+        # max_steps_per_tick is read from the station's p at every tick
 
     def busy(self) -> bool:
         """Whether a ~/run_program goal executes, a program is before its last step or a part moves."""
         if super().busy():
             return True
-        if self.scene is None or not self.scene.switched_on or self.scene.faults.power_loss:
-            return False
-        return not self.scene.on_last_step() or not all(self.scene.settled())
+        return self.station is not None and self.station.moving()
 
     def counters(self) -> Counters:
         """Return the counts, with the parts at rest and the stiff steps read off the scene."""
@@ -162,42 +155,34 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
 
     def time_step_warning(self) -> tuple[int, str] | None:
         """Return (FAULT_TIME_STEP, why) when the present program or drag has had stiff ideal steps."""
-        why = self.scene.stiffness_warning(float(self.p.time_step)) if self.scene is not None else ""
+        why = self.station.stiffness() if self.station is not None else ""
         return (DeviceStatus.FAULT_TIME_STEP, why) if why else None
 
     def stop_device(self) -> None:
         """Switch every cell off: parts come to rest where they are; commands are refused until ~/reset."""
-        if self.scene is not None:
-            self.scene.switched_on = False
+        if self.station is not None:
+            self.station.stop()
             self.publish_cells()
 
     def reset_device(self) -> None:
         """Switch the cells back on and restart the present program from its first step."""
-        if self.scene is not None:
-            self.scene.switched_on = True
-            self.scene.set_program(self.scene.program)
+        if self.station is not None:
+            self.station.reset()
             self.program_stamp = self.get_clock().now().nanoseconds
             self.publish_program()
             self.publish_cells()
 
     def apply_fault(self, fault: ActiveFault) -> None:
         """Put an injected fault into the force model (validated there: InputError naming the field)."""
-        if self.scene is None:
+        if self.station is None:
             return
-        self.scene.inject_fault(
-            fault.spec.name,
-            value=fault.value,
-            indices=fault.indices,
-            angle=fault.angle,
-            seed=fault.seed,
-            cells=self.p.array_size,
-        )
+        self.station.apply_fault(fault)
         self.publish_cells()
 
     def clear_fault(self, name: str) -> None:
         """Take an injected fault out of the force model."""
-        if self.scene is not None:
-            self.scene.set_faults(self.scene.faults.without(name))
+        if self.station is not None:
+            self.station.clear_fault(name)
             self.publish_cells()
 
     # --- publishing ---------------------------------------------------------------------------------
@@ -247,19 +232,13 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         return Drawing(self.frame_id, self.frame_id, static=static, dynamic=parts)
 
     def tick(self, now_ns: int) -> float:
-        """Advance the scene by the node-clock time since the last tick (capped) and publish the states."""
-        scene = self.scene
-        assert scene is not None  # active implies configured
-        self.owed_ns += self.elapsed_ns(now_ns)
-        steps, self.owed_ns = divmod(self.owed_ns, self.step_ns)
-        cap = max_steps_per_tick(self.p, self.step_ns)
-        if steps > cap:
-            self.count.add("steps_dropped", steps - cap)
-            steps = cap
-        dt = float(self.p.time_step)
-        for _ in range(steps):
-            scene.step(dt)
-        self.count.add("steps", steps)
+        """Tick the station by the node-clock time since the last tick (capped) and publish the states."""
+        station, scene = self.station, self.scene
+        assert station is not None and scene is not None  # active implies configured
+        ticked = station.tick(self.elapsed_ns(now_ns))
+        if ticked.dropped:
+            self.count.add("steps_dropped", ticked.dropped)
+        self.count.add("steps", ticked.steps)
         self.publish_cells(now_ns)
         states, poses = part_states_msgs(self.names, scene.bodies, now_ns, self.frame_id)
         self.state_pub.publish(states)
@@ -291,9 +270,13 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
 
     def install_program(self, program: tuple[ProgramStep, ...]) -> None:
         """Start ``program`` now and publish it (latched, stamped with its start) and the cells' forces."""
-        assert self.scene is not None  # ready implies configured
-        self.scene.set_program(program)
-        self.program_stamp = self.get_clock().now().nanoseconds
+        assert self.station is not None  # ready implies configured
+        self.station.install(program)
+        self._announce_program(self.get_clock().now().nanoseconds)
+
+    def _announce_program(self, start_ns: int) -> None:
+        """Publish the program started at ``start_ns`` (latched, stamped with its start) and the forces."""
+        self.program_stamp = start_ns
         self.publish_program()
         self.publish_cells()
 
@@ -323,15 +306,14 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         program = program_from_msg(goal.program)
         criterion = settling_criterion(goal.tolerance, goal.dwell)
         timeout = check_timeout(goal.timeout)
-        scene = self.scene
-        assert scene is not None  # accepted goals are on a ready, so configured, device
-        self.install_program(program)
+        station = self.station
+        assert station is not None  # accepted goals are on a ready, so configured, device
+        start_ns = self.get_clock().now().nanoseconds
+        machine = station.start_program(program, criterion, timeout, start_ns)
+        self._announce_program(start_ns)
         self.count.add("program_goals")
         field = program[holding_step(program)].field
-        predictions = self.predictions.of([body.part for body in scene.bodies], field)
-        machine = ProgramGoal(
-            scene, self.names, criterion, timeout, self.program_stamp, holding_start(program)
-        )
+        predictions = self.predictions.of([body.part for body in station.scene.bodies], field)
         return RunProgramGoal(self, machine, predictions)
 
 

@@ -1,6 +1,7 @@
 """ROS 2 node: a parallel-jaw gripper that orients a part by squeezing it (Goldberg 1993), a managed device.
 
-An adapter (docs/devices.md): the model is ``feeder_sim.squeeze`` (the gripper, its fidelities ideal and
+An adapter (docs/devices.md): the station ``feeder_sim.squeeze.station`` holds what a tick and a plan
+goal do to the gripper; the model is ``feeder_sim.squeeze`` (the gripper, its fidelities ideal and
 dynamic, its faults, the plan goal of ``plan_goal``; parameters, counters and fault specs beside them),
 the messages ``feeder_sim.node_kit.msg_squeeze``; the device kit (``feeder_device``) owns the lifecycle,
 the tick, the streams and the goal runner. ``~/squeeze`` (one angle) and ``~/run_plan`` (a plan, e.g.
@@ -32,15 +33,14 @@ from feeder_sim.node_kit.msg_squeeze import SqueezeActionGoal, joint_state_msg, 
 from feeder_sim.squeeze.counters import COUNTERS
 from feeder_sim.squeeze.fault_specs import fault_specs
 from feeder_sim.squeeze.faults import FAULT_INFO, check_fault_name
-from feeder_sim.squeeze.gripper import GripperFaultError, SqueezeGripper
-from feeder_sim.squeeze.parameters import BASE_FRAME, GripperParameters, configure_gripper
+from feeder_sim.squeeze.gripper import SqueezeGripper
+from feeder_sim.squeeze.parameters import BASE_FRAME, GripperParameters
 from feeder_sim.squeeze.plan_goal import PlanGoal, check_plan_goal
-from feeder_sim.squeeze.tolerances import MAX_ADVANCE_PER_TICK
+from feeder_sim.squeeze.station import SqueezeStation
 
 __all__ = ["FAULTS", "NODE", "PARAMETERS", "SqueezeGripperNode", "main"]
 
 NODE_NAME = "squeeze_gripper"
-NANOSECONDS = 1_000_000_000
 PARAMETERS = device_parameter_specs(GripperParameters, VIZ_PARAMETERS)
 
 # The kit's specs of the gripper's faults (squeeze/fault_specs.py) with the codes of its own message.
@@ -73,7 +73,8 @@ class SqueezeGripperNode(ManagedDevice[GripperParameters]):
         self.viz = DeviceViz(self, self.drawing)
 
     def _forget(self) -> None:
-        """Forget the model (the kit destroys the streams and resets the counters)."""
+        """Forget the station (the kit destroys the streams and resets the counters)."""
+        self.station: SqueezeStation | None = None
         self.gripper: SqueezeGripper | None = None
         self.part: Part | None = None
         self.triangles: np.ndarray | None = None
@@ -84,7 +85,8 @@ class SqueezeGripperNode(ManagedDevice[GripperParameters]):
     def configure_device(self, p: GripperParameters) -> None:
         """Load the part and build the gripper; InputError names a bad parameter."""
         self._forget()
-        self.gripper, self.part = configure_gripper(p)
+        self.station = SqueezeStation(p)
+        self.gripper, self.part = self.station.gripper, self.station.part
         self.triangles = triangulate_loops(self.part.loops())
         self.frame_id = p.frame_id or self.frame(BASE_FRAME)
         self.expect_rate(p.publish_rate)
@@ -104,8 +106,12 @@ class SqueezeGripperNode(ManagedDevice[GripperParameters]):
 
     def model(self) -> SqueezeGripper:
         """Return the gripper (the device is configured whenever this is asked)."""
-        assert self.gripper is not None
-        return self.gripper
+        return self.model_station().gripper
+
+    def model_station(self) -> SqueezeStation:
+        """Return the station (the device is configured whenever this is asked)."""
+        assert self.station is not None
+        return self.station
 
     # --- runtime parameters, status, stop/reset, faults ---------------------------------------------
     def apply_parameter(self, name: str, p: GripperParameters) -> None:
@@ -158,7 +164,7 @@ class SqueezeGripperNode(ManagedDevice[GripperParameters]):
     def apply_fault(self, fault: ActiveFault) -> None:
         """Put an injected fault into the gripper model (checked there: InputError naming the value)."""
         gripper = self.model()
-        gripper.faults.inject(fault.spec.name, fault.value, fault.seed)
+        self.model_station().apply_fault(fault)
         self.get_logger().warning(
             f"injected fault {fault.spec.name}: {gripper.faults.describe(fault.spec.name)}"
         )
@@ -168,13 +174,11 @@ class SqueezeGripperNode(ManagedDevice[GripperParameters]):
 
         A dropped part stays dropped (FAULT_PART_DROPPED) until ~/place_part puts one back.
         """
-        if self.gripper is None:
+        if self.station is None:
             return
-        self.gripper.faults.clear(name)
         stalled = self.model_fault is not None and self.model_fault[0] == SqueezeState.FAULT_JAW_STALL
-        if name == "jaw_stall" and stalled:
+        if self.station.clear_fault(name, stalled):
             self.model_fault = None
-            self.gripper.recover()
 
     def warning_fault(self) -> tuple[int, str] | None:
         """Return (code, text) of a coded fault in force that does not stop the gripper (jaw_worn)."""
@@ -228,7 +232,7 @@ class SqueezeGripperNode(ManagedDevice[GripperParameters]):
     def _start(self, handle: ServerGoalHandle, angles: list[float], action: type) -> SqueezeActionGoal:
         """Start an accepted goal's machine at the node clock's now."""
         request = check_plan_goal(angles, float(handle.request.timeout))
-        self.plan = PlanGoal(request, self.get_clock().now().nanoseconds)
+        self.plan = self.model_station().start(request, self.get_clock().now().nanoseconds)
         return SqueezeActionGoal(self, self.plan, handle, action)
 
     def _start_squeeze(self, handle: ServerGoalHandle) -> SqueezeActionGoal:
@@ -241,25 +245,18 @@ class SqueezeGripperNode(ManagedDevice[GripperParameters]):
 
     # --- time and the streams ------------------------------------------------------------------------
     def tick(self, now_ns: int) -> float:
-        """Advance the gripper; publish its state, joints and the part pose; a fault that acts stops it."""
-        gripper = self.model()
-        elapsed = self.elapsed_ns(now_ns) / NANOSECONDS
-        if elapsed > MAX_ADVANCE_PER_TICK:
+        """Tick the station; publish state, joints and the part pose; a fault that acts stops the gripper."""
+        station = self.model_station()
+        gripper = station.gripper
+        ticked = station.tick(self.elapsed_ns(now_ns))
+        if ticked.capped:
             self.count.add("capped_ticks")
-            elapsed = MAX_ADVANCE_PER_TICK
-        before = gripper.squeezes
-        try:
-            gripper.advance(elapsed)
-        except GripperFaultError as error:
-            self.count.add("jaw_stalls" if error.name == "jaw_stall" else "parts_dropped")
-            remedy = (
-                " (~/place_part puts it back)"
-                if error.name == "part_dropped"
-                else " (~/reset opens the jaws)"
-            )
-            self.raise_model_fault(ACTING_CODES[error.name], f"{error}{remedy}")
-        if gripper.squeezes > before:
-            self.count.add("squeezes", gripper.squeezes - before)
+        if ticked.fault is not None:
+            name, text = ticked.fault
+            self.count.add("jaw_stalls" if name == "jaw_stall" else "parts_dropped")
+            self.raise_model_fault(ACTING_CODES[name], text)
+        if ticked.squeezes:
+            self.count.add("squeezes", ticked.squeezes)
         self.state_pub.publish(state_msg(now_ns, self.frame_id, gripper))
         self.joint_pub.publish(joint_state_msg(now_ns, self.frame_id, gripper))
         self.pose_pub.publish(part_pose_msg(now_ns, self.frame_id, gripper))

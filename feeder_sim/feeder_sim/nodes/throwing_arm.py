@@ -1,10 +1,12 @@
 """ROS 2 node: the simulated throwing arm with a one-bit proximity sensor, a managed device.
 
-An adapter (docs/devices.md): model ``feeder_sim.throwing`` (the arm, its faults, the throw ``cycle``, the
-feed goal of ``feeding``, the part ``loading``; parameters, counters and fault specs beside them), messages
-``node_kit.msg_throwing``; the device kit owns lifecycle, tick, streams and goal runner. Each tick advances
-the simulated time by the elapsed node-clock time, at most MAX_TICK_PERIODS sensor periods: a node that
-cannot keep up lags visibly in its status, never silently. While ``~/feed_part`` executes, ``~/command
+An adapter (docs/devices.md): the station ``feeder_sim.throwing.station`` holds what a tick and a feed
+goal do to the model (the arm, its faults, the throw ``cycle``, the feed goal of ``feeding``), the same
+station the ROS-free cell loop ticks; the part ``loading``, parameters, counters and fault specs are
+beside it, the messages in ``node_kit.msg_throwing``; the device kit owns lifecycle, tick, streams and
+goal runner. The node publishes what the station reports. Each tick advances the simulated time by the
+elapsed node-clock time, at most MAX_TICK_PERIODS sensor periods: a node that cannot keep up lags
+visibly in its status, never silently. While ``~/feed_part`` executes, ``~/command
 throw`` and ``start``, ``~/place_part`` and ``~/load_part`` are refused, ``~/command stop`` ends it after
 the throw in flight, and ``~/stop`` at once (docs/throwing.md).
 """
@@ -36,14 +38,15 @@ from feeder_sim.node_kit.msg_throwing import (
     part_pose_msg,
     throw_event_msg,
 )
-from feeder_sim.throwing import MAX_TICK_PERIODS, ArmFaults, ThrowingArm, ThrowOutcome, parse_command
+from feeder_sim.throwing import ThrowingArm, ThrowOutcome, parse_command
 from feeder_sim.throwing.counters import COUNTERS
-from feeder_sim.throwing.cycle import Pose, Shown, ThrowCycle, ns
+from feeder_sim.throwing.cycle import Pose, Shown, ThrowCycle
 from feeder_sim.throwing.drawing import ArmDrawing
 from feeder_sim.throwing.fault_specs import fault_specs
-from feeder_sim.throwing.feeding import FeedGoal, check_feed_goal, rest_window_ns
+from feeder_sim.throwing.feeding import FeedGoal, check_feed_goal
 from feeder_sim.throwing.loading import HeldPart, configured_part
-from feeder_sim.throwing.parameters import BASE_FRAME, ArmParameters, configure_arm
+from feeder_sim.throwing.parameters import BASE_FRAME, ArmParameters
+from feeder_sim.throwing.station import ArmStation
 
 __all__ = ["PARAMETERS", "FAULTS", "ThrowingArmNode", "main"]
 
@@ -63,6 +66,7 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
 
     def __init__(self) -> None:
         super().__init__("throwing_arm", ArmParameters, DISPLAY)
+        self.station: ArmStation[ThrowEvent] | None = None
         self.arm: ThrowingArm | None = None
         self.cycle: ThrowCycle | None = None
         self.held: HeldPart | None = None  # the part the arm holds: name, document, source
@@ -78,9 +82,6 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
 
     def _forget_run(self) -> None:
         """Forget the simulated time and what was last shown (the kit resets the counters)."""
-        # The model's time in integer ns (no rounding drift at epoch magnitudes): the node clock's at the
-        # first activation, then advanced per tick by the elapsed node-clock time, capped.
-        self.simulated = 0
         self.shown: tuple[Pose, float] | None = None  # the pose and joint angle last published, for ~/markers
         self.last_bit: bool | None = None  # the sensor bit last delivered
         self.arm_drawing = ArmDrawing()
@@ -93,12 +94,11 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
 
     # --- lifecycle hooks ---------------------------------------------------------------------------
     def configure_device(self, p: ArmParameters) -> None:
-        """Build the arm, its faults and the throw cycle from the parameters, then the streams."""
-        arm = configure_arm(p)
-        held = configured_part(p, arm.part)
-        self.arm, self.cycle, self.held = arm, ThrowCycle(arm, ArmFaults(arm)), held
+        """Build the station (the arm, its faults and the throw cycle), then the streams."""
+        station: ArmStation[ThrowEvent] = ArmStation(p, self)
+        held = configured_part(p, station.arm.part)
+        self.station, self.arm, self.cycle, self.held = station, station.arm, station.cycle, held
         self._forget_run()
-        self.cycle.running = bool(p.autostart)
         self.frame_id = p.frame_id or self.frame(BASE_FRAME)
         self.pub_joint = self.stream(JointState, "~/joint_states", STREAM_DEPTH)
         self.pub_pose = self.stream(PoseStamped, "~/part_pose", STREAM_DEPTH)
@@ -110,12 +110,13 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
 
     def activate_device(self) -> None:
         """Resume the simulated time (first activation: start it at the node clock's)."""
-        if not self.simulated:
-            self.simulated = self.get_clock().now().nanoseconds
+        station = self.model_station()
+        if not station.simulated:
+            station.simulated = self.get_clock().now().nanoseconds
 
     def cleanup_device(self) -> None:
         """Release the model."""
-        self.arm = self.cycle = None
+        self.station, self.arm, self.cycle = None, None, None
         self.held = None
         self._forget_run()
 
@@ -126,23 +127,20 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
 
     def apply_parameter(self, name: str, p: ArmParameters) -> None:
         """Apply a runtime parameter to the running arm (the read-only ones never get here)."""
+        self.model_station().p = p
         if name == "release_speed":
             self.model_cycle().arm.set_release_speed(float(p.release_speed))
         elif name == "dynamic_step":
             self.model_cycle().arm.dynamic_step = float(p.dynamic_step)
-        # period, motion_fraction, sensor_radius and sensing_height are read from self.p at each tick,
-        # which the kit updates once this returns.
+        # period, motion_fraction, sensor_radius and sensing_height are read from the station's p at each
+        # tick.
 
     def stop_device(self) -> None:
         """Cancel the queue and the running cycle; a throw being shown lands at once (it was thrown).
 
         A feed goal ends at once: CANCELED (aborted, not asked by its client), its last throw reported.
         """
-        cycle = self.model_cycle()
-        cycle.cancel_commands()
-        if cycle.motion is not None:
-            outcome, cycle.motion = cycle.motion.outcome, None
-            self._publish_event(self.get_clock().now().nanoseconds, outcome)
+        self.model_station().stop(self.get_clock().now().nanoseconds, self.feed)
         if self.feed is not None:
             self.feed.end_now("CANCELED", f"stopped by ~/stop after {self.feed.throws} throw(s)")
             self.wake_goals()
@@ -154,13 +152,9 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
 
     def apply_fault(self, fault: ActiveFault) -> None:
         """Check the magnitudes and put the fault into effect on the model (a stopping one halts throws)."""
-        cycle = self.model_cycle()
-        cycle.faults.inject(fault.spec.name, fault.value, fault.state, fault.indices, fault.seed)
+        self.model_station().apply_fault(fault)
         if fault.spec.stops_device:
-            cycle.cancel_commands()
             self.count.add("faults")
-        if fault.spec.name == "part_lost":
-            cycle.motion = None  # a part in the air falls off with the rest: no landing to show
 
     def clear_fault(self, name: str) -> None:
         """Take the fault out of effect; a part lost stays lost (FAULT_PART_LOST) until ~/place_part."""
@@ -169,17 +163,19 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
 
     def _require_part_again(self) -> None:
         """Hold FAULT_PART_LOST while the model cannot throw until the part is placed again."""
-        if self.arm is not None and self.arm.faulted and self.model_fault is None:
-            self.model_fault = (
-                DeviceStatus.FAULT_PART_LOST,
-                f"{self.arm.faulted} (~/place_part puts it back)",
-            )
+        lost = self.station.lost_part_text() if self.station is not None else None
+        if lost is not None and self.model_fault is None:
+            self.model_fault = (DeviceStatus.FAULT_PART_LOST, lost)
+
+    def model_station(self) -> ArmStation[ThrowEvent]:
+        """Return the station (DeviceError naming the state when unconfigured)."""
+        if self.station is None:
+            raise DeviceError(f"device is {self.state().name}: no arm model (configure it first)")
+        return self.station
 
     def model_cycle(self) -> ThrowCycle:
         """Return the throw cycle (DeviceError naming the state when unconfigured)."""
-        if self.cycle is None:
-            raise DeviceError(f"device is {self.state().name}: no arm model (configure it first)")
-        return self.cycle
+        return self.model_station().cycle
 
     # --- services -----------------------------------------------------------------------------------
     def _on_command(self, request: ArmCommand.Request, response: ArmCommand.Response) -> ArmCommand.Response:
@@ -207,51 +203,34 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         if self.held is not None:
             self.pub_part.publish(held_part_msg(self.held))
 
-    # --- the main stream ------------------------------------------------------------------------------
+    # --- the main stream: the station ticks, the node publishes what it reports ---------------------
     def tick(self, now_ns: int) -> float:
-        """Advance the simulated time, the shown throw or the next one; publish sensor, joint, part pose."""
-        cycle = self.model_cycle()
-        self.simulated += min(self.elapsed_ns(now_ns), ns(MAX_TICK_PERIODS / self.p.sensor_rate))
-        t = self.simulated
-        in_flight = cycle.motion is not None
-        shown = cycle.show(t, ns(self.p.period * self.p.motion_fraction))
-        if shown.landed is not None:
-            self._publish_event(now_ns, shown.landed)
-        elif not in_flight:
-            feed_wants = self.feed is not None and self.feed.wants_throw(now_ns)
-            ready = self.state() in (DeviceState.IDLE, DeviceState.RUNNING)
-            if cycle.throw_due(t, ns(self.p.period), feed_wants, ready):
-                self._throw(now_ns, t)
-        self._publish_sensor(None if cycle.motion is None else shown.pose)
-        self._publish_joint_and_pose(now_ns, shown)
-        return self.simulated * 1e-9
+        """Tick the station (land, or throw, read the sensor); publish sensor, joint and part pose."""
+        station = self.model_station()
+        ready = self.state() in (DeviceState.IDLE, DeviceState.RUNNING)
+        ticked = station.tick(now_ns, self.elapsed_ns(now_ns), self.feed, ready)
+        if ticked.delivered is not None:
+            self.last_bit = ticked.delivered
+            self.pub_sensor.publish(Bool(data=ticked.delivered))
+        self._publish_joint_and_pose(now_ns, ticked.shown)
+        return station.simulated * 1e-9
 
-    def _throw(self, now_ns: int, t: int) -> None:
-        """Throw once; show it over the motion window, or report a fault at once (FAULT_PART_LOST)."""
-        outcome = self.model_cycle().throw(t)
+    # --- ArmEvents: what the station reports within a tick ----------------------------------------
+    def landed(self, now_ns: int, outcome: ThrowOutcome) -> ThrowEvent:
+        """Publish the landing's throw event; the feed goal reports it with the throw."""
+        return self._publish_event(now_ns, outcome)
+
+    def thrown(self, now_ns: int, outcome: ThrowOutcome) -> None:
+        """Count the throw; one that did not fault changes the status (busy) at once."""
         self.count.add("throws")
-        if self.feed is not None:
-            self.feed.throw_started()
-        if outcome.kind == "fault":
-            self.count.add("faults")
-            self._publish_event(now_ns, outcome)
-            self.raise_model_fault(
-                DeviceStatus.FAULT_PART_LOST,
-                f"throw {self.count['throws']}: {outcome.fault} (~/place_part puts it back)",
-            )
-        else:
+        if outcome.kind != "fault":
             self.publish_status()
 
-    def _publish_sensor(self, pose: Pose | None) -> None:
-        """Publish the sensor bit (at rest, or for the pose shown in flight) as the faults deliver it."""
-        cycle = self.model_cycle()
-        reading = cycle.arm.sensor(self.p.sensor_radius, self.p.sensing_height, pose)
-        delivered = cycle.faults.sensor(reading)
-        if delivered is not None:
-            self.last_bit = delivered
-            self.pub_sensor.publish(Bool(data=delivered))
-        if pose is None and self.feed is not None:
-            self.feed.sample(delivered)  # the bit as published decides, faults and all
+    def part_lost(self, now_ns: int, outcome: ThrowOutcome, text: str) -> None:
+        """Report the throw that lost the part and hold FAULT_PART_LOST."""
+        self.count.add("faults")
+        self._publish_event(now_ns, outcome)
+        self.raise_model_fault(DeviceStatus.FAULT_PART_LOST, text)
 
     def _publish_joint_and_pose(self, now_ns: int, shown: Shown) -> None:
         """Publish the arm joint state, and the part pose in the arm frame while the part is on the arm."""
@@ -260,17 +239,16 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
         if self.model_cycle().arm.on_arm:  # else nothing on the arm to locate
             self.pub_pose.publish(part_pose_msg(now_ns, self.frame_id, shown.pose))
 
-    def _publish_event(self, now_ns: int, outcome: ThrowOutcome) -> None:
+    def _publish_event(self, now_ns: int, outcome: ThrowOutcome) -> ThrowEvent:
         """Publish the throw event: states before and after, kind, fault, the (true) sensor at rest."""
-        sensor_at_rest = bool(self.model_cycle().arm.sensor(self.p.sensor_radius, self.p.sensing_height))
+        sensor_at_rest = bool(self.model_station().reading())
         index = self.count["throws"]
         ev = throw_event_msg(now_ns, self.frame_id, index, outcome, sensor_at_rest, self.p.fidelity)
         if ev.sensor_at_rest and not ev.fault:
             self.count.add("parts_presented")
         self.pub_event.publish(ev)
-        if self.feed is not None:
-            self.feed.landed(now_ns, *self.ground_truth(), ev)
         self.publish_status()
+        return ev
 
     def drawing(self) -> Drawing | None:
         """Return what ~/markers shows: the arm at its joint angle, the part on it, the sensor by its bit."""
@@ -295,12 +273,7 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
     def _start_feed_part(self, handle: ServerGoalHandle) -> FeedPartGoal:
         """Start an accepted goal's machine at the node clock's now."""
         request = check_feed_goal(int(handle.request.max_throws), float(handle.request.timeout))
-        feed: FeedGoal[ThrowEvent] = FeedGoal(
-            request,
-            self.get_clock().now().nanoseconds,
-            rest_window_ns(self.p.period, self.p.motion_fraction, self.p.sensor_rate),
-            *self.ground_truth(),
-        )
+        feed = self.model_station().feed_goal(request, self.get_clock().now().nanoseconds)
         self.count.add("feed_goals")
         self.get_logger().info(
             f"~/feed_part: goal accepted (max_throws {request.max_throws}, timeout {request.timeout:g} s)"
