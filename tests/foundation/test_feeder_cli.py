@@ -30,6 +30,41 @@ def test_help_lists_subcommands_and_units() -> None:
         assert word in result.stdout
 
 
+def test_the_command_table_names_what_each_module_registers() -> None:
+    """`feeder COMMAND` imports only the module the table gives; a command missing from it would be lost."""
+    import argparse
+    import importlib
+
+    from feeder_cell.cli import SUBCOMMANDS, modules_for
+
+    for module, commands in SUBCOMMANDS.items():
+        subparsers = argparse.ArgumentParser().add_subparsers()
+        importlib.import_module(module).register(subparsers)
+        assert tuple(subparsers.choices) == commands, module
+        for command in commands:
+            assert modules_for(command) == (module,)
+    assert modules_for("frobnicate") == tuple(SUBCOMMANDS)
+
+
+def test_a_command_imports_only_its_own_module() -> None:
+    """`feeder bag-info` must not pay for the other commands' modules or the experiment's scipy."""
+    probe = (
+        "import sys\n"
+        "from feeder_cell.cli import main\n"
+        "try:\n"
+        "    main.main(['bag-info', '--help'])\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "print(sorted(m for m in sys.modules if m.startswith(('feeder_cell.', 'scipy.optimize'))))\n"
+    )
+    result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60)
+    assert "usage: feeder bag-info" in result.stdout, result.stderr
+    loaded = result.stdout.strip().splitlines()[-1]
+    assert "'feeder_cell.cli.bag'" in loaded, loaded
+    for other in ("'feeder_cell.cli.launch'", "'feeder_cell.experiment", "'scipy.optimize"):
+        assert other not in loaded, loaded
+
+
 @pytest.mark.parametrize("args", [("frobnicate",), ("doctor", "--no-such-flag"), ()])
 def test_unknown_subcommand_or_flag_exits_2_with_usage(args: tuple[str, ...]) -> None:
     result = feeder(*args)

@@ -10,7 +10,7 @@ import signal
 import sys
 from typing import NoReturn, Sequence
 
-from feeder_cell.cli import SUBCOMMAND_MODULES
+from feeder_cell.cli import modules_for
 from feeder_planner.errors import FeederError, InputError, SolverError
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_NOT_CERTIFIED = 0, 1, 2, 3
@@ -29,8 +29,8 @@ class FeederArgumentParser(argparse.ArgumentParser):
         raise SystemExit(EXIT_BAD_INPUT)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """Build the ``feeder`` parser with every subcommand."""
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """Build the ``feeder`` parser: with ``command``'s subcommand module only, or with every subcommand."""
     parser = FeederArgumentParser(
         prog="feeder",
         description="Plan for and run emulated sensorless parts feeders (ROS 2 Jazzy). "
@@ -40,7 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(
         dest="command", required=True, metavar="COMMAND", parser_class=FeederArgumentParser
     )
-    for module_name in SUBCOMMAND_MODULES:
+    for module_name in modules_for(command):
         importlib.import_module(module_name).register(subparsers)
     return parser
 
@@ -76,12 +76,14 @@ def check_ctrl_c() -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one ``feeder`` subcommand; return its exit status (1 failed, 2 bad input, 3 not certified)."""
     take_ctrl_c()
+    words = list(sys.argv[1:] if argv is None else argv)
     try:
-        parser = build_parser()
+        # The top-level parser has no option that takes a value, so the first word is the command.
+        parser = build_parser(words[0] if words and not words[0].startswith("-") else None)
     except KeyboardInterrupt:  # Ctrl-C while the subcommands' modules are imported
         sys.stderr.write("feeder: interrupted\n")
         return EXIT_INTERRUPTED
-    args = parser.parse_args(argv)
+    args = parser.parse_args(words)
     try:
         code = int(args.handler(args) or EXIT_OK)
         if code != EXIT_INTERRUPTED:
