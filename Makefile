@@ -33,6 +33,7 @@ bench: setup
 stress: setup
 	@$(ENV) FEEDER_STOP_MOMENTS=20 python -m pytest tests/foundation/test_stop_signals_ros.py
 	@$(ENV) FEEDER_JOIN_LAUNCHES=20 python -m pytest tests/cell/test_lockstep_ros.py -k reaches_its_first_quantum
+	@$(ENV) FEEDER_OPCUA_STARTS=10 python -m pytest tests/cell/test_opcua_startup_ros.py
 
 shell: setup
 	@bash --rcfile <(echo 'source ~/.bashrc 2>/dev/null; source ./env.sh; PS1="(feeder) $$PS1"')

@@ -1,11 +1,11 @@
 """The gateway listens only once its devices are ready: a PLC's first command, sent at once, succeeds.
 
-The scene ``feeder_cell/scenes/plc_cell.yaml`` (three unconfigured devices and the gateway) is started ten
-times, each on a domain of its own. A plain OPC UA client (asyncua's) connects as soon as the port answers
-and, without waiting for any subscription, reads every device's ``Status/Online`` and calls ``Reset`` on
-each: every first call must be Good. Before the gateway waited for its devices, it could listen before it
-had heard a device (PackML Undefined, "reports no status") or discovered its ``~/change_state`` ("is not
-available"), and one start in a few failed.
+The scene ``feeder_cell/scenes/plc_cell.yaml`` (three unconfigured devices and the gateway) is started
+FEEDER_OPCUA_STARTS times (3 in make test, 10 in make stress), each on a domain of its own. A plain OPC UA
+client (asyncua's) connects as soon as the port answers and, without waiting for any subscription, reads
+every device's ``Status/Online`` and calls ``Reset`` on each: every first call must be Good. Before the
+gateway waited for its devices, it could listen before it had heard a device (PackML Undefined, "reports
+no status") or discovered its ``~/change_state`` ("is not available"), and one start in a few failed.
 """
 
 from __future__ import annotations
@@ -28,7 +28,8 @@ ROOT = Path(__file__).resolve().parents[2]
 SCENE = ROOT / "feeder_cell/scenes/plc_cell.yaml"
 NAMESPACE_URI = "urn:feeder:cell"
 DEVICES = ("cell.throwing_arm", "cell.mems_field_array", "cell.assembly_fixture")
-STARTS = 10
+# A start-up race shows in a few starts: make test runs 3 (about 22 s), make stress the 10 it was found with.
+STARTS = int(os.environ.get("FEEDER_OPCUA_STARTS", "3"))
 
 pytestmark = pytest.mark.ros
 
@@ -112,7 +113,7 @@ def _start_once(extra: list[str]) -> list[str]:
     return problems
 
 
-def test_every_first_reset_succeeds_in_ten_starts_of_the_plc_scene() -> None:
+def test_every_first_reset_succeeds_in_every_start_of_the_plc_scene() -> None:
     failures = []
     for start in range(STARTS):
         problems = _start_once([])
