@@ -17,11 +17,19 @@ from truth_corpus import CorpusDesign, design_truth, long_runs
 
 from feeder_planner.errors import SolverError
 from feeder_planner.parts import load_part, make_part
-from feeder_planner.throwing.attractors import Rows, confirms, iterate_to_attractor, settled
+from feeder_planner.throwing.attractors import (
+    Rows,
+    closure_gap,
+    confirms,
+    hole_start,
+    iterate_to_attractor,
+    settled,
+)
 from feeder_planner.throwing.geometry import arm_part
 from feeder_planner.throwing.limit_set import edge_bounds, limit_set, single_design_rows
 from feeder_planner.throwing.sensor import reads
 from feeder_planner.throwing.throw_map import ThrowBatch, ThrowParams
+from feeder_planner.throwing.tolerances import HOLE_GAPS
 
 MM = 0.001
 
@@ -62,6 +70,47 @@ def test_a_run_must_keep_to_its_tail_twice_as_long_as_it_ever_did_before_leaving
         assert (settled(edge, radius, jog, first, WIDTH) >= 0) == ok
     edge, radius, jog = _tail(before + [(0, 3), (2, 1), (4, 2)] * 25)
     assert settled(edge, radius, jog, len(edge) - 60, WIDTH) == 61  # the stay begins after edge 5
+
+
+def test_the_closure_gap_leaves_out_the_holes_between_a_samples_intervals():
+    # One interval filled by a rotation: no hole, the mean gap is span / states.
+    rotation = np.sort(0.1 + 0.01 * ((np.arange(200) * (math.sqrt(5) - 1) / 2) % 1.0))
+    span = float(rotation[-1] - rotation[0])
+    assert closure_gap(rotation) == pytest.approx(span / 200, rel=1e-12)
+    # Two bands 1 mm wide, 10 mm apart (design 31.0's flips onto edge 0): the 9 mm hole is no gap.
+    bands = np.sort(np.concatenate([rotation[::2] * 0.1, rotation[1::2] * 0.1 + 0.01]))
+    filled = float(bands[99] - bands[0]) + float(bands[-1] - bands[100])
+    assert closure_gap(bands) == pytest.approx(filled / 200, rel=1e-9)
+    assert closure_gap(bands) < 0.2 * float(bands[-1] - bands[0]) / 200  # span / states counts the hole
+    # A periodic orbit's points: no closure to speak of, once a hole spans more than HOLE_GAPS mean gaps.
+    assert closure_gap(np.repeat([0.1, 0.2], 20)) == 0.0
+    assert closure_gap(np.repeat([0.1, 0.2], 2)) == pytest.approx(0.025)  # 4 states: the gap is no hole
+    assert closure_gap(np.array([0.1])) == 0.0
+
+
+def test_an_approach_between_the_attractors_bands_is_cut_where_it_leaves_the_hole():
+    # Issue 35, design 31.0's shape: the attractor visits edge 0 in two bands, [0.100, 0.101] and
+    # [0.110, 0.111]; a start's stay first drifts through the hole between them, inside the edge's range
+    # (so no range test sees it), then alternates between the bands.
+    rng = np.random.default_rng(1)
+    recent = np.where(np.arange(400) % 2 == 0, 0.100, 0.110) + 0.001 * rng.random(400)
+    reference = {0: np.sort(recent)}
+    far = HOLE_GAPS * closure_gap(reference[0])
+    approach = np.linspace(0.106, 0.101 + 1.5 * far, 12)
+    visits = np.where(np.arange(30) % 2 == 0, 0.100, 0.110) + 0.001 * rng.random(30)
+    radius = np.concatenate([approach, visits, recent])
+    edge = np.zeros(radius.size, dtype=int)
+    first = approach.size + visits.size
+    assert hole_start(edge, radius, 0, first, reference) == approach.size
+    # Within HOLE_GAPS closure gaps of a band is a visit; a stay that never enters a hole is kept whole.
+    near = radius.copy()
+    near[approach.size - 1] = 0.101 + 0.5 * far
+    assert hole_start(edge, near, 0, first, reference) == approach.size - 1
+    assert hole_start(edge, radius, approach.size, first, reference) == approach.size
+    # Beyond the sampled range is tail_start's to judge, not a hole.
+    beyond = radius.copy()
+    beyond[:12] = 0.12
+    assert hole_start(edge, beyond, 0, first, reference) == 0
 
 
 def test_a_start_that_never_confirms_is_unconverged_and_in_no_attractor():

@@ -17,14 +17,14 @@ with its cycle, twice as long as it ever kept to it before leaving it (``settled
 are how long a stretch of a richer attractor without its rarest edge or break can last. A transient
 that the tail still holds shows in its older half only, so the start waits; as n grows the tail moves
 past it. The start's tail is then its whole stay since it last left, the approach to the attractor cut
-off (``tail_start``, ``_trim_to_group``; the transient ends there), and the attractor's edges, ranges,
-cycle, pattern, throws per round and basin come from such tails only; the trigger range is read on them
-and on the older states of their stays that may be visits (``Search.sensed``). A start that never
-confirms within the cap is unconverged, never folded into an attractor (``Search.growing`` names those
-whose tails a growing range alone kept from confirming). A start whose
-tail a richer attractor of its design holds (more edges, or no exact cycle; ``_nested``) is thrown on
-and judged again. Starts whose tails have the same edges and cycle and meeting radius ranges form one
-attractor (``_clusters``).
+off, beyond its ranges and in the holes between its intervals (``tail_start``, ``hole_start``,
+``_trim_to_group``; the transient ends there), and the attractor's edges, ranges, cycle, pattern, throws
+per round and basin come from such tails only; the trigger range is read on them and on the older states
+of their stays that may be visits (``Search.sensed``). A start that never confirms within the cap is
+unconverged, never folded into an attractor (``Search.growing`` names those whose tails a growing range
+alone kept from confirming). A start whose tail a richer attractor of its design holds (more edges, or
+no exact cycle; ``_nested``) is thrown on and judged again. Starts whose tails have the same edges and
+cycle and meeting radius ranges form one attractor (``_clusters``).
 
 The rule replaces the former one (a start converged once the start grid's cells of one window were all
 cells it had visited before, and its last two windows were its tail): a slow transient passes through
@@ -47,6 +47,7 @@ from feeder_planner.throwing.tolerances import (
     CONFIRM_FLIPS,
     CYCLE_REPEATS,
     DRIFT_SHARE,
+    HOLE_GAPS,
     MAX_MOTIF,
     MIN_WINDOW,
     OUTSIDE_SHARE,
@@ -69,6 +70,8 @@ __all__ = [
     "confirms",
     "settled",
     "tail_start",
+    "closure_gap",
+    "hole_start",
     "widening",
     "iterate_to_attractor",
     "Attractor",
@@ -408,17 +411,71 @@ def settled(
     return last + 1
 
 
-# Per edge of a reference stretch: the lowest and highest radius and the number of states on it.
-_Reference = dict[int, tuple[float, float, int]]
+# Per edge of a reference stretch: its radii there, sorted.
+_Reference = dict[int, np.ndarray]
 
 
 def _reference(edge: np.ndarray, radius: np.ndarray) -> _Reference:
-    """Return the reference of states for ``tail_start``: per edge, its lowest and highest radius, states."""
-    edges, low, high = _ranges(edge, radius)
-    counts = np.bincount(np.searchsorted(edges, edge), minlength=len(edges))
-    return {
-        int(e): (float(lo), float(hi), int(c)) for e, lo, hi, c in zip(edges, low, high, counts, strict=True)
-    }
+    """Return the reference of states for ``tail_start`` and ``hole_start``: per edge, its radii, sorted."""
+    return {int(e): np.sort(radius[edge == e]) for e in np.unique(edge)}
+
+
+def closure_gap(sample: np.ndarray, gaps: float = HOLE_GAPS) -> float:
+    """Return the mean gap of a sorted sample of radii over the closure it fills: its span less its holes.
+
+    An attractor's visits to an edge may fill several intervals (design 31.0's flips land in two bands 10 mm
+    apart, a periodic orbit's visits converge to points): span / states then counts the holes between them
+    as gaps. A hole is a gap between neighbouring states wider than ``gaps`` mean gaps; the mean gap is
+    the fixed point of (span - holes) / states, reached from span / states downwards (each step finds
+    only more holes, so it ends within as many steps as the sample has gaps). A sample that fills one
+    interval has none: the gaps of a rotation take at most three lengths, the largest the sum of the
+    other two (the three-gap theorem), so its mean gap is span / states.
+    """
+    steps = np.diff(sample)
+    span = float(sample[-1] - sample[0]) if sample.size else 0.0
+    mean = span / max(sample.size, 1)
+    while True:
+        filled = (span - float(steps[steps > gaps * mean].sum())) / sample.size
+        if filled >= mean:
+            return mean
+        mean = filled
+
+
+def hole_start(
+    edge: np.ndarray,
+    radius: np.ndarray,
+    stay: int,
+    first: int,
+    reference: _Reference,
+    gaps: float = HOLE_GAPS,
+) -> int:
+    """Return where a row's run leaves the holes of the attractor's closure for good, from ``stay`` on.
+
+    The states ``stay``..``first`` - 1 of the run are judged against ``reference`` (the attractor's
+    sample, ``_trim_to_group``): a state inside its edge's sampled range, but more than ``gaps`` closure
+    mean gaps (``closure_gap``) from every sampled radius, lies in a hole of the closure, so it is no
+    visit of the forward limit set (Theorem IV.3) but the approach to it, passing between its intervals.
+    ``tail_start`` cannot see such states, which lie inside the ranges (issue 35, design 31.0: four of
+    eight starts' flips onto edge 0 land between its two bands, moving 0.2-0.7 mm a round towards one,
+    so each visit's ladder of jogs on goal edge 4 is shifted and the goal visits' common cover closes).
+    Returns the state after the last one in a hole, or ``stay``. A state beyond the sampled range is
+    ``tail_start``'s to judge.
+    """
+    if stay >= first:
+        return stay
+    e_old, r_old = edge[stay:first], radius[stay:first]
+    holed = np.zeros(len(e_old), dtype=bool)
+    for e, sample in reference.items():
+        on = e_old == e
+        if sample.size < 2 or not on.any():
+            continue
+        r = r_old[on]
+        k = np.clip(np.searchsorted(sample, r), 1, sample.size - 1)
+        near = np.minimum(r - sample[k - 1], sample[k] - r)
+        far = max(gaps * closure_gap(sample, gaps), ROUNDING * abs(float(sample[-1])))
+        holed[on] = (r > sample[0]) & (r < sample[-1]) & (near > far)
+    out = np.flatnonzero(holed)
+    return stay if out.size == 0 else stay + int(out[-1]) + 1
 
 
 def tail_start(
@@ -451,8 +508,9 @@ def tail_start(
     e_old, r_old = edge[stay:first], radius[stay:first]
     # ``settled`` kept the stay on the tail's edges; an edge the reference lacks is no visit of it.
     outside = ~np.isin(e_old, np.fromiter(ref, dtype=np.int64, count=len(ref)))
-    for e, (lo, hi, count) in ref.items():
-        gap = max(gaps * (hi - lo) / count, ROUNDING * abs(hi))
+    for e, sample in ref.items():
+        lo, hi = float(sample[0]), float(sample[-1])
+        gap = max(gaps * (hi - lo) / sample.size, ROUNDING * abs(hi))
         outside |= (e_old == e) & ((r_old < lo - gap) | (r_old > hi + gap))
     out = np.flatnonzero(outside)
     return stay if out.size == 0 else stay + int(out[-1]) + 1
@@ -487,6 +545,11 @@ def _trim_to_group(search: Search, group: list[int], key: tuple[int, ...] | None
     sensor there read true off the goal edge, a goal visit left out one that never reads true in it. A
     trigger read on more states is never wider (the goal visits' common cover only shrinks, the other
     edges' covers only grow), so what the wider band lets in of the approach costs width only.
+
+    Neither the tail nor the trigger's states begin before the last state of the stay that lies in a hole
+    of the closure the reference fills (``hole_start``): an approach passing between the attractor's
+    intervals lies inside its ranges, where no gap test beyond them sees it (design 31.0). The fallback
+    that keeps a periodic tail's window keeps it whole, as ``_confirm`` saw it.
     """
     recent = {b: int(search.tail_end[b]) - int(search.tail_end[b]) // 4 for b in group}
     reference = _reference(
@@ -496,10 +559,11 @@ def _trim_to_group(search: Search, group: list[int], key: tuple[int, ...] | None
     for b in group:
         n = int(search.tail_end[b])
         edge, radius, jog = search.edge[b, : n + 1], search.radius[b, : n + 1], search.jog[b, : n + 1]
-        start = tail_start(edge, radius, int(search.tail[b]), recent[b], reference)
+        hole = hole_start(edge, radius, int(search.stay[b]), recent[b], reference)
+        start = tail_start(edge, radius, max(int(search.tail[b]), hole), recent[b], reference)
         if key is not None and not _holds_period(edge[start:], jog[start:], key):
             start = tail_start(edge, radius, int(search.tail[b]), n - n // 2 + 1, reference)
-        wide = tail_start(edge, radius, int(search.stay[b]), recent[b], reference, TRIGGER_GAPS)
+        wide = tail_start(edge, radius, max(int(search.stay[b]), hole), recent[b], reference, TRIGGER_GAPS)
         search.sensed[b] = min(wide, start)
         if start != search.tail[b]:
             old = search.stretches.get(b)

@@ -40,6 +40,7 @@ __all__ = [
     "OUTSIDE_SHARE",
     "TAIL_GAPS",
     "TRIGGER_GAPS",
+    "HOLE_GAPS",
     "ROUNDING",
     "SENSING_HEIGHT_FRACTION",
     "SLAB_SLACK",
@@ -175,6 +176,13 @@ TAIL_GAPS: Final = 3.0
 # narrow (an approach landing let in), with 10-12 the wedge's approach landings narrow it. 7: the wedge's
 # low end lies closest to the long runs' there.
 TRIGGER_GAPS: Final = 7.0
+# How far from every state of the same reference an older state of a stay that lies inside the reference's
+# range may be and still be a visit (attractors.hole_start, issue 35), in mean gaps of the closure the
+# reference fills (attractors.closure_gap: its span less its holes, a hole being a gap wider than this many
+# such mean gaps). A state farther out lies in a hole of the closure: the approach passing between its
+# intervals, which no range test can see (design 31.0). Cutting a visit there would widen the trigger range,
+# so the test errs as TRIGGER_GAPS does and uses its value.
+HOLE_GAPS: Final = TRIGGER_GAPS
 # Relative rounding of a radius after a chain of throws: a periodic orbit converged to rounding repeats its
 # radii to a few ulps (1e-16 relative); 1e-9 is far above that and far below any physical difference.
 ROUNDING: Final = 1e-9
