@@ -13,7 +13,7 @@ and follows it until every part settled (``ProgramGoal``), decided after each ti
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from feeder_device.declarations import ActiveFault
 from feeder_planner.mems import ProgramStep
@@ -26,8 +26,7 @@ from feeder_sim.mems.settling import SettlingCriterion, holding_start
 __all__ = ["MemsTick", "MemsStation"]
 
 
-@dataclass(frozen=True)
-class MemsTick:
+class MemsTick(NamedTuple):
     """What one tick did: the whole steps simulated and those dropped by the cap."""
 
     steps: int

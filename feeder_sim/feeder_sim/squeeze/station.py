@@ -14,7 +14,7 @@ gripper; the station reports it with the remedy. A ``~/squeeze`` or ``~/run_plan
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from feeder_device.declarations import ActiveFault
 from feeder_planner.parts import Part
@@ -29,8 +29,7 @@ NANOSECONDS = 1_000_000_000
 REMEDY = {"part_dropped": " (~/place_part puts it back)", "jaw_stall": " (~/reset opens the jaws)"}
 
 
-@dataclass(frozen=True)
-class SqueezeTick:
+class SqueezeTick(NamedTuple):
     """What one tick did: squeezes finished, whether the gap was capped, the fault that acted (or None).
 
     ``fault`` is (fault name, text with its remedy).

@@ -21,8 +21,7 @@ The driver then closes the tick with the goal's decision (``advance_goal``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Generic, Protocol, TypeVar
+from typing import Generic, NamedTuple, Protocol, TypeVar
 
 from feeder_device.declarations import ActiveFault
 from feeder_planner.throwing import ArmPart
@@ -56,8 +55,7 @@ class ArmEvents(Protocol[Event_co]):
         ...
 
 
-@dataclass(frozen=True)
-class ArmTick:
+class ArmTick(NamedTuple):
     """What one tick showed: the pose and joint, and the sensor bit delivered (None: dropped)."""
 
     shown: Shown
