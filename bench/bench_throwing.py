@@ -9,6 +9,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from benchlib import median_time
@@ -348,18 +349,26 @@ def _truth_rows(quick: bool, before: tuple[object, object] | None = None) -> lis
     The previous rule's limit_set is judged on the same designs and truths, as the baseline.
     """
     sys.path.insert(0, str(ROOT / "tests" / "throwing"))
-    from truth_corpus import CORPUS_PARTS, QUICK_PARTS, corpus_designs, evaluate
+    from truth_corpus import CORPUS_PARTS, QUICK_PARTS
 
     parts = QUICK_PARTS if quick else CORPUS_PARTS
-    designs = [d for k in range(parts) for d in corpus_designs(k)]
     previous = None if before is None else before[0].limit_set  # type: ignore[attr-defined]
-    report = evaluate(designs, CORPUS_THROWS, CORPUS_STARTS, baseline=previous)
+    return _corpus_rows(_corpus_report(0, parts, previous), parts, previous is not None)
+
+
+def _corpus_report(first: int, end: int, previous: Any = None, progress: bool = False) -> Any:
+    """Return truth_corpus's report on corpus parts ``first``..``end`` - 1 at the row's settings."""
+    sys.path.insert(0, str(ROOT / "tests" / "throwing"))
+    from truth_corpus import corpus_designs, evaluate
+
+    designs = [d for k in range(first, end) for d in corpus_designs(k)]
+    return evaluate(designs, CORPUS_THROWS, CORPUS_STARTS, baseline=previous, progress=progress)
+
+
+def _corpus_rows(report: Any, parts: int, with_previous: bool) -> list[dict]:
+    """Return the corpus rows of ``report`` (over ``parts`` parts): edges and cycles, ranges, triggers."""
     share = report.agree / report.unambiguous if report.unambiguous else math.nan
-    was = (
-        f"; previous rule: {report.baseline_agree} of {report.unambiguous} agree"
-        if previous is not None
-        else ""
-    )
+    was = f"; previous rule: {report.baseline_agree} of {report.unambiguous} agree" if with_previous else ""
     return [
         {
             "benchmark": f"throwing: limit set vs long iteration, seeded corpus ({parts} parts)",
@@ -373,7 +382,7 @@ def _truth_rows(quick: bool, before: tuple[object, object] | None = None) -> lis
         # Issue 35: on the designs whose attractors agree, every attractor's radius range and every goal
         # edge's trigger range (as limit_set reads it) against the long runs' last halves
         # (truth_corpus.compare_ranges: within RANGE_GAPS mean gaps of the members' recent quarters), next
-        # to the agreement on edges and cycles; the full corpus without --quick (80 parts, 45-60 min here).
+        # to the agreement on edges and cycles; the full corpus without --quick (80 parts).
         *(
             {
                 "benchmark": f"throwing: limit set vs long iteration, seeded corpus ({parts} parts)",
@@ -382,7 +391,8 @@ def _truth_rows(quick: bool, before: tuple[object, object] | None = None) -> lis
                 "unit": "fraction",
                 "target": "1.0",
                 "baseline": f"{count} of {report.agree}; {report.unsafe_triggers} trigger(s) reaching beyond "
-                "the long runs'" + "".join(f" | {m}" for m in (report.range_mismatches or [])[:5]),
+                f"the long runs'; distances from theirs: {report.distances()}"
+                + "".join(f" | {m}" for m in (report.range_mismatches or [])[:5]),
                 "met": count == report.agree,
             }
             for what, count in (
@@ -393,9 +403,39 @@ def _truth_rows(quick: bool, before: tuple[object, object] | None = None) -> lis
     ]
 
 
+def _corpus_main(args: list[str]) -> None:
+    """The corpus rows in pieces, for a machine where the whole corpus is too long for one process.
+
+    ``--corpus FIRST:END OUT.json``: judge parts FIRST..END-1 (no previous rule), print each design's
+    verdict and save the report; ``--corpus-rows PARTS A.json B.json ...``: merge the saved reports of
+    disjoint parts and print the rows, as the full run's.
+    """
+    import dataclasses
+    import json
+
+    sys.path.insert(0, str(ROOT / "tests" / "throwing"))
+    from truth_corpus import CorpusReport
+
+    if args[0] == "--corpus":
+        first, end = (int(v) for v in args[1].split(":"))
+        report = _corpus_report(first, end, progress=True)
+        Path(args[2]).write_text(json.dumps(dataclasses.asdict(report)))
+        print(report.figure())
+        print(report.distances())
+        return
+    merged = CorpusReport.merged([CorpusReport(**json.loads(Path(f).read_text())) for f in args[2:]])
+    for row in _corpus_rows(merged, int(args[1]), False):
+        print(row)
+    print(merged.distances())
+    print("\n".join(merged.range_mismatches or []))
+
+
 if __name__ == "__main__":
     import sys
 
+    if sys.argv[1:2] in (["--corpus"], ["--corpus-rows"]):
+        _corpus_main(sys.argv[1:])
+        sys.exit(0)
     out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("/tmp/bench_throwing")
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.time()

@@ -330,6 +330,68 @@ class CorpusReport:
     triggers: int = 0
     range_mismatches: list[str] | None = None
     unsafe_triggers: int = 0
+    # Per range end and per trigger end (both sides reading one): |planner - long runs| in m and in mean gaps.
+    range_ends: list[tuple[float, float]] | None = None
+    trigger_ends: list[tuple[float, float]] | None = None
+
+    @classmethod
+    def merged(cls, reports: list[CorpusReport]) -> CorpusReport:
+        """Return one report of several over disjoint sets of parts (run apart, at the same settings).
+
+        Parts are judged independently, so counts add; ``seconds`` adds too (the time of one process).
+        """
+        first = reports[0]
+        if any((r.throws, r.starts_per_edge) != (first.throws, first.starts_per_edge) for r in reports):
+            raise ValueError("reports merged must share throws and starts per edge")
+        out = cls(
+            first.throws,
+            first.starts_per_edge,
+            excluded={},
+            mismatches=[],
+            kinds={},
+            range_mismatches=[],
+            range_ends=[],
+            trigger_ends=[],
+        )
+        for r in reports:
+            for name in (
+                "designs",
+                "unambiguous",
+                "agree",
+                "baseline_agree",
+                "ranges_agree",
+                "triggers_agree",
+                "triggers",
+                "unsafe_triggers",
+                "seconds",
+            ):
+                setattr(out, name, getattr(out, name) + getattr(r, name))
+            for mine, theirs in ((out.excluded, r.excluded), (out.kinds, r.kinds)):
+                assert mine is not None
+                for key, count in (theirs or {}).items():
+                    mine[key] = mine.get(key, 0) + count
+            assert out.mismatches is not None and out.range_mismatches is not None
+            out.mismatches += r.mismatches or []
+            out.range_mismatches += r.range_mismatches or []
+            assert out.range_ends is not None and out.trigger_ends is not None
+            out.range_ends += [(float(a), float(b)) for a, b in r.range_ends or []]
+            out.trigger_ends += [(float(a), float(b)) for a, b in r.trigger_ends or []]
+        return out
+
+    def distances(self) -> str:
+        """Return the range and trigger ends' distances from the long runs': median, 90 %, largest."""
+
+        def spread(ends: list[tuple[float, float]] | None, k: int, scale: float) -> str:
+            values = np.array([e[k] for e in ends or []]) / scale
+            if not values.size:
+                return "none"
+            return ", ".join(f"{v:.2f}" for v in (np.median(values), np.quantile(values, 0.9), values.max()))
+
+        return (
+            f"range ends ({len(self.range_ends or [])}): {spread(self.range_ends, 0, 1e-3)} mm, "
+            f"{spread(self.range_ends, 1, 1.0)} mean gaps; trigger ends ({len(self.trigger_ends or [])}): "
+            f"{spread(self.trigger_ends, 0, 1e-3)} mm, {spread(self.trigger_ends, 1, 1.0)} mean gaps"
+        )
 
     def figure(self) -> str:
         """Return the corpus figure: designs, why some are left out, agreement, what the corpus holds."""
@@ -389,7 +451,9 @@ def range_tolerance(ls: Any, a: Any, edge: int) -> float:
     return max(RANGE_GAPS * float(r.max() - r.min()) / r.size, RANGE_FLOOR * float(r.max()))
 
 
-def compare_ranges(ls: Any, runs: list[Run], part: ArmPart) -> tuple[list[str], list[str], int]:
+def compare_ranges(
+    ls: Any, runs: list[Run], part: ArmPart, ends: tuple[list, list] | None = None
+) -> tuple[list[str], list[str], int]:
     """Return what differs in radius ranges, and in trigger ranges, between limit_set and the long runs.
 
     Per attractor, its range on each edge against the union of its member starts' last halves, each end
@@ -398,7 +462,8 @@ def compare_ranges(ls: Any, runs: list[Run], part: ArmPart) -> tuple[list[str], 
     the one read on the same starts' last halves (grouped as limit_set groups them), each end within
     the largest tolerance of the attractors' edges (a trigger end is a range end moved by the part's
     geometry); a trigger present on one side only counts when it is longer than that tolerance. Also
-    the number of triggers compared.
+    the number of triggers compared. ``ends``: two lists that get each range end's and each trigger end's
+    distance from the long runs', in m and in mean gaps (its tolerance over RANGE_GAPS).
     """
     from feeder_planner.throwing.limit_set import sensed_states
     from feeder_planner.throwing.sensor import read_trigger, sensing_height_or_default
@@ -410,6 +475,9 @@ def compare_ranges(ls: Any, runs: list[Run], part: ArmPart) -> tuple[list[str], 
             truth = np.concatenate([rr[ee == e] for ee, rr in (_last_half(runs[b]) for b in a.members)])
             tol = range_tolerance(ls, a, e)
             tol_all = max(tol_all, tol)
+            if ends is not None:
+                for x, y in ((lo, truth.min()), (hi, truth.max())):
+                    ends[0].append((abs(x - y), abs(x - y) * RANGE_GAPS / tol))
             if abs(lo - truth.min()) > tol or abs(hi - truth.max()) > tol:
                 short = lo > truth.min() + tol or hi < truth.max() - tol
                 ranges_out.append(
@@ -438,6 +506,9 @@ def compare_ranges(ls: Any, runs: list[Run], part: ArmPart) -> tuple[list[str], 
         truth = read_trigger(part, goal, height, halves).trigger
         if mine is None and truth is None:
             continue
+        if mine is not None and truth is not None and ends is not None:
+            for x, y in zip(mine, truth, strict=True):
+                ends[1].append((abs(x - y), abs(x - y) * RANGE_GAPS / tol_all))
         if mine is None or truth is None:
             other = mine or truth
             assert other is not None
@@ -490,6 +561,8 @@ def evaluate(
         mismatches=mismatches,
         kinds=kinds,
         range_mismatches=range_mismatches,
+        range_ends=[],
+        trigger_ends=[],
     )
     parts: dict[int, list[CorpusDesign]] = {}
     for d in designs:
@@ -565,7 +638,10 @@ def evaluate(
                 # Ranges and triggers only where the attractors agree (issue 35): otherwise the
                 # edge disagreement is the finding.
                 assert not isinstance(ls, str)
-                bad_ranges, bad_triggers, goals = compare_ranges(ls, runs, d.part)
+                assert report.range_ends is not None and report.trigger_ends is not None
+                bad_ranges, bad_triggers, goals = compare_ranges(
+                    ls, runs, d.part, (report.range_ends, report.trigger_ends)
+                )
                 report.triggers += goals
                 report.ranges_agree += not bad_ranges
                 report.triggers_agree += not bad_triggers
