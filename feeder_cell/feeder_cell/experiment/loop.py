@@ -37,9 +37,7 @@ from feeder_cell.controller import CellMachine, Outcome, State
 from feeder_cell.controller.fault_schedule import FaultSchedule
 from feeder_cell.experiment.arrivals import ArrivalStream
 from feeder_cell.experiment.cell_scene import (
-    CONTROLLER_SPECS,
     DEVICES,
-    PARAMETER_CLASSES,
     check_scene,
     controller_parameters,
     device_parameters,
@@ -63,14 +61,10 @@ if TYPE_CHECKING:
 __all__ = [
     "QUANTUM",
     "DEVICE_STATES",
-    "CONTROLLER_SPECS",
-    "DEVICES",
-    "PARAMETER_CLASSES",
     "CycleRecord",
     "LoopResult",
     "CellLoop",
     "controller_parameters",
-    "device_parameters",
     "read_scene",
     "check_scene",
     "scene_loop",
