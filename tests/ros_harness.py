@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import fcntl
 import random
+import signal
 import subprocess
 import sys
 import tempfile
@@ -406,3 +407,13 @@ def launched_node_pids(parent: int) -> list[int]:
         if ppid == parent and "--ros-args" in cmdline:
             pids.append(int(entry.name))
     return pids
+
+
+def end_launch(process: subprocess.Popen[str], timeout: float = 30.0) -> tuple[str, str]:
+    """End a launch by its pid: SIGINT (it ends its nodes), SIGKILL if it has not ended within ``timeout``."""
+    process.send_signal(signal.SIGINT)
+    try:
+        return process.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        return process.communicate()

@@ -20,9 +20,13 @@ from typing import Iterable
 
 from feeder_planner.node_kit.lockstep import ROLES
 
-__all__ = ["Member", "Dropped", "Barrier", "PHASES"]
+__all__ = ["Member", "Dropped", "Barrier", "PHASES", "REWIND_REFUSED", "REWOUND_TO"]
 
 PHASES = ("join", *ROLES, "done")  # "done": quantum T is complete, the clock may advance
+# The clock's ~/rewind (std_srvs/Trigger) answers: refused because a participant that is no tick
+# participant cannot follow (its message names them after this), or done: "rewound to <T> ns".
+REWIND_REFUSED = "do not follow a rewind"
+REWOUND_TO = "rewound to"
 
 
 @dataclass
@@ -128,6 +132,24 @@ class Barrier:
         self.phase_started = wall
         return self.phase
 
+    def rewind(self, now_ns: int, wall: float) -> None:
+        """Set cell time back to ``now_ns`` (the start): every member starts again there, as at start-up.
+
+        Only between quanta (phase ``done``: every member has answered the present one). The phase is
+        ``join`` again: complete once every tick member has answered ``now_ns`` (its clock then reads it),
+        then ``now_ns``'s react and observe phases run, as at start-up. A member's marks go back with the
+        time: kept, an answer of a later time would count it done with every rewound quantum unheard.
+        """
+        if self.phase != "done":
+            raise ValueError(f"a rewind between quanta only, not in phase {self.phase}")
+        self.now_ns = now_ns
+        for member in self.members.values():
+            member.since_ns, member.done_ns = now_ns, -1
+        # The members are who is waited for now; an expected name that has left since (a controller
+        # whose run ended) is not waited for again.
+        self.expect = frozenset()
+        self.phase, self.phase_started = "join", wall
+
     def overdue(self, wall: float) -> list[Dropped]:
         """Drop and return the members the present phase has waited for longer than its timeout."""
         waited = wall - self.phase_started
@@ -135,6 +157,12 @@ class Barrier:
             if waited <= self.join_timeout_s:
                 return []
             late = [Dropped(n, "", "join", self.now_ns, waited) for n in sorted(self.expect - self.joined())]  # type: ignore[operator]
+            # A tick member that joined and never answered the start (or a rewind's) holds the join too.
+            late += [
+                Dropped(m.name, m.role, "join", self.now_ns, waited)
+                for m in self.members.values()
+                if m.role == ROLES[0] and m.done_ns < self.now_ns and m.name not in {d.name for d in late}
+            ]
         elif waited > self.timeout_s:
             late = [Dropped(m.name, m.role, self.phase, self.now_ns, waited) for m in self.waiting_for()]
         else:

@@ -47,6 +47,7 @@ class CellTime:
         self.first: tuple[int, float] | None = None  # (cell ns, wall s) of the first advance
         self.last: tuple[int, float] | None = None
         self._start_ns = -1
+        self.advanced_ns = 0
         qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
         node.create_subscription(Clock, "/clock", self._on_clock, qos)
 
@@ -58,13 +59,16 @@ class CellTime:
         elif self.first is None and now_ns > self._start_ns:
             self.first = (now_ns, wall)
         if self.first is not None:
+            if self.last is not None:
+                # Summed advances: a rewind (the clock set back to its start) runs the cell again.
+                self.advanced_ns += max(0, now_ns - self.last[0])
             self.last = (now_ns, wall)
 
     def summary(self) -> dict[str, float]:
-        """Cell and wall seconds from the first advance to the last, and their ratio."""
+        """Cell seconds run from the first advance to the last (rewinds run again), wall seconds, ratio."""
         if self.first is None or self.last is None or self.last[1] <= self.first[1]:
             return {"cell_s": 0.0, "wall_s": 0.0, "achieved_real_time_factor": 0.0}
-        cell = (self.last[0] - self.first[0]) / NANOSECONDS
+        cell = self.advanced_ns / NANOSECONDS
         wall = self.last[1] - self.first[1]
         return {"cell_s": cell, "wall_s": wall, "achieved_real_time_factor": cell / wall}
 

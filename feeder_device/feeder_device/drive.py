@@ -26,12 +26,13 @@ __all__ = ["LockstepDriver"]
 class LockstepDriver:
     """The announcements a lockstep device has heard: the last cell time, and what the first one starts.
 
-    ``announce(T)`` is called by the device's ``advance_lockstep`` before it ticks: a time not later than
-    the last is no news (a repeated announcement ticks nothing twice).
+    ``announce(T)`` is called by the device's ``advance_lockstep`` before it ticks: the time last announced
+    again is no news (a repeated announcement ticks nothing twice), an earlier one a rewind.
     """
 
     def __init__(self) -> None:
         self.announced_ns = -1  # the last cell time announced (-1: none yet)
+        self.rewinds = 0  # announcements earlier than the one before them
         # Called once, at the first announcement, before its ticks: what a device publishes at start-up
         # waits for it, or its stamp would depend on when the clock came.
         self.on_first: Callable[[], None] | None = None
@@ -42,9 +43,15 @@ class LockstepDriver:
         return self.announced_ns >= 0
 
     def announce(self, now_ns: int) -> bool:
-        """Take in the announcement of ``now_ns``; return whether it is new (the device then ticks to it)."""
-        if now_ns <= self.announced_ns:
+        """Take in the announcement of ``now_ns``; return whether it is new (the device then ticks to it).
+
+        A time earlier than the last is a rewind (the cell clock set back to its start): new, counted in
+        ``rewinds``, so that the device moves its tick marks back before it ticks.
+        """
+        if now_ns == self.announced_ns:
             return False
+        if now_ns < self.announced_ns:
+            self.rewinds += 1
         first = not self.started
         self.announced_ns = now_ns
         if first and self.on_first is not None:

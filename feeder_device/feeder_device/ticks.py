@@ -62,19 +62,38 @@ class TickLoop(StatusReporting[P]):
         """Take in cell time ``now_ns``: tick every instant of the rate's grid up to it, then publish status.
 
         The lockstep's tick phase, called by whoever announces cell time (the device's participant, or a
-        cell host), the node clock already at ``now_ns``. A time not later than the last announced ticks
-        nothing. Before activation, or inactive, the announcement is taken in and nothing is ticked.
+        cell host), the node clock already at ``now_ns``. The time last announced again ticks nothing; an
+        earlier one is a rewind (``_rewind_ticks``). Before activation, or inactive, the announcement is
+        taken in and nothing is ticked.
         """
         if self.lockstep_driver is None:
             raise RuntimeError(f"{self.get_name()}: advance_lockstep on a device not in lockstep")
+        rewinds = self.lockstep_driver.rewinds
         if not self.lockstep_driver.announce(now_ns):
             return
+        if self.lockstep_driver.rewinds != rewinds:
+            self._rewind_ticks(now_ns)
         if not self.active or self._grid_origin_ns <= 0:
             return
         while self.active and (instant := self._grid_instant(self._grid_index + 1)) <= now_ns:
             self._grid_index += 1
             self._tick_at(instant)
         self.publish_status()  # what the ticks changed (counters), stamped with the quantum's time
+
+    def _rewind_ticks(self, now_ns: int) -> None:
+        """Follow the cell clock back to ``now_ns``: forget the tick marks after it, go on along the grid.
+
+        A ResetSimulation of time reconfigures the device after the rewind (its grid then starts at
+        configure, as at launch); a device left configured keeps its grid's origin unless that lies after
+        the new time.
+        """
+        self.last_tick_due_ns = 0
+        if self._grid_origin_ns > now_ns:
+            self._grid_origin_ns = now_ns
+        if self._grid_origin_ns > 0:
+            self._grid_index = int((now_ns - self._grid_origin_ns) * self.tick_rate // 1e9)
+        self.last_advance_ns = min(self.last_advance_ns, now_ns)
+        self.monitor.reset()
 
     def _start_ticks(self) -> None:
         self._stop_ticks()

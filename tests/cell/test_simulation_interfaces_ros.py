@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import os
-import signal
 import subprocess
 import sys
 import threading
@@ -112,12 +111,7 @@ def harness(ros_domain: int, ros_client: Any, tmp_path_factory: pytest.TempPathF
             time.sleep(0.5)
         yield harness
     finally:
-        process.send_signal(signal.SIGINT)
-        try:
-            process.communicate(timeout=30)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.communicate()
+        ros_harness.end_launch(process)
 
 
 def test_features_list_what_works_and_the_state_machine_answers_the_standards_codes(harness: Harness) -> None:

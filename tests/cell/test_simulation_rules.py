@@ -59,13 +59,15 @@ def test_steps_only_while_paused_and_within_bounds() -> None:
     assert control.check_steps(control.MAX_STEPS, control.PAUSED) == control.MAX_STEPS
 
 
-def test_reset_scopes_default_and_all_reset_everything_but_time_which_is_never_reset() -> None:
+def test_reset_scopes_default_and_all_reset_everything_and_time_goes_back_with_state() -> None:
     assert control.reset_of_scope(control.SCOPE_STATE) == control.Reset(state=True, spawned=False)
     assert control.reset_of_scope(control.SCOPE_SPAWNED) == control.Reset(state=False, spawned=True)
     assert control.reset_of_scope(6) == control.Reset(state=True, spawned=True)
-    for scope in (0, 255):  # DEFAULT ("same as ALL") and ALL: all the cell resets, time said not to be
-        assert control.reset_of_scope(scope) == control.Reset(state=True, spawned=True, time_left=True)
-    for scope in (1, 3, 5, 7):  # TIME named by its bit
+    everything = control.Reset(state=True, spawned=True, time=True)
+    for scope in (0, 255, 7):  # DEFAULT ("same as ALL"), ALL, and TIME | STATE | SPAWNED
+        assert control.reset_of_scope(scope) == everything
+    assert control.reset_of_scope(3) == control.Reset(state=True, spawned=False, time=True)
+    for scope in (1, 5):  # time without the devices' state, whose goals and grids are in cell time
         assert code_of(control.reset_of_scope, scope) == results.FEATURE_UNSUPPORTED
     assert code_of(control.reset_of_scope, 8) == results.FEATURE_UNSUPPORTED  # no such scope bit
 

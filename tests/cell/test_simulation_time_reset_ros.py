@@ -1,25 +1,17 @@
-"""Why ResetSimulation does not set cell time back (SIMULATION_RESET_TIME not advertised), measured.
+"""The rewind of a ResetSimulation of time, part by part, in one process: each follows the clock back.
 
-docs/cell.md ("Reset") states what a rewind of the cell clock would meet in each part of the cell. These
-tests measure those parts in one process, with no cell clock and no thread, through the same calls the
-clock makes (the hub's ``arrive``, a device's ``advance_lockstep``, the node clock's override, which is
-what rclpy's time source does with a /clock message):
+The cell clock's ``~/rewind`` sets cell time back to its start (docs/cell.md, "Reset"). These tests drive each
+part through the calls the clock makes (the barrier's rules, the hub's ``arrive``, a device's
+``advance_lockstep``, the node clock's override, which is what rclpy's time source does with a /clock
+message) and check that it starts again at the start as at launch:
 
-- rclpy's ROS-time timers do follow a backward jump (rcl resets them): a planner's or a controller's
-  timer would fire one period after the rewound time, not after the old one;
-- the clock's barrier counts a member done with a quantum once it has answered any time at or after it:
-  set back alone, the clock would run the rewound quanta with no participant working;
-- a lockstep participant takes an announcement no later than one it has taken as already seen: its
-  node clock stays at the later time and it does no work (a hosted device, the controller, the
-  recorder); a holding participant (the controller's decision thread) waits for a later time;
-- a device reconfigured after its clock went back ticks nothing until cell time passes the last time
-  it was announced (its lockstep driver's mark, ``feeder_device.drive``, outlives the reconfiguration;
-  activation does set its model's advance mark to the present time).
-
-So a rewind would either race through the rewound quanta unsimulated (the barrier's marks kept; a
-participant over DDS answers an announcement it takes as heard again with its last, later time) or hold
-every hosted participant until the clock's lockstep timeout dropped it (the marks set back). When the
-rewind is built these tests change with docs/cell.md: each pins one fact its reason rests on.
+- rclpy's ROS-time timers follow a backward jump (rcl resets them): a planner's timer fires one period
+  after the rewound time, not after the old one;
+- the barrier sets every member's marks back with the time: set back alone, it would count every member
+  done with the rewound quanta (they would run unsimulated);
+- a lockstep participant takes an earlier announcement as a rewind: its node clock jumps back, it works
+  and answers at the start again (hosted or over DDS); a holding one counts the rewind for its thread;
+- a device reconfigured after the rewind ticks the same instants as after its first configuration.
 """
 
 from __future__ import annotations
@@ -34,6 +26,7 @@ from rclpy.lifecycle import TransitionCallbackReturn
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.time import Time
+from std_msgs.msg import Header
 
 from feeder_cell.lockstep_barrier import Barrier
 from feeder_device.device import ManagedDevice, hosted
@@ -46,26 +39,53 @@ QUANTUM_NS = NANOSECONDS // 10
 RATE = 20.0  # Hz: two ticks a quantum
 
 
-def test_a_barrier_set_back_alone_counts_every_member_done_with_the_rewound_quanta() -> None:
-    barrier = Barrier(START_NS, QUANTUM_NS, ["/device"], phase_started=0.0)
-    barrier.answer("tick", "/device", START_NS)  # a tick participant joins by answering T0
-    quanta = 10
-    for _ in range(quanta + 1):
-        while barrier.complete() and barrier.phase != "done":
-            barrier.next_phase(0.0)
-        assert barrier.phase == "done"
+def run_quanta(barrier: Barrier, quanta: int, answer: bool = True) -> None:
+    """Run ``quanta`` quanta from ``done`` with one tick member answering each (or, unanswered, none run)."""
+    for _ in range(quanta):
         barrier.next_phase(0.0)  # the next quantum's tick phase
         assert [m.name for m in barrier.waiting_for()] == ["/device"]
         barrier.answer("tick", "/device", barrier.now_ns)
-    assert barrier.now_ns == START_NS + (quanta + 1) * QUANTUM_NS
-    # Cell time set back to the start, nothing else: every rewound quantum's tick phase is complete at
-    # once, before any participant has heard of it.
-    barrier.now_ns, barrier.phase = START_NS, "done"
-    for k in range(1, quanta + 1):
+        while barrier.complete() and barrier.phase != "done":
+            barrier.next_phase(0.0)
+        assert barrier.phase == "done"
+
+
+def test_a_barrier_rewound_waits_for_every_member_again_from_the_start() -> None:
+    barrier = Barrier(START_NS, QUANTUM_NS, ["/device", "/controller"], phase_started=0.0)
+    barrier.answer("tick", "/device", START_NS)  # a tick participant joins by answering T0
+    barrier.answer("react", "/controller", 0)
+    barrier.answer("react", "/planner", 0)
+    while barrier.complete() and barrier.phase != "done":
         barrier.next_phase(0.0)
-        assert barrier.now_ns == START_NS + k * QUANTUM_NS and barrier.phase == "tick"
-        assert barrier.complete() and not barrier.waiting_for()
-        barrier.phase = "done"
+    barrier.answer("react", "/planner", START_NS)  # T0's react phase
+    barrier.answer("react", "/controller", START_NS)
+    while barrier.complete() and barrier.phase != "done":
+        barrier.next_phase(0.0)
+    # Only tick members follow a rewind (the clock refuses while others take part): they leave first.
+    barrier.answer("react", "/planner", -1, leave=True)
+    barrier.answer("react", "/controller", -1, leave=True)
+    run_quanta(barrier, 10)
+    assert barrier.now_ns == START_NS + 10 * QUANTUM_NS
+    barrier.next_phase(0.0)
+    with pytest.raises(ValueError, match="between quanta"):
+        barrier.rewind(START_NS, 0.0)  # mid-quantum: refused
+    barrier.answer("tick", "/device", barrier.now_ns)
+    while barrier.complete() and barrier.phase != "done":
+        barrier.next_phase(0.0)
+    barrier.rewind(START_NS, 1.0)
+    assert (barrier.now_ns, barrier.phase, barrier.phase_started) == (START_NS, "join", 1.0)
+    # Not before the device has answered the start; the controller that left is not waited for.
+    assert not barrier.complete(), "the rewound start is complete before the device answered it"
+    barrier.answer("tick", "/device", START_NS)
+    assert barrier.complete()
+    while barrier.complete() and barrier.phase != "done":
+        barrier.next_phase(0.0)
+    run_quanta(barrier, 3)
+    assert barrier.now_ns == START_NS + 3 * QUANTUM_NS
+    # A device that never answers the rewound start is dropped after the join timeout, naming it.
+    barrier.rewind(START_NS, 0.0)
+    (late,) = barrier.overdue(barrier.join_timeout_s + 1.0)
+    assert late.name == "/device" and late.phase == "join" and barrier.complete()
 
 
 @pytest.fixture()
@@ -132,49 +152,69 @@ class RecordingHub:
 
 @pytest.mark.ros
 @pytest.mark.parametrize("hold", [False, True], ids=["answering", "holding"])
-def test_a_participant_takes_an_earlier_cell_time_as_already_seen(sim_time_context: None, hold: bool) -> None:
+@pytest.mark.parametrize("path", ["hosted", "dds"])
+def test_a_participant_takes_an_earlier_cell_time_as_a_rewind(
+    sim_time_context: None, hold: bool, path: str
+) -> None:
     hub = RecordingHub()
-    host_in_process(hub)
+    host_in_process(hub if path == "hosted" else None)
     node = Node("participant_probe")
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
         worked: list[int] = []
         participant = Participant(node, "react", worked.append, hold=hold)
+
+        def announce(now_ns: int) -> None:
+            if path == "hosted":
+                participant.arrive(now_ns)
+            else:
+                header = Header()
+                header.stamp.sec, header.stamp.nanosec = divmod(now_ns, NANOSECONDS)
+                participant._on_message(header)  # what the DDS subscription hands it
+            participant.answer_pending(executor)
+            if hold:
+                participant.release(participant.drained_ns)  # the holding thread's answer
+
         later = START_NS + 10 * QUANTUM_NS
         for now_ns in (START_NS, later):
-            participant.arrive(now_ns)
-            participant.answer_pending(executor)
+            announce(now_ns)
+        assert worked == [START_NS, later] and participant.rewinds == 0
+        announce(later)  # the same time again: answered again over DDS, worked on once
         assert worked == [START_NS, later]
-        # The rewind: the clock announces its start time again.
-        participant.arrive(START_NS)
-        participant.answer_pending(executor)
-        assert worked == [START_NS, later], "the earlier time was worked on"
-        assert node.get_clock().now().nanoseconds == later, "the node clock followed the earlier time"
-        assert not participant.pending
+        announce(START_NS)  # the rewind
+        assert worked == [START_NS, later, START_NS]
+        assert node.get_clock().now().nanoseconds == START_NS, "the node clock did not jump back"
+        assert participant.rewinds == 1 and participant.answered_ns == START_NS
         if hold:
-            # The controller's decision thread waits for a time after the last it decided on: it never
-            # comes (the clock holds at the start until the participant answers, which it never does).
-            assert participant.wait_announcement(later, timeout_s=0.3) == -1
-        else:
-            assert hub.answers == [START_NS, later], "an answer was sent for the earlier time"
+            assert participant.wait_announcement(START_NS - 1, timeout_s=0.3) == START_NS
+        if path == "hosted":
+            assert hub.answers[-1] == START_NS
+        announce(START_NS + QUANTUM_NS)
+        assert worked[-1] == START_NS + QUANTUM_NS
     finally:
         executor.shutdown(timeout_sec=5.0)
         node.destroy_node()
 
 
 class ProbeDevice(ManagedDevice[DeviceParameters]):
-    """The device kit alone: a tick that does nothing at RATE, counted."""
+    """The device kit alone: a tick at RATE that records its instants."""
 
     def __init__(self) -> None:
         super().__init__("probe_device", DeviceParameters)
+        self.instants: list[int] = []
 
     def configure_device(self, p: DeviceParameters) -> None:
         self.expect_rate(RATE)
 
+    def tick(self, now_ns: int) -> None:
+        self.instants.append(now_ns)
+
 
 @pytest.mark.ros
-def test_a_device_reconfigured_after_its_clock_went_back_does_not_tick(sim_time_context: None) -> None:
+def test_a_device_reconfigured_after_a_rewind_ticks_as_after_its_first_configuration(
+    sim_time_context: None,
+) -> None:
     device = hosted(ProbeDevice)()
     try:
 
@@ -182,25 +222,25 @@ def test_a_device_reconfigured_after_its_clock_went_back_does_not_tick(sim_time_
             set_clock(device, now_ns)
             device.advance_lockstep(now_ns)
 
-        set_clock(device, START_NS)
-        assert device.trigger_configure() == TransitionCallbackReturn.SUCCESS
-        assert device.trigger_activate() == TransitionCallbackReturn.SUCCESS
-        quanta = 10
-        for k in range(quanta + 1):
-            announce(START_NS + k * QUANTUM_NS)
-        ticked = device.ticks_done
-        assert ticked == quanta * 2  # RATE: two ticks a quantum
-        # What STOPPED does (every device reconfigured), with the clock set back to the start first.
+        def run(quanta: int) -> list[int]:
+            """Configure and activate at the start, then tick ``quanta`` quanta (what launch and reset do)."""
+            device.instants.clear()
+            announce(START_NS)
+            assert device.trigger_configure() == TransitionCallbackReturn.SUCCESS
+            assert device.trigger_activate() == TransitionCallbackReturn.SUCCESS
+            for k in range(1, quanta + 1):
+                announce(START_NS + k * QUANTUM_NS)
+            return list(device.instants)
+
+        first = run(10)
+        assert first == [START_NS + k * QUANTUM_NS // 2 for k in range(1, 21)]  # RATE: two ticks a quantum
+        # The order of a reset: the rewind while the device is still active (it ticks nothing at the
+        # start), then the reconfiguration there.
+        announce(START_NS)
+        assert device.instants == first
         assert device.trigger_deactivate() == TransitionCallbackReturn.SUCCESS
         assert device.trigger_cleanup() == TransitionCallbackReturn.SUCCESS
-        set_clock(device, START_NS)
-        assert device.trigger_configure() == TransitionCallbackReturn.SUCCESS
-        assert device.trigger_activate() == TransitionCallbackReturn.SUCCESS
-        for k in range(1, quanta + 1):
-            announce(START_NS + k * QUANTUM_NS)
-        assert device.ticks_done == ticked, "the device ticked the rewound quanta"
-        # Past the last time it was announced, it ticks again.
-        announce(START_NS + (quanta + 1) * QUANTUM_NS)
-        assert device.ticks_done > ticked
+        assert run(10) == first, "after the rewind the device did not tick the same instants"
+        assert device.lockstep_driver is not None and device.lockstep_driver.rewinds == 1
     finally:
         device.destroy_node()

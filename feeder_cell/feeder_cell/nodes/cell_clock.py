@@ -41,7 +41,7 @@ from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
 from feeder_cell.host.hub import ClockHub
-from feeder_cell.lockstep_barrier import Barrier, Dropped
+from feeder_cell.lockstep_barrier import REWIND_REFUSED, REWOUND_TO, Barrier, Dropped
 from feeder_msgs.srv import IsPaused, StepClock
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit import check_value, declare_parameters, run_node
@@ -151,6 +151,7 @@ class CellClock(Node):
         start = self.p.start_time or time.time()
         # Integer nanoseconds: a long run at a high factor must not drift by float rounding.
         self.now_ns = int(round(start * NANOSECONDS))
+        self.start_ns = self.now_ns  # where ~/rewind sets cell time back to
         self.factor = float(self.p.real_time_factor)
         self.paused = bool(self.p.start_paused)
         self.last_wall = time.monotonic()
@@ -163,6 +164,7 @@ class CellClock(Node):
         # default (exclusive) group would hold back until the step's callback had returned.
         self.create_service(StepClock, "~/step", self.on_step, callback_group=ReentrantCallbackGroup())
         self.create_service(IsPaused, "~/is_paused", self.on_is_paused)
+        self.create_service(Trigger, "~/rewind", self.on_rewind, callback_group=ReentrantCallbackGroup())
         self.add_on_set_parameters_callback(self.on_parameters)
         steady = RclClock(clock_type=ClockType.STEADY_TIME)
         self.barrier: Barrier | None = None
@@ -205,6 +207,7 @@ class CellClock(Node):
         self.stopped = ""  # why the clock holds for good (on_lockstep_timeout: stop)
         self.steps_left = 0
         self.step_waiters: list[Future] = []
+        self.join_waiters: list[Future] = []  # a rewind, answered once every tick member is at the start
         # Wall time the next quantum may start at F: kept on a grid of q/F from the last on-time start, so
         # the timer's lateness does not add up (after a slow quantum the grid starts again from now).
         self.next_due = 0.0
@@ -273,6 +276,8 @@ class CellClock(Node):
         barrier = cast(Barrier, self.barrier)
         while barrier.complete() and not self.stopped:
             wall = time.monotonic()
+            if barrier.phase == "join":
+                self._wake(self.join_waiters)
             if barrier.phase in ("join", "done"):
                 if self.paused and self.steps_left == 0:
                     self._publish_held()
@@ -302,8 +307,13 @@ class CellClock(Node):
             self.publish()
 
     def _wake_steps(self) -> None:
-        waiters, self.step_waiters = self.step_waiters, []
-        for waiter in waiters:
+        self._wake(self.step_waiters)
+
+    @staticmethod
+    def _wake(waiters: list[Future]) -> None:
+        taken = list(waiters)
+        waiters.clear()
+        for waiter in taken:
             if not waiter.done():
                 waiter.set_result(True)
 
@@ -389,6 +399,50 @@ class CellClock(Node):
             await done
             response.ok = True
         response.now = to_time(self.now_ns)
+        return response
+
+    async def on_rewind(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        """Set a paused clock back to its start time (a ResetSimulation of time); answered once there.
+
+        In lockstep the present quantum ends first; then every participant is announced the start time
+        again (an earlier time is a rewind: its node clock jumps back, ``Participant.rewind``), and the
+        answer comes once every tick participant has answered it. The start's react and observe phases
+        run at the next step or resume, as after a paused start. Only tick participants follow a rewind
+        (devices reconfigured by the caller): with a react or observe participant (a controller, a
+        recorder) it is refused, naming them.
+        """
+        response.success = False
+        if not self.paused:
+            response.message = "bad request: the clock is running; ~/pause it first"
+            return response
+        if self.barrier is None:
+            self.now_ns = self.start_ns
+            self.publish()
+            response.success, response.message = True, f"{REWOUND_TO} {self.now_ns} ns"
+            return response
+        barrier = self.barrier
+        others = sorted(f"{m.name} ({m.role})" for m in barrier.members.values() if m.role != ROLES[0])
+        if others:
+            response.message = f"bad request: {', '.join(others)} {REWIND_REFUSED}"
+            return response
+        if self.stopped or self.steps_left:
+            response.message = f"bad request: the clock is {self.stopped or 'stepping'}"
+            return response
+        if barrier.phase not in ("join", "done"):
+            done = Future()
+            self.step_waiters.append(done)  # the present quantum ends: woken with the steps
+            await done
+        if barrier.phase == "done":
+            self.get_logger().info(f"rewind from {self.now_ns / NANOSECONDS:.3f} s to the start")
+            barrier.rewind(self.start_ns, time.monotonic())
+            self.now_ns = self.start_ns
+            self.publish()
+            arrived = Future()
+            self.join_waiters.append(arrived)
+            self._announce("tick")
+            self._pump()
+            await arrived
+        response.success, response.message = True, f"{REWOUND_TO} {self.now_ns} ns"
         return response
 
     def on_parameters(self, changes: list[Parameter]) -> SetParametersResult:

@@ -257,7 +257,9 @@ class CellSimulation(Node):
             if action in ("pause", "resume"):
                 await self.link.pause(action == "pause")
             elif action == "stop":
-                await self.world.stop()
+                why = await self.world.stop()
+                if why:
+                    response.result = result_msg(OK, f"stopped; {control.TIME_NOT_RESET} ({why})")
             else:
                 await self.world.start()
 
@@ -315,9 +317,11 @@ class CellSimulation(Node):
     # --- reset ---------------------------------------------------------------------------------------
     async def _reset(self, request: ResetSimulation.Request, response: Any) -> None:
         reset = control.reset_of_scope(int(request.scope))
-        await self.world.reset(reset)
-        if reset.time_left:
-            response.result = result_msg(OK, f"state and spawned entities reset; {control.TIME_NOT_RESET}")
+        why = await self.world.reset(reset)
+        if why:
+            response.result = result_msg(
+                OK, f"state and spawned entities reset; {control.TIME_NOT_RESET} ({why})"
+            )
 
     # --- entities ------------------------------------------------------------------------------------
     async def _selected(self, filters: Any) -> list[Entity]:

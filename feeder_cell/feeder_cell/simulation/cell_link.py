@@ -29,6 +29,7 @@ from rclpy.task import Future
 from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 
+from feeder_cell.lockstep_barrier import REWIND_REFUSED, REWOUND_TO
 from feeder_cell.simulation.entities import EntityState
 from feeder_cell.simulation.msgs import nanoseconds
 from feeder_cell.simulation.results import OPERATION_FAILED, SimulationError
@@ -88,6 +89,9 @@ class CellLink:
             Trigger, f"{self.clock_node}/resume", callback_group=self.group
         )
         self.step_client = node.create_client(StepClock, f"{self.clock_node}/step", callback_group=self.group)
+        self.rewind_client = node.create_client(
+            Trigger, f"{self.clock_node}/rewind", callback_group=self.group
+        )
         self.paused_client = node.create_client(
             IsPaused, f"{self.clock_node}/is_paused", callback_group=self.group
         )
@@ -286,6 +290,20 @@ class CellLink:
         response = await self.call(client, Trigger.Request(), "pause" if pause else "resume")
         if not response.success:
             raise SimulationError(OPERATION_FAILED, f"{client.srv_name}: {response.message}")
+
+    async def rewind(self) -> tuple[int, str]:
+        """Set the held clock back to its start; return (the start in ns, '') or (-1, why it was refused).
+
+        Refused, nothing changed, when a lockstep participant that is no device (a controller, a
+        recorder) would not follow (``lockstep_barrier.REWIND_REFUSED``); any other failure raises.
+        """
+        client = self.rewind_client
+        response = await self.call(client, Trigger.Request(), "rewind", patient=True)
+        if not response.success and REWIND_REFUSED in response.message:
+            return -1, response.message.removeprefix("bad request: ")
+        if not response.success or not response.message.startswith(REWOUND_TO):
+            raise SimulationError(OPERATION_FAILED, f"{client.srv_name}: {response.message}")
+        return int(response.message.removeprefix(REWOUND_TO).split()[0]), ""
 
     async def step(self, quanta: int, quantum_ns: int) -> int:
         """Advance the held clock by ``quanta`` quanta; return the cell time reached (ns)."""

@@ -5,16 +5,15 @@ state         what the cell does
 ============  ====================================================================================
 PLAYING       the cell clock runs (``cell_clock`` not paused); devices as their controller left them
 PAUSED        the cell clock holds at a quantum boundary; a step advances it by whole quanta
-STOPPED       the clock paused, every device reset to its configured initial state (spawned parts
-              gone) and held inactive; PLAYING or PAUSED activates the devices again
+STOPPED       the clock paused and set back to its start, every device reset to its configured initial
+              state (spawned parts gone) and held inactive; PLAYING or PAUSED activates the devices
 ============  ====================================================================================
 
 A step is one lockstep quantum of cell time (``cell_clock`` ``quantum``, 0.1 s by default): every device
-ticks every instant of its rate within it, so N steps advance cell time by exactly N quanta. Cell time
-never goes back: every lockstep participant (``feeder_planner.node_kit.lockstep.Participant``, a device's
-``LockstepDriver``) takes an earlier time as one already seen, so a rewound clock would hold the cell
-(measured in tests/cell/test_simulation_time_reset_ros.py). A scope naming TIME is answered
-FEATURE_UNSUPPORTED; SCOPE_DEFAULT and SCOPE_ALL reset state and spawned entities and say time was not.
+ticks every instant of its rate within it, so N steps advance cell time by exactly N quanta. A reset of
+time (SCOPE_DEFAULT, SCOPE_ALL, a scope with TIME and STATE, and STOPPED) sets the clock back to its start
+(``cell_clock ~/rewind``) before the devices are reconfigured there; only devices follow the clock back,
+so with a controller or a recorder in the lockstep time is not reset and the answer says so.
 LOADING_WORLD is the state from launch until every expected lockstep participant has joined the clock.
 """
 
@@ -123,39 +122,38 @@ def check_steps(steps: int, state: int) -> int:
 
 @dataclass(frozen=True)
 class Reset:
-    """What a ResetSimulation scope resets: device state (to configured), spawned entities (removed).
-
-    ``time_left``: the scope asked for everything (DEFAULT, ALL), time included, which the cell does not
-    reset; the rest is done and the answer says so.
-    """
+    """What a ResetSimulation scope resets: time (to the start), device state (to configured), spawned."""
 
     state: bool
     spawned: bool
-    time_left: bool = False
+    time: bool = False
 
 
 TIME_NOT_RESET = (
-    "cell time was not reset (SIMULATION_RESET_TIME is not a feature: every lockstep participant, the "
-    "devices, the controller and the recorder, takes a cell time earlier than one it has taken as already "
-    "seen, so a rewound clock would wait for answers that never come; docs/cell.md, Reset)"
+    "cell time was not reset: a lockstep participant that is no device (a controller, a recorder) "
+    "does not follow the clock back to its start"
 )
 
 
 def reset_of_scope(scope: int) -> Reset:
     """Return the reset a scope asks for.
 
-    DEFAULT (0, the standard's "same as ALL") and ALL (255) reset state and spawned entities, all the cell
-    can reset, and say that time was not; a scope naming TIME by its bit (1, 3, 5, 7) is FEATURE_UNSUPPORTED.
+    DEFAULT (0, the standard's "same as ALL") and ALL (255) reset everything: time, state and spawned
+    entities. Time is reset with the devices' state (scopes 3 and 7) or not at all: a device's goals, fault
+    windows and tick grid are in cell time, so time alone (1, 5) is FEATURE_UNSUPPORTED.
     """
     if scope in (SCOPE_DEFAULT, SCOPE_ALL):
-        return Reset(state=True, spawned=True, time_left=True)
-    if scope & SCOPE_TIME:
-        raise SimulationError(
-            FEATURE_UNSUPPORTED,
-            f"scope: {scope} includes TIME: {TIME_NOT_RESET}; reset STATE and SPAWNED "
-            f"(scope {SCOPE_STATE | SCOPE_SPAWNED}) or everything else (scope 0)",
-        )
-    unknown = scope & ~(SCOPE_STATE | SCOPE_SPAWNED)
+        return Reset(state=True, spawned=True, time=True)
+    unknown = scope & ~(SCOPE_TIME | SCOPE_STATE | SCOPE_SPAWNED)
     if unknown:
         raise SimulationError(FEATURE_UNSUPPORTED, f"scope: unknown scope bits {unknown:#x} in {scope}")
-    return Reset(state=bool(scope & SCOPE_STATE), spawned=bool(scope & SCOPE_SPAWNED))
+    if scope & SCOPE_TIME and not scope & SCOPE_STATE:
+        raise SimulationError(
+            FEATURE_UNSUPPORTED,
+            f"scope: {scope} resets TIME without STATE: the devices' goals, faults and tick grids are in "
+            f"cell time, so time goes back with their state (scope {SCOPE_TIME | SCOPE_STATE} or "
+            f"{SCOPE_TIME | SCOPE_STATE | SCOPE_SPAWNED}, or 0)",
+        )
+    return Reset(
+        state=bool(scope & SCOPE_STATE), spawned=bool(scope & SCOPE_SPAWNED), time=bool(scope & SCOPE_TIME)
+    )

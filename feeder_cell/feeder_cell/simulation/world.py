@@ -8,6 +8,7 @@ and the spawned parts a STATE reset spawns again. Poses arrive as plain tuples (
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -84,14 +85,19 @@ class CellWorld:
         self.bodies: dict[str, list[Body]] = {}  # a fixture's assembly bodies, read once (read-only)
 
     # --- lifecycle: STOPPED and back, resets ---------------------------------------------------------
-    async def stop(self) -> None:
-        """Reset every device to its configured initial state and hold it inactive (STOPPED)."""
+    async def stop(self) -> str:
+        """Set the clock back to its start, reset every device there and hold it inactive (STOPPED).
+
+        Returns '' or why time was not reset (``rewind``).
+        """
         self.stopped_active = [fqn for fqn in self.link.devices if await self.link.lifecycle(fqn) == "active"]
+        why = await self.rewind()
         self.spawned.clear()
         for fqn in self.link.devices:
             if await self.link.reconfigure(fqn, activate=False):
                 await self._initial_states(self.link.devices[fqn])
         self.stopped = True
+        return why
 
     async def start(self) -> None:
         """Activate the devices ``stop`` held (leaving STOPPED)."""
@@ -99,8 +105,41 @@ class CellWorld:
             await self.link.transition(fqn, "activate")
         self.stopped_active, self.stopped = [], False
 
-    async def reset(self, reset: Reset) -> None:
-        """Reset device state (reconfigure, then spawn the spawned parts again) and/or spawned parts."""
+    async def rewind(self) -> str:
+        """Set the held cell clock back to its start; return '' or why it was not (nothing changed then).
+
+        First, with every device as it is: paused, no device ticks at the start, so the reconfiguration
+        that follows puts each at its configured initial state there, its tick grid starting there, as at
+        launch. This node's own clock follows (its /clock) before the states are stamped.
+        """
+        start_ns, why = await self.link.rewind()
+        if why:
+            return why
+        deadline = time.monotonic() + self.link.timeout_s
+        while self.now_ns() != start_ns:
+            if time.monotonic() > deadline:
+                raise SimulationError(
+                    OPERATION_FAILED, f"rewind: /clock did not read the start time {start_ns} ns here"
+                )
+            await self.link.sleep(0.01)
+        return ""
+
+    async def reset(self, reset: Reset) -> str:
+        """Reset time (``rewind``), device state (reconfigure, spawn the spawned parts again), spawned parts.
+
+        Returns '' or why time was not reset.
+        """
+        running = reset.time and not await self.link.paused()
+        if running:
+            await self.link.pause(True)  # the clock goes back only while held: after the present quantum
+        try:
+            return await self._reset(reset)
+        finally:
+            if running:
+                await self.link.pause(False)
+
+    async def _reset(self, reset: Reset) -> str:
+        why = await self.rewind() if reset.time else ""
         if reset.state:
             kept = [] if reset.spawned else list(self.spawned.values())
             self.spawned.clear()
@@ -121,6 +160,7 @@ class CellWorld:
                 self.link.devices[record.device].parts = [
                     p for p in self.link.devices[record.device].parts if p != record.name
                 ]
+        return why
 
     async def _initial_states(self, device: Device) -> None:
         """Take the configured initial state of the device's parts as their state until its next sample.

@@ -213,6 +213,7 @@ class Participant:
         self.pending = False  # announced, not yet answered
         self._announced = threading.Condition()
         self.drained_ns = -1  # the last T after which the spinning thread drained (``hold`` mode)
+        self.rewinds = 0  # times the clock was set back (``rewind``)
         self._joining: Timer | None = None
         self.hub: Hub | None = _HUB[0] if _HUB else None
         if self.hub is not None:
@@ -233,7 +234,7 @@ class Participant:
             self.node.destroy_timer(self._joining)
             self._joining = None
         now_ns = _nanoseconds(msg)
-        if now_ns <= self.answered_ns and not self.pending:
+        if now_ns == self.answered_ns and not self.pending:
             # Heard again (the clock re-announces a phase it still waits for): answer again. DDS matches
             # the two ends of a topic each on its own, so an answer sent before the clock's reader had
             # matched this writer was lost; the first one, at start-up, was a join that never came.
@@ -242,13 +243,39 @@ class Participant:
         self.arrive(now_ns)
 
     def arrive(self, now_ns: int) -> None:
-        """Take the announcement of ``now_ns`` (from DDS, or by a direct call from the hub)."""
+        """Take the announcement of ``now_ns`` (from DDS, or by a direct call from the hub).
+
+        A time earlier than the last announced is a rewind (the clock set back to its start: a
+        ResetSimulation of time): the node clock jumps back with it and the participant starts again there.
+        """
         clock = self.node.get_clock()
-        if isinstance(clock, ROSClock) and clock.ros_time_is_active and now_ns > clock.now().nanoseconds:
+        rewound = 0 <= now_ns < self.announced_ns
+        if (
+            isinstance(clock, ROSClock)
+            and clock.ros_time_is_active
+            and (now_ns > clock.now().nanoseconds or rewound)
+        ):
             # What rclpy's time source does with a /clock message (jump callbacks included): the node
             # clock reads T before the phase's work, whenever the coarse /clock last came.
             clock.set_ros_time_override(Time(nanoseconds=now_ns, clock_type=ClockType.ROS_TIME))
+        if rewound:
+            self.rewind(now_ns)
         self.announce(now_ns)
+
+    def rewind(self, now_ns: int) -> None:
+        """Forget every time after ``now_ns``: the next announcement of ``now_ns`` is new work.
+
+        The clock sets cell time back only while every participant has answered its present quantum, so
+        nothing is pending. A holding participant's thread must notice the rewind itself (``rewinds``):
+        ``wait_announcement`` waits for a time after the one it names.
+        """
+        self.announced_ns = now_ns - 1  # not -1: what runs at the first announcement ran once already
+        self.answered_ns = -1
+        self.pending = False
+        with self._announced:
+            self.drained_ns = -1
+            self.rewinds += 1
+            self._announced.notify_all()
 
     def announce(self, now_ns: int) -> None:
         """Take in the announcement of ``now_ns``: do the role's work now, answer after the next drain."""
