@@ -1,9 +1,11 @@
 """The ROS-free cell loop: the cell scene's devices, goal machines and controller machine on one clock.
 
-One process, no rclpy, no DDS: the same models (``feeder_sim.throwing``, ``feeder_sim.mems``,
-``feeder_sim.fixture``), the same goal machines (``FeedGoal``, ``ProgramGoal``, ``PathGoal``) and the same
-controller machine (``CellMachine`` with its two tables) as the ROS cell, driven the way the cell clock's
-lockstep drives them (docs/cell.md, docs/devices.md "Who drives the tick"):
+One process, no rclpy, no DDS: the same stations as the device nodes (``feeder_sim.<device>.station``:
+each device's tick, goal machine and faults, run here by ``drivers.py`` under the kit's rules of
+``kit.py``) and the same controller machine (``CellMachine`` with its two tables) as the ROS cell, driven
+the way the cell clock's lockstep drives them (docs/cell.md, docs/devices.md "The station" and "Who
+drives the tick"). This module is the clock and the machine's run; the work of each state is
+``work.py``, the scene's checks ``cell_scene.py``, what it returns ``results.py``:
 
 - cell time advances by the quantum (0.1 s); in each quantum every device ticks every instant of its
   rate's grid (arm 100 Hz, array and fixture 20 Hz), each tick followed by its goal's decision;
