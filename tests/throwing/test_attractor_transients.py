@@ -85,7 +85,7 @@ def test_the_closure_gap_leaves_out_the_holes_between_a_samples_intervals():
     # A periodic orbit's points: no closure to speak of, once a hole spans more than HOLE_GAPS mean gaps.
     assert closure_gap(np.repeat([0.1, 0.2], 20)) == 0.0
     assert closure_gap(np.repeat([0.1, 0.2], 2)) == pytest.approx(0.025)  # 4 states: the gap is no hole
-    assert closure_gap(np.array([0.1])) == 0.0
+    assert closure_gap(np.array([0.1])) == 0.0 and closure_gap(np.array([])) == 0.0
 
 
 def test_an_approach_between_the_attractors_bands_is_cut_where_it_leaves_the_hole():

@@ -431,9 +431,11 @@ def closure_gap(sample: np.ndarray, gaps: float = HOLE_GAPS) -> float:
     interval has none: the gaps of a rotation take at most three lengths, the largest the sum of the
     other two (the three-gap theorem), so its mean gap is span / states.
     """
+    if sample.size < 2:
+        return 0.0
     steps = np.diff(sample)
-    span = float(sample[-1] - sample[0]) if sample.size else 0.0
-    mean = span / max(sample.size, 1)
+    span = float(sample[-1] - sample[0])
+    mean = span / sample.size
     while True:
         filled = (span - float(steps[steps > gaps * mean].sum())) / sample.size
         if filled >= mean:
