@@ -41,7 +41,8 @@ class Harness:
         node.create_subscription(Clock, "/clock", self._on_clock, 10)
 
     def _on_clock(self, msg: Any) -> None:
-        self.clock_ns = max(self.clock_ns, int(msg.clock.sec) * 1_000_000_000 + int(msg.clock.nanosec))
+        # The latest, not the largest: a reset of time (STOPPED too) sets the clock back.
+        self.clock_ns = int(msg.clock.sec) * 1_000_000_000 + int(msg.clock.nanosec)
 
     def call(self, srv: Any, name: str, **fields: Any) -> Any:
         request = srv.Request(**fields)
@@ -123,11 +124,11 @@ def test_features_list_what_works_and_the_state_machine_answers_the_standards_co
     assert set(features.features) == {
         F.SPAWNING, F.DELETING, F.ENTITY_CATEGORIES, F.SPAWNING_RESOURCE_STRING, F.ENTITY_STATE_GETTING,
         F.ENTITY_STATE_SETTING, F.ENTITY_INFO_GETTING, F.SPAWNABLES, F.SIMULATION_RESET,
-        F.SIMULATION_RESET_STATE, F.SIMULATION_RESET_SPAWNED, F.SIMULATION_STATE_GETTING,
-        F.SIMULATION_STATE_SETTING, F.SIMULATION_STATE_PAUSE, F.STEP_SIMULATION_SINGLE,
-        F.STEP_SIMULATION_MULTIPLE, F.STEP_SIMULATION_ACTION,
+        F.SIMULATION_RESET_TIME, F.SIMULATION_RESET_STATE, F.SIMULATION_RESET_SPAWNED,
+        F.SIMULATION_STATE_GETTING, F.SIMULATION_STATE_SETTING, F.SIMULATION_STATE_PAUSE,
+        F.STEP_SIMULATION_SINGLE, F.STEP_SIMULATION_MULTIPLE, F.STEP_SIMULATION_ACTION,
     }  # fmt: skip
-    assert F.SIMULATION_RESET_TIME not in features.features and features.spawn_formats == ["feeder_part_yaml"]
+    assert features.spawn_formats == ["feeder_part_yaml"]
     assert harness.ok(GetSimulationState, "get_simulation_state").state.state == SimulationState.STATE_PLAYING
     paused = SimulationState(state=SimulationState.STATE_PAUSED)
     harness.ok(SetSimulationState, "set_simulation_state", state=paused)
@@ -293,7 +294,9 @@ def test_hostile_requests_answer_the_standards_codes_and_the_node_serves_on(harn
     assert harness.call(GetSimulatorFeatures, "get_simulator_features").features.features  # still serving
 
 
-def test_reset_state_and_spawned_is_deterministic_and_time_is_unsupported(harness: Harness) -> None:
+def test_reset_state_and_spawned_is_deterministic_and_time_goes_back_only_with_state(
+    harness: Harness,
+) -> None:
     from simulation_interfaces.srv import DeleteEntity, ResetSimulation, SpawnEntity, StepSimulation
 
     time_only = ResetSimulation.Request.SCOPE_TIME

@@ -15,8 +15,9 @@ so every device simulates, times and stamps on this one timeline. Two modes:
 Both serve ``~/pause``, ``~/resume`` (std_srvs/Trigger), ``~/step`` (feeder_msgs/StepClock) and
 ``~/is_paused`` (feeder_msgs/IsPaused): a test can hold the whole cell still and advance it by exact
 amounts (in lockstep a step is whole quanta, answered once the cell has reached it; the simulation node
-``cell_simulation`` drives the cell through these same services). The clock itself runs on the wall
-(steady) clock.
+``cell_simulation`` drives the cell through these same services), and ``~/rewind`` (std_srvs/Trigger):
+a paused clock back to its start time, which only tick participants (devices) follow (a ResetSimulation
+of time). The clock itself runs on the wall (steady) clock.
 """
 
 from __future__ import annotations
