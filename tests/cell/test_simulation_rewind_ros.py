@@ -9,7 +9,8 @@ fresh launch's come from its recording. The devices scene, launched at ``max`` f
   the samples a fresh launch published in its first N quanta after its devices were brought up (relative
   stamps and values, bit for bit); a second reset gives the same run again;
 - recording (``feeder launch --record``): the recorder is a lockstep participant that does not follow a
-  rewind, so the reset is done without time, the answer says so naming it, and the bag holds one timeline.
+  rewind, so the reset is done without time, the answer says so naming it, and the bag holds one timeline;
+  likewise the cell scene's controller, hosted (``--host-controller``), while it cycles.
 """
 
 from __future__ import annotations
@@ -38,10 +39,10 @@ ARRAY_STATES = "/cell/mems_field_array/part_states"
 
 
 @contextlib.contextmanager
-def launched(tmp_path: Path, *extra: str) -> Iterator[subprocess.Popen[str]]:
-    """The devices scene at max from START_NS, ended by SIGINT to its pid."""
+def launched(tmp_path: Path, *extra: str, scene: Path = SCENE) -> Iterator[subprocess.Popen[str]]:
+    """A scene (the devices scene) at max from START_NS, ended by SIGINT to its pid."""
     process = subprocess.Popen(
-        [sys.executable, "-m", "feeder_cell.cli.main", "launch", str(SCENE), "--real-time-factor", "max"]
+        [sys.executable, "-m", "feeder_cell.cli.main", "launch", str(scene), "--real-time-factor", "max"]
         + ["--start-time", str(START_NS // NANOSECONDS), "--log-dir", str(tmp_path / "logs"), *extra],
         env=dict(os.environ),
         stdout=subprocess.PIPE,
@@ -255,3 +256,26 @@ def test_a_recording_launch_resets_without_time_and_says_why(fresh: dict[str, An
     assert after >= before > START_NS, f"/clock went from {before} to {after} ns"
     stamps = [stamp for stamp, _ in fresh["samples"]]
     assert stamps == sorted(stamps), "the bag's array samples go back in time"
+
+
+def test_a_reset_beside_a_hosted_controller_keeps_time_and_names_it(ros_client: Any, tmp_path: Path) -> None:
+    """The cell scene, its controller in the cell host (--host-controller) and cycling: it does not follow."""
+    from simulation_interfaces.msg import SimulationState
+    from simulation_interfaces.srv import ResetSimulation, SetSimulationState
+
+    cell = ROOT / "feeder_cell" / "scenes" / "cell.yaml"
+    harness = Harness(ros_client)
+    try:
+        with launched(
+            tmp_path, "--host-controller", "--set", "cell_controller.cycles=1000", scene=cell
+        ) as process:
+            harness.wait_loaded(process)
+            paused = SimulationState(state=SimulationState.STATE_PAUSED)
+            harness.ok(SetSimulationState, "set_simulation_state", state=paused)
+            held = harness.settled_clock()
+            answer = harness.ok(ResetSimulation, "reset_simulation").result.error_message
+            after = harness.settled_clock()
+    finally:
+        harness.close()
+    assert "cell time was not reset" in answer and "/cell/cell_controller (react)" in answer, answer
+    assert after == held > START_NS, f"/clock {held} then {after} ns"
