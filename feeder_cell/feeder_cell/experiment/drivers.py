@@ -56,8 +56,8 @@ class ArmDriver(StationDriver):
 
     def tick(self, now_ns: int) -> None:
         """Tick the station at ``now_ns`` (the node's tick without the streams)."""
-        feed = self.goal if self.goal is not None and not self.goal.done else None
-        self.station.tick(now_ns, self.elapsed_ns(now_ns), feed, self.ready())
+        # An ended goal takes nothing a tick tells (FeedGoal): no need to ask whether it ended.
+        self.station.tick(now_ns, self.elapsed_ns(now_ns), self.goal, self.ready())
 
     # ArmEvents: nothing to publish; a lost part is held as the kit's raise_model_fault holds it.
     def landed(self, now_ns: int, outcome: ThrowOutcome) -> None:

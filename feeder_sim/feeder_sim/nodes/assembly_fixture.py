@@ -131,11 +131,10 @@ class AssemblyFixtureNode(ManagedDevice[FixtureParameters]):
         """
         if self.station is None:
             return
-        self.station.p = p
-        if name not in ("max_rate_x", "max_rate_y"):
-            return
-        limits = retimed_limits(self.limits, name, p)
-        self.limits = self.station.limits = self.station.table.limits = limits
+        if name in ("max_rate_x", "max_rate_y"):
+            limits = retimed_limits(self.limits, name, p)
+            self.limits = self.station.limits = self.station.table.limits = limits
+        self.station.p = p  # set once the change was accepted
 
     def busy(self) -> bool:
         """Whether a move is in progress or a ~/follow_path goal executes."""

@@ -126,7 +126,6 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
         """Apply damping, friction or max_steps_per_tick to the running scene (the others are read-only)."""
         if self.scene is None or self.station is None:
             return
-        self.station.p = p
         try:
             if name == "damping":
                 self.scene.set_damping(float(p.damping))
@@ -134,7 +133,7 @@ class MemsFieldArrayNode(ManagedDevice[MemsParameters]):
                 self.scene.set_friction(float(p.friction))
         except InputError as error:
             raise InputError(f"parameter {name}", error.problem) from None
-        # max_steps_per_tick is read from the station's p at every tick
+        self.station.p = p  # max_steps_per_tick is read from it at every tick
 
     def busy(self) -> bool:
         """Whether a ~/run_program goal executes, a program is before its last step or a part moves."""

@@ -127,13 +127,14 @@ class ThrowingArmNode(ManagedDevice[ArmParameters]):
 
     def apply_parameter(self, name: str, p: ArmParameters) -> None:
         """Apply a runtime parameter to the running arm (the read-only ones never get here)."""
-        self.model_station().p = p
         if name == "release_speed":
             self.model_cycle().arm.set_release_speed(float(p.release_speed))
         elif name == "dynamic_step":
             self.model_cycle().arm.dynamic_step = float(p.dynamic_step)
         # period, motion_fraction, sensor_radius and sensing_height are read from the station's p at each
-        # tick.
+        # tick; set once the change was accepted (a refused one leaves the station as the node's p).
+        if self.station is not None:
+            self.station.p = p
 
     def stop_device(self) -> None:
         """Cancel the queue and the running cycle; a throw being shown lands at once (it was thrown).

@@ -75,7 +75,7 @@ class ArmStation(Generic[Event]):
     """
 
     def __init__(self, p: ArmParameters, events: ArmEvents[Event]) -> None:
-        self.p = p
+        self.p = p  # the durations below follow it
         self.events = events
         self.arm: ThrowingArm = configure_arm(p)
         self.cycle = ThrowCycle(self.arm, ArmFaults(self.arm))
@@ -86,24 +86,37 @@ class ArmStation(Generic[Event]):
         self.throws = 0
         self._rest: tuple[ArmPart | None, tuple[object, ...], bool] | None = None
 
+    @property
+    def p(self) -> ArmParameters:
+        """The device's parameters."""
+        return self._p
+
+    @p.setter
+    def p(self, p: ArmParameters) -> None:
+        # The tick's durations in ns, converted once per change (a tick at 100 Hz is the loop's hot path).
+        self._p = p
+        self._cap_ns = ns(MAX_TICK_PERIODS / p.sensor_rate)
+        self._window_ns = ns(p.period * p.motion_fraction)
+        self._period_ns = ns(p.period)
+
     # --- one tick ----------------------------------------------------------------------------------
     def tick(self, now_ns: int, elapsed_ns: int, feed: FeedGoal[Event] | None, ready: bool) -> ArmTick:
         """Advance the model by ``elapsed_ns`` (capped), land or throw, read the sensor (module doc).
 
         ``feed`` is the executing feed goal (None: none); ``ready`` whether the device may throw.
         """
-        cycle, p = self.cycle, self.p
-        self.simulated += min(elapsed_ns, ns(MAX_TICK_PERIODS / p.sensor_rate))
+        cycle = self.cycle
+        self.simulated += min(elapsed_ns, self._cap_ns)
         t = self.simulated
         in_flight = cycle.motion is not None
-        shown = cycle.show(t, ns(p.period * p.motion_fraction))
+        shown = cycle.show(t, self._window_ns)
         if shown.landed is not None:
             event = self.events.landed(now_ns, shown.landed)
             if feed is not None:
                 feed.landed(now_ns, *self.arm.ground_truth(), event)
         elif not in_flight:
             wants = feed is not None and feed.wants_throw(now_ns)
-            if cycle.throw_due(t, ns(p.period), wants, ready):
+            if cycle.throw_due(t, self._period_ns, wants, ready):
                 self._throw(now_ns, t, feed)
         pose = None if cycle.motion is None else shown.pose
         delivered = cycle.faults.sensor(self.reading(pose))
