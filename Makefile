@@ -9,7 +9,7 @@ help:
 	@echo "make demo   set up (if needed), then run the demo: doctor, the three devices, a recorded bag"
 	@echo "make test   set up (if needed), then run the whole test suite"
 	@echo "make bench  set up (if needed), then run the benchmarks (table on stdout, plots in bench/results)"
-	@echo "make stress Ctrl-C at 20 random moments of each long command's and own-main node's life, under load; 20 launches joining the lockstep"
+	@echo "make stress Ctrl-C at 20 random moments of each long command's and own-main node's life, under load; 20 launches joining the lockstep; 10 PLC-scene starts"
 	@echo "make gate   only the lint and type gate (ruff, mypy), which make test runs first"
 	@echo "make setup  only the idempotent setup (.venv, pinned ROS 2 Jazzy wheels, colcon build)"
 	@echo "make shell  a bash shell inside the environment (same as 'source env.sh')"
