@@ -92,12 +92,11 @@ class ArmDriver(StationDriver):
 
     def place(self, edge: int, radius: float) -> None:
         """~/place_part: accepted when ready or in FAULT from a part lost only (arm_parts.py)."""
-        others = [f for f in self.faults.values() if f.spec.stops_device and f.spec.name != "part_lost"]
         fault = self.stopping_fault()
-        lost_only = fault is not None and fault[0] == FAULT_PART_LOST and not others
+        lost_only = ArmStation.lost_only(fault, self.faults, FAULT_PART_LOST)
         if not (lost_only and not self.stopped) and not self.ready():
             raise FeederError(f"place_part refused: {self.name} is in FAULT: {fault[1] if fault else ''}")
-        self.cycle.place(edge, radius, self.p.arm_length)
+        self.station.place(edge, radius)
         self.faults.pop("part_lost", None)
         self.model_fault = None
 

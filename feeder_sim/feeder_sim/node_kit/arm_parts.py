@@ -20,6 +20,7 @@ from feeder_sim.throwing.cycle import Pose, ThrowCycle
 from feeder_sim.throwing.feeding import FeedGoal
 from feeder_sim.throwing.loading import HeldPart, load_arm_part
 from feeder_sim.throwing.parameters import ArmParameters
+from feeder_sim.throwing.station import ArmStation
 
 __all__ = ["ArmPartServices", "PartsArm"]
 
@@ -51,6 +52,10 @@ class PartsArm(Protocol):
 
     def model_cycle(self) -> ThrowCycle:
         """Return the throw cycle (DeviceError when unconfigured)."""
+        ...
+
+    def model_station(self) -> ArmStation[ThrowEvent]:
+        """Return the station (DeviceError when unconfigured)."""
         ...
 
     def stopping_fault(self) -> tuple[int, str] | None:
@@ -86,7 +91,7 @@ class ArmPartServices:
         """Put the part at rest at (edge, R), ending any throw being shown; this ends FAULT_PART_LOST."""
         node = self.node
         self._require_place_ready("place_part")
-        node.model_cycle().place(request.edge, request.radius, node.p.arm_length)
+        node.model_station().place(request.edge, request.radius)
         self._part_back()
         node.publish_status()
         return response
@@ -126,9 +131,7 @@ class ArmPartServices:
     def _require_place_ready(self, what: str) -> None:
         """Accept when ready, or in FAULT when every cause is a part lost (placing ends it); no feed goal."""
         node = self.node
-        fault = node.stopping_fault()
-        others = [f for f in node.faults.values() if f.spec.stops_device and f.spec.name != "part_lost"]
-        lost_only = fault is not None and fault[0] == DeviceStatus.FAULT_PART_LOST and not others
+        lost_only = ArmStation.lost_only(node.stopping_fault(), node.faults, DeviceStatus.FAULT_PART_LOST)
         if not (lost_only and node.active and not node.stopped):
             node.require_ready(what)
         if node.feed is not None:

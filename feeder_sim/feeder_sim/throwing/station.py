@@ -21,7 +21,7 @@ The driver then closes the tick with the goal's decision (``advance_goal``).
 
 from __future__ import annotations
 
-from typing import Generic, NamedTuple, Protocol, TypeVar
+from typing import Generic, Mapping, NamedTuple, Protocol, TypeVar
 
 from feeder_device.declarations import ActiveFault
 from feeder_planner.throwing import ArmPart
@@ -184,6 +184,19 @@ class ArmStation(Generic[Event]):
             cycle.cancel_commands()
         if fault.spec.name == "part_lost":
             cycle.motion = None
+
+    def place(self, edge: int, radius: float) -> None:
+        """Put the part at rest at (edge, R), ending any throw being shown (``~/place_part``)."""
+        self.cycle.place(edge, radius, self.p.arm_length)
+
+    @staticmethod
+    def lost_only(fault: tuple[int, str] | None, faults: Mapping[str, ActiveFault], lost_code: int) -> bool:
+        """Return whether the device is in FAULT only because its part is lost (placing a part ends it).
+
+        ``fault`` is the stopping fault, ``faults`` the injected ones, ``lost_code`` FAULT_PART_LOST.
+        """
+        others = any(f.spec.stops_device and f.spec.name != "part_lost" for f in faults.values())
+        return fault is not None and fault[0] == lost_code and not others
 
     def lost_part_text(self) -> str | None:
         """Return why the arm cannot throw until a part is placed again (a part lost), else None."""
