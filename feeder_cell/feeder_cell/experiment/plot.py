@@ -13,15 +13,10 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from feeder_cell.experiment.experiment import (
-    Experiment,
-    LevelReport,
-    Results,
-    _ok_rows,
-    _throughput,
-    interval,
-)
-from feeder_cell.experiment.loop import DEVICE_STATES
+from feeder_cell.experiment.design import Experiment
+from feeder_cell.experiment.report import LevelReport, _ok_rows, _throughput, interval
+from feeder_cell.experiment.results import DEVICE_STATES
+from feeder_cell.experiment.table import Results
 from feeder_cell.plots.common import new_figure
 
 __all__ = ["experiment_figure", "main_effects"]
