@@ -24,6 +24,13 @@ A failed step goes to the fault policy: RETRY the step, RESET_RETRY (``RECOVER``
 for the arm and the squeeze gripper also a fresh part, then the step again), or STOP the cell and report.
 Retries are bounded per step and cycle (``max_retries``); an outcome the table does not name stops the
 cell.
+
+The controller's ``policy`` says what work may overlap (``AHEAD``). ``sequential`` (the default) runs the
+states one after another, as above. ``pipelined`` starts the next cycle's ORIENT in the background as soon
+as INFEED has put the current part on the arm: the array orients the next part while the arm feeds and the
+fixture tilts; the next cycle's ORIENT then takes that work's outcome (at once if it has ended) instead of
+starting it, and the tables above apply to it unchanged (a TIMEOUT retries in the foreground). The ROS-free
+cell loop runs ``pipelined``; the ROS reference controller refuses it, so far.
 """
 
 from __future__ import annotations
@@ -45,10 +52,13 @@ __all__ = [
     "FAULT_POLICY",
     "DEVICE_OF",
     "ORIENTERS",
+    "POLICIES",
+    "AHEAD",
     "ANY_CODE",
     "policy_for",
     "transition_table",
     "policy_table",
+    "ahead_table",
 ]
 
 
@@ -152,6 +162,17 @@ DEVICE_OF: dict[State, str] = {
 # The orienting stations ORIENT may command (the controller's ``orienter``): the device RECOVER resets.
 ORIENTERS = ("mems", "squeeze")
 
+# The controller's policies: which work of the next cycle starts ahead, in the background.
+POLICIES = ("sequential", "pipelined")
+
+# Per policy: (state, event) of a success -> the next cycle's state whose work starts now, in the
+# background; the machine reaching that state in the next cycle takes the background work's outcome.
+AHEAD: dict[str, dict[tuple[State, str], State]] = {
+    "sequential": {},
+    # The part is on the arm, the array is free: it orients the next part while the arm feeds this one.
+    "pipelined": {(State.INFEED, DONE): State.ORIENT},
+}
+
 # The first state of every cycle.
 CYCLE_START = State.ORIENT
 # Work states of one cycle, in order (for the status message and the docs).
@@ -182,6 +203,7 @@ class Transition:
     policy: Policy | None
     target: State
     note: str = ""
+    ahead: State | None = None  # the next cycle's state whose work starts now in the background (AHEAD)
 
 
 @dataclass
@@ -232,11 +254,14 @@ class CellMachine:
         Times one step may be performed again within a cycle (RETRY or RESET_RETRY) before the cell stops.
     orienter
         The orienting station ORIENT commands, one of ``ORIENTERS``: the device RECOVER resets after it.
+    policy
+        One of ``POLICIES``: which work of the next cycle starts ahead (``AHEAD``).
     """
 
     cycles: int = 1
     max_retries: int = 2
     orienter: str = "mems"
+    policy: str = "sequential"
     state: State = State.BRING_UP
     metrics: CellMetrics = field(default_factory=CellMetrics)
     stop_reason: str = ""
@@ -258,6 +283,8 @@ class CellMachine:
             raise InputError("max_retries", f"must be an integer >= 0, got {self.max_retries!r}")
         if self.orienter not in ORIENTERS:
             raise InputError("orienter", f"must be one of {', '.join(ORIENTERS)}, got {self.orienter!r}")
+        if self.policy not in POLICIES:
+            raise InputError("policy", f"must be one of {', '.join(POLICIES)}, got {self.policy!r}")
 
     @property
     def finished(self) -> bool:
@@ -293,11 +320,18 @@ class CellMachine:
             return self._end_cycle(outcome, now)
         if source is State.BRING_UP:
             self._start_cycle(now)
-        return self._go(outcome, None, target, note)
+        return self._go(outcome, None, target, note, self._ahead(source, outcome))
 
     # --- internals ------------------------------------------------------------------------------
-    def _go(self, outcome: Outcome, policy: Policy | None, target: State, note: str = "") -> Transition:
-        transition = Transition(self.state, outcome, policy, target, note)
+    def _go(
+        self,
+        outcome: Outcome,
+        policy: Policy | None,
+        target: State,
+        note: str = "",
+        ahead: State | None = None,
+    ) -> Transition:
+        transition = Transition(self.state, outcome, policy, target, note, ahead)
         if target is State.STOPPED:
             self.stop_reason = note or outcome.label()
         self.state = target
@@ -315,6 +349,13 @@ class CellMachine:
             self.metrics.reroutes += 1
             return "interlock refused the route: asking the planner for a safe path"
         return ""
+
+    def _ahead(self, source: State, outcome: Outcome) -> State | None:
+        """Return the next cycle's state whose work starts now (``AHEAD``), if there is a next cycle."""
+        ahead = AHEAD[self.policy].get((source, outcome.event))
+        if ahead is None or (self.cycles and self.cycle >= self.cycles):
+            return None
+        return ahead
 
     def _start_cycle(self, now: float) -> None:
         self.cycle += 1
@@ -379,4 +420,11 @@ def policy_table() -> list[tuple[str, str, str, str]]:
     return [
         (s.value, event, "any" if code == ANY_CODE else str(code), p.value)
         for (s, event, code), p in FAULT_POLICY.items()
+    ]
+
+
+def ahead_table() -> list[tuple[str, str, str, str]]:
+    """Return the work started ahead as (policy, state, outcome, next cycle's state) rows."""
+    return [
+        (policy, s.value, event, t.value) for policy, rows in AHEAD.items() for (s, event), t in rows.items()
     ]

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 
-from feeder_cell.controller.machine import ORIENTERS
+from feeder_cell.controller.machine import ORIENTERS, POLICIES
 from feeder_planner.parameter_specs import (
     ParameterSpec,
     finite,
@@ -57,6 +57,14 @@ PARAMETERS = (
         "mems",
         "the orienting station ORIENT commands: mems (the MEMS array) or squeeze (the squeeze gripper)",
         one_of(ORIENTERS),
+        True,
+    ),
+    ParameterSpec(
+        "policy",
+        "sequential",
+        "sequential (one station after another) or pipelined (the array orients the next part while the arm "
+        "feeds; the ROS-free cell loop only, so far)",
+        one_of(POLICIES),
         True,
     ),
     ParameterSpec("cycles", 1, "production cycles to run (0: until stopped)", integer_at_least(0), True),

@@ -117,7 +117,9 @@ class CellLoop(CellWork):
         )
         self.by_key: dict[str, StationDriver] = {"mems": self.mems, "arm": self.arm, "fixture": self.fixture}
         self.by_name: dict[str, StationDriver] = {d.name: d for d in self.by_key.values()}
-        self.machine = CellMachine(cycles=int(self.c["cycles"]), max_retries=int(self.c["max_retries"]))
+        self.machine = CellMachine(
+            cycles=int(self.c["cycles"]), max_retries=int(self.c["max_retries"]), policy=str(self.c["policy"])
+        )
         self.program = self._program()
         self.arrivals = arrivals
         self.seed, self.replication = seed, replication
@@ -136,6 +138,9 @@ class CellLoop(CellWork):
         self.cycle_throws = 0
         self.cycle_presented = 0
         self.cycle_rejected = 0
+        self.ahead_started = False
+        self.ahead_outcome: Outcome | None = None
+        self.batches: list[int] = []
         self.cycles: list[CycleRecord] = []
         self.transitions: list[tuple[float, str, str, str]] = []
         self._seen_at_cycle_start = (0, 0)
@@ -165,6 +170,7 @@ class CellLoop(CellWork):
             self.device_quanta[each.name][state] += 1
             down = down or state == "FAULT"
         self.down_quanta += down
+        self.see_ahead()
         self._inject_due()
 
     def _wait(self, done: Callable[[], bool], timeout: float) -> bool:
@@ -220,6 +226,8 @@ class CellLoop(CellWork):
             outcome = work[state]()
             transition = self.machine.advance(outcome, self.t())
             self.transitions.append((self.t(), state.value, outcome.label(), transition.target.value))
+            if transition.ahead is State.ORIENT and not self.ahead_started:
+                self.orient_ahead()
             if state is State.BRING_UP:
                 self.first_start = self.t()
             if state in (State.RETURN, State.RETURN_SAFE) and transition.policy is None:

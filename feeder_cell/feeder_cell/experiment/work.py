@@ -43,6 +43,9 @@ class CellWork:
     cycle_throws: int
     cycle_presented: int
     cycle_rejected: int
+    ahead_started: bool  # an ORIENT started ahead (policy pipelined) whose outcome ORIENT has not taken
+    ahead_outcome: Outcome | None  # its outcome, once its goal has ended (or it was refused)
+    batches: list[int]  # the cycles whose batch was placed on the array, in order
 
     def t(self) -> float:
         """Cell time now (s)."""
@@ -57,14 +60,51 @@ class CellWork:
         return [(float(flat[i]), float(flat[i + 1]), float(flat[i + 2])) for i in range(0, len(flat), 3)]
 
     def orient(self) -> Outcome:
-        """Place a new batch (drawn poses with arrivals) and run the program until every part settled."""
+        """Place a new batch (drawn poses with arrivals) and run the program until every part settled.
+
+        Under ``policy: pipelined`` the cycle's ORIENT may have started ahead (``orient_ahead``) during the
+        last cycle: then it takes that goal's outcome, waiting for it if it has not ended.
+        """
+        if self.ahead_started:
+            bound = float(self.c["orient_timeout"]) + float(self.c["step_timeout"])
+            seen = self._wait(lambda: self.ahead_outcome is not None, bound)
+            self.ahead_started = False
+            if not seen:
+                return Outcome("NO_ANSWER", 0, "run_program: no result within the step's bound")
+            outcome, self.ahead_outcome = self.ahead_outcome, None
+            assert outcome is not None
+            return outcome
+        refused = self._send_orient(self.machine.cycle, self.machine.attempts == 0)
+        if refused is not None:
+            return refused
+        mems = self.mems
+        bound = float(self.c["orient_timeout"]) + float(self.c["step_timeout"])
+        if not self._wait(lambda: mems.goal is not None and mems.goal.done, bound):
+            return Outcome("NO_ANSWER", 0, "run_program: no result within the step's bound")
+        return self._orient_outcome()
+
+    def orient_ahead(self) -> None:
+        """Start the next cycle's ORIENT in the background (``AHEAD``); its outcome waits for that ORIENT."""
+        self.ahead_started = True
+        self.ahead_outcome = self._send_orient(self.machine.cycle + 1, True)
+
+    def see_ahead(self) -> None:
+        """At a react time: take the outcome of an ORIENT started ahead once its goal has ended."""
+        goal = self.mems.goal
+        if self.ahead_started and self.ahead_outcome is None and goal is not None and goal.done:
+            self.ahead_outcome = self._orient_outcome()
+
+    def _send_orient(self, cycle: int, new: bool) -> Outcome | None:
+        """Place ``cycle``'s batch when ``new`` and send the program; the refusal's outcome, or None."""
         mems = self.mems
         try:
-            if self.c["new_batch"] and self.machine.attempts == 0:
+            if self.c["new_batch"] and new:
                 mems.place_reset()
             arrivals = self.arrivals
-            if arrivals is not None and arrivals.arrivals.mems is not None and self.machine.attempts == 0:
-                mems.place(arrivals.mems(self.machine.cycle, len(mems.parts.names)))
+            if arrivals is not None and arrivals.arrivals.mems is not None and new:
+                mems.place(arrivals.mems(cycle, len(mems.parts.names)))
+            if new:
+                self.batches.append(cycle)
             if not mems.ready():
                 raise FeederError("run_program goal refused: the array is not ready")
             mems.send_program(
@@ -75,9 +115,10 @@ class CellWork:
             )
         except FeederError as error:
             return self._refusal(mems, str(error))
-        bound = float(self.c["orient_timeout"]) + float(self.c["step_timeout"])
-        if not self._wait(lambda: mems.goal is not None and mems.goal.done, bound):
-            return Outcome("NO_ANSWER", 0, "run_program: no result within the step's bound")
+        return None
+
+    def _orient_outcome(self) -> Outcome:
+        mems = self.mems
         assert mems.goal is not None and mems.goal.outcome is not None
         outcome = mems.goal.outcome
         mems.goal = None

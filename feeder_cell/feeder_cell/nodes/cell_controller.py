@@ -105,6 +105,8 @@ class CellController(Node):
         super().__init__(NODE_NAME)
         self.stop_request = stop
         self.p = declare_parameters(self, PARAMETERS)
+        if self.p["policy"] != "sequential":
+            raise InputError("parameter policy", f"{self.p['policy']} runs in the ROS-free loop only, so far")
         for name in ("fixture_route", "fixture_home"):
             self.p[name] = [float(v) for v in self.p[name]]
         # The orienting station ORIENT commands: the MEMS array ("mems") or the squeeze gripper ("squeeze").
