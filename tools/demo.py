@@ -102,9 +102,9 @@ REAL_TIME_FACTOR = "max"
 SCENE_MAX_SECONDS = "600"
 
 
-# The last step: a small production experiment on the ROS-free cell loop (docs/experiments.md): throwing
-# every 0.4 s against every 0.5 s, with random arrivals and parts lost now and then, 4 replications each.
-EXPERIMENT = ROOT / "examples" / "experiments" / "arm_period.yaml"
+# The last step: a small production experiment on the ROS-free cell loop (docs/experiments.md): sequential
+# against pipelined control, with random arrivals and parts lost now and then, 4 replications each.
+EXPERIMENT = ROOT / "examples" / "experiments" / "policy.yaml"
 
 
 def step(title: str, args: list[str]) -> bool:
@@ -187,9 +187,9 @@ def main() -> int:
     else:
         print(f"!! no bag at {bag.relative_to(ROOT)}", flush=True)
         ok = False
-    results = pictures / "arm_period"
+    results = pictures / "policy"
     ok &= step(
-        "A production experiment without ROS: parts per hour, throwing every 0.4 s against every 0.5 s",
+        "A production experiment without ROS: parts per hour, sequential against pipelined control",
         [
             "experiment",
             str(EXPERIMENT.relative_to(ROOT)),
