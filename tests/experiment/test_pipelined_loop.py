@@ -110,3 +110,16 @@ def test_a_bad_policy_names_the_field(tmp_path: Path) -> None:
         load_experiment(bad)
     assert "factors.cell_controller.policy[1]" in str(caught.value)
     assert "must be one of sequential, pipelined" in str(caught.value)
+
+
+def test_the_ros_replay_refuses_a_pipelined_scenario_before_launching(tmp_path: Path) -> None:
+    from feeder_cell.experiment.experiment import replay_scene
+
+    experiment = load_experiment(POLICY)
+    levels = [s.levels["cell_controller.policy"] for s in experiment.scenarios]
+    pipelined = levels.index("pipelined")
+    with pytest.raises(InputError) as caught:
+        replay_scene(experiment, pipelined, 0, tmp_path)
+    assert caught.value.field == "--scenario"
+    assert "pipelined runs in the ROS-free loop only, so far" in str(caught.value)
+    assert not any(tmp_path.iterdir())  # no scene written

@@ -281,9 +281,14 @@ def replay_scene(
     chosen = experiment.scenarios[scenario]
     scene = scene_of(experiment.document, experiment.scene)
     executables = {n.node_name: n.executable for n in scene.nodes}
+    overrides = _overrides(chosen.levels, executables)
+    controller = next(n.parameters for n in scene.nodes if n.executable == "cell_controller")
+    policy = {**controller, **overrides.get("cell_controller", {})}.get("policy", "sequential")
+    if policy != "sequential":
+        # The ROS reference controller refuses it at start: say so before a scene is launched.
+        raise InputError("--scenario", f"{chosen.label()}: {policy} runs in the ROS-free loop only, so far")
     arguments = task_arguments(experiment, chosen, replication)
     cycles = _run_loop(*arguments).cycles
-    overrides = _overrides(chosen.levels, executables)
     overrides.setdefault("cell_controller", {}).update(cycles=len(cycles), replication=replication)
     folder.mkdir(parents=True, exist_ok=True)
     path = scene_copy(experiment.scene, folder, overrides)
