@@ -56,6 +56,9 @@ KINDS = {
     "assembly_fixtures": ("assembly_fixture", "fixture_base"),
 }
 STREAM_QOS = 10
+# Wall seconds a request without effect waits before it is sent again (docs/cell.md, "A fresh client's
+# first request is never answered": 0.5-2 s).
+READ_RESEND_S = 1.0
 
 
 @dataclass
@@ -224,15 +227,31 @@ class CellLink:
         return device.placed.get(name) or device.states.get(name)
 
     # --- calls --------------------------------------------------------------------------------------
-    async def call(self, client: Any, request: Any, what: str, patient: bool = False) -> Any:
+    async def call(
+        self, client: Any, request: Any, what: str, patient: bool = False, read: bool = False
+    ) -> Any:
         """Call a service; raise OPERATION_FAILED naming it when it is not there or does not answer.
 
         ``patient``: wait as long as the server is still there (checked every ``timeout_s``), for a call
         that takes as long as the cell needs (a step of many quanta; the clock's own lockstep timeout drops
         a participant that stops answering, so the step ends).
+        ``read``: the request has no effect, so it is sent again every READ_RESEND_S while unanswered, up to
+        ``timeout_s``: a fresh client's first request can be answered into the void (docs/cell.md,
+        Troubleshooting; measured: GetSimulationState said LOADING_WORLD 30 s after the join in 2 of 20
+        launches with one process per node, a first is_paused or get_parameters to the clock unanswered).
         """
         if not client.service_is_ready():
             raise SimulationError(OPERATION_FAILED, f"{what}: the service {client.srv_name} is not available")
+        if read:
+            deadline = time.monotonic() + self.timeout_s
+            while time.monotonic() < deadline:
+                future = client.call_async(request)
+                if await self._within(future, READ_RESEND_S):
+                    return future.result()
+                client.remove_pending_request(future)
+            raise SimulationError(
+                OPERATION_FAILED, f"{what}: {client.srv_name} did not answer within {self.timeout_s:g} s"
+            )
         future = client.call_async(request)
         while not future.done():
             if not await self._within(future, self.timeout_s) and not (patient and client.service_is_ready()):
@@ -254,7 +273,9 @@ class CellLink:
             if not self.clock_parameters.service_is_ready():
                 return True
             request = GetParameters.Request(names=["lockstep"])
-            response = await self.call(self.clock_parameters, request, "cell clock parameter lockstep")
+            response = await self.call(
+                self.clock_parameters, request, "cell clock parameter lockstep", read=True
+            )
             self.lockstep = bool(response.values[0].bool_value) if response.values else True
         return self.lockstep
 
@@ -282,7 +303,7 @@ class CellLink:
 
     async def paused(self) -> bool:
         """Whether the cell clock is held."""
-        return bool((await self.call(self.paused_client, IsPaused.Request(), "is_paused")).paused)
+        return bool((await self.call(self.paused_client, IsPaused.Request(), "is_paused", read=True)).paused)
 
     async def pause(self, pause: bool) -> None:
         """Hold or run the cell clock."""
@@ -320,7 +341,9 @@ class CellLink:
     async def parameter(self, fqn: str, name: str) -> float | str:
         """Return a device's number or string parameter (the client is made at start: see call)."""
         request = GetParameters.Request(names=[name])
-        response = await self.call(self.clients[(fqn, "get_parameters")], request, f"{fqn} parameter {name}")
+        response = await self.call(
+            self.clients[(fqn, "get_parameters")], request, f"{fqn} parameter {name}", read=True
+        )
         value = response.values[0]
         if value.type == ParameterType.PARAMETER_DOUBLE:
             return float(value.double_value)
@@ -333,7 +356,9 @@ class CellLink:
     async def parameters(self, fqn: str, names: list[str]) -> dict[str, object]:
         """Return a device's parameters by name (those it does not declare are left out)."""
         request = GetParameters.Request(names=names)
-        response = await self.call(self.clients[(fqn, "get_parameters")], request, f"{fqn} parameters")
+        response = await self.call(
+            self.clients[(fqn, "get_parameters")], request, f"{fqn} parameters", read=True
+        )
         return {
             name: parameter_value_to_python(value)
             for name, value in zip(names, response.values, strict=False)
@@ -371,7 +396,9 @@ class CellLink:
 
     async def lifecycle(self, fqn: str) -> str:
         """Return the device's primary lifecycle state (unconfigured, inactive, active, ...)."""
-        response = await self.call(self.clients[(fqn, "get_state")], GetState.Request(), f"{fqn} get_state")
+        response = await self.call(
+            self.clients[(fqn, "get_state")], GetState.Request(), f"{fqn} get_state", read=True
+        )
         return str(response.current_state.label)
 
     async def transition(self, fqn: str, name: str) -> None:
