@@ -68,6 +68,27 @@ def test_a_pipelined_replication_conserves_parts_and_runs_one_goal_per_device(re
     assert overlaps and {state for _, state in overlaps} <= {"FEED", "TILT", "RETURN", "RECOVER", "TILT_SAFE"}
 
 
+@pytest.mark.parametrize(
+    ("device", "fault", "mtbf"),
+    [("mems_field_array", "power_loss", 40.0), ("throwing_arm", "part_lost", 15.0)],
+)
+def test_a_pipelined_cell_that_stops_leaves_every_batch_accounted_for(
+    device: str, fault: str, mtbf: float
+) -> None:
+    experiment = load_experiment(POLICY)
+    document = {**experiment.document}
+    document["faults"] = {device: {"fault": fault, "mtbf": mtbf, "mttr": 2.0, "distribution": "exponential"}}
+    loop = scene_loop(scene_of(document, experiment.scene), 0, {"cell_controller": {"policy": "pipelined"}})
+    result = loop.run(until=lambda cycles: len(cycles) >= 6)
+    assert result.end_state == "STOPPED", "the measured run stops on the fault (seed 11, replication 0)"
+    *complete, stopped = result.cycles
+    assert all(c.complete and c.presented + c.rejected == 1 for c in complete) and not stopped.complete
+    # Batches: one per recorded cycle, and the next one's when its ORIENT had started ahead.
+    in_process = len(loop.batches) - len(complete)
+    assert loop.batches == list(range(1, len(loop.batches) + 1))
+    assert in_process == 1 + int(loop.ahead_started)
+
+
 def test_sequential_never_overlaps_goals() -> None:
     loop = scene_loop(_random_scene(), 0)
     overlaps = _guarded(loop)
