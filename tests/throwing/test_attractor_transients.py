@@ -19,17 +19,19 @@ from feeder_planner.errors import SolverError
 from feeder_planner.parts import load_part, make_part
 from feeder_planner.throwing.attractors import (
     Rows,
+    arrival,
     closure_gap,
     confirms,
     hole_start,
     iterate_to_attractor,
     settled,
+    tail_start,
 )
 from feeder_planner.throwing.geometry import arm_part
 from feeder_planner.throwing.limit_set import edge_bounds, limit_set, single_design_rows
 from feeder_planner.throwing.sensor import reads
 from feeder_planner.throwing.throw_map import ThrowBatch, ThrowParams
-from feeder_planner.throwing.tolerances import HOLE_GAPS
+from feeder_planner.throwing.tolerances import HOLE_GAPS, TRIGGER_GAPS
 
 MM = 0.001
 
@@ -111,6 +113,25 @@ def test_an_approach_between_the_attractors_bands_is_cut_where_it_leaves_the_hol
     beyond = radius.copy()
     beyond[:12] = 0.12
     assert hole_start(edge, beyond, 0, first, reference) == 0
+
+
+def test_the_triggers_states_begin_where_the_run_arrives_and_keep_its_later_excursions():
+    # Issue 35, design 44.2's shape: edge 1's visits fill [0.100, 0.101]; a start approaches from 0.110
+    # down, arrives, and later makes a rare excursion 0.0015 below (46 mean gaps in the design): the
+    # approach is not read, the excursion is (a trigger read without it could reach beyond the truth).
+    rng = np.random.default_rng(2)
+    recent = 0.100 + 0.001 * rng.random(300)
+    reference = {1: np.sort(recent)}
+    approach = np.linspace(0.110, 0.1035, 8)
+    inside = 0.100 + 0.001 * rng.random(40)
+    stay = np.concatenate([approach, inside[:20], [0.0985], inside[20:], recent])
+    edge = np.ones(stay.size, dtype=int)
+    first = stay.size - recent.size
+    assert arrival(edge, stay, 0, first, reference) == approach.size
+    # tail_start at the same gaps takes the excursion for the approach: everything before it is cut.
+    assert tail_start(edge, stay, 0, first, reference, TRIGGER_GAPS) == approach.size + 21
+    # A run that never comes close within the stay keeps only what follows it.
+    assert arrival(edge, np.full(stay.size, 0.2), 0, first, reference) == first
 
 
 def test_a_start_that_never_confirms_is_unconverged_and_in_no_attractor():

@@ -459,9 +459,12 @@ def compare_ranges(
     Per attractor, its range on each edge against the union of its member starts' last halves, each end
     within ``range_tolerance``. Per goal edge every attractor visits, the trigger range limit_set reads
     (on its tails and the older states of their stays that may be visits, ``sensed_states``) against
-    the one read on the same starts' last halves (grouped as limit_set groups them), each end within
-    the largest tolerance of the attractors' edges (a trigger end is a range end moved by the part's
-    geometry); a trigger present on one side only counts when it is longer than that tolerance. Also
+    the long runs' free range it overlaps most (a sensor radius range that reads true in every goal visit of
+    the same starts' last halves, grouped as limit_set groups them, and never elsewhere: where two free
+    ranges are about as wide, each side may name another as the widest, and both keep the promise), each
+    end within the largest tolerance of the attractors' edges (a trigger end is a range end moved by the
+    part's geometry); a planner's trigger overlapping no free range of the long runs reaches beyond them.
+    A trigger present on one side only counts when it is longer than that tolerance. Also
     the number of triggers compared. ``ends``: two lists that get each range end's and each trigger end's
     distance from the long runs', in m and in mean gaps (its tolerance over RANGE_GAPS).
     """
@@ -503,7 +506,12 @@ def compare_ranges(
             ]
             for a in ls.attractors
         ]
-        truth = read_trigger(part, goal, height, halves).trigger
+        free = read_trigger(part, goal, height, halves).free
+        truth = max(free, key=lambda iv: iv[1] - iv[0]) if free else None
+        if mine is not None and free:
+            # The long runs' free range the planner's trigger overlaps most (overlapping none: the nearest,
+            # and the trigger reaches beyond it).
+            truth = max(free, key=lambda iv: (min(iv[1], mine[1]) - max(iv[0], mine[0]), -iv[0]))
         if mine is None and truth is None:
             continue
         if mine is not None and truth is not None and ends is not None:

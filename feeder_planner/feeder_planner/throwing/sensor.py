@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -227,13 +228,15 @@ class TriggerReading:
     and in no resting state elsewhere (None: none). ``allowed``: the radii covered in every complete goal
     visit (None: no complete visit; empty: the visits share none). ``blockers``: per (attractor, other
     edge) whose resting states cover some of ``allowed``, the part covered, the most first. ``alone``:
-    the attractors whose own goal visits share no radius.
+    the attractors whose own goal visits share no radius. ``free``: every sensor radius range that reads
+    true in every goal visit and never elsewhere, ``trigger`` the widest of them.
     """
 
     trigger: tuple[float, float] | None
     allowed: Intervals | None
     blockers: list[tuple[int, int, Intervals]]
     alone: list[int]
+    free: Intervals = dataclasses.field(default_factory=list)
 
 
 def read_trigger(
@@ -260,7 +263,7 @@ def read_trigger(
     found.sort(key=lambda f: -_length(f[2]))
     free = subtract(allowed, merge([iv for _, others in per_group for v in others.values() for iv in v]))
     trigger = max(free, key=lambda iv: iv[1] - iv[0]) if free else None
-    return TriggerReading(trigger, allowed, found, alone)
+    return TriggerReading(trigger, allowed, found, alone, free)
 
 
 def _starts_inside(run: list[tuple[int, float]], end: int, goal: int) -> bool:
