@@ -26,7 +26,10 @@ from feeder_planner.errors import InputError
 from feeder_planner.fields_io import load_yaml_mapping, optional, required, short_string
 from feeder_planner.limits import MAX_NAME_CHARS, describe, quote
 
-STOP_GRACE_S = 5.0
+# A node's clean-up after SIGINT (a bounded executor shutdown; the OPC UA server's stop) may take this long
+# before SIGKILL: ROS 2 launch's own default is 10 s too (sigterm_timeout 5 s, then sigkill_timeout 5 s).
+# At 5 s, the gateway was killed mid clean-up at load 10 (a CI run's test_every_node_ros: exit -9).
+STOP_GRACE_S = 10.0
 # prctl(2) option: the signal a child gets when its parent dies (linux/prctl.h).
 PR_SET_PDEATHSIG = 1
 

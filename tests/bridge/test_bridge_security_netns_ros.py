@@ -30,7 +30,7 @@ from test_bridge_official_client_ros import SUBPROTOCOLS, OfficialClient, cdr, r
 pytestmark = pytest.mark.ros
 
 NODE, PARAMETER, TOPIC = "/remote/probe", "rate", "/remote/probe/chatter"
-DISCOVERY_TIMEOUT = 20.0  # s for a bridge to discover the probe node on the other host
+DISCOVERY_TIMEOUT = 60.0  # s for a bridge to discover the probe node on the other host (20: short at load 10)
 REFUSAL_TIMEOUT = 15.0  # s: a refused connection closes at once; this only bounds a hang
 
 # A node on host A: one double parameter (rate, 2.0) and a String topic at 10 Hz.

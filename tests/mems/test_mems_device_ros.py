@@ -437,7 +437,10 @@ def test_fault_field_strength_error_scales_every_cell_force(array) -> None:
     cells = array.cell_forces(lambda m: m.fy[0] == pytest.approx(1.25 * FORCE[1]))
     assert all(f == pytest.approx(1.25 * FORCE[1]) for f in cells.fy)
     report = array.status(lambda s: list(s.active_faults) == ["field_strength_error(0.25)"])
-    assert report.ready and report.fault_code == 0  # not a stopping fault
+    # Not a stopping fault: the array stays ready. Its only code may be the warning that it is behind real
+    # time, which a loaded machine gives (a CI run at load 10 did) and which is no stop either.
+    assert report.ready and report.state != report.FAULT
+    assert report.fault_code in (report.FAULT_NONE, report.FAULT_BEHIND_REAL_TIME), report.fault_text
     bad = array.inject("field_strength_error", value=-1.5)
     assert not bad.ok and "value" in bad.error
     assert array.inject("field_strength_error", clear=True).ok
