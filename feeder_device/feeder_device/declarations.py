@@ -11,7 +11,7 @@ Nothing here imports rclpy, so the model packages, the gateway's profiles and th
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterator, Mapping, Sequence
+from typing import Iterable, Iterator, Mapping, Sequence
 
 from feeder_planner.errors import FeederError, InputError
 
@@ -111,6 +111,21 @@ class ActiveFault:
         if self.spec.shows_state:
             parts.append(f"state={str(self.state).lower()}")
         return f"{self.spec.name}({', '.join(parts)})" if parts else self.spec.name
+
+
+def stopping_fault(
+    model_fault: tuple[int, str] | None, faults: Iterable[ActiveFault]
+) -> tuple[int, str] | None:
+    """Return (code, text) of the fault that stops a device: its model's, else the first stopping injection.
+
+    One rule for the node's kit (``status.StatusReporting``) and the ROS-free cell loop (``experiment.kit``).
+    """
+    if model_fault is not None:
+        return model_fault
+    for fault in faults:
+        if fault.spec.stops_device:
+            return fault.spec.code, f"injected fault {fault.label}: {fault.spec.description}"
+    return None
 
 
 class DeviceError(FeederError):

@@ -14,7 +14,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
 
 from feeder_device.core import DeviceCore, DeviceState, P
-from feeder_device.declarations import DeviceError
+from feeder_device.declarations import DeviceError, stopping_fault
 from feeder_device.rate import RateReport
 from feeder_msgs.msg import DeviceStatus
 
@@ -50,12 +50,7 @@ class StatusReporting(DeviceCore[P]):
         """(code, text) of the fault that stops the device, or None."""
         if self.internal_error:
             return DeviceStatus.FAULT_INTERNAL, self.internal_error
-        if self.model_fault is not None:
-            return self.model_fault
-        for fault in self.faults.values():
-            if fault.spec.stops_device:
-                return fault.spec.code, f"injected fault {fault.label}: {fault.spec.description}"
-        return None
+        return stopping_fault(self.model_fault, self.faults.values())
 
     def warning_fault(self) -> tuple[int, str] | None:
         """(code, text) of an injected fault in force that has a code but does not stop the device.

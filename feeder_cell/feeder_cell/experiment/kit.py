@@ -11,7 +11,7 @@ from __future__ import annotations
 from typing import Any
 
 from feeder_cell.experiment.faults_process import FaultSpec
-from feeder_device.declarations import ActiveFault
+from feeder_device.declarations import ActiveFault, stopping_fault
 
 __all__ = ["StationDriver"]
 
@@ -47,12 +47,7 @@ class StationDriver:
 
     def stopping_fault(self) -> tuple[int, str] | None:
         """Return (code, text) of the fault that stops the device (the model's first), or None."""
-        if self.model_fault is not None:
-            return self.model_fault
-        for fault in self.faults.values():
-            if fault.spec.stops_device:
-                return fault.spec.code, f"injected fault {fault.label}: {fault.spec.description}"
-        return None
+        return stopping_fault(self.model_fault, self.faults.values())
 
     def ready(self) -> bool:
         """Return whether the device takes commands: no stopping fault, not stopped."""
