@@ -227,7 +227,7 @@ def test_ctrl_c_keeps_every_finished_replication(tmp_path: Path) -> None:
 
 def test_the_picture_and_the_main_effects(tmp_path: Path) -> None:
     """One factor: each level's main effect is that scenario's throughput and interval; the PNG is written."""
-    from feeder_cell.experiment.plot import experiment_figure, main_effects
+    from feeder_cell.experiment.plot import cost_points, experiment_figure, main_effects
     from feeder_cell.plots.common import write_figure
 
     path = _file(tmp_path, factors={"throwing_arm.period": [0.5, 0.4]})
@@ -238,6 +238,11 @@ def test_the_picture_and_the_main_effects(tmp_path: Path) -> None:
     for (level, mean, half), report in zip(effects, levels, strict=True):
         assert level == report.scenario.levels["throwing_arm.period"]
         assert math.isclose(mean, report.throughput[0]) and math.isclose(half, report.throughput[1])
+    # The estimate-against-cost panel: each scenario's throughput beside its CPU per replication.
+    points = cost_points(levels)
+    assert [label for label, *_ in points] == [level.scenario.label() for level in levels]
+    for (_, cpu, mean, half), level in zip(points, levels, strict=True):
+        assert cpu == level.cpu and cpu > 0 and (mean, half) == level.throughput[:2]
     picture = write_figure(experiment_figure(experiment, table, levels), tmp_path / "exp.png")
     assert picture.stat().st_size > 10_000 and picture.read_bytes()[:4] == b"\x89PNG"
 

@@ -1,9 +1,11 @@
-"""The picture of an experiment's report: cycle-time histograms, utilisation bars, main effects.
+"""The picture of an experiment's report: cycle times, utilisation, main effects, estimate against cost.
 
-One figure, three panels (docs/experiments.md, "Experiments"): the complete cycles' times of each scenario
-(pooled over replications), each device's share of time RUNNING, IDLE and FAULT per scenario, and each
-factor's main effect on throughput: per level, the mean over its scenarios of the replications' good
-parts per hour, with the 95 % Student-t interval of the per-replication means.
+One figure, four panels (docs/experiments.md, "Experiments"): the complete cycles' times of each scenario
+(pooled over replications), each device's share of time RUNNING, IDLE and FAULT per scenario, each
+factor's main effect on throughput (per level, the mean over its scenarios of the replications' good
+parts per hour, with the 95 % Student-t interval of the per-replication means), and each scenario's
+throughput estimate against its mean CPU seconds per replication: the speed-accuracy trade of a fidelity
+factor at the cell level (issue 38 item 7).
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from feeder_cell.experiment.results import DEVICE_STATES
 from feeder_cell.experiment.table import Results
 from feeder_cell.plots.common import new_figure
 
-__all__ = ["experiment_figure", "main_effects"]
+__all__ = ["cost_points", "experiment_figure", "main_effects"]
 
 COLOURS = {"RUNNING": "tab:green", "IDLE": "tab:gray", "FAULT": "tab:red"}
 
@@ -46,10 +48,15 @@ def main_effects(experiment: Experiment, results: Results) -> dict[str, list[tup
     return effects
 
 
+def cost_points(levels: list[LevelReport]) -> list[tuple[str, float, float, float]]:
+    """Return per scenario: (label, mean CPU s per replication, good parts/h, its 95 % half-width)."""
+    return [(level.scenario.label(), level.cpu, level.throughput[0], level.throughput[1]) for level in levels]
+
+
 def experiment_figure(experiment: Experiment, results: Results, levels: list[LevelReport]) -> Figure:
     """Return the report's figure."""
-    figure = new_figure((12.0, 4.2))
-    histogram, shares, effects = figure.subplots(1, 3)
+    figure = new_figure((16.0, 4.2))
+    histogram, shares, effects, cost = figure.subplots(1, 4)
     for level in levels:
         rows = _ok_rows(results.rows, level.scenario.index)
         times = [float(t) for row in rows.values() for t in row["cycle_times"].split(";") if t]
@@ -85,4 +92,13 @@ def experiment_figure(experiment: Experiment, results: Results, levels: list[Lev
     effects.set_title("main effects")
     if experiment.factors:
         effects.legend(fontsize="small")
+    for label, cpu, mean, half in cost_points(levels):
+        # In the legend, not beside the point: fidelities of about equal cost sit on top of each other.
+        error = [half if np.isfinite(half) else 0.0]
+        cost.errorbar([cpu], [mean], yerr=error, marker="s", capsize=4, label=label)
+    cost.set_xlabel("CPU s per replication")
+    cost.set_ylabel("good parts per hour (95 % interval)")
+    cost.set_title("estimate against cost")
+    if levels:
+        cost.legend(fontsize="small")
     return figure
