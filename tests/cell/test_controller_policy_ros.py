@@ -4,7 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 import ros_harness
+
+pytestmark = pytest.mark.ros
 
 
 def test_the_ros_controller_refuses_pipelined_naming_the_parameter(ros_domain: int, tmp_path: Path) -> None:

@@ -23,6 +23,8 @@ import yaml
 from feeder_cell.experiment.loop import LoopResult, read_scene, scene_loop
 from feeder_cell.launcher import scene_copy
 
+pytestmark = pytest.mark.ros  # it runs the scene through `feeder launch`: real node processes over DDS
+
 ROOT = Path(__file__).resolve().parents[2]
 CYCLE = re.compile(
     r"cycle (\d+): ([\d.]+) s \(.*?\), (\d+) throws; \d+ cycles, (\d+) parts, "
