@@ -84,11 +84,13 @@ def wait_until_seen(client: OfficialClient, name: str) -> None:
     namespaces can take a few seconds after the bridge starts, and the module's first tests are faster.
     """
     deadline = time.monotonic() + DISCOVERY_TIMEOUT
+    mark = client.mark()
     while True:
         read = client.request("getParameters", names=[name], requestId="seen")["parameters"]
         if read:
             return
-        assert time.monotonic() < deadline, f"the bridge did not see {name} within {DISCOVERY_TIMEOUT:g} s"
+        said = sorted(set(client.statuses(mark["statuses"], "")))
+        assert time.monotonic() < deadline, f"bridge did not see {name} in {DISCOVERY_TIMEOUT:g} s: {said}"
         time.sleep(0.2)
 
 
