@@ -12,6 +12,7 @@ test's self-signed certificate through NODE_EXTRA_CA_CERTS as any Node.js progra
 from __future__ import annotations
 
 import base64
+import itertools
 import os
 import signal
 import subprocess
@@ -85,8 +86,11 @@ def wait_until_seen(client: OfficialClient, name: str) -> None:
     """
     deadline = time.monotonic() + DISCOVERY_TIMEOUT
     mark = client.mark()
-    while True:
-        read = client.request("getParameters", names=[name], requestId="seen")["parameters"]
+    for attempt in itertools.count():
+        # A fresh id each time: the client keeps every parameterValues it got and answers a request with
+        # the first one of its id, so a repeated id returned the first, empty answer for ever (the bridge
+        # had not yet seen the probe then), and the module failed whenever its first look came too early.
+        read = client.request("getParameters", names=[name], requestId=f"seen-{attempt}")["parameters"]
         if read:
             return
         said = sorted(set(client.statuses(mark["statuses"], "")))
