@@ -378,8 +378,11 @@ def test_client_publishes_on_a_command_topic_and_is_refused_a_sensor(
     channel = client.request("advertise", topic=STATION_COMMAND, schemaName="std_msgs/msg/String")[
         "channelId"
     ]
+    # Counted before the publish: the message can arrive before the request returns (ci14 saw it there,
+    # and a wait "from now on" then missed it for 30 s).
+    before = commands.count()
     client.request("publish", channelId=channel, data=cdr(String(data=text)))
-    assert commands.wait(lambda m: m.data == text, TIMEOUT).data == text
+    assert commands.wait(lambda m: m.data == text, TIMEOUT, after=before).data == text
     client.request("unadvertise", channelId=channel)
     # The arm's sensor bit is no command: a viewer may not forge it.
     mark = client.mark()
