@@ -15,6 +15,7 @@ import signal
 import subprocess
 import sys
 import time
+from functools import partial
 from pathlib import Path
 from typing import Any, Iterator
 
@@ -254,6 +255,17 @@ def cell_launch(
         lease.release()
 
 
+def _spin_until(
+    process: subprocess.Popen[str], executor: Any, condition: Any, timeout: float, what: str
+) -> None:
+    """Spin until ``condition()``; fail naming ``what`` after ``timeout`` s, or if the launch ends."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert process.poll() is None, f"the launch ended early: {process.communicate()[1][-1500:]}"
+        assert time.monotonic() < deadline, f"no {what} within {timeout} s"
+        executor.spin_once(timeout_sec=0.05)
+
+
 @pytest.mark.parametrize("cell_launch", LAYOUTS, ids=[layout[0] for layout in LAYOUTS], indirect=True)
 def test_a_device_killed_mid_run_is_dropped_from_the_lockstep_and_the_cell_goes_on(
     cell_launch: tuple[subprocess.Popen[str], int], request: pytest.FixtureRequest
@@ -292,15 +304,8 @@ def test_a_device_killed_mid_run_is_dropped_from_the_lockstep_and_the_cell_goes_
 
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
+    spin_until = partial(_spin_until, process, executor)
     try:
-
-        def spin_until(condition: Any, timeout: float, what: str) -> None:
-            deadline = time.monotonic() + timeout
-            while not condition():
-                assert process.poll() is None, f"the launch ended early: {process.communicate()[1][-1500:]}"
-                assert time.monotonic() < deadline, f"no {what} within {timeout} s"
-                executor.spin_once(timeout_sec=0.05)
-
         spin_until(
             lambda: seen["arm"] is not None and seen["arm"].state_name in ("IDLE", "RUNNING"), 90, "arm up"
         )
@@ -347,15 +352,8 @@ def _wait_until_running(process: subprocess.Popen[str], domain: int, device: str
     )
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
+    spin_until = partial(_spin_until, process, executor)
     try:
-
-        def spin_until(condition: Any, timeout: float, what: str) -> None:
-            deadline = time.monotonic() + timeout
-            while not condition():
-                assert process.poll() is None, f"the launch ended early: {process.communicate()[1][-1500:]}"
-                assert time.monotonic() < deadline, f"no {what} within {timeout} s"
-                executor.spin_once(timeout_sec=0.05)
-
         up = ("IDLE", "RUNNING")
         spin_until(lambda: seen["status"] is not None and seen["status"].state_name in up, 90, f"{device} up")
         running_from = seen["clock"]
