@@ -105,3 +105,30 @@ def test_run_names_a_missing_package() -> None:
     result = feeder("run", "no_such_package", "node")
     assert result.returncode == 2
     assert "no_such_package" in result.stderr
+
+
+def test_a_swallowed_ctrl_c_is_seen_by_subcommands_when_the_cli_runs_as_python_m():
+    """``python -m feeder_cell.cli.main`` makes a second copy of cli.main; the request must not live in it.
+
+    The script takes Ctrl-C through a copy of cli.main as ``-m`` makes it, swallows the KeyboardInterrupt
+    as an import lock's callback does, and asks a subcommand's module whether Ctrl-C came.
+    """
+    script = (
+        "import os, runpy, signal\n"
+        "copy = runpy.run_module('feeder_cell.cli.main', run_name='as_python_m')\n"
+        "copy['take_ctrl_c']()\n"
+        "try:\n"
+        "    os.kill(os.getpid(), signal.SIGINT)\n"
+        "except KeyboardInterrupt:\n"
+        "    pass\n"
+        "from feeder_cell.cli.throwing_studies import check_ctrl_c\n"
+        "try:\n"
+        "    check_ctrl_c()\n"
+        "except KeyboardInterrupt:\n"
+        "    print('seen')\n"
+        "else:\n"
+        "    print('lost')\n"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "seen", done.stdout + done.stderr

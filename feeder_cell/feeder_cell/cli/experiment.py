@@ -14,7 +14,8 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from feeder_cell.cli.main import EXIT_INTERRUPTED, check_ctrl_c
+from feeder_cell.cli.ctrl_c import check_ctrl_c
+from feeder_cell.cli.main import EXIT_INTERRUPTED
 from feeder_cell.experiment.experiment import (
     Experiment,
     Results,

@@ -11,6 +11,7 @@ import sys
 from typing import NoReturn, Sequence
 
 from feeder_cell.cli import modules_for
+from feeder_cell.cli.ctrl_c import check_ctrl_c, take_ctrl_c
 from feeder_planner.errors import FeederError, InputError, SolverError
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_NOT_CERTIFIED = 0, 1, 2, 3
@@ -43,34 +44,6 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     for module_name in modules_for(command):
         importlib.import_module(module_name).register(subparsers)
     return parser
-
-
-_ctrl_c = {"requested": False}
-
-
-def _on_ctrl_c(_number: int, _frame: object) -> None:
-    _ctrl_c["requested"] = True
-    raise KeyboardInterrupt
-
-
-def take_ctrl_c() -> None:
-    """Make SIGINT raise KeyboardInterrupt here, whatever disposition the command inherited, and remember it.
-
-    A shell without job control starts a background command (`cmd &`, a CI script's job) with SIGINT
-    ignored, and Python then installs no handler of its own: `kill -INT` of a long `throw-design` was
-    lost, and it ran to its end with exit 0. A command that documents Ctrl-C (one line, exit 130) takes
-    it explicitly, as rclpy's nodes and `ros2 bag` do. Python swallows an exception raised inside a
-    finalizer or an import lock's callback ("Exception ignored in"), so the request is also kept:
-    long work looks at it between items (``check_ctrl_c``). Subcommands that run a node install their
-    own handlers on top (ros_session.with_node).
-    """
-    signal.signal(signal.SIGINT, _on_ctrl_c)
-
-
-def check_ctrl_c() -> None:
-    """Raise KeyboardInterrupt if Ctrl-C came, even if its first KeyboardInterrupt was swallowed."""
-    if _ctrl_c["requested"]:
-        raise KeyboardInterrupt
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -10,7 +10,8 @@ from typing import Callable, TypeVar
 import numpy as np
 
 from feeder_cell.cli.common import emit, finite_float
-from feeder_cell.cli.main import EXIT_INTERRUPTED, check_ctrl_c
+from feeder_cell.cli.ctrl_c import check_ctrl_c
+from feeder_cell.cli.main import EXIT_INTERRUPTED
 from feeder_planner.errors import InputError
 from feeder_planner.parts import Part
 from feeder_planner.throwing.geometry import arm_part

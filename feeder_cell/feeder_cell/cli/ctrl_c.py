@@ -1,0 +1,38 @@
+"""Ctrl-C for the ``feeder`` command: one handler, and one remembered request every subcommand sees.
+
+The request lives here, not in ``cli.main``: ``python -m feeder_cell.cli.main`` runs that module as
+``__main__`` and a subcommand's ``from feeder_cell.cli.main import ...`` then loads a second copy of
+it, whose flag the handler never set. A Ctrl-C swallowed in an import lock's callback was then lost
+for the whole run (a CI run's `throw-design` went on for 30 s after it).
+"""
+
+from __future__ import annotations
+
+import signal
+
+_requested = {"value": False}
+
+
+def _on_ctrl_c(_number: int, _frame: object) -> None:
+    _requested["value"] = True
+    raise KeyboardInterrupt
+
+
+def take_ctrl_c() -> None:
+    """Make SIGINT raise KeyboardInterrupt here, whatever disposition the command inherited, and remember it.
+
+    A shell without job control starts a background command (`cmd &`, a CI script's job) with SIGINT
+    ignored, and Python then installs no handler of its own: `kill -INT` of a long `throw-design` was
+    lost, and it ran to its end with exit 0. A command that documents Ctrl-C (one line, exit 130) takes
+    it explicitly, as rclpy's nodes and `ros2 bag` do. Python swallows an exception raised inside a
+    finalizer or an import lock's callback ("Exception ignored in"), so the request is also kept:
+    long work looks at it between items (``check_ctrl_c``). Subcommands that run a node install their
+    own handlers on top (ros_session.with_node).
+    """
+    signal.signal(signal.SIGINT, _on_ctrl_c)
+
+
+def check_ctrl_c() -> None:
+    """Raise KeyboardInterrupt if Ctrl-C came, even if its first KeyboardInterrupt was swallowed."""
+    if _requested["value"]:
+        raise KeyboardInterrupt
