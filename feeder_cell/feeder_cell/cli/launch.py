@@ -198,6 +198,20 @@ def _configuration_error(node: Any, executor: Any, target: str) -> str:
 # settle after the readers' side matched, for the writers' side (as the lockstep observer's).
 RECORDER_MATCH_TIMEOUT_S = 2.0
 RECORDER_MATCH_SETTLE_S = 0.2
+# A node that ends the scene (the controller done with its cycles) published its last status just before
+# it exited: the launch sees the exit while those messages may still be on their way to the recorder (a
+# CI run under load lost the squeeze cell's FINISHED status so). Before the bag is closed the launch
+# spins this long (wall s). Not "until quiet": the devices' markers, statuses and /diagnostics beat on
+# the wall clock, so a cell never falls quiet. In lockstep the clock is held meanwhile (the recorder does
+# not answer the quantum), so little newer than the end comes in.
+RECORDER_DRAIN_S = 0.5
+
+
+def _drain(executor: Any) -> None:
+    """Spin for RECORDER_DRAIN_S: the recorder takes in what an ended node sent just before it exited."""
+    end = time.monotonic() + RECORDER_DRAIN_S
+    while time.monotonic() < end:
+        executor.spin_once(timeout_sec=0.02)
 
 
 def _discover_matched(recorder: Any, node: Any, executor: Any, keep_going: Callable[[], bool]) -> None:
@@ -323,6 +337,7 @@ def _launch(args: argparse.Namespace) -> int:
         from feeder_cell.lockstep_observer import CellTime, RecordingObserver
 
         processes: list[NodeProcess] = []
+        ended_scene = False  # a node's end ended the scene (a controller done with its cycles)
         cell_time = CellTime(node) if sim_time else None
         recorder = None
         observer = None
@@ -381,11 +396,14 @@ def _launch(args: argparse.Namespace) -> int:
                     # A node that ends mid-run ends the scene: on_exit shutdown (a controller done with
                     # its cycles) by design, any other as a failure; exit codes are reported below. In
                     # lockstep a device that dies is the clock's to drop (--on-lockstep-timeout).
+                    ended_scene = True
                     break
                 executor.spin_once(timeout_sec=0.001 if observer and observer.holding() else 0.05)
                 if observer is not None:
                     observer.after_spin(executor)
         finally:
+            if recorder is not None and keep_going() and ended_scene:
+                _drain(executor)
             if observer is not None:
                 observer.leave()
             stats = recorder.close() if recorder else {}
