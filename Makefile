@@ -23,8 +23,12 @@ demo: setup
 gate: setup
 	@$(ENV) bash tools/gate.sh
 
+# Workers of `make test` (pytest-xdist): each takes a whole test module at a time, so a module's shared
+# scene is launched once; TEST_WORKERS=0 runs the suite in this one process.
+TEST_WORKERS ?= 2
+
 test: setup gate
-	@$(ENV) python -m pytest
+	@$(ENV) python -m pytest -n $(TEST_WORKERS) --dist loadfile
 
 bench: setup
 	@if [ -f requirements-bench.txt ]; then .venv/bin/python -m pip install --quiet -r requirements-bench.txt; fi

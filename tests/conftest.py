@@ -6,6 +6,7 @@ import os
 from pathlib import Path
 from typing import Any, Callable, Iterator
 
+import process_tree
 import pytest
 import ros_harness
 
@@ -24,6 +25,17 @@ def ros_domain() -> Iterator[int]:
         else:
             os.environ[key] = value
     lease.release()
+
+
+@pytest.fixture(scope="session", autouse=True)
+def no_leftover_processes() -> Iterator[None]:
+    """At the end of the session (of each worker's, under pytest-xdist): no process it started is alive.
+
+    Set up first, so torn down last: after every other fixture has ended what it started.
+    """
+    yield
+    left = process_tree.descendants(os.getpid())
+    assert left == [], f"processes the tests started are still running (pid, name): {left}"
 
 
 @pytest.fixture(scope="session")

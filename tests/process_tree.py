@@ -1,8 +1,11 @@
-"""Runs last (directories are collected in name order): no process started by the suite is still alive."""
+"""The processes a test process started that are still alive: none may be left when its session ends.
+
+Used by conftest's session fixture ``no_leftover_processes``: with the suite spread over workers
+(pytest-xdist), each worker looks at its own descendants when its share of the tests has ended.
+"""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 
@@ -19,7 +22,8 @@ def _is_resource_tracker(entry: Path) -> bool:
     return b"from multiprocessing.resource_tracker import main" in b" ".join(command)
 
 
-def _descendants(root: int) -> list[tuple[int, str]]:
+def descendants(root: int) -> list[tuple[int, str]]:
+    """Return (pid, name) of every live process below ``root`` (zombies and the resource tracker aside)."""
     parents: dict[int, int] = {}
     names: dict[int, str] = {}
     for entry in Path("/proc").iterdir():
@@ -40,10 +44,3 @@ def _descendants(root: int) -> list[tuple[int, str]]:
         if ancestor == root:
             found.append((pid, names.get(pid, "?")))
     return found
-
-
-def test_no_process_started_by_the_suite_is_left_running(started_processes) -> None:
-    for node in started_processes:
-        node.stop()
-    assert all(not node.alive() for node in started_processes)
-    assert _descendants(os.getpid()) == []
