@@ -403,6 +403,41 @@ def test_kill_9_of_the_cell_host_ends_the_launch_with_one_line_naming_the_host_a
     assert host["pid"] == pid and host["died_early"] and "/cell/assembly_fixture" in host["nodes"]
 
 
+def test_a_cell_host_that_dies_at_start_up_is_named_with_its_nodes(tmp_path: Path) -> None:
+    """Killed as soon as its process exists, long before its nodes are in the graph: the start-up's error."""
+    lease = ros_harness.DomainLease()
+    process = subprocess.Popen(
+        [
+            *(sys.executable, "-m", "feeder_cell.cli.main", "launch", str(_scene(tmp_path, cycles=0))),
+            *("--real-time-factor", "max", "--duration", "60", "--log-dir", str(tmp_path / "logs")),
+        ],
+        env=_env(lease.domain),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        pid, deadline = None, time.monotonic() + 60
+        while pid is None and process.poll() is None and time.monotonic() < deadline:
+            pid = _pid_of("feeder_cell/cell_clock", lease.domain)
+            time.sleep(0.005)
+        assert pid is not None, "no cell host process on the test's domain"
+        os.kill(pid, signal.SIGKILL)
+        _, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
+        lease.release()
+    assert process.returncode != 0, "the launch must fail when its cell host dies at start-up"
+    lines = [line for line in err.splitlines() if "at start-up" in line]
+    assert len(lines) == 1, err[-2000:]
+    assert f"cell host cell_host (pid {pid}; nodes " in lines[0], lines[0]
+    for node in ("/cell_clock", "/cell_simulation", "/cell/mems_field_array", "/cell/throwing_arm"):
+        assert node in lines[0], lines[0]
+    assert "exited with code -9" in lines[0], lines[0]
+
+
 # Launches of the join test: 1 in make test, 20 in make stress (FEEDER_JOIN_LAUNCHES).
 JOIN_LAUNCHES = int(os.environ.get("FEEDER_JOIN_LAUNCHES", "1"))
 FIRST_QUANTUM_S = 5.0  # wall s the launch runs after its bring-up: its first quantum comes within it

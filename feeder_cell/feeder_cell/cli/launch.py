@@ -158,6 +158,14 @@ def _graph_names(node: Any) -> set[str]:
     return {f"{ns.rstrip('/')}/{name}" for name, ns in node.get_node_names_and_namespaces()}
 
 
+def _process_name(process: NodeProcess, processes: list[NodeProcess]) -> str:
+    """Name a process as a user knows it: its node's executable, or the cell host with all its nodes."""
+    if not process.host:
+        return f"{process.package}/{process.executable}"
+    nodes = [p.spec.fully_qualified_name for p in processes if p.host == process.host]
+    return f"cell host {process.host} (pid {process.pid}; nodes {', '.join(nodes)})"
+
+
 def _wait_until_in_graph(
     node: Any, executor: Any, processes: list[NodeProcess], keep_going: Callable[[], bool]
 ) -> None:
@@ -169,7 +177,7 @@ def _wait_until_in_graph(
         if dead:
             p = dead[0]
             raise FeederError(
-                f"{p.package}/{p.executable} exited with code {p.process.returncode} at start-up; "
+                f"{_process_name(p, processes)} exited with code {p.process.returncode} at start-up; "
                 f"last log line: {(p.output().strip().splitlines() or ['(none)'])[-1]}"
             )
         missing = sorted(wanted - _graph_names(node))
