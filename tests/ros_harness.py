@@ -417,3 +417,15 @@ def end_launch(process: subprocess.Popen[str], timeout: float = 30.0) -> tuple[s
     except subprocess.TimeoutExpired:
         process.kill()
         return process.communicate()
+
+
+def unfaulted(code: int) -> bool:
+    """Whether a device status's ``fault_code`` says "no fault": none, or only that it is behind real time.
+
+    FAULT_BEHIND_REAL_TIME is the one warning that load alone raises: a free-running device on a busy
+    machine (two test workers on two cores) cannot always hold its rate, and says so, as it must. A test
+    that checks a fault is gone or was never there must not fail on it.
+    """
+    from feeder_msgs.msg import DeviceStatus
+
+    return code in (DeviceStatus.FAULT_NONE, DeviceStatus.FAULT_BEHIND_REAL_TIME)

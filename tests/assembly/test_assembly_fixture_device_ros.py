@@ -201,7 +201,12 @@ def test_status_and_diagnostics_report_state_counters_and_rate(launch_node, ros_
 
     device = launch_fixture(launch_node, "/stat")
     first = status(ros_client, device, lambda s: s.state_name == "IDLE")
-    assert first.ready and not first.busy and first.fault_code == 0 and list(first.active_faults) == []
+    assert (
+        first.ready
+        and not first.busy
+        and ros_harness.unfaulted(first.fault_code)
+        and list(first.active_faults) == []
+    )
     assert counters(first) == {
         "moves": 0,
         "refused_moves": 0,
@@ -445,7 +450,7 @@ def test_fault_axis_stall_stops_the_joint_there_and_faults_the_device(faulty, he
     response = inject(ros_client, FAULTY, "axis_stall", indices=[1], angle=-0.3)
     assert response.ok and list(response.active_faults) == ["axis_stall"], response.error
     armed = status(ros_client, FAULTY, lambda s: list(s.active_faults) == ["axis_stall"])
-    assert armed.ready and armed.fault_code == 0  # armed: it acts when the joint gets there
+    assert armed.ready and ros_harness.unfaulted(armed.fault_code)  # armed: it acts when the joint gets there
     assert move(ros_client, FAULTY, (0.0, -0.6)).ok
     report = status(ros_client, FAULTY, lambda s: s.state_name == "FAULT")
     assert report.fault_code == DeviceStatus.FAULT_AXIS_STALL and not report.ready and not report.busy
@@ -465,7 +470,11 @@ def test_fault_axis_stall_stops_the_joint_there_and_faults_the_device(faulty, he
     # cleared: the device is commandable again and the joint moves on through -0.3
     assert inject(ros_client, FAULTY, "axis_stall", clear=True).ok
     cleared = status(ros_client, FAULTY, lambda s: s.ready)
-    assert cleared.state_name == "IDLE" and cleared.fault_code == 0 and list(cleared.active_faults) == []
+    assert (
+        cleared.state_name == "IDLE"
+        and ros_harness.unfaulted(cleared.fault_code)
+        and list(cleared.active_faults) == []
+    )
     assert move(ros_client, FAULTY, (0.0, -0.6)).ok
     joints(ros_client, FAULTY, at((0.0, -0.6)))
 
@@ -490,7 +499,7 @@ def test_fault_encoder_offset_shifts_the_reading_not_the_table(faulty, healthy, 
     assert [truth.gravity.x, truth.gravity.y, truth.gravity.z] == pytest.approx([0.0, 0.0, -1.0], abs=1e-12)
     assert truth.stable and truth.margin == pytest.approx(LEVEL_MARGIN, abs=1e-9)
     report = status(ros_client, FAULTY, lambda s: list(s.active_faults) == ["encoder_offset"])
-    assert report.ready and report.fault_code == 0
+    assert report.ready and ros_harness.unfaulted(report.fault_code)
     # a move goes where it is commanded; the reading stays 0.05 rad off on tilt_x
     assert move(ros_client, FAULTY, (0.0, -0.4)).ok
     joints(ros_client, FAULTY, at((0.05, -0.4), tol=1e-9))
@@ -556,7 +565,7 @@ def test_fault_rate_limit_slows_the_axis_and_is_reported_without_stopping(
     assert not bad.ok and "value" in bad.error
     assert inject(ros_client, FAULTY, "rate_limit", clear=True).ok
     cleared = status(ros_client, FAULTY, lambda s: not s.active_faults)
-    assert cleared.fault_code == 0
+    assert ros_harness.unfaulted(cleared.fault_code)
     fast = move(ros_client, FAULTY, (0.0, 0.0))
     assert fast.ok and fast.duration == pytest.approx(0.3, rel=1e-9)
 
@@ -582,4 +591,4 @@ def test_faults_from_the_inject_faults_parameter_act_from_configure(launch_node,
     joints(ros_client, device, lambda m: m.position[1] == pytest.approx(-0.25 + 0.02, abs=1e-12))
     assert trigger(ros_client, device, "reset").success  # reset clears every fault
     cleared = status(ros_client, device, lambda s: not s.active_faults)
-    assert cleared.fault_code == 0 and cleared.state_name == "IDLE"
+    assert ros_harness.unfaulted(cleared.fault_code) and cleared.state_name == "IDLE"

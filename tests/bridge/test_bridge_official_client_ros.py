@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterator
 
 import pytest
+import ros_harness
 from bridge_process import BridgeProcess
 
 pytestmark = pytest.mark.ros
@@ -284,7 +285,7 @@ def test_client_injects_a_fault_and_sees_it_in_the_status(client: OfficialClient
             request=cdr(InjectFault.Request(fault="motor_fault", clear=True)),
         )
         assert decoded(cleared["response"], InjectFault.Response).ok
-    wait_status(client, status, seen, lambda s: s.state == IDLE and s.fault_code == 0)
+    wait_status(client, status, seen, lambda s: s.state == IDLE and ros_harness.unfaulted(s.fault_code))
     # A request that is not the service's CDR is answered with a failure naming the payload.
     failure = client.request(
         "call", name=f"{ARM}/inject_fault", request=base64.b64encode(b"\x00\x01").decode()

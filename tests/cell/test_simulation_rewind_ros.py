@@ -116,6 +116,14 @@ class Harness:
             assert time.monotonic() < deadline, f"not loaded after 120 s: {names}"
             time.sleep(0.3)
 
+    def wait_clock_past(self, ns: int) -> None:
+        """Until /clock reads past ``ns`` (the cell has run): under load a hosted controller's bring-up can
+        hold the clock at its start for seconds after the world has loaded."""
+        deadline = time.monotonic() + 60
+        while self.clock_ns <= ns:
+            assert time.monotonic() < deadline, f"/clock still at {self.clock_ns} ns after 60 s"
+            time.sleep(0.05)
+
     def settled_clock(self) -> int:
         """Cell time once /clock stops moving (the clock publishes where it holds)."""
         last = -1
@@ -230,6 +238,7 @@ def test_a_reset_sets_the_clock_back_and_the_cell_runs_as_a_fresh_launch(
     try:
         with launched(tmp_path, *layout) as process:
             harness.wait_loaded(process)
+            harness.wait_clock_past(START_NS)  # the cell runs before it is paused and reset
             paused = SimulationState(state=SimulationState.STATE_PAUSED)
             harness.ok(SetSimulationState, "set_simulation_state", state=paused)
             assert harness.settled_clock() > START_NS  # the cell ran before the reset
@@ -270,6 +279,7 @@ def test_a_reset_beside_a_hosted_controller_keeps_time_and_names_it(ros_client: 
             tmp_path, "--host-controller", "--set", "cell_controller.cycles=1000", scene=cell
         ) as process:
             harness.wait_loaded(process)
+            harness.wait_clock_past(START_NS)  # the cell runs before it is paused and reset
             paused = SimulationState(state=SimulationState.STATE_PAUSED)
             harness.ok(SetSimulationState, "set_simulation_state", state=paused)
             held = harness.settled_clock()
