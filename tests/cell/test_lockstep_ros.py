@@ -364,21 +364,25 @@ def _wait_until_running(process: subprocess.Popen[str], domain: int, device: str
         rclpy.try_shutdown(context=context)
 
 
-def test_kill_9_of_the_cell_host_ends_the_launch_with_one_line_naming_the_host_and_its_nodes(
-    tmp_path: Path,
-) -> None:
-    lease = ros_harness.DomainLease()
-    logs = tmp_path / "logs"
-    process = subprocess.Popen(
+def _start_idle_cell(folder: Path, domain: int, factor: str, *extra: str) -> subprocess.Popen[str]:
+    """Start `feeder launch` of the cell scene without cycles at ``factor``, output piped, on ``domain``."""
+    return subprocess.Popen(
         [
-            *(sys.executable, "-m", "feeder_cell.cli.main", "launch", str(_scene(tmp_path, cycles=0))),
-            *("--real-time-factor", "2", "--duration", "120", "--log-dir", str(logs), "--json"),
+            *(sys.executable, "-m", "feeder_cell.cli.main", "launch", str(_scene(folder, cycles=0))),
+            *("--real-time-factor", factor, "--log-dir", str(folder / "logs"), *extra),
         ],
-        env=_env(lease.domain),
+        env=_env(domain),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
     )
+
+
+def test_kill_9_of_the_cell_host_ends_the_launch_with_one_line_naming_the_host_and_its_nodes(
+    tmp_path: Path,
+) -> None:
+    lease = ros_harness.DomainLease()
+    process = _start_idle_cell(tmp_path, lease.domain, "2", "--duration", "120", "--json")
     try:
         # Killed once the launch is past its start-up (the arm active and 4 s of cell time since): 2 s after
         # the host's first log line, a loaded machine was still bringing the devices up, and a death there
@@ -406,16 +410,7 @@ def test_kill_9_of_the_cell_host_ends_the_launch_with_one_line_naming_the_host_a
 def test_a_cell_host_that_dies_at_start_up_is_named_with_its_nodes(tmp_path: Path) -> None:
     """Killed as soon as its process exists, long before its nodes are in the graph: the start-up's error."""
     lease = ros_harness.DomainLease()
-    process = subprocess.Popen(
-        [
-            *(sys.executable, "-m", "feeder_cell.cli.main", "launch", str(_scene(tmp_path, cycles=0))),
-            *("--real-time-factor", "max", "--duration", "60", "--log-dir", str(tmp_path / "logs")),
-        ],
-        env=_env(lease.domain),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    process = _start_idle_cell(tmp_path, lease.domain, "max", "--duration", "60")
     try:
         pid, deadline = None, time.monotonic() + 60
         while pid is None and process.poll() is None and time.monotonic() < deadline:
