@@ -26,7 +26,10 @@ CONNECT_TIMEOUT = 10
 WORKERS_TIMEOUT = 60
 # The worker processes' own logging: task errors reach the client as exceptions, so what a worker logs
 # itself is the cluster's shutdown (a heartbeat to a scheduler that has closed, logged with its traceback
-# when Ctrl-C ends a run), which is not the user's business.
+# when Ctrl-C ends a run), which is not the user's business. Set in the environment the nanny spawns the
+# worker with (distributed.nanny.pre-spawn-environ): distributed configures its logging when it is
+# imported, so the LocalCluster's env= (applied in the worker after that) left the workers at INFO
+# (measured: logging level 20 in each worker), and a CI run's Ctrl-C printed a heartbeat's traceback.
 QUIET_WORKERS = {"DASK_LOGGING__DISTRIBUTED": "critical"}
 
 
@@ -55,6 +58,7 @@ def dask_client(workers: int, scheduler: str | None, field: str = "scheduler") -
     InputError
         ``field`` (the caller's name for the address) when the scheduler cannot be reached.
     """
+    import dask
     from dask.distributed import Client, LocalCluster
 
     cluster: LocalCluster | None = None
@@ -65,13 +69,11 @@ def dask_client(workers: int, scheduler: str | None, field: str = "scheduler") -
         # blocked, and one that came meanwhile is raised here, where the finally below closes it all.
         with stop_signals_blocked():
             if scheduler is None:
-                cluster = LocalCluster(
-                    n_workers=workers,
-                    threads_per_worker=1,
-                    processes=True,
-                    dashboard_address=None,
-                    env=QUIET_WORKERS,
-                )
+                quiet = {f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in QUIET_WORKERS.items()}
+                with dask.config.set(quiet):
+                    cluster = LocalCluster(
+                        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+                    )
                 client = Client(cluster)
             else:
                 try:

@@ -72,3 +72,20 @@ def test_robust_study_on_two_dask_workers_equals_one_process():
     with pytest.raises(InputError) as info:
         robust_study(*args[:7], 1.5, 0.1, 0.1)
     assert info.value.field == "speed_sigma"
+
+
+def _distributed_log_level() -> int:
+    import logging
+
+    return logging.getLogger("distributed").getEffectiveLevel()
+
+
+def test_a_local_clusters_workers_log_only_critical_messages():
+    """Their shutdown (a heartbeat to a closed scheduler) must not print a traceback after Ctrl-C."""
+    import logging
+
+    from feeder_planner.dask_cluster import dask_client
+
+    with dask_client(2, None) as client:
+        levels = client.run(_distributed_log_level)
+    assert len(levels) == 2 and set(levels.values()) == {logging.CRITICAL}, levels
