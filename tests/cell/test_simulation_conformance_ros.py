@@ -180,8 +180,11 @@ class Tool:
         raise AssertionError("/clock kept moving while the simulation was paused")
 
     def action(self) -> Any:
-        from rclpy.action import ActionClient
         from simulation_interfaces.action import SimulateSteps
+
+        # rclpy's ActionClient with its goal-registration race closed (ros2/rclpy#1123: a goal sent off the
+        # executor thread is lost when its answer comes first; a CI run lost one so). The same protocol.
+        from feeder_planner.node_kit.action_client import ActionClient
 
         if self._steps is None:
             self._steps = ActionClient(self.node, SimulateSteps, f"{NS}/simulate_steps")

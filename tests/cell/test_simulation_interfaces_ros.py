@@ -148,7 +148,6 @@ def test_a_step_advances_cell_time_by_exactly_one_quantum_each(harness: Harness)
 
 def test_spawn_onto_the_array_and_simulate_steps_until_the_part_has_settled(harness: Harness) -> None:
     from action_msgs.msg import GoalStatus
-    from rclpy.action import ActionClient
     from simulation_interfaces.action import SimulateSteps
     from simulation_interfaces.msg import EntityCategory, EntityFilters
     from simulation_interfaces.srv import (
@@ -158,6 +157,8 @@ def test_spawn_onto_the_array_and_simulate_steps_until_the_part_has_settled(harn
         GetSpawnables,
         SpawnEntity,
     )
+
+    from feeder_planner.node_kit.action_client import ActionClient  # rclpy's, without ros2/rclpy#1123
 
     spawnables = harness.ok(GetSpawnables, "get_spawnables").spawnables
     assert any(s.uri.endswith("examples/mems/plus.yaml") for s in spawnables), [s.uri for s in spawnables]
