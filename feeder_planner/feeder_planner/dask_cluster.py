@@ -47,6 +47,23 @@ def stop_signals_blocked() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
+# Loggers of this process that a cluster closed by Ctrl-C reports its shutdown on: the LocalCluster's
+# scheduler runs here, and removing workers mid-task logs errors with tracebacks ("Removing worker ...
+# caused the cluster to lose scattered data", a KeyError from its bookkeeping: a CI run under load).
+SHUTDOWN_LOGGERS = ("distributed", "tornado", "asyncio")
+
+
+def _silence_shutdown_logs() -> None:
+    """After Ctrl-C: the run is over and says so in one line; its cluster's shutdown is not reported.
+
+    Not restored: the close and distributed's exit handlers still run after this, and the process ends.
+    """
+    import logging
+
+    for name in SHUTDOWN_LOGGERS:
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+
+
 @contextlib.contextmanager
 def dask_client(workers: int, scheduler: str | None, field: str = "scheduler") -> Iterator[Client]:
     """Yield a client whose workers have arrived; it and its cluster close when the block ends, however.
@@ -85,6 +102,9 @@ def dask_client(workers: int, scheduler: str | None, field: str = "scheduler") -
                     ) from None
         client.wait_for_workers(1 if scheduler is not None else workers, timeout=WORKERS_TIMEOUT)
         yield client
+    except KeyboardInterrupt:
+        _silence_shutdown_logs()
+        raise
     finally:
         if client is not None:
             client.close()

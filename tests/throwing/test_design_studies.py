@@ -89,3 +89,20 @@ def test_a_local_clusters_workers_log_only_critical_messages():
     with dask_client(2, None) as client:
         levels = client.run(_distributed_log_level)
     assert len(levels) == 2 and set(levels.values()) == {logging.CRITICAL}, levels
+
+
+def test_ctrl_c_inside_a_local_cluster_silences_its_shutdown_in_this_process():
+    """The scheduler runs here: its reports of workers removed mid-task must not follow the one line."""
+    import logging
+
+    from feeder_planner.dask_cluster import SHUTDOWN_LOGGERS, dask_client
+
+    before = {name: logging.getLogger(name).level for name in SHUTDOWN_LOGGERS}
+    try:
+        with pytest.raises(KeyboardInterrupt), dask_client(1, None):
+            raise KeyboardInterrupt
+        levels = {name: logging.getLogger(name).getEffectiveLevel() for name in SHUTDOWN_LOGGERS}
+        assert all(level > logging.CRITICAL for level in levels.values()), levels
+    finally:
+        for name, level in before.items():
+            logging.getLogger(name).setLevel(level)
