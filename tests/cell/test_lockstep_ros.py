@@ -402,9 +402,13 @@ def test_kill_9_of_the_cell_host_ends_the_launch_with_one_line_naming_the_host_a
     assert len(lines) == 1, err[-2000:]
     for node in ("/cell_clock", "/cell_simulation", "/cell/mems_field_array", "/cell/throwing_arm"):
         assert node in lines[0], lines[0]
-    assert f"pid {pid}" in lines[0] and "exit code -9" in lines[0], lines[0]
-    host = json.loads(out)["hosts"][0]
-    assert host["pid"] == pid and host["died_early"] and "/cell/assembly_fixture" in host["nodes"]
+    assert f"pid {pid}" in lines[0] and "code -9" in lines[0], lines[0]
+    # Under load the launch can still be waiting to see every node in its graph when the arm is up (the
+    # scene's controller brings the devices up): then the death is its start-up's (ci20), one line naming
+    # the host and its nodes as well, and there is no run to report in JSON.
+    if "at start-up" not in lines[0]:
+        host = json.loads(out)["hosts"][0]
+        assert host["pid"] == pid and host["died_early"] and "/cell/assembly_fixture" in host["nodes"]
 
 
 def test_a_cell_host_that_dies_at_start_up_is_named_with_its_nodes(tmp_path: Path) -> None:
