@@ -1,8 +1,11 @@
 """``feeder bridge``: the live ROS graph over the Foxglove WebSocket protocol, both subprotocol names.
 
-``protocol`` reads client messages and writes frames (no ROS); ``ws`` is the WebSocket server (asyncio,
-``websockets``; no ROS); ``server.GraphBridge`` is the ROS side (topics, services, parameters, the
-graph, the cell clock, client publishing); ``params`` converts parameter values; ``schemas`` gives a
-type's ros2msg schema; ``defaults`` holds the address, port and client-publish allow-list (light to
-import: ``feeder --help`` needs them, not ROS). docs/bridge.md says why the protocol layer is our own.
+The WebSocket side (no ROS): ``protocol`` reads client messages and writes frames; ``ws`` is the server
+(asyncio, ``websockets``: its thread, event loop and sessions); ``session`` is one client's bookkeeping
+and queues, ``client_ops`` the operations clients send, ``outbound`` what the server tells them,
+``adverts`` the channels, services and graph it advertises, ``backend`` what it asks of the ROS side.
+``server.GraphBridge`` is the ROS side (topics, services, parameters, the graph, the cell clock, client
+publishing); ``params`` converts parameter values; ``schemas`` gives a type's ros2msg schema;
+``defaults`` holds the address, port and client-publish allow-list (light to import: ``feeder --help``
+needs them, not ROS). docs/bridge.md says why the protocol layer is our own.
 """

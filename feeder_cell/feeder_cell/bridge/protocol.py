@@ -20,6 +20,9 @@ from typing import Callable, Mapping, NotRequired, TypedDict
 __all__ = [
     "SUBPROTOCOLS",
     "ENCODING",
+    "LEVEL_INFO",
+    "LEVEL_WARNING",
+    "LEVEL_ERROR",
     "ProtocolError",
     "ClientChannel",
     "ParameterSetting",
@@ -39,6 +42,8 @@ __all__ = [
 SUBPROTOCOLS = ("foxglove.sdk.v1", "foxglove.websocket.v1")
 # The one message encoding: ROS 2 CDR, both ways (schemas are ros2msg).
 ENCODING = "cdr"
+# A status message's levels.
+LEVEL_INFO, LEVEL_WARNING, LEVEL_ERROR = 0, 1, 2
 
 # Opcodes of binary frames (little-endian integers after the opcode byte).
 OP_MESSAGE_DATA = 0x01

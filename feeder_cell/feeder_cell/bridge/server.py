@@ -42,15 +42,22 @@ from rosgraph_msgs.msg import Clock
 from feeder_cell.bag.qos import matching_qos, offered_qos
 from feeder_cell.bag.types import message_class
 from feeder_cell.bridge import params as param_json
+from feeder_cell.bridge.adverts import Channel, GraphSnapshot, Service
 from feeder_cell.bridge.defaults import (
     DEFAULT_ADDRESS,
     DEFAULT_CLIENT_TOPICS,
     DEFAULT_PORT,
     DEFAULT_SERVICE_TIMEOUT,
 )
-from feeder_cell.bridge.protocol import ClientChannel, ParameterEntry, ParameterSetting
+from feeder_cell.bridge.protocol import (
+    LEVEL_ERROR,
+    LEVEL_WARNING,
+    ClientChannel,
+    ParameterEntry,
+    ParameterSetting,
+)
 from feeder_cell.bridge.schemas import schema_of, service_schemas
-from feeder_cell.bridge.ws import LEVEL_ERROR, LEVEL_WARNING, Channel, FoxgloveServer, GraphSnapshot, Service
+from feeder_cell.bridge.ws import FoxgloveServer
 from feeder_planner.node_kit.qos import request_qos
 
 __all__ = ["DEFAULT_ADDRESS", "DEFAULT_PORT", "GRAPH_PERIOD", "GraphBridge"]
@@ -213,7 +220,7 @@ class GraphBridge:
             except Exception as error:  # noqa: BLE001 -- one failed request must not end the bridge
                 self.node.get_logger().error(f"bridge: {name}: {type(error).__name__}: {error}")
 
-    # Backend (bridge.ws.Backend): called on the WebSocket thread, run on the ROS thread.
+    # Backend (bridge.backend.Backend): called on the WebSocket thread, run on the ROS thread.
     def subscribe(self, client: int, channel: int) -> None:
         """Forward the channel's topic to the client."""
         self._submit(self._subscribe, client, channel)
