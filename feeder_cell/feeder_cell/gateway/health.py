@@ -24,12 +24,12 @@ if TYPE_CHECKING:
 
 __all__ = ["Health"]
 
-# Runs a function in the rclpy executor's thread (RosLink._in_ros_value): rclpy objects are touched there.
+# Runs a function in the rclpy executor's thread (in_ros.InRos.value): rclpy objects are touched there.
 InRos = Callable[[Callable[[], Any]], Awaitable[Any]]
 
 
 class DeviceLink(Protocol):
-    """What the health of a device needs of its link (``ros_link.DeviceLink``, which imports this module)."""
+    """What the health of a device needs of its link (``device_link.DeviceLink``)."""
 
     entry: DeviceEntry
     lock: threading.Lock
