@@ -5,8 +5,9 @@ kind (``kinds.KINDS``: its signals and topics, its action method, arguments and 
 the device's own declaration); ``arguments`` (the shared argument readers, naming the argument),
 ``layout`` (the address space as data: what every device has, plus its kind's profile), ``config``
 (parameters, security rules, the PackML mapping) and ``users`` (salted password hashes) need neither a
-node nor asyncua; ``server`` wires asyncua; ``ros_link`` is the ROS (DDS) side. The node:
-``feeder_cell.nodes.opcua_gateway``.
+node nor asyncua; ``server`` wires asyncua (its parts: ``address_space``, ``value_writer``,
+``method_calls``, ...); ``ros_link`` is the ROS (DDS) side (its parts: ``device_listener``,
+``command_runner``, ``goals``, ...). The node: ``feeder_cell.nodes.opcua_gateway``.
 """
 
 # Import the submodules themselves: the package alone loads neither asyncua nor rclpy.
