@@ -227,74 +227,20 @@ def check_security(
     and log users in with passwords; anonymous sessions need ``allow_anonymous_remote``, and None or a
     Sign-only server ``allow_insecure_remote``, each explicit and logged as a warning at start.
     """
-    chosen = tuple(p.strip() for p in policies if p.strip())
-    if not chosen:
-        raise InputError("parameter security_policies", f"needs at least one of {', '.join(POLICIES)}")
-    for index, policy in enumerate(chosen):
-        if policy not in POLICIES:
-            raise InputError(
-                f"parameter security_policies[{index}]",
-                f"unknown policy {policy!r} (expected one of {', '.join(POLICIES)})",
-            )
-    if len(set(chosen)) != len(chosen):
-        raise InputError("parameter security_policies", f"lists a policy twice: {list(chosen)}")
+    # The checks run in this order, and the first that fails is the one error reported.
+    chosen = _chosen_policies(policies)
     secure = any(p != "None" for p in chosen)
     if secure:
-        # Both or neither: one file alone is a half-configured server, never silently completed.
-        pair = (("certificate_file", certificate_file), ("private_key_file", private_key_file))
-        for (name, path), (other, given) in zip(pair, reversed(pair), strict=True):
-            if not path and given:
-                raise InputError(
-                    f"parameter {name}",
-                    f"is required with {other} (leave both empty to have a self-signed certificate "
-                    "made in pki_dir)",
-                )
-        for name, path in pair:
-            if path:
-                _readable(path, f"parameter {name}")
-    if pki_dir and (not secure or certificate_file):
-        raise InputError(
-            "parameter pki_dir",
-            "is used only when a Basic256Sha256 policy is served without certificate_file and "
-            "private_key_file",
-        )
+        _check_certificate_pair(certificate_file, private_key_file)
+    _check_pki_dir(pki_dir, secure, certificate_file)
     if users_file:
         _readable(users_file, "parameter users_file")
-    if trusted_certificates_dir:
-        if not secure:
-            raise InputError(
-                "parameter trusted_certificates_dir",
-                "applies to the Basic256Sha256 policies only, and security_policies has none",
-            )
-        if not os.path.isdir(trusted_certificates_dir):
-            raise InputError(
-                "parameter trusted_certificates_dir", f"is not a folder: {trusted_certificates_dir!r}"
-            )
-    if not allow_anonymous and not users_file:
-        raise InputError(
-            "parameter allow_anonymous", "is false and no users_file is given: no client could log in"
-        )
+    _check_trusted_certificates_dir(trusted_certificates_dir, secure)
+    _check_someone_can_log_in(allow_anonymous, users_file)
     remote = not is_loopback(endpoint.host)
-    if remote and allow_anonymous and not allow_anonymous_remote:
-        raise InputError(
-            "parameter allow_anonymous",
-            f"anonymous clients are allowed on a loopback endpoint only, and {endpoint.url} is not one; "
-            f"set allow_anonymous false with a users_file (and security_policies [{SECURE_POLICY}]), "
-            "or allow_anonymous_remote true to allow anonymous access from the network explicitly",
-        )
+    _check_remote_anonymous(endpoint, remote, allow_anonymous, allow_anonymous_remote)
     insecure = "None" in chosen or SECURE_POLICY not in chosen
-    if remote and insecure and not allow_insecure_remote:
-        what = (
-            "offers None (no signature, no encryption)"
-            if "None" in chosen
-            else "offers no encryption (Basic256Sha256_Sign alone)"
-        )
-        raise InputError(
-            "parameter security_policies",
-            f"{what} on {endpoint.url}, which is not a loopback endpoint; serve [{SECURE_POLICY}] "
-            "(a self-signed certificate is made in pki_dir if none is given), or set "
-            "allow_insecure_remote true to allow it explicitly",
-        )
+    _check_remote_policies(endpoint, chosen, remote and insecure, allow_insecure_remote)
     return SecurityConfig(
         chosen,
         certificate_file,
@@ -306,6 +252,102 @@ def check_security(
         remote,
         remote and insecure,
     )
+
+
+def _chosen_policies(policies: list[str]) -> tuple[str, ...]:
+    """Return the policies named (blank entries skipped): at least one, each known, none twice."""
+    chosen = tuple(p.strip() for p in policies if p.strip())
+    if not chosen:
+        raise InputError("parameter security_policies", f"needs at least one of {', '.join(POLICIES)}")
+    for index, policy in enumerate(chosen):
+        if policy not in POLICIES:
+            raise InputError(
+                f"parameter security_policies[{index}]",
+                f"unknown policy {policy!r} (expected one of {', '.join(POLICIES)})",
+            )
+    if len(set(chosen)) != len(chosen):
+        raise InputError("parameter security_policies", f"lists a policy twice: {list(chosen)}")
+    return chosen
+
+
+def _check_certificate_pair(certificate_file: str, private_key_file: str) -> None:
+    """Check a secure server's certificate and key: both given and readable, or neither (one made)."""
+    # Both or neither: one file alone is a half-configured server, never silently completed.
+    pair = (("certificate_file", certificate_file), ("private_key_file", private_key_file))
+    for (name, path), (other, given) in zip(pair, reversed(pair), strict=True):
+        if not path and given:
+            raise InputError(
+                f"parameter {name}",
+                f"is required with {other} (leave both empty to have a self-signed certificate "
+                "made in pki_dir)",
+            )
+    for name, path in pair:
+        if path:
+            _readable(path, f"parameter {name}")
+
+
+def _check_pki_dir(pki_dir: str, secure: bool, certificate_file: str) -> None:
+    """Refuse a pki_dir that would not be used: no secure policy, or a certificate given."""
+    if pki_dir and (not secure or certificate_file):
+        raise InputError(
+            "parameter pki_dir",
+            "is used only when a Basic256Sha256 policy is served without certificate_file and "
+            "private_key_file",
+        )
+
+
+def _check_trusted_certificates_dir(trusted_certificates_dir: str, secure: bool) -> None:
+    """Check a trust list: only beside a secure policy, and a folder."""
+    if not trusted_certificates_dir:
+        return
+    if not secure:
+        raise InputError(
+            "parameter trusted_certificates_dir",
+            "applies to the Basic256Sha256 policies only, and security_policies has none",
+        )
+    if not os.path.isdir(trusted_certificates_dir):
+        raise InputError(
+            "parameter trusted_certificates_dir", f"is not a folder: {trusted_certificates_dir!r}"
+        )
+
+
+def _check_someone_can_log_in(allow_anonymous: bool, users_file: str) -> None:
+    """Refuse settings under which no client could open a session."""
+    if not allow_anonymous and not users_file:
+        raise InputError(
+            "parameter allow_anonymous", "is false and no users_file is given: no client could log in"
+        )
+
+
+def _check_remote_anonymous(
+    endpoint: Endpoint, remote: bool, allow_anonymous: bool, allow_anonymous_remote: bool
+) -> None:
+    """Refuse anonymous sessions off loopback unless allow_anonymous_remote says so explicitly."""
+    if remote and allow_anonymous and not allow_anonymous_remote:
+        raise InputError(
+            "parameter allow_anonymous",
+            f"anonymous clients are allowed on a loopback endpoint only, and {endpoint.url} is not one; "
+            f"set allow_anonymous false with a users_file (and security_policies [{SECURE_POLICY}]), "
+            "or allow_anonymous_remote true to allow anonymous access from the network explicitly",
+        )
+
+
+def _check_remote_policies(
+    endpoint: Endpoint, chosen: tuple[str, ...], insecure_remote: bool, allow_insecure_remote: bool
+) -> None:
+    """Refuse None or Sign alone off loopback unless allow_insecure_remote says so explicitly."""
+    if insecure_remote and not allow_insecure_remote:
+        what = (
+            "offers None (no signature, no encryption)"
+            if "None" in chosen
+            else "offers no encryption (Basic256Sha256_Sign alone)"
+        )
+        raise InputError(
+            "parameter security_policies",
+            f"{what} on {endpoint.url}, which is not a loopback endpoint; serve [{SECURE_POLICY}] "
+            "(a self-signed certificate is made in pki_dir if none is given), or set "
+            "allow_insecure_remote true to allow it explicitly",
+        )
 
 
 def security_warnings(endpoint: Endpoint, security: SecurityConfig) -> list[str]:
