@@ -470,6 +470,14 @@ def connect_when(url: str, subprotocol: str, accept: Any) -> OfficialClient:
         time.sleep(0.5)
 
 
+def wait_until_parameters_known(official: OfficialClient, name: str) -> None:
+    """Wait until the bridge's discovery knows the node of ``name`` takes parameter requests."""
+    deadline = time.monotonic() + TIMEOUT
+    while not official.request("getParameters", names=[name], requestId="known")["parameters"]:
+        assert time.monotonic() < deadline, f"the bridge never knew {name}'s node takes parameter requests"
+        time.sleep(0.2)
+
+
 # --- read-only ------------------------------------------------------------------------------------------
 def test_a_read_only_bridge_refuses_everything_that_acts(arm: None, ros_client: Any) -> None:
     from feeder_msgs.srv import InjectFault
@@ -484,8 +492,12 @@ def test_a_read_only_bridge_refuses_everything_that_acts(arm: None, ros_client: 
                 assert capabilities == {"parameters", "parametersSubscribe", "connectionGraph"}
                 sensor = official.subscribe(f"{ARM}/sensor")  # reading still works
                 assert official.messages(sensor, 1)  # at least one sample arrives
-                mark = official.mark()
                 name = f"{ARM}.marker_rate"
+                # A bridge just started may have seen the arm's topics and not yet its parameter services
+                # (discovery is incremental; it looks again each second): it would then answer "no node
+                # takes parameter requests" and [], which is right but not what this test is about.
+                wait_until_parameters_known(official, name)
+                mark = official.mark()
                 values = official.request(
                     "setParameters", parameters=[{"name": name, "value": 3.0}], requestId="ro"
                 )["parameters"]
