@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import re
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -56,10 +57,32 @@ def _compression(args: argparse.Namespace) -> str:
     return str(args.compression_format or "zstd")
 
 
+@dataclass(frozen=True)
+class _RecordPlan:
+    """A recording's checked flags and what they decide, all known before its node starts."""
+
+    args: argparse.Namespace
+    snapshot: bool
+    selection: Selection
+    compression: str
+    overrides: dict[str, Any]  # QoS profiles by topic
+    output: Path
+
+
 def _record(args: argparse.Namespace) -> int:
-    from feeder_cell.bag.controls import serve_pause_controls
+    plan = _plan_record(args)
+
+    def work(node: Node, executor: Executor, keep_going: Callable[[], bool]) -> dict[str, Any]:
+        return _run_recording(plan, node, executor, keep_going)
+
+    result = with_node(args.node_name, work)
+    emit(args, result, _summary)
+    return 0
+
+
+def _plan_record(args: argparse.Namespace) -> _RecordPlan:
+    """Check the flags, in this order (a user sees the first mistake), before any node starts."""
     from feeder_cell.bag.qos import load_qos_overrides
-    from feeder_cell.bag.recorder import Recorder, missing_topics
 
     if args.duration is not None and args.duration <= 0:
         raise InputError("--duration", f"must be > 0 seconds, got {args.duration}")
@@ -84,71 +107,102 @@ def _record(args: argparse.Namespace) -> int:
     # Before any node starts: an existing bag, or a parent that is a file, is refused by name. Snapshot
     # bags go into OUTPUT as a directory of bags, which may exist already (each bag's name is new).
     output = output_directory(args.output, "output", must_be_new=not snapshot)
+    return _RecordPlan(args, snapshot, selection, compression, overrides, output)
 
-    def work(node: Node, executor: Executor, keep_going: Callable[[], bool]) -> dict[str, Any]:
-        clock: Callable[[], int] = time.time_ns
-        if args.use_sim_time:
-            from rclpy.parameter import Parameter
 
-            # The node's clock follows /clock from here; it reads 0 until the first message.
-            node.set_parameters([Parameter("use_sim_time", Parameter.Type.BOOL, True)])
-            clock = lambda: node.get_clock().now().nanoseconds  # noqa: E731
-            node.get_logger().info("use_sim_time: waiting for /clock before recording")
-        recorder = Recorder(
-            node,
-            output,
-            flush_interval=args.flush_interval,
-            selection=selection,
-            compression=compression,
-            max_bag_size=args.max_bag_size,
-            max_bag_duration=args.max_bag_duration,
-            qos_overrides=overrides,
-            paused=args.start_paused,
-            clock=clock,
-            wait_for_clock=args.use_sim_time,
-            snapshot=snapshot,
-            max_cache_size=args.max_cache_size or 0,
-            max_cache_duration=args.max_cache_duration or 0.0,
-            snapshot_on_fault=args.snapshot_on_fault,
-            post_fault=DEFAULT_POST_FAULT if args.post_fault is None else args.post_fault,
-        )
-        # ~/pause, ~/resume, ~/toggle_paused and ~/is_paused on the recorder node, as rosbag2 serves them.
-        services = serve_pause_controls(
-            node, recorder.pause, recorder.resume, recorder.toggle_paused, lambda: recorder.paused
-        )
-        if snapshot:
-            services.append(_serve_snapshot(node, recorder))
-        started = time.monotonic()
-        next_discovery = 0.0
-        try:
-            while keep_going() and (args.duration is None or time.monotonic() - started < args.duration):
-                if time.monotonic() >= next_discovery:
-                    recorder.discover()
-                    next_discovery = time.monotonic() + 0.5
-                executor.spin_once(timeout_sec=0.05)
-        finally:
-            stats = recorder.close()
-            for service in services:
-                node.destroy_service(service)
-        result = {
-            "path": str(output.resolve()),
-            "duration": time.monotonic() - started,
-            "files": [f.name for f in recorder.files],
-            "compression": compression,
-            "use_sim_time": args.use_sim_time,
-            "dropped_while_paused": recorder.dropped_paused,
-            "topics": {name: {"type": s.type_name, "count": s.count} for name, s in sorted(stats.items())},
-            "missing": missing_topics(stats, args.topics or ()),
-        }
-        if snapshot:
-            result["snapshots"] = [bag.to_json() for bag in recorder.written]
-            result["skipped_faults"] = recorder.skipped_faults
-            result["cache"] = recorder.cache_stats
-        return result
+def _run_recording(
+    plan: _RecordPlan, node: Node, executor: Executor, keep_going: Callable[[], bool]
+) -> dict[str, Any]:
+    """Record until the duration is up or a stop signal; the bag is closed whatever ends it."""
+    from feeder_cell.bag.controls import serve_pause_controls
 
-    result = with_node(args.node_name, work)
-    emit(args, result, _summary)
-    return 0
+    recorder = _open_recorder(plan, node)
+    # ~/pause, ~/resume, ~/toggle_paused and ~/is_paused on the recorder node, as rosbag2 serves them.
+    services = serve_pause_controls(
+        node, recorder.pause, recorder.resume, recorder.toggle_paused, lambda: recorder.paused
+    )
+    if plan.snapshot:
+        services.append(_serve_snapshot(node, recorder))
+    started = time.monotonic()
+    try:
+        _record_until_the_end(plan.args.duration, recorder, executor, keep_going, started)
+    finally:
+        stats = recorder.close()
+        for service in services:
+            node.destroy_service(service)
+    return _record_result(plan, recorder, stats, started)
+
+
+def _open_recorder(plan: _RecordPlan, node: Node) -> Recorder:
+    """Return the recorder the flags ask for, on the wall clock or (--use-sim-time) on /clock."""
+    from feeder_cell.bag.recorder import Recorder
+
+    args = plan.args
+    clock: Callable[[], int] = time.time_ns
+    if args.use_sim_time:
+        from rclpy.parameter import Parameter
+
+        # The node's clock follows /clock from here; it reads 0 until the first message.
+        node.set_parameters([Parameter("use_sim_time", Parameter.Type.BOOL, True)])
+        clock = lambda: node.get_clock().now().nanoseconds  # noqa: E731
+        node.get_logger().info("use_sim_time: waiting for /clock before recording")
+    return Recorder(
+        node,
+        plan.output,
+        flush_interval=args.flush_interval,
+        selection=plan.selection,
+        compression=plan.compression,
+        max_bag_size=args.max_bag_size,
+        max_bag_duration=args.max_bag_duration,
+        qos_overrides=plan.overrides,
+        paused=args.start_paused,
+        clock=clock,
+        wait_for_clock=args.use_sim_time,
+        snapshot=plan.snapshot,
+        max_cache_size=args.max_cache_size or 0,
+        max_cache_duration=args.max_cache_duration or 0.0,
+        snapshot_on_fault=args.snapshot_on_fault,
+        post_fault=DEFAULT_POST_FAULT if args.post_fault is None else args.post_fault,
+    )
+
+
+def _record_until_the_end(
+    duration: float | None,
+    recorder: Recorder,
+    executor: Executor,
+    keep_going: Callable[[], bool],
+    started: float,
+) -> None:
+    """Spin, subscribing to new topics every half second, until ``duration`` is up or a stop signal."""
+    next_discovery = 0.0
+    while keep_going() and (duration is None or time.monotonic() - started < duration):
+        if time.monotonic() >= next_discovery:
+            recorder.discover()
+            next_discovery = time.monotonic() + 0.5
+        executor.spin_once(timeout_sec=0.05)
+
+
+def _record_result(
+    plan: _RecordPlan, recorder: Recorder, stats: dict[str, Any], started: float
+) -> dict[str, Any]:
+    """Return the recording's JSON result (in snapshot mode with its snapshots and cache)."""
+    from feeder_cell.bag.recorder import missing_topics
+
+    result = {
+        "path": str(plan.output.resolve()),
+        "duration": time.monotonic() - started,
+        "files": [f.name for f in recorder.files],
+        "compression": plan.compression,
+        "use_sim_time": plan.args.use_sim_time,
+        "dropped_while_paused": recorder.dropped_paused,
+        "topics": {name: {"type": s.type_name, "count": s.count} for name, s in sorted(stats.items())},
+        "missing": missing_topics(stats, plan.args.topics or ()),
+    }
+    if plan.snapshot:
+        result["snapshots"] = [bag.to_json() for bag in recorder.written]
+        result["skipped_faults"] = recorder.skipped_faults
+        result["cache"] = recorder.cache_stats
+    return result
 
 
 _NODE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
@@ -329,6 +383,15 @@ def _compare(args: argparse.Namespace) -> int:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add this module's subcommands to the ``feeder`` parser."""
+    _register_record(subparsers)
+    _register_info(subparsers)
+    _register_reindex(subparsers)
+    _register_compare(subparsers)
+    _register_convert(subparsers)
+
+
+def _register_record(subparsers: argparse._SubParsersAction) -> None:
+    """Add ``feeder record``: its flags in the order its --help lists them."""
     record = subparsers.add_parser(
         "record",
         help="record live topics into a rosbag2 MCAP bag",
@@ -341,6 +404,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "rest readable. Timestamps are receive times, nanoseconds since the epoch.",
     )
     record.add_argument("output", help="bag directory to create (never overwritten), e.g. bags/run1")
+    _add_record_selection(record)
+    _add_record_files(record)
+    _add_record_behaviour(record)
+    _add_record_snapshot(record)
+    _add_record_run(record)
+    add_json_flag(record)
+    record.set_defaults(handler=_record)
+
+
+def _add_record_selection(record: argparse.ArgumentParser) -> None:
+    """Add the flags of what ``feeder record`` records: topics, services, actions (name, pattern, type)."""
     record.add_argument(
         "--topics",
         nargs="+",
@@ -395,6 +469,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="record these actions' <action>/_action/feedback and _action/status topics (goal states and "
         "feedback), every action's with no name; Jazzy cannot introspect actions' goal and result services",
     )
+
+
+def _add_record_files(record: argparse.ArgumentParser) -> None:
+    """Add the flags of how ``feeder record`` writes its files: splitting and compression."""
     record.add_argument(
         "--max-bag-size",
         type=int,
@@ -426,6 +504,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     record.add_argument(
         "--compression-format", choices=("zstd", "lz4"), help="with --compression-mode (default zstd)"
     )
+
+
+def _add_record_behaviour(record: argparse.ArgumentParser) -> None:
+    """Add the flags of how ``feeder record`` starts, subscribes and stamps."""
     record.add_argument(
         "--start-paused",
         action="store_true",
@@ -446,6 +528,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "publishes it) instead of wall time; nothing is recorded before the first /clock message "
         "(rosbag2's --use-sim-time)",
     )
+
+
+def _add_record_snapshot(record: argparse.ArgumentParser) -> None:
+    """Add the flags of ``feeder record``'s snapshot mode and flight recorder."""
     record.add_argument(
         "--snapshot-mode",
         action="store_true",
@@ -482,6 +568,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="with --snapshot-on-fault: seconds after the fault (on the recorder's clock) kept in its bag "
         f"(default {DEFAULT_POST_FAULT:g})",
     )
+
+
+def _add_record_run(record: argparse.ArgumentParser) -> None:
+    """Add ``feeder record``'s node name, duration and flush interval flags."""
     record.add_argument(
         "--node-name",
         default="feeder_recorder",
@@ -498,9 +588,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="close the current MCAP chunk and flush it to disk at least this often, whatever the data "
         "rate (> 0, default 1): the most a killed recorder loses",
     )
-    add_json_flag(record)
-    record.set_defaults(handler=_record)
 
+
+def _register_info(subparsers: argparse._SubParsersAction) -> None:
+    """Add ``feeder bag-info``."""
     info = subparsers.add_parser(
         "bag-info",
         help="what a bag holds, as ros2 bag info prints it",
@@ -514,6 +605,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_json_flag(info)
     info.set_defaults(handler=_info)
 
+
+def _register_reindex(subparsers: argparse._SubParsersAction) -> None:
+    """Add ``feeder bag-reindex``."""
     reindex = subparsers.add_parser(
         "bag-reindex",
         help="recover a bag whose recording was killed or cut short (as ros2 bag reindex)",
@@ -528,6 +622,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_json_flag(reindex)
     reindex.set_defaults(handler=_reindex)
 
+
+def _register_compare(subparsers: argparse._SubParsersAction) -> None:
+    """Add ``feeder bag-compare``."""
     compare = subparsers.add_parser(
         "bag-compare",
         help="compare two bags message by message (the same lockstep run at two paces must agree)",
@@ -552,6 +649,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_json_flag(compare)
     compare.set_defaults(handler=_compare)
 
+
+def _register_convert(subparsers: argparse._SubParsersAction) -> None:
+    """Add ``feeder bag-convert``."""
     bag_convert = subparsers.add_parser(
         "bag-convert",
         help="merge, split, filter, cut or recompress bags (as ros2 bag convert)",
