@@ -70,6 +70,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("scene", help="scene file, e.g. feeder_cell/scenes/demo.yaml")
     parser.add_argument("--duration", type=finite_float, help="seconds to run (default: until Ctrl-C)")
     parser.add_argument("--record", help="record every topic into this new bag directory (rosbag2, MCAP)")
+    _add_cell_clock_flags(parser)
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NODE.PARAM=VALUE",
+        help="set a node's parameter for this run, over the scene file's (NODE: its name, e.g. "
+        "cell_controller.cycles=1; VALUE: YAML); checked against the node's declarations; repeatable",
+    )
+    _add_process_flags(parser)
+    parser.add_argument("--log-dir", help="where node logs go (default: a new temporary folder)")
+    add_json_flag(parser)
+    parser.set_defaults(handler=_launch)
+
+
+def _add_cell_clock_flags(parser: argparse.ArgumentParser) -> None:
+    """Add the flags of the lockstep cell clock: its pace, quantum, start time and timeouts."""
     parser.add_argument(
         "--real-time-factor",
         type=real_time_factor,
@@ -108,14 +125,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="drop: the cell goes on without the participant (an ERROR in /diagnostics names it); "
         "stop: the clock holds where it is (default drop)",
     )
-    parser.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="NODE.PARAM=VALUE",
-        help="set a node's parameter for this run, over the scene file's (NODE: its name, e.g. "
-        "cell_controller.cycles=1; VALUE: YAML); checked against the node's declarations; repeatable",
-    )
+
+
+def _add_process_flags(parser: argparse.ArgumentParser) -> None:
+    """Add the flags that decide which nodes share the cell host's process."""
     parser.add_argument(
         "--host-controller",
         action="store_true",
@@ -129,6 +142,3 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "cell_simulation and the devices share one cell host process, lockstep among them by direct "
         "calls; docs/cell.md)",
     )
-    parser.add_argument("--log-dir", help="where node logs go (default: a new temporary folder)")
-    add_json_flag(parser)
-    parser.set_defaults(handler=_launch)
