@@ -13,7 +13,6 @@ is supported, row by row as the standard's features: ``simulation.support`` (doc
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any, Awaitable, Callable
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -24,27 +23,18 @@ from simulation_interfaces.action import SimulateSteps
 from simulation_interfaces.msg import EntityInfo, SimulationState, SimulatorFeatures, Spawnable
 from simulation_interfaces.srv import (
     DeleteEntity,
-    GetAvailableWorlds,
-    GetCurrentWorld,
     GetEntities,
     GetEntitiesStates,
-    GetEntityBounds,
     GetEntityInfo,
     GetEntityState,
-    GetNamedPoseBounds,
-    GetNamedPoses,
     GetSimulationState,
     GetSimulatorFeatures,
     GetSpawnables,
-    LoadWorld,
     ResetSimulation,
-    SetEntityInfo,
     SetEntityState,
     SetSimulationState,
-    SpawnEntities,
     SpawnEntity,
     StepSimulation,
-    UnloadWorld,
 )
 from std_msgs.msg import Header
 
@@ -52,8 +42,8 @@ from feeder_cell.simulation import control
 from feeder_cell.simulation.cell_link import KINDS, CellLink
 from feeder_cell.simulation.entities import Entity, Sphere
 from feeder_cell.simulation.msgs import accel_tuple, pose_tuple, result_msg, state_msg, twist_tuples
+from feeder_cell.simulation.parameters import CLOCK_HARDWARE_ID, PARAMETERS, STEPPING, SimulationParameters
 from feeder_cell.simulation.results import (
-    FEATURE_UNSUPPORTED,
     INCORRECT_STATE,
     OK,
     OPERATION_FAILED,
@@ -67,57 +57,13 @@ from feeder_cell.simulation.spawning import (
     read_spawnable,
 )
 from feeder_cell.simulation.support import FEATURES, custom_info
+from feeder_cell.simulation.unsupported import UNSUPPORTED, unsupported
 from feeder_cell.simulation.world import CellWorld
 from feeder_planner.node_kit import declare_parameters, run_node
 from feeder_planner.node_kit.lockstep import ANNOUNCE_TOPIC, LOCKSTEP_QOS
-from feeder_planner.parameter_specs import from_values, param, positive, specs_of
+from feeder_planner.parameter_specs import from_values
 
 __all__ = ["SimulationParameters", "PARAMETERS", "CellSimulation", "FEATURES", "main"]
-
-# Standard services the cell has no use for: served, so that a harness gets FEATURE_UNSUPPORTED, not silence.
-UNSUPPORTED = {
-    "get_entity_bounds": (GetEntityBounds, "entity bounds"),
-    "set_entity_info": (SetEntityInfo, "setting entity info"),
-    "get_named_poses": (GetNamedPoses, "named poses"),
-    "get_named_pose_bounds": (GetNamedPoseBounds, "named pose bounds"),
-    "spawn_entities": (SpawnEntities, "spawning several entities in one call (use spawn_entity)"),
-    "load_world": (LoadWorld, "worlds (the cell's one world is its scene)"),
-    "unload_world": (UnloadWorld, "worlds (the cell's one world is its scene)"),
-    "get_current_world": (GetCurrentWorld, "worlds (the cell's one world is its scene)"),
-    "get_available_worlds": (GetAvailableWorlds, "worlds (the cell's one world is its scene)"),
-}
-
-
-@dataclass(frozen=True)
-class SimulationParameters:
-    """The simulation node's parameters (docs/cell.md); `feeder launch` sets the scene's devices."""
-
-    clock_node: str = param("/cell_clock", "the cell clock node it pauses, resumes and steps", read_only=True)
-    quantum: float = param(
-        0.1, "cell seconds per step: the cell clock's lockstep quantum", positive, read_only=True
-    )
-    mems_field_arrays: list[str] = param(
-        [""], "fully qualified names of the scene's MEMS arrays", read_only=True
-    )
-    throwing_arms: list[str] = param(
-        [""], "fully qualified names of the scene's throwing arms", read_only=True
-    )
-    assembly_fixtures: list[str] = param(
-        [""], "fully qualified names of the scene's fixtures", read_only=True
-    )
-    part_directories: list[str] = param(
-        [""],
-        "directories whose part files GetSpawnables lists (feeder launch: those the scene names)",
-        read_only=True,
-    )
-    call_timeout: float = param(
-        30.0, "wall seconds a device or the clock may take to answer a call", positive, read_only=True
-    )
-
-
-PARAMETERS = specs_of(SimulationParameters)
-STEPPING = ("step_simulation", "simulate_steps")
-CLOCK_HARDWARE_ID = "sim:cell_clock"  # the hardware_id of the cell clock's lockstep status
 
 
 class CellSimulation(Node):
@@ -159,7 +105,7 @@ class CellSimulation(Node):
         serve(DeleteEntity, "delete_entity", self._delete)
         serve(GetSpawnables, "get_spawnables", self._spawnables, changes=False)
         for name, (srv, what) in UNSUPPORTED.items():
-            serve(srv, name, self._unsupported(what), changes=False)
+            serve(srv, name, unsupported(what), changes=False)
         ActionServer(
             self,
             SimulateSteps,
@@ -204,13 +150,6 @@ class CellSimulation(Node):
             return response
 
         self.create_service(srv, f"~/{name}", callback, callback_group=self.link.group)
-
-    @staticmethod
-    def _unsupported(what: str) -> Callable[[Any, Any], Awaitable[None]]:
-        async def handler(request: Any, response: Any) -> None:
-            raise SimulationError(FEATURE_UNSUPPORTED, f"{what} is not supported by this cell")
-
-        return handler
 
     # --- features and simulation state -------------------------------------------------------------
     async def _features(self, request: Any, response: GetSimulatorFeatures.Response) -> None:
