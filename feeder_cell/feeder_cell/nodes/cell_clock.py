@@ -23,16 +23,13 @@ of time). The clock itself runs on the wall (steady) clock.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from typing import Callable, cast
 
-from builtin_interfaces.msg import Time
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.clock import Clock as RclClock
 from rclpy.clock import ClockType
-from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -41,90 +38,23 @@ from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
+from feeder_cell.clock_diagnostics import lockstep_diagnostics
+from feeder_cell.clock_parameters import NANOSECONDS, PARAMETERS, ClockParameters, nanoseconds_of, to_time
+from feeder_cell.clock_services import ClockServices
 from feeder_cell.host.hub import ClockHub
-from feeder_cell.lockstep_barrier import REWIND_REFUSED, REWOUND_TO, Barrier, Dropped
+from feeder_cell.lockstep_barrier import Barrier, Dropped
 from feeder_msgs.srv import IsPaused, StepClock
 from feeder_planner.errors import InputError
 from feeder_planner.node_kit import check_value, declare_parameters, run_node
 from feeder_planner.node_kit.lockstep import ANNOUNCE_TOPIC, ANSWER_TOPIC, LEAVE_SEC, LOCKSTEP_QOS, ROLES
-from feeder_planner.parameter_specs import from_values, non_negative, one_of, param, positive, specs_of
+from feeder_planner.parameter_specs import from_values
 
 __all__ = ["ClockParameters", "PARAMETERS", "CellClock", "main"]
 
 
-@dataclass(frozen=True)
-class ClockParameters:
-    """The cell clock's parameters (docs/cell.md)."""
-
-    real_time_factor: float = param(
-        1.0,
-        "simulated seconds per wall second; may change at run time. In lockstep an upper bound on the "
-        "pace, 0: as fast as the participants allow (feeder launch --real-time-factor max)",
-        non_negative,
-    )
-    publish_rate: float = param(
-        200.0,
-        "free-running only: rate (Hz, wall clock) of /clock messages, the time resolution the nodes see "
-        "being real_time_factor / publish_rate",
-        positive,
-        read_only=True,
-    )
-    start_time: float = param(
-        0.0,
-        "simulated time at start (s since the epoch); 0: the wall time at start",
-        non_negative,
-        read_only=True,
-    )
-    start_paused: bool = param(False, "hold the clock at start_time until ~/resume or ~/step", read_only=True)
-    lockstep: bool = param(
-        False,
-        "advance by quanta, each once every lockstep participant is done (else free-running)",
-        read_only=True,
-    )
-    quantum: float = param(
-        0.1,
-        "lockstep: cell seconds per advance; a device ticks every instant of its rate within it, a "
-        "controller decides once per quantum",
-        positive,
-        read_only=True,
-    )
-    clock_rate: float = param(
-        50.0,
-        "lockstep: most /clock messages per wall second (the participants hear every quantum on their "
-        "own topics; a node that does not join sees cell time at this rate and is not woken per quantum)",
-        positive,
-        read_only=True,
-    )
-    lockstep_expect: list[str] = param(
-        [""],
-        "lockstep: fully qualified names held for at start (the clock stays at start_time until each "
-        "has joined or join_timeout passed); feeder launch lists the scene's participants",
-        read_only=True,
-    )
-    lockstep_timeout: float = param(
-        30.0,
-        "lockstep: wall seconds a participant may take to answer a phase before it is dropped",
-        positive,
-        read_only=True,
-    )
-    join_timeout: float = param(
-        60.0, "lockstep: wall seconds the expected participants have to join", positive, read_only=True
-    )
-    on_lockstep_timeout: str = param(
-        "drop",
-        "lockstep: what a participant's timeout does: drop (ERROR in /diagnostics, the cell goes on) or "
-        "stop (ERROR, and the clock holds where it is)",
-        one_of(("drop", "stop")),
-        read_only=True,
-    )
-
-
-PARAMETERS = specs_of(ClockParameters)
-
 # rclpy's time source subscribes to /clock best effort with depth 1; a reliable publisher matches it.
 CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 
-NANOSECONDS = 1_000_000_000
 # A phase announcement not answered within this many wall seconds is published again: a best-effort
 # /clock reader (rclpy's time source) may have missed it. Participants ignore a time they have seen.
 REANNOUNCE_S = 1.0
@@ -132,16 +62,7 @@ JOIN_REANNOUNCE_S = 0.2
 DIAGNOSTICS_PERIOD_S = 1.0
 
 
-def to_time(nanoseconds: int) -> Time:
-    """Return a builtin_interfaces/Time of an integer number of nanoseconds."""
-    return Time(sec=nanoseconds // NANOSECONDS, nanosec=nanoseconds % NANOSECONDS)
-
-
-def _nanoseconds(stamp: Time) -> int:
-    return int(stamp.sec) * NANOSECONDS + int(stamp.nanosec)
-
-
-class CellClock(Node):
+class CellClock(ClockServices):
     """Publishes /clock; serves ~/pause, ~/resume (std_srvs/Trigger) and ~/step (feeder_msgs/StepClock)."""
 
     def __init__(self) -> None:
@@ -239,7 +160,7 @@ class CellClock(Node):
         # The answer names the node without the leading slash (a frame id has none); the barrier knows it
         # by its fully qualified name.
         name = "/" + msg.frame_id.lstrip("/")
-        barrier.answer(role, name, -1 if leave else _nanoseconds(msg.stamp), leave)
+        barrier.answer(role, name, -1 if leave else nanoseconds_of(msg.stamp), leave)
         self._pump()
 
     def _on_lockstep_timer(self) -> None:
@@ -319,132 +240,19 @@ class CellClock(Node):
                 waiter.set_result(True)
 
     def _publish_diagnostics(self) -> None:
-        barrier = cast(Barrier, self.barrier)
         self.diagnostics_wall = time.monotonic()
-        if barrier.dropped or self.stopped:
-            level = DiagnosticStatus.ERROR
-            message = self.stopped or "; ".join(d.describe() for d in barrier.dropped)
-        else:
-            level, message = DiagnosticStatus.OK, f"lockstep at T = {self.now_ns / NANOSECONDS:.3f} s"
-        waiting = barrier.waiting_for()
-        values = {
-            "quantum_s": f"{self.p.quantum:g}",
-            "real_time_factor": "max" if self.factor == 0 else f"{self.factor:g}",
-            "cell_time_s": f"{self.now_ns / NANOSECONDS:.9f}",
-            "quanta": str(self.quanta),
-            "phase": barrier.phase,
-            "paused": str(self.paused).lower(),
-            "participants": ", ".join(f"{m.name} ({m.role})" for m in barrier.members.values()),
-            "waiting_for": ", ".join(m.name for m in waiting),
-            "dropped": ", ".join(d.name for d in barrier.dropped),
-        }
-        status = DiagnosticStatus(
-            level=level,
-            name=f"{self.get_fully_qualified_name()}: lockstep",
-            message=message,
-            hardware_id="sim:cell_clock",
-            values=[KeyValue(key=k, value=v) for k, v in values.items()],
-        )
-        array = DiagnosticArray(status=[status])
-        array.header.stamp = to_time(self.now_ns)
-        self.diagnostics_pub.publish(array)
-
-    # --- services -----------------------------------------------------------------------------------
-    def on_pause(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        """Hold the clock where it is (in lockstep: once the present quantum is complete)."""
-        if self.barrier is None:
-            self.tick()
-        self.paused = True
-        response.success, response.message = True, f"paused at {self.now_ns / NANOSECONDS:.9f} s"
-        return response
-
-    def on_resume(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        """Run the clock again from where it was held."""
-        self.last_wall = time.monotonic()
-        self.paused = False
-        self.steps_left = 0
-        response.success, response.message = True, f"running at real-time factor {self.factor:g}"
-        if self.barrier is not None:
-            self._pump()
-        return response
-
-    def on_is_paused(self, request: IsPaused.Request, response: IsPaused.Response) -> IsPaused.Response:
-        """Whether the clock is held (a step in progress still counts as paused: it ends held)."""
-        response.paused = self.paused
-        return response
-
-    async def on_step(self, request: StepClock.Request, response: StepClock.Response) -> StepClock.Response:
-        """Advance a paused clock by the duration asked (in lockstep: whole quanta, answered once there)."""
-        step_ns = int(request.duration.sec) * NANOSECONDS + int(request.duration.nanosec)
-        response.ok, response.error = False, ""
-        if not self.paused:
-            response.error = "bad request: duration: the clock is running; ~/pause it first"
-        elif step_ns <= 0:
-            response.error = f"bad request: duration: must be > 0, got {step_ns} ns"
-        elif self.barrier is None:
-            self.now_ns += step_ns
-            self.publish()
-            response.ok = True
-        elif step_ns % self.barrier.quantum_ns:
-            response.error = (
-                f"bad request: duration: must be a whole number of quanta ({self.p.quantum:g} s) "
-                f"in lockstep, got {step_ns / NANOSECONDS:g} s"
+        self.diagnostics_pub.publish(
+            lockstep_diagnostics(
+                cast(Barrier, self.barrier),
+                name=self.get_fully_qualified_name(),
+                now_ns=self.now_ns,
+                quantum=self.p.quantum,
+                factor=self.factor,
+                quanta=self.quanta,
+                paused=self.paused,
+                stopped=self.stopped,
             )
-        elif self.stopped:
-            response.error = f"bad request: the clock is {self.stopped}"
-        else:
-            done = Future()
-            self.step_waiters.append(done)
-            self.steps_left += step_ns // self.barrier.quantum_ns
-            self._pump()
-            await done
-            response.ok = True
-        response.now = to_time(self.now_ns)
-        return response
-
-    async def on_rewind(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        """Set a paused clock back to its start time (a ResetSimulation of time); answered once there.
-
-        In lockstep the present quantum ends first; then every participant is announced the start time
-        again (an earlier time is a rewind: its node clock jumps back, ``Participant.rewind``), and the
-        answer comes once every tick participant has answered it. The start's react and observe phases
-        run at the next step or resume, as after a paused start. Only tick participants follow a rewind
-        (devices reconfigured by the caller): with a react or observe participant (a controller, a
-        recorder) it is refused, naming them.
-        """
-        response.success = False
-        if not self.paused:
-            response.message = "bad request: the clock is running; ~/pause it first"
-            return response
-        if self.barrier is None:
-            self.now_ns = self.start_ns
-            self.publish()
-            response.success, response.message = True, f"{REWOUND_TO} {self.now_ns} ns"
-            return response
-        barrier = self.barrier
-        others = sorted(f"{m.name} ({m.role})" for m in barrier.members.values() if m.role != ROLES[0])
-        if others:
-            response.message = f"bad request: {', '.join(others)} {REWIND_REFUSED}"
-            return response
-        if self.stopped or self.steps_left:
-            response.message = f"bad request: the clock is {self.stopped or 'stepping'}"
-            return response
-        if barrier.phase not in ("join", "done"):
-            done = Future()
-            self.step_waiters.append(done)  # the present quantum ends: woken with the steps
-            await done
-        if barrier.phase == "done":
-            self.get_logger().info(f"rewind from {self.now_ns / NANOSECONDS:.3f} s to the start")
-            barrier.rewind(self.start_ns, time.monotonic())
-            self.now_ns = self.start_ns
-            self.publish()
-            arrived = Future()
-            self.join_waiters.append(arrived)
-            self._announce("tick")
-            self._pump()
-            await arrived
-        response.success, response.message = True, f"{REWOUND_TO} {self.now_ns} ns"
-        return response
+        )
 
     def on_parameters(self, changes: list[Parameter]) -> SetParametersResult:
         """Apply a new real-time factor at once (the clock continues from where it is)."""
