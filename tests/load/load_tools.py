@@ -56,3 +56,9 @@ def timed_call(service: Any, request: Any, timeout: float) -> tuple[Any, float]:
 def rss_mb(pid: int) -> float:
     """Return a process's resident set size in MB."""
     return psutil.Process(pid).memory_info().rss / 1e6
+
+
+def cpu_seconds(pid: int) -> float:
+    """Return a process's CPU time so far (user and system, its threads included), in seconds."""
+    times = psutil.Process(pid).cpu_times()
+    return float(times.user + times.system)

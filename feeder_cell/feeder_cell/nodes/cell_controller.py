@@ -269,6 +269,8 @@ class CellController(Node):
         msg = self.status_msg()
         self.last_status = msg
         self.status_pub.publish(msg)
+        if self.lockstep is not None:
+            self.lockstep.delivered(self.status_pub)  # in the quantum it was decided in, for every reader
         self._publish_diagnostics(msg)
 
     def _publish_diagnostics(self, msg: CellStatus) -> None:

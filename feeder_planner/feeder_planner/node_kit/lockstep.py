@@ -59,9 +59,11 @@ from typing import Callable, Protocol
 import rclpy
 from rclpy.clock import Clock as RclClock
 from rclpy.clock import ClockType, ROSClock
+from rclpy.duration import Duration
 from rclpy.executors import Executor, TimeoutException
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
 from rclpy.timer import Timer
@@ -98,6 +100,10 @@ LOCKSTEP_QOS = QoSProfile(
 # by the nodes here: a goal's result takes three).
 MAX_DRAIN_PASSES = 50
 JOIN_PERIOD_S = 0.25  # wall s between join messages until the first announcement
+# The most an answer waits (wall s) for the readers of a delivered publisher (``Participant.delivered``) to
+# acknowledge what it sent: a reader that never acknowledges (a stopped process) costs this once per sample.
+DELIVERY_S = 2.0
+ACK_LOOK_S = 0.0005  # wall s between looks at the acknowledgements (a reader's takes about 5 ms)
 NANOSECONDS = 1_000_000_000
 RCLError = rclpy_implementation.RCLError
 
@@ -175,6 +181,20 @@ def run_tasks(executor: Executor) -> None:
             return
 
 
+def _acknowledged(publisher: Publisher, timeout_s: float) -> bool:
+    """Whether every reader acknowledges what ``publisher`` sent, within ``timeout_s`` (wall s).
+
+    Looked at without blocking, every ACK_LOOK_S: rclpy's blocking ``wait_for_all_acked`` keeps the GIL,
+    which would hold every other thread of the process (the cell host's executor) for the whole wait.
+    """
+    deadline = time.monotonic() + timeout_s
+    while not publisher.wait_for_all_acked(Duration(nanoseconds=0)):
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(ACK_LOOK_S)
+    return True
+
+
 def _nanoseconds(msg: Header) -> int:
     return int(msg.stamp.sec) * NANOSECONDS + int(msg.stamp.nanosec)
 
@@ -215,6 +235,7 @@ class Participant:
         self.drained_ns = -1  # the last T after which the spinning thread drained (``hold`` mode)
         self.rewinds = 0  # times the clock was set back (``rewind``)
         self._joining: Timer | None = None
+        self._undelivered: set[Publisher] = set()  # published since the last answer (``delivered``)
         self.hub: Hub | None = _HUB[0] if _HUB else None
         if self.hub is not None:
             self.hub.join(self)  # hosted: announced and answered by direct calls, nothing on DDS
@@ -306,8 +327,30 @@ class Participant:
         else:
             self.send(self.announced_ns)
 
+    def delivered(self, publisher: Publisher) -> None:
+        """Make the next answer wait until every reader has acknowledged what ``publisher`` has sent.
+
+        For a reliable publisher of news a reader must take in the quantum it was published in (a status
+        published on change). Answering only says the samples were written: DDS orders what one writer
+        sends, not what two writers of one process send to a third, so the clock's next announcement
+        (another writer's) could reach the recorder first, which then logged the status a quantum late
+        (seen once in CI, the controller hosted, a loaded machine). An acknowledgement says the sample is
+        in the reader's history. Bounded by DELIVERY_S, with a warning naming the topic.
+        """
+        self._undelivered.add(publisher)
+
+    def _deliver(self) -> None:
+        while self._undelivered:
+            publisher = self._undelivered.pop()
+            if not _acknowledged(publisher, DELIVERY_S):
+                self.node.get_logger().warning(
+                    f"lockstep: not every reader of {publisher.topic_name} acknowledged it within "
+                    f"{DELIVERY_S:g} s; answering all the same"
+                )
+
     def send(self, now_ns: int) -> None:
         """Publish an answer: done with ``now_ns`` (0 joins; ``leave`` leaves)."""
+        self._deliver()
         if self.hub is not None:
             self.answered_ns = max(self.answered_ns, now_ns)
             self.hub.answer(self, now_ns, False)
