@@ -1,13 +1,15 @@
 """The cell clock's services: ~/pause, ~/resume, ~/is_paused, ~/step and ~/rewind.
 
 ``ClockServices`` is the base of ``feeder_cell.nodes.cell_clock.CellClock``, which creates the services
-and holds the state they read and change (declared here for the type checker).
+and holds the state they read and change (declared here for the type checker). The four clock methods the
+handlers call are the node's, declared abstract: a node that lacks one (a rename) cannot be built (a
+TypeError naming it at construction, not when a service call first reaches the handler).
 """
 
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING
+from abc import ABCMeta, abstractmethod
 
 from rclpy.node import Node
 from rclpy.task import Future
@@ -21,7 +23,7 @@ from feeder_planner.node_kit.lockstep import ROLES
 __all__ = ["ClockServices"]
 
 
-class ClockServices(Node):
+class ClockServices(Node, metaclass=ABCMeta):
     """The service handlers of the cell clock node (its state and its clock methods are the node's)."""
 
     p: ClockParameters
@@ -36,19 +38,21 @@ class ClockServices(Node):
     step_waiters: list[Future]
     join_waiters: list[Future]
 
-    if TYPE_CHECKING:
+    @abstractmethod
+    def tick(self) -> None:
+        """Free-running: advance by the wall time since the last tick (the node's)."""
 
-        def tick(self) -> None:
-            """Free-running: advance by the wall time since the last tick (the node's)."""
+    @abstractmethod
+    def publish(self) -> None:
+        """Publish the present simulated time (the node's)."""
 
-        def publish(self) -> None:
-            """Publish the present simulated time (the node's)."""
+    @abstractmethod
+    def _pump(self) -> None:
+        """Lockstep: run the phases as far as the answers allow (the node's)."""
 
-        def _pump(self) -> None:
-            """Lockstep: run the phases as far as the answers allow (the node's)."""
-
-        def _announce(self, role: str) -> None:
-            """Lockstep: announce a phase to a role (the node's)."""
+    @abstractmethod
+    def _announce(self, role: str) -> None:
+        """Lockstep: announce a phase to a role (the node's)."""
 
     def on_pause(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         """Hold the clock where it is (in lockstep: once the present quantum is complete)."""

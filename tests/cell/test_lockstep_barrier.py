@@ -86,3 +86,12 @@ def test_leaving_ends_the_wait_for_that_participant() -> None:
     assert not barrier.complete()
     barrier.answer("react", "/controller", -1, leave=True)
     assert barrier.complete()
+
+
+def test_the_cell_clock_node_has_every_method_its_service_handlers_call() -> None:
+    # ClockServices declares them abstract: a rename in the node would leave one unimplemented.
+    from feeder_cell.clock_services import ClockServices
+    from feeder_cell.nodes.cell_clock import CellClock
+
+    assert ClockServices.__abstractmethods__ == {"tick", "publish", "_pump", "_announce"}
+    assert not CellClock.__abstractmethods__
