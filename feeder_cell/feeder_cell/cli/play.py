@@ -123,7 +123,18 @@ def _play(args: argparse.Namespace) -> int:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``feeder play`` to the ``feeder`` parser."""
-    player = subparsers.add_parser(
+    player = _add_parser(subparsers)
+    player.add_argument("bag")
+    _add_pacing_flags(player)
+    _add_window_flags(player)
+    _add_control_flags(player)
+    add_json_flag(player)
+    player.set_defaults(handler=_play)
+
+
+def _add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Add the ``play`` subparser with its help line and the description of what replay does and serves."""
+    parser: argparse.ArgumentParser = subparsers.add_parser(
         "play",
         help="replay a bag onto live topics (as ros2 bag play)",
         description="Publish the messages of BAG at the recorded pace times --rate, with the QoS the "
@@ -135,7 +146,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "(*/_service_event) are never replayed: recorded commands are not re-issued. The whole bag is "
         "checked first: a damaged or cut one is refused naming the file, the byte offset and bag-reindex.",
     )
-    player.add_argument("bag")
+    return parser
+
+
+def _add_pacing_flags(player: argparse.ArgumentParser) -> None:
+    """Add the flags that set how fast and what is played.
+
+    --rate, --topics, --wait-for-subscribers, --clock, --loop, in the order --help lists them.
+    """
     player.add_argument(
         "--rate", type=finite_float, default=1.0, help="playback speed factor (> 0, default 1)"
     )
@@ -159,6 +177,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "with use_sim_time follow the replay (paused, sought, faster or slower)",
     )
     player.add_argument("--loop", action="store_true", help="play the window again and again until stopped")
+
+
+def _add_window_flags(player: argparse.ArgumentParser) -> None:
+    """Add the flags that cut the bag's time window and delay its start.
+
+    --start-offset, --playback-duration, --playback-until, --delay, in the order --help lists them.
+    """
     player.add_argument(
         "--start-offset",
         type=finite_float,
@@ -185,6 +210,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="SECONDS",
         help="wait this long before playing (and before each loop), >= 0",
     )
+
+
+def _add_control_flags(player: argparse.ArgumentParser) -> None:
+    """Add the flags for topic names, the player node and its lifetime.
+
+    --remap, --start-paused, --read-ahead-queue-size, --node-name, --disable-keyboard-controls,
+    --linger, in the order --help lists them.
+    """
     player.add_argument(
         "--remap",
         action="append",
@@ -216,5 +249,3 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     player.add_argument(
         "--linger", type=finite_float, default=1.0, help="seconds to stay up after the last message"
     )
-    add_json_flag(player)
-    player.set_defaults(handler=_play)
