@@ -238,15 +238,8 @@ def reindex(bag: Path) -> ReindexReport:
     InputError
         The path is not a directory holding MCAP files.
     """
-    if not bag.is_dir():
-        raise InputError("BAG", f"{bag} is not a bag directory")
-    files = sorted(bag.glob("*.mcap"), key=_file_order)
-    if not files:
-        raise InputError("BAG", f"{bag} holds no .mcap file to reindex")
-    work = bag / ".reindex"
-    if work.exists():
-        shutil.rmtree(work)  # left by an interrupted reindex: the originals are still in place
-    work.mkdir()
+    files = _mcap_files(bag)
+    work = _fresh_work_dir(bag)
     rebuilt = work / bag.name
     report = ReindexReport(bag)
     writer = BagWriter(rebuilt)
@@ -254,38 +247,9 @@ def reindex(bag: Path) -> ReindexReport:
     try:
         connections: dict[tuple[str, str, str], Connection] = {}
         for path in files:
-            size = path.stat().st_size
-            file_report = FileReport(path.name, size, 0)
-            report.files.append(file_report)
-            # Each file under its own name; a topic is declared in a file where it has a message there.
-            if written:
-                writer.start_file(path.name, declare_all=False)
-            else:
-                writer.open(first_file=path.name)
-            storage = writer.file
+            file_report = _start_file(writer, path, report, first=not written)
             written.append(file_report)
-            # Schema and channel ids are per file: map them to this bag's connections by topic, type, QoS.
-            schemas: dict[int, Schema] = {}
-            channel_map: dict[int, Connection] = {}
-            with path.open("rb") as stream:
-                for record in _scan(stream, size, file_report):
-                    if isinstance(record, Schema):
-                        schemas[record.id] = record
-                    elif isinstance(record, Channel):
-                        schema = schemas.get(record.schema_id)
-                        if schema is None:
-                            continue  # a channel without its schema cannot be described in the bag
-                        channel_map[record.id] = _connect(writer, connections, record, schema)
-                    elif isinstance(record, Message) and record.channel_id in channel_map:
-                        if not file_report.messages:
-                            storage.use_compression(file_report.compression or "none")
-                        connection = channel_map[record.channel_id]
-                        writer.write(connection, record.log_time, record.data, record.publish_time)
-                        file_report.messages += 1
-                        topic = report.topics.setdefault(
-                            connection.topic, {"type": connection.msgtype, "count": 0}
-                        )
-                        topic["count"] += 1
+            _copy_records(writer, path, file_report, connections, report.topics)
         listed = [f for f in written if f.messages] or written[:1]
         # metadata.yaml lists the kept files only, in order, each with its own count and times.
         names = {f.name for f in listed}
@@ -294,6 +258,91 @@ def reindex(bag: Path) -> ReindexReport:
         writer.abort()
         shutil.rmtree(work, ignore_errors=True)
         raise
+    _install(bag, rebuilt, written, listed)
+    os.replace(rebuilt / "metadata.yaml", bag / "metadata.yaml")
+    shutil.rmtree(work)
+    return report
+
+
+def _mcap_files(bag: Path) -> list[Path]:
+    """Return the bag's MCAP files in split order, or raise InputError when ``bag`` holds none.
+
+    The order is the bag's file order, so each file is rewritten where it was in the bag.
+    """
+    if not bag.is_dir():
+        raise InputError("BAG", f"{bag} is not a bag directory")
+    files = sorted(bag.glob("*.mcap"), key=_file_order)
+    if not files:
+        raise InputError("BAG", f"{bag} holds no .mcap file to reindex")
+    return files
+
+
+def _fresh_work_dir(bag: Path) -> Path:
+    """Create the empty ``.reindex`` work directory the bag is rebuilt in, beside the originals.
+
+    Rebuilding aside keeps the originals untouched until every file has been rewritten.
+    """
+    work = bag / ".reindex"
+    if work.exists():
+        shutil.rmtree(work)  # left by an interrupted reindex: the originals are still in place
+    work.mkdir()
+    return work
+
+
+def _start_file(writer: BagWriter, path: Path, report: ReindexReport, *, first: bool) -> FileReport:
+    """Open the rebuilt file for ``path`` under its own name and return its report (added to ``report``).
+
+    Each file under its own name; a topic is declared in a file where it has a message there.
+    """
+    size = path.stat().st_size
+    file_report = FileReport(path.name, size, 0)
+    report.files.append(file_report)
+    if first:
+        writer.open(first_file=path.name)
+    else:
+        writer.start_file(path.name, declare_all=False)
+    return file_report
+
+
+def _copy_records(
+    writer: BagWriter,
+    path: Path,
+    file_report: FileReport,
+    connections: dict[tuple[str, str, str], Connection],
+    topics: dict[str, TopicCount],
+) -> None:
+    """Write the messages of the intact part of ``path`` into the writer's current file, counting them.
+
+    Schema and channel ids are per file: they are mapped to this bag's connections by topic, type and
+    QoS, so a topic recorded in several files is one connection of the rebuilt bag.
+    """
+    storage = writer.file
+    schemas: dict[int, Schema] = {}
+    channel_map: dict[int, Connection] = {}
+    with path.open("rb") as stream:
+        for record in _scan(stream, file_report.size, file_report):
+            if isinstance(record, Schema):
+                schemas[record.id] = record
+            elif isinstance(record, Channel):
+                schema = schemas.get(record.schema_id)
+                if schema is None:
+                    continue  # a channel without its schema cannot be described in the bag
+                channel_map[record.id] = _connect(writer, connections, record, schema)
+            elif isinstance(record, Message) and record.channel_id in channel_map:
+                if not file_report.messages:
+                    storage.use_compression(file_report.compression or "none")
+                connection = channel_map[record.channel_id]
+                writer.write(connection, record.log_time, record.data, record.publish_time)
+                file_report.messages += 1
+                topic = topics.setdefault(connection.topic, {"type": connection.msgtype, "count": 0})
+                topic["count"] += 1
+
+
+def _install(bag: Path, rebuilt: Path, written: list[FileReport], listed: list[FileReport]) -> None:
+    """Move the rebuilt files over the originals; leave out (or set aside) the files not listed.
+
+    Runs only once every file is rebuilt and closed, so a failure before leaves the bag as it was.
+    """
     for file_report in written:
         path = bag / file_report.name
         if file_report not in listed:
@@ -306,9 +355,6 @@ def reindex(bag: Path) -> ReindexReport:
             file_report.kept_as = kept.name
         # Replace, never delete first: a crash in between leaves either the old file or the new one.
         os.replace(rebuilt / file_report.name, path)
-    os.replace(rebuilt / "metadata.yaml", bag / "metadata.yaml")
-    shutil.rmtree(work)
-    return report
 
 
 def _connect(
