@@ -9,7 +9,7 @@ from matplotlib.figure import Figure
 from mpl_toolkits.mplot3d.axes3d import Axes3D
 
 from feeder_cell.plots.common import HIGHLIGHT_COLOUR, PART_COLOUR, SQUARE, STABLE_COLOUR, new_figure
-from feeder_planner.assembly import PathResult, RegionResult
+from feeder_planner.assembly import PathResult, RegionResult, StableRegion
 from feeder_planner.assembly.drawing import great_circle
 
 __all__ = ["VERTEX_GID", "CENTER_GID", "PATH_GID", "BOUNDARY_GID", "region_figure", "great_arc_points"]
@@ -90,6 +90,27 @@ def region_figure(result: RegionResult, path: PathResult | None = None) -> Figur
     figure = new_figure(SQUARE)
     ax = figure.add_subplot(projection="3d", proj_type="ortho")
     _sphere_frame(ax)
+    _shade_region(ax, region)
+    vertices = np.asarray(region.vertices, float).reshape(-1, 3)
+    center = None if region.center is None else np.asarray(region.center, float)
+    _draw_boundary(ax, region, vertices, center)
+    ax.scatter(
+        *vertices.T, s=30, color="k", depthshade=False, label=f"vertices ({len(vertices)})", gid=VERTEX_GID
+    )
+    if center is not None:
+        _draw_centre(ax, center)
+    if path is not None:
+        _draw_path(ax, path)
+    _finish_axes(ax, result)
+    return figure
+
+
+def _shade_region(ax: Axes3D, region: StableRegion) -> None:
+    """Shade the stable directions of a region, hemisphere or sphere with sampled points of the sphere.
+
+    A sampled direction g is shaded when normals @ g <= 0 for every normal of the region (all of them
+    when it has none, the sphere); other kinds have no area to shade.
+    """
     if region.kind in ("region", "hemisphere", "sphere"):
         points = _fibonacci_sphere(FILL_POINTS)
         inside = (
@@ -98,8 +119,14 @@ def region_figure(result: RegionResult, path: PathResult | None = None) -> Figur
             else np.ones(len(points), bool)
         )
         ax.scatter(*points[inside].T, s=2, color=STABLE_COLOUR, alpha=0.35, depthshade=False)
-    vertices = np.asarray(region.vertices, float).reshape(-1, 3)
-    center = None if region.center is None else np.asarray(region.center, float)
+
+
+def _draw_boundary(ax: Axes3D, region: StableRegion, vertices: np.ndarray, center: np.ndarray | None) -> None:
+    """Draw the region's boundary (gid BOUNDARY_GID) as its kind has one.
+
+    A region: the great arcs between consecutive vertices, bulging towards the centre; an arc: its one
+    arc; a hemisphere or a great circle: the whole great circle of its normal or equality.
+    """
     if region.kind == "region":
         ring = np.vstack([vertices, vertices[:1]])
         for a, b in zip(ring[:-1], ring[1:], strict=True):
@@ -116,33 +143,44 @@ def region_figure(result: RegionResult, path: PathResult | None = None) -> Figur
         ax.plot(
             *great_circle(region.equalities[0], CIRCLE_POINTS).T, color=STABLE_COLOUR, lw=3, gid=BOUNDARY_GID
         )
+
+
+def _draw_centre(ax: Axes3D, center: np.ndarray) -> None:
+    """Mark the region's centre (gid CENTER_GID) and turn the camera towards it."""
     ax.scatter(
-        *vertices.T, s=30, color="k", depthshade=False, label=f"vertices ({len(vertices)})", gid=VERTEX_GID
+        *center,
+        s=120,
+        marker="*",
+        color=HIGHLIGHT_COLOUR,
+        depthshade=False,
+        label="centre",
+        gid=CENTER_GID,
     )
-    if center is not None:
-        ax.scatter(
-            *center,
-            s=120,
-            marker="*",
-            color=HIGHLIGHT_COLOUR,
-            depthshade=False,
-            label="centre",
-            gid=CENTER_GID,
-        )
-        # The camera sits a little off the centre's direction: the region faces the reader, seen in 3-D.
-        elev = math.degrees(math.asin(float(np.clip(center[2], -1, 1)))) + VIEW_OFFSET_DEG[0]
-        azim = math.degrees(math.atan2(center[1], center[0])) + VIEW_OFFSET_DEG[1]
-        ax.view_init(elev=float(np.clip(elev, -89.0, 89.0)), azim=azim)
-    if path is not None:
-        ax.plot(
-            *np.asarray(path.path).T,
-            color=PART_COLOUR,
-            lw=1.5,
-            marker=".",
-            ms=4,
-            label=f"safe path ({path.samples} samples)",
-            gid=PATH_GID,
-        )
+    # The camera sits a little off the centre's direction: the region faces the reader, seen in 3-D.
+    elev = math.degrees(math.asin(float(np.clip(center[2], -1, 1)))) + VIEW_OFFSET_DEG[0]
+    azim = math.degrees(math.atan2(center[1], center[0])) + VIEW_OFFSET_DEG[1]
+    ax.view_init(elev=float(np.clip(elev, -89.0, 89.0)), azim=azim)
+
+
+def _draw_path(ax: Axes3D, path: PathResult) -> None:
+    """Draw a safe path's samples (gid PATH_GID), joined, over the region."""
+    ax.plot(
+        *np.asarray(path.path).T,
+        color=PART_COLOUR,
+        lw=1.5,
+        marker=".",
+        ms=4,
+        label=f"safe path ({path.samples} samples)",
+        gid=PATH_GID,
+    )
+
+
+def _finish_axes(ax: Axes3D, result: RegionResult) -> None:
+    """Make the view a bare unit cube (no ticks, no axes), then add the title and the legend.
+
+    The title names the assembly, the region's kind, mu, the facet count K and the region's area.
+    """
+    region = result.region
     ax.set_box_aspect((1, 1, 1))
     lim = 1.1
     ax.set(xlim=(-lim, lim), ylim=(-lim, lim), zlim=(-lim, lim), xticks=[], yticks=[], zticks=[])
@@ -154,4 +192,3 @@ def region_figure(result: RegionResult, path: PathResult | None = None) -> Figur
         fontsize="medium",
     )
     ax.legend(loc="lower left", fontsize="small")
-    return figure
