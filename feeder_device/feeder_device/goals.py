@@ -40,6 +40,7 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
 from rclpy.clock import Clock, ClockType
 from rclpy.task import Future
+from rclpy.timer import Timer
 
 from feeder_planner.errors import FeederError
 from feeder_planner.node_kit.qos import request_qos
@@ -149,80 +150,16 @@ def serve_goal(
     node clock's now. The action's result
     must have the fields ``outcome``, ``outcome_name``, ``message`` and a ``FAULT`` outcome (the guard's).
     """
-    # Counted from acceptance, not from execution: two goals sent together must not both be accepted.
-    goals = [0]
-    # The device's tick count when the executing goal was accepted (one goal at a time).
-    accepted_at_tick = [0]
-
-    def on_goal(goal: Any) -> GoalResponse:
-        try:
-            device.require_ready(f"{name} goal")
-            if goals[0]:
-                raise FeederError(f"{name} goal refused: a goal is executing; cancel it first")
-            validate(goal)
-        except FeederError as error:
-            device.record_goal_rejection(name, str(error))
-            return GoalResponse.REJECT
-        goals[0] += 1
-        accepted_at_tick[0] = device.ticks_done
-        return GoalResponse.ACCEPT
-
-    async def on_execute(handle: ServerGoalHandle) -> object:
-        running: RunningGoal | None = None
-        poll = None
-        try:
-            if device.in_lockstep and device.ticks_done == accepted_at_tick[0]:
-                # In lockstep a goal starts after the device's first tick after its acceptance: what its
-                # start publishes then belongs to a defined quantum (a recorder would otherwise take it
-                # in this quantum or the next, by chance). rclpy creates this task after it has sent the
-                # accept answer, so on a loaded host the next quantum's tick can come before the task
-                # first runs (seen once in CI: the fixture's RUNNING status a quantum late); the tick
-                # count taken at acceptance places the start the same way in both orders.
-                await device.next_tick()
-            running = RunningGoal(device, name, start(handle), handle)
-            device.goals.append(running)
-            device.publish_status()
-            if not device.in_lockstep:
-                # A cancel under a held clock: no tick would wake the goal. In lockstep the ticks come,
-                # and a cancel is taken at the next one, at a defined cell time.
-                poll = device.create_timer(
-                    CANCEL_POLL,
-                    lambda: _poke_if_canceled(handle, running),
-                    clock=Clock(clock_type=ClockType.STEADY_TIME),
-                )
-            await _drive(device, running)
-            for message in running.goal.feedback():
-                handle.publish_feedback(message)
-            terminal, result = ("abort", None) if running.error else running.goal.result()
-        except Exception as error:  # noqa: BLE001 - the guard: a bug in the goal aborts only the goal
-            if running is None:
-                running = RunningGoal(device, name, _Failed(), handle)
-            running.fail(error)
-            terminal, result = "abort", None
-        finally:
-            goals[0] -= 1
-            if poll is not None:
-                device.destroy_timer(poll)
-            if running is not None and running in device.goals:
-                device.goals.remove(running)
-            device.publish_status()
-        if running.error:
-            terminal, result = "abort", _error_result(action_type, running.error)
-        getattr(handle, terminal)()
-        return result
-
-    def on_cancel(goal_handle: ServerGoalHandle) -> CancelResponse:
-        return CancelResponse.ACCEPT
-
+    callbacks = _GoalCallbacks(device, action_type, name, validate, start)
     # Goal, cancel and result requests queue as deep as the device's services (node_kit.services).
     queue = request_qos(request_queue_depth(device))
     server = ActionServer(
         device,
         action_type,
         name,
-        execute_callback=on_execute,
-        goal_callback=on_goal,
-        cancel_callback=on_cancel,
+        execute_callback=callbacks.on_execute,
+        goal_callback=callbacks.on_goal,
+        cancel_callback=callbacks.on_cancel,
         goal_service_qos_profile=queue,
         result_service_qos_profile=queue,
         cancel_service_qos_profile=queue,
@@ -231,6 +168,112 @@ def serve_goal(
         server
     )  # rclpy's destroy_node leaves action servers alive: the kit ends them
     return server
+
+
+class _GoalCallbacks:
+    """The goal, execute and cancel callbacks of one device action, with the goal count they share."""
+
+    def __init__(
+        self, device: ManagedDevice, action_type: Any, name: str, validate: Validate, start: Start
+    ) -> None:
+        self.device = device
+        self.action_type = action_type
+        self.name = name
+        self.validate = validate
+        self.start = start
+        # Counted from acceptance, not from execution: two goals sent together must not both be accepted.
+        self.goals = 0
+        # The device's tick count when the executing goal was accepted (one goal at a time).
+        self.accepted_at_tick = 0
+
+    def on_goal(self, goal: Any) -> GoalResponse:
+        """Accept a goal when the device is ready, no goal executes and the goal validates; else reject it.
+
+        A refusal is recorded on the device (WARN log, ``last_goal_rejection``): ROS 2 has no field for it.
+        """
+        try:
+            self.device.require_ready(f"{self.name} goal")
+            if self.goals:
+                raise FeederError(f"{self.name} goal refused: a goal is executing; cancel it first")
+            self.validate(goal)
+        except FeederError as error:
+            self.device.record_goal_rejection(self.name, str(error))
+            return GoalResponse.REJECT
+        self.goals += 1
+        self.accepted_at_tick = self.device.ticks_done
+        return GoalResponse.ACCEPT
+
+    async def on_execute(self, handle: ServerGoalHandle) -> object:
+        """Start the accepted goal, drive it to its end under the guard, and end its handle with its result.
+
+        Whatever happens, the goal leaves the device's goals and the status is published before the
+        handle ends (the guard's FAULT result replaces the goal's own after an internal error).
+        """
+        running: RunningGoal | None = None
+        poll: Timer | None = None
+        try:
+            await self._wait_for_lockstep_start()
+            running = RunningGoal(self.device, self.name, self.start(handle), handle)
+            self.device.goals.append(running)
+            self.device.publish_status()
+            poll = self._cancel_poll(handle, running)
+            terminal, result = await self._run(running)
+        except Exception as error:  # noqa: BLE001 - the guard: a bug in the goal aborts only the goal
+            if running is None:
+                running = RunningGoal(self.device, self.name, _Failed(), handle)
+            running.fail(error)
+            terminal, result = "abort", None
+        finally:
+            self._release(running, poll)
+        if running.error:
+            terminal, result = "abort", _error_result(self.action_type, running.error)
+        getattr(handle, terminal)()
+        return result
+
+    def on_cancel(self, goal_handle: ServerGoalHandle) -> CancelResponse:
+        """Accept every cancel: the runner tells the goal at its next wake (the one cancel rule)."""
+        return CancelResponse.ACCEPT
+
+    async def _wait_for_lockstep_start(self) -> None:
+        """In lockstep, wait for the device's first tick after the goal's acceptance (none elsewhere)."""
+        if self.device.in_lockstep and self.device.ticks_done == self.accepted_at_tick:
+            # In lockstep a goal starts after the device's first tick after its acceptance: what its
+            # start publishes then belongs to a defined quantum (a recorder would otherwise take it
+            # in this quantum or the next, by chance). rclpy creates this task after it has sent the
+            # accept answer, so on a loaded host the next quantum's tick can come before the task
+            # first runs (seen once in CI: the fixture's RUNNING status a quantum late); the tick
+            # count taken at acceptance places the start the same way in both orders.
+            await self.device.next_tick()
+
+    def _cancel_poll(self, handle: ServerGoalHandle, running: RunningGoal) -> Timer | None:
+        """Return the steady-clock timer that wakes a canceled goal, or None in lockstep.
+
+        A cancel under a held clock: no tick would wake the goal. In lockstep the ticks come, and a
+        cancel is taken at the next one, at a defined cell time.
+        """
+        if self.device.in_lockstep:
+            return None
+        return self.device.create_timer(
+            CANCEL_POLL,
+            lambda: _poke_if_canceled(handle, running),
+            clock=Clock(clock_type=ClockType.STEADY_TIME),
+        )
+
+    async def _run(self, running: RunningGoal) -> tuple[str, Any]:
+        """Drive the goal to its end, send its last feedback, and return (terminal, result message)."""
+        await _drive(self.device, running)
+        for message in running.goal.feedback():
+            running.handle.publish_feedback(message)
+        return ("abort", None) if running.error else running.goal.result()
+
+    def _release(self, running: RunningGoal | None, poll: Timer | None) -> None:
+        """Free the action for the next goal: count down, stop the poll, drop the goal, publish the status."""
+        self.goals -= 1
+        if poll is not None:
+            self.device.destroy_timer(poll)
+        if running is not None and running in self.device.goals:
+            self.device.goals.remove(running)
+        self.device.publish_status()
 
 
 async def _drive(device: ManagedDevice, running: RunningGoal) -> None:
