@@ -685,82 +685,122 @@ def iterate_to_attractor(
     step = max(1, w // CHECKS_PER_WINDOW)
     starts = len(rows.edge)
     owner = np.zeros(starts, dtype=np.int64) if design is None else np.asarray(design, dtype=np.int64)
-    edge = np.zeros((starts, throws + 1), dtype=np.int64)
-    radius = np.full((starts, throws + 1), np.nan)
-    jog = np.zeros((starts, throws + 1), dtype=bool)
-    flags = np.zeros((starts, throws + 1), dtype=np.uint8)
-    edge[:, 0], radius[:, 0] = rows.edge, rows.radius
-    end = np.zeros(starts, dtype=np.int64)
-    tail = np.full(starts, -1, dtype=np.int64)
-    tail_end = np.full(starts, -1, dtype=np.int64)
-    tails: dict[int, Stretch] = {}
-    stays = np.full(starts, -1, dtype=np.int64)
-    growing: dict[int, list[int]] = {}
-    escaped = np.zeros(starts, dtype=bool)
+    search = _empty_search(rows, throws, w)
     running = np.full(starts, throws > 0)
     while running.any():
         alive = np.flatnonzero(running)
-        now = end[alive]
-        out = throw(alive, edge[alive, now], radius[alive, now])
-        edge[alive, now + 1], radius[alive, now + 1] = out.edge, out.radius
-        jog[alive, now + 1] = out.is_jog(edge[alive, now])
-        bits = np.zeros(alive.size, dtype=np.uint8)
-        for k, name in enumerate(ASSUMPTIONS):
-            bits |= out.flag(name).astype(np.uint8) << k
-        flags[alive, now + 1] = bits
-        landed = np.maximum(out.edge, 0)
-        ok = (out.edge >= 0) & radius_in_domain(out.radius, rows.low[alive, landed])
-        end[alive] = now + 1
-        escaped[alive[~ok]] = True
+        ok = _throw_rows(search, rows, throw, alive)
+        search.escaped[alive[~ok]] = True
         running[alive[~ok]] = False
-        at = end[alive]
+        at = search.end[alive]
         running[alive[at == throws]] = False
         due = alive[ok & ((at == throws) | ((at >= 2 * w) & (at % step == 0)))]
         if due.size == 0:
             continue
         for b in due:
-            n = int(end[b])
-            first = n - n // 2 + 1
-            sl = slice(first, n + 1)
-            found = _confirm(edge[b, sl], radius[b, sl], jog[b, sl], rows.width[b], QUASI_WINDOWS * w)
-            if found is None:
-                if n == throws and tail[b] < 0:
-                    # The throws ran out: a tail that a growing range alone kept from confirming is said
-                    # to be so (a range read now would be too narrow), never folded in as it stands.
-                    grown = _grown(edge[b, sl], radius[b, sl], jog[b, sl], rows.width[b], QUASI_WINDOWS * w)
-                    if grown:
-                        growing[int(b)] = grown
-                continue
-            stay = settled(edge[b, : n + 1], radius[b, : n + 1], jog[b, : n + 1], first, rows.width[b], found)
-            if stay >= 0:
-                stays[b] = stay
-                stay = tail_start(edge[b, : n + 1], radius[b, : n + 1], stay, first)
-                tail[b], tail_end[b] = stay, n
-                tails[int(b)] = stretch(edge[b, stay : n + 1], radius[b, stay : n + 1], jog[b, stay : n + 1])
-        for g in np.unique(owner[due]):
-            members = np.flatnonzero(owner == g)
-            confirmed = members[tail[members] >= 0]
-            if confirmed.size:
-                small = _nested([tails[int(b)] for b in confirmed], rows.width[members[0]])
-                running[confirmed] = small & (end[confirmed] < throws) & ~escaped[confirmed]
+            _judge_row(search, rows, b, throws)
+        _resume_nested(search, rows, owner, due, running, throws)
         if progress is not None:
             progress(starts - int(running.sum()), starts)
+    search.sensed = search.tail.copy()  # the trigger's states, widened per attractor by _trim_to_group
+    return search
+
+
+def _empty_search(rows: Rows, throws: int, window: int) -> Search:
+    """Return the Search the rows' runs are written into: each row at its start, no tail, nothing escaped.
+
+    One column per throw and the start; ``tail``, ``tail_end`` and ``stay`` are -1 until a row confirms,
+    ``sensed`` is filled once the search ends (a copy of ``tail``).
+    """
+    starts = len(rows.edge)
+    edge = np.zeros((starts, throws + 1), dtype=np.int64)
+    radius = np.full((starts, throws + 1), np.nan)
+    edge[:, 0], radius[:, 0] = rows.edge, rows.radius
     return Search(
         edge,
         radius,
-        jog,
-        flags,
-        end,
-        tail,
-        escaped,
+        np.zeros((starts, throws + 1), dtype=bool),
+        np.zeros((starts, throws + 1), dtype=np.uint8),
+        np.zeros(starts, dtype=np.int64),
+        np.full(starts, -1, dtype=np.int64),
+        np.zeros(starts, dtype=bool),
         rows.width,
-        w,
-        tail_end,
-        stay=stays,
-        sensed=tail.copy(),  # the trigger's states, widened per attractor by _trim_to_group
-        stretches=tails,
-        growing=growing,
+        window,
+        np.full(starts, -1, dtype=np.int64),
+        stay=np.full(starts, -1, dtype=np.int64),
+        sensed=np.full(starts, -1, dtype=np.int64),
     )
+
+
+def _throw_rows(
+    search: Search,
+    rows: Rows,
+    throw: Callable[[np.ndarray, np.ndarray, np.ndarray], ThrowBatch],
+    alive: np.ndarray,
+) -> np.ndarray:
+    """Throw each row of ``alive`` once from its last state; record the throw; return which stayed in Z.
+
+    The new state, its jog bit and its assumption flags (bit k: ASSUMPTIONS[k]) go in the next column;
+    a throw stays in the domain when it lands on an edge at a radius the edge can throw.
+    """
+    now = search.end[alive]
+    out = throw(alive, search.edge[alive, now], search.radius[alive, now])
+    search.edge[alive, now + 1], search.radius[alive, now + 1] = out.edge, out.radius
+    search.jog[alive, now + 1] = out.is_jog(search.edge[alive, now])
+    bits = np.zeros(alive.size, dtype=np.uint8)
+    for k, name in enumerate(ASSUMPTIONS):
+        bits |= out.flag(name).astype(np.uint8) << k
+    search.flags[alive, now + 1] = bits
+    landed = np.maximum(out.edge, 0)
+    ok: np.ndarray = (out.edge >= 0) & radius_in_domain(out.radius, rows.low[alive, landed])
+    search.end[alive] = now + 1
+    return ok
+
+
+def _judge_row(search: Search, rows: Rows, b: int, throws: int) -> None:
+    """Judge row b at a check: record its tail when its last n/2 states confirm and its run settled.
+
+    ``confirms`` on the last n/2 states, then ``settled`` on the whole run; the tail is cut to its stay
+    (``tail_start``). A row that does not confirm when the throws run out may have a growing range
+    (``_grown``), noted in ``growing``.
+    """
+    edge, radius, jog, width = search.edge, search.radius, search.jog, rows.width[b]
+    n = int(search.end[b])
+    first = n - n // 2 + 1
+    sl = slice(first, n + 1)
+    found = _confirm(edge[b, sl], radius[b, sl], jog[b, sl], width, QUASI_WINDOWS * search.window)
+    if found is None:
+        if n == throws and search.tail[b] < 0:
+            # The throws ran out: a tail that a growing range alone kept from confirming is said
+            # to be so (a range read now would be too narrow), never folded in as it stands.
+            grown = _grown(edge[b, sl], radius[b, sl], jog[b, sl], width, QUASI_WINDOWS * search.window)
+            if grown:
+                search.growing[int(b)] = grown
+        return
+    stay = settled(edge[b, : n + 1], radius[b, : n + 1], jog[b, : n + 1], first, width, found)
+    if stay >= 0:
+        search.stay[b] = stay
+        stay = tail_start(edge[b, : n + 1], radius[b, : n + 1], stay, first)
+        search.tail[b], search.tail_end[b] = stay, n
+        search.stretches[int(b)] = stretch(
+            edge[b, stay : n + 1], radius[b, stay : n + 1], jog[b, stay : n + 1]
+        )
+
+
+def _resume_nested(
+    search: Search, rows: Rows, owner: np.ndarray, due: np.ndarray, running: np.ndarray, throws: int
+) -> None:
+    """Set which confirmed rows of the checked rows' designs run on: those whose tails nest (``_nested``).
+
+    A confirmed row stops unless a richer group of its design's confirmed tails holds its tail, and it
+    has throws left and has not escaped.
+    """
+    for g in np.unique(owner[due]):
+        members = np.flatnonzero(owner == g)
+        confirmed = members[search.tail[members] >= 0]
+        if confirmed.size:
+            small = _nested([search.stretches[int(b)] for b in confirmed], rows.width[members[0]])
+            running[confirmed] = small & (search.end[confirmed] < throws) & ~search.escaped[confirmed]
 
 
 @dataclass(frozen=True)
