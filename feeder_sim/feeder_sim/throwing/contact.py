@@ -32,6 +32,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import partial
+from typing import Any
 
 import numpy as np
 
@@ -446,12 +447,45 @@ def _slide(run: _Run, st: _State, k: int, sigma: float = 0.0) -> _Outcome:
     (DOP853, CONTACT_RTOL / CONTACT_ATOL) with the events located by the solver's root finding.
     ``sigma`` (+-1) is the slip direction when the slip starts from rest (0: from the slip velocity).
     """
-    g, mu, rho2 = run.g, run.mu, run.geo.rho**2
     n = run.part.n
     if sigma == 0.0:
         sigma = 1.0 if st.vx - st.omega * run.r(k, st.theta)[1] > 0 else -1.0
-    scale = math.sqrt(run.part.radius / -g)
+    scale = math.sqrt(run.part.radius / -run.g)
     neighbours = ((k - 1) % n, (k + 1) % n)
+    rates, events = _slide_equations(run, st, k, sigma, neighbours)
+    lift, painleve = events[0], events[4]  # checked at the start too: the solver only sees crossings
+    z0 = np.array([st.x, st.theta, st.vx, st.omega])
+    if painleve(0.0, z0) <= 0:
+        raise SolverError("sliding contact inconsistent (Painleve): mu too large for this contact geometry")
+    if lift(0.0, z0) < 0:  # the slide would need a pulling normal force: the part leaves at once
+        run.log("lift_off", k, st)
+        t, hit = _flight(run, st, k)
+        return _Next(partial(_impact, run, _fly(run, st, t), hit, "catch"))
+    from scipy.integrate import solve_ivp  # only the dynamic fidelity slides: the arm's start skips scipy
+
+    sol = solve_ivp(
+        rates,
+        (0.0, SLIDE_TIME_LIMIT * scale),
+        z0,
+        method="DOP853",
+        events=events,
+        rtol=CONTACT_RTOL,
+        atol=CONTACT_ATOL * run.part.radius / scale,
+    )
+    return _slide_end(run, sol, k, sigma, neighbours)
+
+
+def _slide_equations(
+    run: _Run, st: _State, k: int, sigma: float, neighbours: tuple[int, int]
+) -> tuple[Callable[[float, np.ndarray], np.ndarray], list[Callable[[float, np.ndarray], float]]]:
+    """Return the slide's rates and its events: lift-off, stick, a strike of each neighbour, Painleve.
+
+    Per unit mass, with D = 1 + rx (rx + sigma mu ry) / rho^2: N = (ry omega^2 - g) / D, a_x = -sigma mu N,
+    alpha = N (rx + sigma mu ry) / rho^2 (the state is x, theta, vx, omega). The events, all terminal, in
+    this order: N reaching zero (lift-off), the slip velocity reaching zero (stick), each neighbour
+    coming down to the arm (strike), D reaching zero (Painleve's inconsistency).
+    """
+    g, mu, rho2 = run.g, run.mu, run.geo.rho**2
 
     def rates(_t: float, z: np.ndarray) -> np.ndarray:
         theta, omega = z[1], z[3]
@@ -486,25 +520,15 @@ def _slide(run: _Run, st: _State, k: int, sigma: float = 0.0) -> _Outcome:
     # Only a slip running down to zero ends it (a slip starting from rest begins at zero).
     stuck.terminal, stuck.direction = True, -sigma  # type: ignore[attr-defined]
     painleve.terminal, painleve.direction = True, -1  # type: ignore[attr-defined]
-    events = [lift, stuck, strike(neighbours[0]), strike(neighbours[1]), painleve]
-    z0 = np.array([st.x, st.theta, st.vx, st.omega])
-    if painleve(0.0, z0) <= 0:
-        raise SolverError("sliding contact inconsistent (Painleve): mu too large for this contact geometry")
-    if lift(0.0, z0) < 0:  # the slide would need a pulling normal force: the part leaves at once
-        run.log("lift_off", k, st)
-        t, hit = _flight(run, st, k)
-        return _Next(partial(_impact, run, _fly(run, st, t), hit, "catch"))
-    from scipy.integrate import solve_ivp  # only the dynamic fidelity slides: the arm's start skips scipy
+    return rates, [lift, stuck, strike(neighbours[0]), strike(neighbours[1]), painleve]
 
-    sol = solve_ivp(
-        rates,
-        (0.0, SLIDE_TIME_LIMIT * scale),
-        z0,
-        method="DOP853",
-        events=events,
-        rtol=CONTACT_RTOL,
-        atol=CONTACT_ATOL * run.part.radius / scale,
-    )
+
+def _slide_end(run: _Run, sol: Any, k: int, sigma: float, neighbours: tuple[int, int]) -> _Outcome:
+    """Take the slide to its first event (``sol``: the solver's result): the phase that follows it.
+
+    Lift-off flies, a stop rolls or slides back (``_stick``), a neighbour's strike is an impact on the
+    edge it closes; no event within the time limit, or Painleve's inconsistency, raises SolverError.
+    """
     fired = [i for i, times in enumerate(sol.t_events) if len(times)]
     if not fired:
         raise SolverError("sliding contact did not end within its time limit")
@@ -522,7 +546,7 @@ def _slide(run: _Run, st: _State, k: int, sigma: float = 0.0) -> _Outcome:
     if which == 1:
         return _Next(partial(_stick, run, now, k, sigma))
     m = neighbours[which - 2]
-    e = k if m == (k + 1) % n else m  # the edge between k and m (edge i joins vertices i, i + 1)
+    e = k if m == (k + 1) % run.part.n else m  # the edge between k and m (edge i joins vertices i, i + 1)
     return _Next(partial(_strike_general, run, now, m, e, k))
 
 
