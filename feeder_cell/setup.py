@@ -29,7 +29,7 @@ setup(
     entry_points={
         "console_scripts": [
             *NODE_SCRIPTS,
-            "feeder = feeder_cell.cli.main:run",
+            "feeder = feeder_cell.cli.program:run",
         ],
     },
 )

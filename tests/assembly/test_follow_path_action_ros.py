@@ -50,6 +50,7 @@ class Sent:
     handle: Any
     feedback: list[Any] = field(default_factory=list)
     lock: threading.Lock = field(default_factory=threading.Lock)
+    result_future: Any = None  # requested at acceptance (Goals.send)
 
     @property
     def accepted(self) -> bool:
@@ -106,12 +107,17 @@ class Goals:
 
         future = self.client.send_goal_async(goal, feedback_callback=on_feedback)
         sent.handle = _wait_future(future, timeout, "goal response")
+        if sent.accepted:
+            # Requested now, answered when the goal ends: a result request sent only then, to a server that
+            # had not yet matched this client's result reader, was answered into the void under load (a CI
+            # run's held-clock goal: no result within 30 s). rclpy's own examples request it at acceptance.
+            sent.result_future = sent.handle.get_result_async()
         return sent
 
     def result(self, sent: Sent, timeout: float = 60.0) -> tuple[int, Any]:
         """Return (GoalStatus status, FollowPath result) of an accepted goal."""
-        assert sent.accepted
-        response = _wait_future(sent.handle.get_result_async(), timeout, "goal result")
+        assert sent.accepted and sent.result_future is not None
+        response = _wait_future(sent.result_future, timeout, "goal result")
         return response.status, response.result
 
     def run(self, goal: Any, timeout: float = 60.0) -> tuple[Sent, int, Any]:

@@ -5,8 +5,11 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
 
 FEEDER = [sys.executable, "-m", "feeder_cell.cli.main"]
 
@@ -132,3 +135,39 @@ def test_a_swallowed_ctrl_c_is_seen_by_subcommands_when_the_cli_runs_as_python_m
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "seen", done.stdout + done.stderr
+
+
+# A sitecustomize that sends this process SIGINT as the module named first on its command line is
+# looked up: deterministically inside the imports of cli.main (or program), before main() runs.
+SIGINT_AT_IMPORT = """
+import os, signal, sys
+class _InterruptAt:
+    def find_spec(self, name, path=None, target=None):
+        if name == os.environ["FEEDER_TEST_SIGINT_AT"]:
+            sys.meta_path.remove(self)
+            os.kill(os.getpid(), signal.SIGINT)
+        return None
+sys.meta_path.insert(0, _InterruptAt())
+"""
+
+
+@pytest.mark.parametrize(
+    "entry", [["-m", "feeder_cell.cli.main"], ["-c", "from feeder_cell.cli.program import run; run()"]]
+)
+def test_ctrl_c_during_the_commands_own_imports_ends_it_with_the_interrupted_line_and_130(
+    entry: list[str], tmp_path: Path
+) -> None:
+    (tmp_path / "sitecustomize.py").write_text(SIGINT_AT_IMPORT)
+    path = os.pathsep.join(p for p in (str(tmp_path), os.environ.get("PYTHONPATH", "")) if p)
+    env = dict(os.environ, PYTHONPATH=path, FEEDER_TEST_SIGINT_AT="feeder_planner.errors")
+    done = subprocess.run(
+        [sys.executable, *entry, "part-info", "examples/throwing/triangle.yaml"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=env,
+        cwd=ROOT,
+    )
+    assert done.returncode == 130, done.stderr[-1500:]
+    assert done.stdout == "" and "Traceback" not in done.stderr
+    assert done.stderr.strip() == "feeder: interrupted"

@@ -18,6 +18,20 @@ def _on_ctrl_c(_number: int, _frame: object) -> None:
     raise KeyboardInterrupt
 
 
+def _remember_ctrl_c(_number: int, _frame: object) -> None:
+    _requested["value"] = True
+
+
+def remember_ctrl_c() -> None:
+    """Make SIGINT only remembered, from the first line of ``cli.main`` until ``main`` takes it.
+
+    A KeyboardInterrupt raised into the imports of ``cli.main`` itself came out as a traceback and the
+    status -2 (a CI run's Ctrl-C 0.3 s into `throw-design`, on a loaded machine); remembered, it ends the
+    command in ``main`` as any other Ctrl-C does: the "interrupted" line and 130.
+    """
+    signal.signal(signal.SIGINT, _remember_ctrl_c)
+
+
 def take_ctrl_c() -> None:
     """Make SIGINT raise KeyboardInterrupt here, whatever disposition the command inherited, and remember it.
 

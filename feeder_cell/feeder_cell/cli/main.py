@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # the program (python -m): Ctrl-C remembered from here until main() takes it
+    from feeder_cell.cli.ctrl_c import remember_ctrl_c
+
+    remember_ctrl_c()
+
 import argparse
 import atexit
 import importlib
@@ -51,6 +56,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     take_ctrl_c()
     words = list(sys.argv[1:] if argv is None else argv)
     try:
+        check_ctrl_c()  # one that came while this module was imported
         # The top-level parser has no option that takes a value, so the first word is the command.
         parser = build_parser(words[0] if words and not words[0].startswith("-") else None)
     except KeyboardInterrupt:  # Ctrl-C while the subcommands' modules are imported
