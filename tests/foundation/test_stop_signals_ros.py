@@ -47,11 +47,7 @@ SCRIPT_LOADER = (
     "from importlib.metadata import distribution; "
     "[e for e in distribution('feeder-cell').entry_points if e.group == 'console_scripts']"
 )
-CLI_STOP_S = 2.0  # a long command ends within this of Ctrl-C (issue 33)
-# The robust study on a Dask LocalCluster is not there yet: its graceful close waits for the tasks its
-# workers run, 2.7 to 3.5 s after Ctrl-C under load in 2 of 6 interrupted runs (a close cut short by a
-# timeout left distributed's exit handler waiting 10 s). Its bound is this until that is solved.
-DASK_STOP_S = 5.0
+CLI_STOP_S = 2.0  # a long command ends within this of Ctrl-C (issue 33), the robust study on Dask too
 NODE_STOP_S = 10.0  # a node's clean-up (a bounded executor shutdown, the server's stop) ends within this
 TRIANGLE = str(ROOT / "examples/throwing/triangle.yaml")
 DESIGN = ["--gravity", "-966", "--mu", "0.5", "--goal-edge", "1"]
@@ -86,7 +82,7 @@ COMMANDS: dict[str, tuple[list[str], float, float]] = {
         [*FEEDER, "throw-design", TRIANGLE, *_grid(6, 6), *DESIGN]
         + ["--robust", "40", "--speed-sigma", "0.03", "--workers", "2"],
         8.0,
-        DASK_STOP_S,
+        CLI_STOP_S,
     ),
 }
 
