@@ -18,7 +18,7 @@ import sys
 import threading
 import time
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any, Callable, Iterator
 
 import pytest
 from std_msgs.msg import String
@@ -76,7 +76,19 @@ def _stop(pid: int) -> None:
         time.sleep(0.01)
 
 
-def _release_on_a_thread(participant: Participant, now_ns: int) -> threading.Thread:
+def _until(ready: Callable[[], bool], what: str, deadline: float) -> None:
+    while not ready():
+        assert time.monotonic() < deadline, what
+        time.sleep(0.05)
+
+
+def _answer_with_the_reader_stopped(
+    participant: Participant, status: Any, data: str, pid: int, now_ns: int
+) -> threading.Thread:
+    """Stop the reader, publish ``data`` on the delivered ``status``, answer ``now_ns`` on a thread."""
+    _stop(pid)
+    status.publish(String(data=data))
+    participant.delivered(status)
     thread = threading.Thread(target=participant.release, args=(now_ns,), daemon=True)
     thread.start()
     return thread
@@ -90,18 +102,11 @@ def test_an_answer_waits_until_every_reader_has_acknowledged_the_delivered_statu
     status = ros_client.create_publisher(String, TOPIC, LATCHED)
     try:
         deadline = time.monotonic() + 60.0
-        while status.get_subscription_count() < 1 or not received.exists():
-            assert time.monotonic() < deadline, "the reader never matched"
-            time.sleep(0.05)
+        _until(lambda: status.get_subscription_count() >= 1 and received.exists(), "no match", deadline)
         status.publish(String(data="warm-up"))
-        while "warm-up" not in received.read_text():
-            assert time.monotonic() < deadline, "the reader never took the first sample"
-            time.sleep(0.05)
+        _until(lambda: "warm-up" in received.read_text(), "the reader never took the first sample", deadline)
 
-        _stop(process.pid)
-        status.publish(String(data="FEED"))
-        participant.delivered(status)
-        answering = _release_on_a_thread(participant, T_NS)
+        answering = _answer_with_the_reader_stopped(participant, status, "FEED", process.pid, T_NS)
         answering.join(STOPPED_S)
         assert answering.is_alive(), "the answer went out while a reader had not acknowledged the status"
         assert participant.answered_ns < T_NS
@@ -109,16 +114,13 @@ def test_an_answer_waits_until_every_reader_has_acknowledged_the_delivered_statu
         os.kill(process.pid, signal.SIGCONT)
         answering.join(DELIVERY_S + 5.0)
         assert not answering.is_alive() and participant.answered_ns == T_NS
-        while "FEED" not in received.read_text():
-            assert time.monotonic() < deadline, "the continued reader never took the status"
-            time.sleep(0.05)
+        _until(lambda: "FEED" in received.read_text(), "the continued reader never took the status", deadline)
 
         # A reader that never acknowledges holds an answer for DELIVERY_S, then the clock goes on.
-        _stop(process.pid)
-        status.publish(String(data="FINISHED"))
-        participant.delivered(status)
         started = time.monotonic()
-        answering = _release_on_a_thread(participant, T_NS + NANOSECONDS)
+        answering = _answer_with_the_reader_stopped(
+            participant, status, "FINISHED", process.pid, T_NS + NANOSECONDS
+        )
         answering.join(DELIVERY_S + 5.0)
         assert not answering.is_alive(), f"an answer held by a stopped reader past {DELIVERY_S + 5.0} s"
         assert time.monotonic() - started >= DELIVERY_S * 0.9
