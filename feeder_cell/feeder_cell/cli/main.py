@@ -59,10 +59,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         check_ctrl_c()  # one that came while this module was imported
         # The top-level parser has no option that takes a value, so the first word is the command.
         parser = build_parser(words[0] if words and not words[0].startswith("-") else None)
-    except KeyboardInterrupt:  # Ctrl-C while the subcommands' modules are imported
+        args = parser.parse_args(words)
+    except KeyboardInterrupt:  # Ctrl-C while the subcommands' modules are imported or the words parsed
         sys.stderr.write("feeder: interrupted\n")
         return EXIT_INTERRUPTED
-    args = parser.parse_args(words)
     try:
         code = int(args.handler(args) or EXIT_OK)
         if code != EXIT_INTERRUPTED:
