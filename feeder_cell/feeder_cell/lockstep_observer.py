@@ -15,6 +15,7 @@ import time
 from typing import Any, Callable
 
 from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.exceptions import InvalidHandle
 from rclpy.executors import Executor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -175,7 +176,28 @@ class RecordingObserver:
             if not self._quiet():
                 return
             self._settling = False
+        self._take_everything()
         self.participant.release(now_ns)
+
+    def _take_everything(self) -> None:
+        """Take every sample still in a recorded reader's history before the quantum is answered.
+
+        The drain takes what the wait set reports ready, and that can miss a sample already in a reader's
+        history: with the controller hosted, its FEED status was acknowledged by this reader (its answer
+        waits for that, ``Participant.delivered``) before the clock announced the quantum's end, and the
+        recorder still logged it a quantum late (2 CI runs in about 10). Taking from each reader until it
+        is empty does not depend on that report.
+        """
+        for subscription in self.recorder.subscriptions().values():
+            while True:
+                try:
+                    with subscription.handle:
+                        taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
+                except InvalidHandle:
+                    break  # replaced meanwhile (a topic's reader widened)
+                if taken is None:
+                    break
+                subscription.callback(*taken)
 
     def log_time_ns(self) -> int:
         """Return the log time of a message taken now: the end of the quantum it belongs to."""
