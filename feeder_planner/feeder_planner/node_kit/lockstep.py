@@ -333,9 +333,10 @@ class Participant:
         For a reliable publisher of news a reader must take in the quantum it was published in (a status
         published on change). Answering only says the samples were written: DDS orders what one writer
         sends, not what two writers of one process send to a third, so the clock's next announcement
-        (another writer's) could reach the recorder first, which then logged the status a quantum late
-        (seen once in CI, the controller hosted, a loaded machine). An acknowledgement says the sample is
-        in the reader's history. Bounded by DELIVERY_S, with a warning naming the topic.
+        (another writer's) could reach the recorder first. An acknowledgement says the sample is in the
+        reader's history. (It did not end the hosted controller's status logged a quantum late: there the
+        recorder had it and did not take it; see ``lockstep_observer``.) Bounded by DELIVERY_S, with a
+        warning naming the topic.
         """
         self._undelivered.add(publisher)
 
