@@ -47,8 +47,22 @@ CALL_TIMEOUT_S = 30.0
 
 # A reply can be lost when a node answers before it has discovered the caller's reply reader (Fast DDS:
 # "client will not receive response"), which a loaded machine makes likely. get_state is idempotent and
-# is sent again after this long without a reply; a transition is not resent but checked by get_state.
+# is sent again after this long without a reply. A transition is not idempotent: after this long without
+# a reply the node's state decides (``change``).
 RESEND_S = 2.0
+
+# After get_state has shown no transition ran, this long for a reply already on its way before resending.
+REPLY_GRACE_S = 0.5
+
+# The labels of the states a node is in while it runs a transition (lifecycle_msgs/State 10-15).
+TRANSITION_STATES = {
+    "configuring",
+    "cleaningup",
+    "shuttingdown",
+    "activating",
+    "deactivating",
+    "errorprocessing",
+}
 
 # The primary state each transition leads to when it succeeds.
 RESULT_OF = {
@@ -127,8 +141,7 @@ class LifecycleClient:
         else:
             self.executor.spin_once(timeout_sec=seconds)
 
-    def _call(self, client: Any, request: Any, what: str, resend: bool) -> Any:
-        """Call and wait (bounded); with ``resend``, send again every RESEND_S until one reply arrives."""
+    def _wait_for_service(self, client: Any, what: str) -> None:
         deadline = time.monotonic() + CALL_TIMEOUT_S
         while not client.service_is_ready():
             if time.monotonic() > deadline:
@@ -136,6 +149,10 @@ class LifecycleClient:
                     f"{self.target}: no lifecycle service ({what}) after {CALL_TIMEOUT_S:.0f} s"
                 )
             self._wait(0.05)
+
+    def _call(self, client: Any, request: Any, what: str, resend: bool) -> Any:
+        """Call and wait (bounded); with ``resend``, send again every RESEND_S until one reply arrives."""
+        self._wait_for_service(client, what)
         futures = [client.call_async(request)]
         deadline = time.monotonic() + CALL_TIMEOUT_S
         next_send = time.monotonic() + RESEND_S
@@ -163,20 +180,50 @@ class LifecycleClient:
             request.transition.id = SHUTDOWN_FROM.get(state, Transition.TRANSITION_UNCONFIGURED_SHUTDOWN)
         else:
             request.transition.id = TRANSITIONS[transition]
-        try:
-            response = self._call(self._change, request, transition, resend=False)
-        except LifecycleInterruptedError:
-            raise
-        except LifecycleError:
-            # No reply: the reply may be what was lost. The node's state tells whether the transition ran.
-            state = self.get_state()
-            if state == RESULT_OF[transition]:
-                return state
-            raise
-        state = self.get_state()
+        response, state = self._transition(request, transition)
+        if response is None or (not response.success and state == RESULT_OF[transition]):
+            # No reply, or the refusal of a copy sent again after the first had run (see _transition).
+            return state
         if not response.success:
             raise LifecycleError(f"{self.target}: {transition} refused (state {state})")
         return state
+
+    def _transition(self, request: Any, transition: str) -> tuple[Any, str]:
+        """Send ``request`` until a reply or the node's state settles it; return (reply or None, state).
+
+        A transition may not be sent twice blindly, so a reply missing after RESEND_S is settled by the
+        node's state: the transition's result means it ran (the reply was lost: None is returned); a
+        transition state (``configuring``) means it still runs; any other state means it has not run or
+        it was refused and its reply was lost, and the request is sent again. Each lost-reply case ends in
+        a reply or in the result state well within CALL_TIMEOUT_S instead of waiting it out.
+        """
+        self._wait_for_service(self._change, transition)
+        futures = [self._change.call_async(request)]
+        deadline = time.monotonic() + CALL_TIMEOUT_S
+        next_check = time.monotonic() + RESEND_S
+        resend_at: float | None = None
+        while not any(f.done() for f in futures):
+            now = time.monotonic()
+            if now > deadline:
+                raise LifecycleError(
+                    f"{self.target}: {transition} not answered within {CALL_TIMEOUT_S:.0f} s"
+                )
+            if resend_at is not None and now >= resend_at:
+                futures.append(self._change.call_async(request))
+                resend_at, next_check = None, now + RESEND_S
+            elif resend_at is None and now > next_check:
+                state = self.get_state()
+                if any(f.done() for f in futures):
+                    break  # the node answered while get_state waited: its reply, not its state, decides
+                if state == RESULT_OF[transition]:
+                    return None, state
+                if state in TRANSITION_STATES:
+                    next_check = time.monotonic() + RESEND_S
+                else:
+                    # A reply sent just before get_state's may still be on its way (two writers: no order).
+                    resend_at = time.monotonic() + REPLY_GRACE_S
+            self._wait(0.02)
+        return next(f for f in futures if f.done()).result(), self.get_state()
 
     def bring_to(self, target: str) -> str:
         """Walk the transitions from the present state to ``target``; return the state reached."""
