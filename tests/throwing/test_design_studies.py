@@ -106,3 +106,63 @@ def test_ctrl_c_inside_a_local_cluster_silences_its_shutdown_in_this_process():
     finally:
         for name, level in before.items():
             logging.getLogger(name).setLevel(level)
+
+
+# A process that starts a LocalCluster of two workers and says when: Ctrl-C then lands inside the start.
+_STARTS_A_CLUSTER = """
+import dask.distributed  # imported before the signal's moment: Ctrl-C inside an import is the CLI's concern
+from feeder_planner.dask_cluster import dask_client
+print("starting", flush=True)
+with dask_client(2, None):
+    pass
+print("started", flush=True)
+"""
+
+
+def _live_processes_marked(mark: str) -> list[int]:
+    """Pids of live (not zombie) processes whose environment holds ``mark``."""
+    from pathlib import Path
+
+    found = []
+    for environ in Path("/proc").glob("[0-9]*/environ"):
+        try:
+            state = (environ.parent / "stat").read_text().rsplit(")", 1)[1].split()[0]
+            if mark.encode() in environ.read_bytes() and state != "Z":
+                found.append(int(environ.parent.name))
+        except (OSError, IndexError):
+            continue
+    return found
+
+
+def test_ctrl_c_during_a_local_clusters_start_ends_it_at_once_and_leaves_no_process():
+    """Ctrl-C inside the start: its one line, 130, no traceback, no worker left (it waited for the start)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    import uuid
+
+    mark = f"FEEDER_TEST_MARK={uuid.uuid4().hex}"
+    env = dict(os.environ, FEEDER_TEST_MARK=mark.partition("=")[2])
+    process = subprocess.Popen(
+        [sys.executable, "-c", _STARTS_A_CLUSTER],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert process.stdout is not None and process.stdout.readline().strip() == "starting"
+        time.sleep(0.3)  # inside the start: two worker processes take over a second to come up
+        process.send_signal(signal.SIGINT)
+        out, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    assert "started" not in out, "the start ended before the signal: the test did not interrupt it"
+    assert process.returncode == 130, err
+    assert "interrupted while the Dask cluster was starting" in err and "Traceback" not in err, err
+    time.sleep(0.2)  # a SIGKILLed process is gone once the kernel has reaped it
+    assert _live_processes_marked(mark) == [], "a process of the cluster outlived the command"
