@@ -89,6 +89,14 @@ class Launch:
         return json.loads(out)
 
 
+def _log_tails(log_dir: Path, characters: int = 1500) -> str:
+    """The end of each log a launch wrote, for a failure's message (what the nodes said they did)."""
+    return "\n".join(
+        f"--- {path.name}\n{path.read_text(errors='replace')[-characters:]}"
+        for path in sorted(log_dir.rglob("*.log"))
+    )
+
+
 def wait_for_status(client: Any, node_name: str, state: str, timeout: float = 60.0) -> Any:
     from feeder_msgs.msg import DeviceStatus
     from feeder_planner.node_kit import LATCHED
@@ -205,6 +213,10 @@ def test_launch_real_time_factor_runs_every_device_on_the_cell_clock(ros_client:
     assert summary["real_time_factor"] == 4.0
     throws, before = ros_harness.counters(last)["throws"], ros_harness.counters(first)["throws"]
     # A 0.5 s throw period at 4x: about 8 throws per wall second, far more than at real time (2 per second).
-    assert throws - before >= 6.0 * 4
+    assert throws - before >= 6.0 * 4, (
+        f"{throws - before} throws; cell time {ros_harness.stamp_ns(first) / 1e9:.3f} -> "
+        f"{ros_harness.stamp_ns(last) / 1e9:.3f} s; {last.state_name} {last.fault_text!r}; logs:\n"
+        + _log_tails(tmp_path / "logs")
+    )
     assert last.configured_real_time_factor == 4.0
     assert abs(last.achieved_real_time_factor - 4.0) < 0.4
