@@ -411,6 +411,45 @@ def test_kill_9_of_the_cell_host_ends_the_launch_with_one_line_naming_the_host_a
         assert host["pid"] == pid and host["died_early"] and "/cell/assembly_fixture" in host["nodes"]
 
 
+def test_a_device_killed_while_the_launch_still_brings_up_a_slow_node_is_dropped_and_the_launch_goes_on(
+    tmp_path: Path,
+) -> None:
+    """ci32: the clock runs once its participants have joined, and under load the launch was still waiting
+    for a planner to appear in its graph when a device was killed: it ended "at start-up". The planner
+    here is held (SIGSTOP) before it can appear, so the launch is in that wait for certain."""
+    lease = ros_harness.DomainLease()
+    process = _start_idle_cell(
+        tmp_path, lease.domain, "2", "--one-process-per-node", "--lockstep-timeout", "3", "--duration", "60"
+    )
+    held = None
+    try:
+        deadline = time.monotonic() + 60
+        while held is None and process.poll() is None and time.monotonic() < deadline:
+            held = _pid_of("stable_region_planner", lease.domain)
+            time.sleep(0.005)
+        assert held is not None, "no stable_region_planner process on the test's domain"
+        os.kill(held, signal.SIGSTOP)
+        _wait_until_running(process, lease.domain, "/cell/throwing_arm")
+        arm = _pid_of("throwing_arm", lease.domain)
+        assert arm is not None, "no throwing_arm process on the test's domain"
+        os.kill(arm, signal.SIGKILL)
+        time.sleep(3.0)  # the launch looks at its processes every 0.1 s while it waits for the graph
+        assert process.poll() is None, f"the launch ended: {process.communicate()[1][-1500:]}"
+        os.kill(held, signal.SIGCONT)
+        held = None
+        _wait_until_running(process, lease.domain, "/cell/mems_field_array")  # the cell goes on
+        process.send_signal(signal.SIGINT)
+        _, err = process.communicate(timeout=60)
+    finally:
+        if held is not None:
+            os.kill(held, signal.SIGCONT)
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
+        lease.release()
+    assert "at start-up" not in err, err[-2000:]
+
+
 def test_a_cell_host_that_dies_at_start_up_is_named_with_its_nodes(tmp_path: Path) -> None:
     """Killed as soon as its process exists, long before its nodes are in the graph: the start-up's error."""
     lease = ros_harness.DomainLease()

@@ -30,22 +30,31 @@ def _process_name(process: NodeProcess, processes: list[NodeProcess]) -> str:
 def wait_until_in_graph(
     node: Any, executor: Any, processes: list[NodeProcess], keep_going: Callable[[], bool]
 ) -> None:
-    """Spin until every started node is in the graph; a process that exits meanwhile fails the start."""
+    """Spin until every started node is in the graph; a process that exits before its node is seen fails.
+
+    A node seen in the graph and gone since is left to the bring-up and the launch's loop, as a node that
+    dies mid-run is (in lockstep the clock drops a device and the cell goes on): the cell clock runs once
+    its participants have joined, which can be well before the slowest node of a large scene is up (ci32:
+    a device killed after 4 s of cell time ended the launch "at start-up" while a planner was coming up).
+    """
     deadline = time.monotonic() + STARTUP_TIMEOUT_S
     wanted = {p.spec.fully_qualified_name for p in processes}
+    seen: set[str] = set()
     while keep_going():
         executor.spin_once(timeout_sec=0.1)
-        dead = [p for p in processes if not p.alive()]
+        seen |= _graph_names(node) & wanted
+        unseen = [p for p in processes if p.spec.fully_qualified_name not in seen]
+        dead = [p for p in unseen if not p.alive()]
         if dead:
             p = dead[0]
             raise FeederError(
                 f"{_process_name(p, processes)} exited with code {p.process.returncode} at start-up; "
                 f"last log line: {(p.output().strip().splitlines() or ['(none)'])[-1]}"
             )
-        missing = sorted(wanted - _graph_names(node))
-        if not missing:
+        if not unseen:
             return
         if time.monotonic() > deadline:
+            missing = sorted(p.spec.fully_qualified_name for p in unseen)
             raise FeederError(f"nodes not in the graph after {STARTUP_TIMEOUT_S:.0f} s: {', '.join(missing)}")
 
 
