@@ -53,6 +53,9 @@ class DeviceLink:
     # when the status already did), so that Command.Busy and the PackML state change in one publish.
     busy_shown: bool = False
     goals: int = 0
+    # The goal whose feedback was posted last (GoalRunner's token of its send): a goal's cleared feedback
+    # must not replace feedback of its own that came before the acceptance was handled.
+    feedback_of: object | None = None
     results: int = 0
     rejections: list[tuple[float, str]] = field(default_factory=list)  # (monotonic, /rosout text)
     diagnosed_rejection: str = ""  # /diagnostics last_goal_rejection

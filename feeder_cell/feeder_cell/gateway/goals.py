@@ -3,7 +3,10 @@
 Separate from the commands and service methods because a goal outlives its method call: the call returns
 once the goal is accepted, and its progress and end reach the variables later, from rclpy's callbacks.
 ``send`` and the callbacks run in the executor's thread, ``rejection`` on the asyncio loop; each reads and
-writes the ``DeviceLink`` under the link's lock only, and posts after releasing it.
+writes the ``DeviceLink`` under the link's lock only, and posts after releasing it, except a goal's
+feedback: its clearing at acceptance and the feedback itself decide and post under the lock, so that a
+feedback that came before the acceptance was handled (a short goal, a loaded machine: a PLC read the
+progress of a finished FollowPath as 0) is not replaced by the cleared values.
 """
 
 from __future__ import annotations
@@ -43,8 +46,9 @@ class GoalRunner:
             link.rejections.clear()
         if goal is None:
             raise TypeError(f"{method}: not a goal")
+        token = object()  # this goal's, for its feedback
         handle = await client.send_goal_async(
-            goal.message(), feedback_callback=lambda m: self._feedback(link, m)
+            goal.message(), feedback_callback=lambda m: self._feedback(link, token, m)
         )
         if not handle.accepted:
             return "BadInvalidState", "rejected"
@@ -56,18 +60,19 @@ class GoalRunner:
             # else with the status that shows it (device_listener), in the same publish as the state change.
             link.busy_shown = link.state is not None and executing(link.state, link.busy)
             busy = link.busy_shown
-        values: Values = {
-            "Command.Action": method,
-            "Command.GoalCount": goals,
-            "Command.LastOutcome": "",  # cleared: the new goal has none yet
-            "Command.LastOutcomeCode": 0,
-            "Command.Result.FaultCode": 0,
-            # The previous goal's progress would read as this one's until the first feedback arrives.
-            **link.profile.action.feedback_values(link.profile.action.action_type.Feedback()),
-        }
-        if busy:
-            values["Command.Busy"] = True
-        self._post_all(link, values)
+            values: Values = {
+                "Command.Action": method,
+                "Command.GoalCount": goals,
+                "Command.LastOutcome": "",  # cleared: the new goal has none yet
+                "Command.LastOutcomeCode": 0,
+                "Command.Result.FaultCode": 0,
+            }
+            if link.feedback_of is not token:
+                # The previous goal's progress would read as this one's until the first feedback arrives.
+                values.update(link.profile.action.feedback_values(link.profile.action.action_type.Feedback()))
+            if busy:
+                values["Command.Busy"] = True
+            self._post_all(link, values)  # under the lock: see the module's docstring
         handle.get_result_async().add_done_callback(lambda f: self._on_result(link, handle, f))
         return "Good", f"{method} goal accepted; Command.Busy shows it executing, Command.LastOutcome its end"
 
@@ -97,8 +102,10 @@ class GoalRunner:
             "BadInvalidState" if not_free else "BadInvalidArgument"
         ), f"{method} rejected by the device: {reason}"
 
-    def _feedback(self, link: DeviceLink, message: Any) -> None:
-        self._post_all(link, link.profile.action.feedback_values(message.feedback))
+    def _feedback(self, link: DeviceLink, token: object, message: Any) -> None:
+        with link.lock:
+            link.feedback_of = token
+            self._post_all(link, link.profile.action.feedback_values(message.feedback))
 
     def _on_result(self, link: DeviceLink, handle: ClientGoalHandle, future: Any) -> None:
         with link.lock:
