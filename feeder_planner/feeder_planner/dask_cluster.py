@@ -9,10 +9,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
-import sys
-import threading
-from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Iterator, TypeVar
+from typing import TYPE_CHECKING, Iterator
 
 from feeder_planner.errors import InputError
 
@@ -20,8 +17,6 @@ if TYPE_CHECKING:
     from dask.distributed import Client, LocalCluster
 
 __all__ = ["CONNECT_TIMEOUT", "MAX_WORKERS", "QUIET_WORKERS", "WORKERS_TIMEOUT", "dask_client"]
-
-T = TypeVar("T")
 
 # Worker processes of a LocalCluster at most: each imports numpy and the models (~100 MB); more than
 # this on one machine only adds memory and start-up time.
@@ -51,78 +46,6 @@ def stop_signals_blocked() -> Iterator[None]:
         yield
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
-
-
-# The shell's status of a process that SIGINT ended (128 + 2): what the feeder command exits with.
-EXIT_INTERRUPTED = 130
-START_POLL_S = 0.05  # how often the main thread looks whether the cluster's start is done
-
-
-def _descendants(pid: int) -> list[int]:
-    """Every process below ``pid`` (Linux /proc), children before their own children."""
-    children: dict[int, list[int]] = {}
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        with contextlib.suppress(OSError, ValueError, IndexError):
-            # The command name (2nd field) may hold spaces and parentheses: the fields after its last ")".
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-            children.setdefault(int(fields[1]), []).append(int(stat.parent.name))
-    found, queue = [], [pid]
-    while queue:
-        for child in children.get(queue.pop(0), []):
-            found.append(child)
-            queue.append(child)
-    return found
-
-
-def _abandon_start() -> None:
-    """Ctrl-C while a LocalCluster starts: kill what it has made, say so in one line, exit 130 at once.
-
-    A start cut short cannot be closed cleanly: distributed's exit handler closed the half-made cluster with
-    a traceback, or waited for the start (3.2 s under a CI run's load, against issue 33's 2 s). Nothing has
-    been computed yet, so nothing is lost: the worker processes (and multiprocessing's helpers) are killed
-    and the process ends without its exit handlers.
-    """
-    for pid in _descendants(os.getpid()):
-        with contextlib.suppress(ProcessLookupError):
-            os.kill(pid, signal.SIGKILL)
-    sys.stdout.flush()
-    sys.stderr.write("interrupted while the Dask cluster was starting\n")
-    sys.stderr.flush()
-    os._exit(EXIT_INTERRUPTED)
-
-
-def start_abandonable(start: Callable[[], T]) -> T:
-    """Run ``start`` (a cluster's start) so that Ctrl-C meanwhile ends the process within moments.
-
-    The start runs on a thread of its own with SIGINT blocked, and so do the threads and worker processes
-    it makes (they inherit the mask: a terminal's Ctrl-C, sent to the whole process group, reaches only
-    this process's main thread). The main thread waits with SIGINT open, and Ctrl-C there abandons the
-    start (``_abandon_start``). Off the main thread (no Python signal handler runs there) the start runs
-    with SIGINT blocked, as before: a Ctrl-C meanwhile is raised once the start is done.
-    """
-    if threading.current_thread() is not threading.main_thread():
-        with stop_signals_blocked():
-            return start()
-    outcome: list[T] = []
-    failure: list[BaseException] = []
-
-    def run() -> None:
-        try:
-            outcome.append(start())
-        except BaseException as error:  # re-raised in the main thread, which the caller waits on
-            failure.append(error)
-
-    thread = threading.Thread(target=run, name="dask-cluster-start", daemon=True)
-    try:
-        with stop_signals_blocked():
-            thread.start()
-        while thread.is_alive():
-            thread.join(START_POLL_S)
-    except KeyboardInterrupt:
-        _abandon_start()
-    if failure:
-        raise failure[0]
-    return outcome[0]
 
 
 # Loggers of this process that a cluster closed by Ctrl-C reports its shutdown on: the LocalCluster's
@@ -180,24 +103,25 @@ def dask_client(workers: int, scheduler: str | None, field: str = "scheduler") -
     cluster: LocalCluster | None = None
     client: Client | None = None
     try:
-        if scheduler is None:
-
-            def start() -> tuple[LocalCluster, Client]:
+        # Ctrl-C (KeyboardInterrupt) inside a LocalCluster's start left it half made, and distributed's
+        # own exit handler then failed on it with a traceback: the start runs with the stop signals
+        # blocked, and one that came meanwhile is raised here, where the finally below closes it all.
+        with stop_signals_blocked():
+            if scheduler is None:
                 quiet = {f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in QUIET_WORKERS.items()}
                 with dask.config.set(quiet):
-                    made = LocalCluster(
+                    cluster = LocalCluster(
                         n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
                     )
-                return made, Client(made)
-
-            # Ctrl-C inside a LocalCluster's start left it half made (start_abandonable says what it does).
-            cluster, client = start_abandonable(start)
-        else:
-            try:
-                client = start_abandonable(lambda: Client(scheduler, timeout=CONNECT_TIMEOUT))
-            except (OSError, TimeoutError, ValueError) as error:
-                why = " ".join(str(error).split()) or type(error).__name__
-                raise InputError(field, f"cannot reach the Dask scheduler at {scheduler!r}: {why}") from None
+                client = Client(cluster)
+            else:
+                try:
+                    client = Client(scheduler, timeout=CONNECT_TIMEOUT)
+                except (OSError, TimeoutError, ValueError) as error:
+                    why = " ".join(str(error).split()) or type(error).__name__
+                    raise InputError(
+                        field, f"cannot reach the Dask scheduler at {scheduler!r}: {why}"
+                    ) from None
         client.wait_for_workers(1 if scheduler is not None else workers, timeout=WORKERS_TIMEOUT)
         yield client
     except KeyboardInterrupt:
