@@ -42,7 +42,9 @@ class LossyNode:
             out, _ = self.process.communicate()
         return out
 
-    def requests(self, output: str) -> int:
+    @staticmethod
+    def requests(output: str) -> int:
+        """How many transition requests the node took, from its printed output."""
         return sum(line.startswith("change_state ") for line in output.splitlines())
 
 
