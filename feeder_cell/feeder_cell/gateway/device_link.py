@@ -56,6 +56,9 @@ class DeviceLink:
     # The goal whose feedback was posted last (GoalRunner's token of its send): a goal's cleared feedback
     # must not replace feedback of its own that came before the acceptance was handled.
     feedback_of: object | None = None
+    # The goal whose result posted its final feedback (ActionLink.final_feedback): its feedback that comes
+    # after the result (another DDS writer) is older than what the result settled, and is not posted.
+    settled_by_result: object | None = None
     results: int = 0
     rejections: list[tuple[float, str]] = field(default_factory=list)  # (monotonic, /rosout text)
     diagnosed_rejection: str = ""  # /diagnostics last_goal_rejection

@@ -6,7 +6,9 @@ once the goal is accepted, and its progress and end reach the variables later, f
 writes the ``DeviceLink`` under the link's lock only, and posts after releasing it, except a goal's
 feedback: its clearing at acceptance and the feedback itself decide and post under the lock, so that a
 feedback that came before the acceptance was handled (a short goal, a loaded machine: a PLC read the
-progress of a finished FollowPath as 0) is not replaced by the cleared values.
+progress of a finished FollowPath as 0) is not replaced by the cleared values; and a goal's feedback
+that comes after its result, when the result already settled the feedback variables
+(``ActionLink.final_feedback``), is not posted over them.
 """
 
 from __future__ import annotations
@@ -73,7 +75,7 @@ class GoalRunner:
             if busy:
                 values["Command.Busy"] = True
             self._post_all(link, values)  # under the lock: see the module's docstring
-        handle.get_result_async().add_done_callback(lambda f: self._on_result(link, handle, f))
+        handle.get_result_async().add_done_callback(lambda f: self._on_result(link, handle, token, f))
         return "Good", f"{method} goal accepted; Command.Busy shows it executing, Command.LastOutcome its end"
 
     async def rejection(self, link: DeviceLink, method: str) -> tuple[str, str]:
@@ -104,10 +106,12 @@ class GoalRunner:
 
     def _feedback(self, link: DeviceLink, token: object, message: Any) -> None:
         with link.lock:
+            if link.settled_by_result is token:
+                return  # older than the final feedback its result posted
             link.feedback_of = token
             self._post_all(link, link.profile.action.feedback_values(message.feedback))
 
-    def _on_result(self, link: DeviceLink, handle: ClientGoalHandle, future: Any) -> None:
+    def _on_result(self, link: DeviceLink, handle: ClientGoalHandle, token: object, future: Any) -> None:
         with link.lock:
             if link.goal is not handle:
                 return  # already ended (the device went offline)
@@ -117,10 +121,12 @@ class GoalRunner:
         except Exception as error:  # noqa: BLE001 - reported in the variables, the gateway keeps serving
             self.finish(link, "LOST", 0, f"no result: {type(error).__name__}: {error}")
             return
-        values = {
-            **link.profile.action.result_values(result),
-            "Command.Result.FaultCode": int(result.fault_code),
-        }
+        action = link.profile.action
+        values = {**action.result_values(result), "Command.Result.FaultCode": int(result.fault_code)}
+        if action.final_feedback is not None:
+            values.update(action.final_feedback(result))
+            with link.lock:
+                link.settled_by_result = link.feedback_of = token
         self.finish(link, result.outcome_name, int(result.outcome), result.message, values)
 
     def finish(

@@ -146,6 +146,12 @@ class ActionLink:
     result: tuple[VariableSpec, ...]  # Command.Result.* variables of this kind (FaultCode is every kind's)
     feedback_values: Convert  # the action's Feedback message -> the feedback variables
     result_values: Convert  # the action's Result message -> the result variables
+    # The action's Result -> the feedback variables it settles, for a kind whose Result states the goal's
+    # final progress (the arm's throws): posted with the result, so Feedback/... and Result/... agree once
+    # ResultCount moves. The device sends its last feedback before the result, but the feedback topic and
+    # the result service are two DDS writers in no order (ci35: Feedback/Throws 10 beside Result/Throws
+    # 11). None: the Result does not state it, and a last feedback that comes after the result is posted.
+    final_feedback: Convert | None = None
 
 
 @dataclass(frozen=True)

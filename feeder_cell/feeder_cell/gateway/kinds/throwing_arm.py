@@ -90,6 +90,14 @@ def _feedback(fb: Any) -> Values:
     }
 
 
+def _final_feedback(result: Any) -> Values:
+    """Return the last throw's feedback as the result states it (feeding.py: it counts the throws used)."""
+    return {
+        "Command.Feedback.Throws": int(result.throws),
+        "Command.Feedback.SensorAtRest": bool(result.sensor_at_rest),
+    }
+
+
 def _result(result: Any) -> Values:
     return {
         "Command.Result.Throws": int(result.throws),
@@ -138,6 +146,7 @@ PROFILE = KindProfile(
         ),
         feedback_values=_feedback,
         result_values=_result,
+        final_feedback=_final_feedback,
     ),
     services=(
         ServiceLink(
