@@ -7,6 +7,7 @@ address; set up one way for every caller, and always closed.
 from __future__ import annotations
 
 import contextlib
+import multiprocessing
 import os
 import signal
 from typing import TYPE_CHECKING, Iterator
@@ -14,7 +15,10 @@ from typing import TYPE_CHECKING, Iterator
 from feeder_planner.errors import InputError
 
 if TYPE_CHECKING:
+    from multiprocessing.process import BaseProcess
+
     from dask.distributed import Client, LocalCluster
+    from distributed.deploy.spec import SpecCluster
 
 __all__ = ["CONNECT_TIMEOUT", "MAX_WORKERS", "QUIET_WORKERS", "WORKERS_TIMEOUT", "dask_client"]
 
@@ -51,27 +55,26 @@ def _silence_shutdown_logs() -> None:
         logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
-def _abandon_start() -> None:
+def _abandon_start(older_processes: set[BaseProcess], older_clusters: set[SpecCluster]) -> None:
     """After Ctrl-C inside a LocalCluster's start: kill the worker processes made so far; leave the rest.
 
     A start cut short leaves a half-made cluster no close can end cleanly (distributed's exit handler
     closed it with a traceback, or waited for its start: up to 6.6 s under a CI run's load, against issue
-    33's 2 s). Nothing has been computed yet, so nothing is lost: the worker processes, multiprocessing's
-    only children here (the resource tracker is not one of them), are killed and reaped, and the half-made
-    cluster is left to the process's end, its exit-handler close switched off (``shutdown_on_close``, a
-    SpecCluster parameter). Its scheduler and IO loop live in this process's daemon thread and end with it.
-    Measured: 0.2-0.6 s from Ctrl-C to exit 130 at 20 moments of the start under two CPU burners.
+    33's 2 s). Nothing has been computed yet, so nothing is lost: the worker processes (multiprocessing's
+    children that were not the caller's before the start; the resource tracker is not one) are killed and
+    reaped, and the half-made cluster is left to the process's end, its exit-handler close switched off
+    (``shutdown_on_close``, a SpecCluster parameter). Its scheduler and IO loop live in a daemon thread of
+    this process and end with it. Measured: 0.2-0.6 s from Ctrl-C to exit 130 at 20 moments of the start
+    under two CPU burners.
     """
-    import multiprocessing
-
     from distributed.deploy.spec import SpecCluster
 
-    children = multiprocessing.active_children()
+    children = [child for child in multiprocessing.active_children() if child not in older_processes]
     for child in children:
         child.kill()
     for child in children:
         child.join()
-    for half_made in list(SpecCluster._instances):
+    for half_made in set(SpecCluster._instances) - older_clusters:
         half_made.shutdown_on_close = False
 
 
@@ -109,9 +112,11 @@ def dask_client(workers: int, scheduler: str | None, field: str = "scheduler") -
     """
     import dask
     from dask.distributed import Client, LocalCluster
+    from distributed.deploy.spec import SpecCluster
 
     cluster: LocalCluster | None = None
     client: Client | None = None
+    older_processes, older_clusters = set(multiprocessing.active_children()), set(SpecCluster._instances)
     try:
         # Ctrl-C (KeyboardInterrupt) may come anywhere inside the start below: _abandon_start ends what it
         # made. The client stays the process's default: the studies' as_completed looks it up.
@@ -133,7 +138,7 @@ def dask_client(workers: int, scheduler: str | None, field: str = "scheduler") -
     except KeyboardInterrupt:
         _silence_shutdown_logs()
         if cluster is None or client is None:
-            _abandon_start()
+            _abandon_start(older_processes, older_clusters)
             cluster = client = None
         else:
             _kill_workers(cluster)

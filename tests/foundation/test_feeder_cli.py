@@ -171,3 +171,52 @@ def test_ctrl_c_during_the_commands_own_imports_ends_it_with_the_interrupted_lin
     assert done.returncode == 130, done.stderr[-1500:]
     assert done.stdout == "" and "Traceback" not in done.stderr
     assert done.stderr.strip() == "feeder: interrupted"
+
+
+# A sitecustomize whose hook, as the module named in FEEDER_TEST_SIGINT_AT is first looked up, makes a
+# class whose __set_name__ gets SIGINT: Python raises the handler's KeyboardInterrupt out of the class
+# body as a RuntimeError ("Error calling __set_name__"), as a dataclass field did in a real import.
+SIGINT_IN_SET_NAME = """
+import os, signal, sys
+class _SignalOnSetName:
+    def __set_name__(self, owner, name):
+        os.kill(os.getpid(), signal.SIGINT)
+        for _ in range(10**7):  # the handler runs here, inside __set_name__
+            pass
+class _InterruptAt:
+    def find_spec(self, name, path=None, target=None):
+        if name == os.environ["FEEDER_TEST_SIGINT_AT"]:
+            sys.meta_path.remove(self)
+            type("Wrapped", (), {"field": _SignalOnSetName()})
+        return None
+sys.meta_path.insert(0, _InterruptAt())
+"""
+
+
+@pytest.mark.parametrize(
+    ("module", "line"),
+    [
+        ("feeder_planner.parts", "feeder: interrupted"),  # while the subcommand's module is imported
+        ("dask", "feeder throw-design: interrupted"),  # while the subcommand runs (its Dask import)
+    ],
+)
+def test_ctrl_c_that_python_wraps_in_another_exception_still_ends_the_command_as_interrupted(
+    module: str, line: str, tmp_path: Path
+) -> None:
+    """Before: the RuntimeError's traceback and exit 1. After: the interrupted line and 130."""
+    (tmp_path / "sitecustomize.py").write_text(SIGINT_IN_SET_NAME)
+    path = os.pathsep.join(p for p in (str(tmp_path), os.environ.get("PYTHONPATH", "")) if p)
+    env = dict(os.environ, PYTHONPATH=path, FEEDER_TEST_SIGINT_AT=module)
+    done = subprocess.run(
+        [*FEEDER, "throw-design", "examples/throwing/triangle.yaml", "--offsets", "-0.5"]
+        + ["--release-speeds", "300deg", "--gravity", "-966", "--mu", "0.5", "--goal-edge", "1"]
+        + ["--robust", "4", "--speed-sigma", "0.03", "--workers", "2"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=env,
+        cwd=ROOT,
+    )
+    assert done.returncode == 130, done.stderr[-1500:]
+    assert done.stdout == "" and "Traceback" not in done.stderr, done.stderr[-1500:]
+    assert done.stderr.strip() == line

@@ -46,6 +46,16 @@ def take_ctrl_c() -> None:
     signal.signal(signal.SIGINT, _on_ctrl_c)
 
 
+def ctrl_c_requested() -> bool:
+    """Whether Ctrl-C came in this run, even if its KeyboardInterrupt was swallowed or wrapped.
+
+    Python also wraps it: raised while a class body's ``__set_name__`` runs (a dataclass field, in an
+    import), it comes out as a RuntimeError (make stress: a Ctrl-C 1.2 s into `throw-design` ended it
+    with that traceback and 1). Once Ctrl-C came, the command ends as interrupted whatever it raised.
+    """
+    return _requested["value"]
+
+
 def check_ctrl_c() -> None:
     """Raise KeyboardInterrupt if Ctrl-C came, even if its first KeyboardInterrupt was swallowed."""
     if _requested["value"]:

@@ -16,7 +16,7 @@ import sys
 from typing import NoReturn, Sequence
 
 from feeder_cell.cli import modules_for
-from feeder_cell.cli.ctrl_c import check_ctrl_c, take_ctrl_c
+from feeder_cell.cli.ctrl_c import check_ctrl_c, ctrl_c_requested, take_ctrl_c
 from feeder_planner.errors import FeederError, InputError, SolverError
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_NOT_CERTIFIED = 0, 1, 2, 3
@@ -63,6 +63,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:  # Ctrl-C while the subcommands' modules are imported or the words parsed
         sys.stderr.write("feeder: interrupted\n")
         return EXIT_INTERRUPTED
+    except Exception:
+        if not ctrl_c_requested():
+            raise
+        sys.stderr.write("feeder: interrupted\n")  # its KeyboardInterrupt came out wrapped (ctrl_c.py)
+        return EXIT_INTERRUPTED
     try:
         code = int(args.handler(args) or EXIT_OK)
         if code != EXIT_INTERRUPTED:
@@ -79,6 +84,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_FAILED
     except KeyboardInterrupt:  # Ctrl-C: one line and the shell's status for SIGINT, not a traceback
         sys.stderr.write(f"feeder {args.command}: interrupted\n")
+        return EXIT_INTERRUPTED
+    except Exception:
+        if not ctrl_c_requested():
+            raise
+        sys.stderr.write(f"feeder {args.command}: interrupted\n")  # wrapped, as above
         return EXIT_INTERRUPTED
 
 
