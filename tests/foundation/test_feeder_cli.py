@@ -137,6 +137,14 @@ def test_a_swallowed_ctrl_c_is_seen_by_subcommands_when_the_cli_runs_as_python_m
     assert done.stdout.strip() == "seen", done.stdout + done.stderr
 
 
+def _run_with_site(tmp_path: Path, site: str, module: str, argv: list[str]) -> subprocess.CompletedProcess:
+    """Run ``argv`` from the repository with ``site`` as its sitecustomize, aimed at ``module``."""
+    (tmp_path / "sitecustomize.py").write_text(site)
+    path = os.pathsep.join(p for p in (str(tmp_path), os.environ.get("PYTHONPATH", "")) if p)
+    env = dict(os.environ, PYTHONPATH=path, FEEDER_TEST_SIGINT_AT=module)
+    return subprocess.run(argv, capture_output=True, text=True, timeout=120, env=env, cwd=ROOT)
+
+
 # A sitecustomize that sends this process SIGINT as the module named first on its command line is
 # looked up: deterministically inside the imports of cli.main (or program), before main() runs.
 SIGINT_AT_IMPORT = """
@@ -157,17 +165,8 @@ sys.meta_path.insert(0, _InterruptAt())
 def test_ctrl_c_during_the_commands_own_imports_ends_it_with_the_interrupted_line_and_130(
     entry: list[str], tmp_path: Path
 ) -> None:
-    (tmp_path / "sitecustomize.py").write_text(SIGINT_AT_IMPORT)
-    path = os.pathsep.join(p for p in (str(tmp_path), os.environ.get("PYTHONPATH", "")) if p)
-    env = dict(os.environ, PYTHONPATH=path, FEEDER_TEST_SIGINT_AT="feeder_planner.errors")
-    done = subprocess.run(
-        [sys.executable, *entry, "part-info", "examples/throwing/triangle.yaml"],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        env=env,
-        cwd=ROOT,
-    )
+    argv = [sys.executable, *entry, "part-info", "examples/throwing/triangle.yaml"]
+    done = _run_with_site(tmp_path, SIGINT_AT_IMPORT, "feeder_planner.errors", argv)
     assert done.returncode == 130, done.stderr[-1500:]
     assert done.stdout == "" and "Traceback" not in done.stderr
     assert done.stderr.strip() == "feeder: interrupted"
@@ -204,19 +203,10 @@ def test_ctrl_c_that_python_wraps_in_another_exception_still_ends_the_command_as
     module: str, line: str, tmp_path: Path
 ) -> None:
     """Before: the RuntimeError's traceback and exit 1. After: the interrupted line and 130."""
-    (tmp_path / "sitecustomize.py").write_text(SIGINT_IN_SET_NAME)
-    path = os.pathsep.join(p for p in (str(tmp_path), os.environ.get("PYTHONPATH", "")) if p)
-    env = dict(os.environ, PYTHONPATH=path, FEEDER_TEST_SIGINT_AT=module)
-    done = subprocess.run(
-        [*FEEDER, "throw-design", "examples/throwing/triangle.yaml", "--offsets", "-0.5"]
-        + ["--release-speeds", "300deg", "--gravity", "-966", "--mu", "0.5", "--goal-edge", "1"]
-        + ["--robust", "4", "--speed-sigma", "0.03", "--workers", "2"],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        env=env,
-        cwd=ROOT,
-    )
+    argv = [*FEEDER, "throw-design", "examples/throwing/triangle.yaml", "--offsets", "-0.5"]
+    argv += ["--release-speeds", "300deg", "--gravity", "-966", "--mu", "0.5", "--goal-edge", "1"]
+    argv += ["--robust", "4", "--speed-sigma", "0.03", "--workers", "2"]
+    done = _run_with_site(tmp_path, SIGINT_IN_SET_NAME, module, argv)
     assert done.returncode == 130, done.stderr[-1500:]
     assert done.stdout == "" and "Traceback" not in done.stderr, done.stderr[-1500:]
     assert done.stderr.strip() == line
