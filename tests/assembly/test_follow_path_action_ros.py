@@ -515,6 +515,12 @@ def test_deactivation_mid_goal_ends_it_and_the_table_stays_where_it_froze(
     assert status == succeeded(), result.message
 
 
+def _step_and_wait_for_the_tick(ros_client: Any, clock: str, states: Any) -> None:
+    """Step the held cell clock by one of the device's periods (0.05 s); wait for its joint state then."""
+    now_ns = ros_harness.step_clock(ros_client, 0.05, clock)
+    states.wait(lambda m: m.header.stamp.sec * 10**9 + m.header.stamp.nanosec == now_ns, current=True)
+
+
 def test_a_held_cell_clock_holds_the_goal_and_steps_advance_it(launch_node, ros_client, listen) -> None:
     from feeder_msgs.action import FollowPath
 
@@ -553,12 +559,15 @@ def test_a_held_cell_clock_holds_the_goal_and_steps_advance_it(launch_node, ros_
     time.sleep(1.0)  # wall time passes, the clock does not: no tick, no motion, no further feedback
     assert [f.progress for f in sent.feedback_now()] == [0.0]
     assert status_of(listen, device).busy
+    # Each step waits for the device's tick at the stepped time. The device advances by the gap since its
+    # last tick, at most max_advance_per_tick (4 of its 0.05 s periods here); steps sent faster than it
+    # ticked were one tick of 0.3 s, capped at 0.2 (ci38: the table stopped short and the goal never ended).
     for _ in range(4):
-        ros_harness.step_clock(ros_client, 0.05, clock)
+        _step_and_wait_for_the_tick(ros_client, clock, states)
     # the clock is held after each step: the latest joint state is the table after 0.2 s of the clock
     states.wait(lambda m: m.position[1] == pytest.approx(-0.2, abs=1e-9), current=True)
     for _ in range(6):
-        ros_harness.step_clock(ros_client, 0.05, clock)
+        _step_and_wait_for_the_tick(ros_client, clock, states)
     status, result = held.result(sent, timeout=30)
     assert status == succeeded() and result.outcome == FollowPath.Result.REACHED, result.message
     assert np.allclose(result.tilt, [0.0, -0.5], atol=POSITION_TOL)

@@ -792,7 +792,7 @@ def test_engineering_units_uint32_counters_and_build_info(gateway: str) -> None:
     session(gateway, scenario)
 
 
-def test_busy_and_the_state_change_in_one_publish_and_last_outcome_cleared_at_the_start(
+def test_busy_turns_true_with_the_state_change_or_with_the_acceptance_and_last_outcome_is_cleared(
     gateway: str, ros_client: Any
 ) -> None:
     async def scenario(s: Session) -> None:
@@ -826,7 +826,13 @@ def test_busy_and_the_state_change_in_one_publish_and_last_outcome_cleared_at_th
             await _until(lambda: any(v is True for _, v in publishes), 10, "Command.Busy true")
             busy_in = next(seq for seq, v in publishes if v is True)
             together = [v for seq, v in publishes if seq == busy_in]
-            assert "Execute" in together, publishes  # one publish: Busy true and the state Execute
+            execute_in = next(seq for seq, v in publishes if v == "Execute")
+            if execute_in != busy_in:
+                # docs/cell.md: Busy turns true with the status that shows the goal executing, or at once
+                # (with the acceptance's clearing of LastOutcome) when the device showed it before the
+                # gateway had the acceptance: the goal's answer and the status topic are two DDS writers
+                # in no order (ci38: Execute in publish 2, the acceptance and Busy in publish 3).
+                assert execute_in < busy_in and "" in together, publishes
             assert "" in together or await s.read(key, "Command.LastOutcome") == "", publishes
             assert await s.read(key, "Command.LastOutcome") == ""
             assert await s.read(key, "Command.LastOutcomeCode") == 0
