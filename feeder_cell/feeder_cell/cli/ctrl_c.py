@@ -58,5 +58,5 @@ def ctrl_c_requested() -> bool:
 
 def check_ctrl_c() -> None:
     """Raise KeyboardInterrupt if Ctrl-C came, even if its first KeyboardInterrupt was swallowed."""
-    if _requested["value"]:
+    if ctrl_c_requested():
         raise KeyboardInterrupt

@@ -51,6 +51,12 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _interrupted(prefix: str) -> int:
+    """Say that Ctrl-C ended the command, in one line; return the shell's status for SIGINT."""
+    sys.stderr.write(f"{prefix}: interrupted\n")
+    return EXIT_INTERRUPTED
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one ``feeder`` subcommand; return its exit status (1 failed, 2 bad input, 3 not certified)."""
     take_ctrl_c()
@@ -61,13 +67,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser = build_parser(words[0] if words and not words[0].startswith("-") else None)
         args = parser.parse_args(words)
     except KeyboardInterrupt:  # Ctrl-C while the subcommands' modules are imported or the words parsed
-        sys.stderr.write("feeder: interrupted\n")
-        return EXIT_INTERRUPTED
+        return _interrupted("feeder")
     except Exception:
         if not ctrl_c_requested():
             raise
-        sys.stderr.write("feeder: interrupted\n")  # its KeyboardInterrupt came out wrapped (ctrl_c.py)
-        return EXIT_INTERRUPTED
+        return _interrupted("feeder")  # its KeyboardInterrupt came out wrapped (ctrl_c.py)
     try:
         code = int(args.handler(args) or EXIT_OK)
         if code != EXIT_INTERRUPTED:
@@ -83,13 +87,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.write(f"feeder {args.command}: {error}\n")
         return EXIT_FAILED
     except KeyboardInterrupt:  # Ctrl-C: one line and the shell's status for SIGINT, not a traceback
-        sys.stderr.write(f"feeder {args.command}: interrupted\n")
-        return EXIT_INTERRUPTED
+        return _interrupted(f"feeder {args.command}")
     except Exception:
         if not ctrl_c_requested():
             raise
-        sys.stderr.write(f"feeder {args.command}: interrupted\n")  # wrapped, as above
-        return EXIT_INTERRUPTED
+        return _interrupted(f"feeder {args.command}")  # wrapped, as above
 
 
 def run() -> NoReturn:

@@ -126,7 +126,7 @@ class GoalRunner:
         if action.final_feedback is not None:
             values.update(action.final_feedback(result))
             with link.lock:
-                link.settled_by_result = link.feedback_of = token
+                link.settled_by_result = token
         self.finish(link, result.outcome_name, int(result.outcome), result.message, values)
 
     def finish(
