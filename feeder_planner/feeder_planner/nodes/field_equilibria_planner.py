@@ -5,6 +5,13 @@ topics relative to its own namespace as ``<device>/field_program``, ``<device>/p
 ``<device>/part_states``, so a planner and its array in one namespace find each other and remappings
 work. ``device`` is read-only; ``default_method`` is applied at run time; ``prediction_rate`` is
 read-only.
+
+Every program the planner receives gets its prediction, in the order received: at once when the parts
+and part states are known, else as soon as they are. The timer at ``prediction_rate`` only refreshes the
+prediction as the part states move. A planner that predicted from its timer alone lost a program that
+held for less than its stall: a replay into a planner held 1.8 s (a loaded machine) gave the second
+program's prediction only, and a planner on sim time whose clock stopped with the bag never predicted
+the last program (tests/bags/test_replay_regression_ros.py).
 """
 
 from __future__ import annotations
@@ -14,6 +21,7 @@ import math
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile
 
 from feeder_msgs.msg import EquilibriaPrediction, Equilibrium, FieldProgram, MemsParts, MemsPartStates
 from feeder_msgs.srv import EquilibriaCompute
@@ -31,6 +39,7 @@ from feeder_planner.mems import (
     unpredicted_reason,
 )
 from feeder_planner.node_kit import (
+    EVENT_DEPTH,
     LATCHED,
     STREAM_DEPTH,
     ParameterSpec,
@@ -72,7 +81,7 @@ PARAMETERS = (
     ParameterSpec(
         "prediction_rate",
         2.0,
-        "rate (Hz of the node clock) at which predicted final poses are refreshed",
+        "rate (Hz of the node clock) at which predictions are refreshed as the part states move",
         positive,
         read_only=True,
     ),
@@ -90,6 +99,10 @@ PARAMETERS = (
 # The service's thread and one for the subscriptions and the prediction timer.
 THREADS = 3
 
+# A program is an event the planner owes a prediction: latched (a late planner gets the current one), and
+# deep, so that programs arriving while the planner is held are each taken, in order.
+PROGRAMS = QoSProfile(depth=EVENT_DEPTH, reliability=LATCHED.reliability, durability=LATCHED.durability)
+
 
 class FieldEquilibriaPlanner(Node):
     """Serves ~/equilibria and publishes ~/predicted_poses for the last field of its device's program."""
@@ -103,12 +116,13 @@ class FieldEquilibriaPlanner(Node):
         self.prediction_pub = self.create_publisher(EquilibriaPrediction, "~/predicted_poses", LATCHED)
         self.markers = ResultMarkers(self)  # the predicted final poses as ghosts, in the array's frame
         try:
-            self.create_subscription(FieldProgram, f"{device}/field_program", self.on_program, LATCHED)
+            self.create_subscription(FieldProgram, f"{device}/field_program", self.on_program, PROGRAMS)
             self.create_subscription(MemsParts, f"{device}/parts", self.on_parts, LATCHED)
             self.create_subscription(MemsPartStates, f"{device}/part_states", self.on_states, STREAM_DEPTH)
         except Exception as error:  # rclpy's invalid-name exceptions share no base class of ours
             raise InputError("parameter device", f"not a valid node name: {error}") from None
         self.program: tuple[ProgramStep, ...] | None = None
+        self.owed: list[tuple[ProgramStep, ...]] = []  # received, not yet predicted; oldest first
         self.parts: list[Part] = []
         self.states: MemsPartStates | None = None
         self.results: dict[int, EquilibriaResult] = {}
@@ -150,13 +164,13 @@ class FieldEquilibriaPlanner(Node):
         return response
 
     def on_program(self, msg: FieldProgram) -> None:
-        """Keep the array's latest field program (a bad one is logged and ignored)."""
+        """Take the array's next field program and predict for it (a bad one is logged and ignored)."""
         try:
-            self.program = program_from_msg(msg)
+            self.owed.append(program_from_msg(msg))
         except InputError as error:
             self.get_logger().warning(f"ignoring field program: {error}")
             return
-        self.results.clear()
+        self.settle_owed()
 
     def on_parts(self, msg: MemsParts) -> None:
         """Keep the array's parts (a bad one is logged and ignored)."""
@@ -166,10 +180,21 @@ class FieldEquilibriaPlanner(Node):
             self.get_logger().warning(f"ignoring parts: {error}")
             return
         self.results.clear()
+        self.settle_owed()
 
     def on_states(self, msg: MemsPartStates) -> None:
         """Keep the latest part states."""
         self.states = msg
+        self.settle_owed()
+
+    def settle_owed(self) -> None:
+        """Predict for each program not yet predicted, oldest first, once parts and states are known."""
+        if not self.parts or self.states is None:
+            return
+        while self.owed:
+            self.program = self.owed.pop(0)
+            self.results.clear()
+            self.predict()
 
     def predict(self) -> None:
         """Publish each part's predicted final pose in the field the program holds, when it changed."""
