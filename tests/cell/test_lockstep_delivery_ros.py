@@ -132,3 +132,36 @@ def test_an_answer_waits_until_every_reader_has_acknowledged_the_delivered_statu
     finally:
         participant.leave()
         ros_client.destroy_publisher(status)
+
+
+def test_an_answer_waits_while_the_participants_other_thread_waits_for_the_delivery(
+    ros_client: Any, reader: tuple[subprocess.Popen[bytes], Path]
+) -> None:
+    """ci41: the join timer (the executor's thread) took the delivered status and waited for it, and the
+    holding thread's answer, finding nothing left to deliver, went out at once. Made certain here: the
+    join's send takes the status first, then the answer is released."""
+    process, received = reader
+    participant = Participant(ros_client, "react", hold=True)
+    status = ros_client.create_publisher(String, TOPIC, LATCHED)
+    try:
+        deadline = time.monotonic() + 60.0
+        _until(lambda: status.get_subscription_count() >= 1 and received.exists(), "no match", deadline)
+        _stop(process.pid)
+        status.publish(String(data="FEED"))
+        participant.delivered(status)
+        joining = threading.Thread(target=participant.send, args=(0,), daemon=True)  # as the join timer
+        joining.start()
+        _until(lambda: not participant._undelivered, "the join never took the status", deadline)
+        answering = threading.Thread(target=participant.release, args=(T_NS,), daemon=True)
+        answering.start()
+        answering.join(STOPPED_S)
+        assert answering.is_alive(), "the answer went out while the join still waited for the reader"
+        os.kill(process.pid, signal.SIGCONT)
+        answering.join(DELIVERY_S + 5.0)
+        joining.join(DELIVERY_S + 5.0)
+        assert not answering.is_alive() and participant.answered_ns == T_NS
+        _until(lambda: "FEED" in received.read_text(), "the continued reader never took the status", deadline)
+    finally:
+        os.kill(process.pid, signal.SIGCONT)
+        participant.leave()
+        ros_client.destroy_publisher(status)

@@ -36,7 +36,10 @@ class SimulationParameters:
         read_only=True,
     )
     call_timeout: float = param(
-        30.0, "wall seconds a device or the clock may take to answer a call", positive, read_only=True
+        30.0,
+        "wall seconds a device or the clock may take to be discovered, and then to answer a call",
+        positive,
+        read_only=True,
     )
 
 

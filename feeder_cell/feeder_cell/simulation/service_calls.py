@@ -23,6 +23,8 @@ __all__ = ["READ_RESEND_S", "ServiceCalls"]
 # Wall seconds a request without effect waits before it is sent again (docs/cell.md, "A fresh client's
 # first request is never answered": 0.5-2 s).
 READ_RESEND_S = 1.0
+# Wall seconds between looks at whether a server not yet discovered has been.
+DISCOVERY_LOOK_S = 0.05
 
 
 class ServiceCalls:
@@ -47,8 +49,7 @@ class ServiceCalls:
         Troubleshooting; measured: GetSimulationState said LOADING_WORLD 30 s after the join in 2 of 20
         launches with one process per node, a first is_paused or get_parameters to the clock unanswered).
         """
-        if not client.service_is_ready():
-            raise SimulationError(OPERATION_FAILED, f"{what}: the service {client.srv_name} is not available")
+        await self._discovered(client, what)
         if read:
             deadline = time.monotonic() + self.timeout_s
             while time.monotonic() < deadline:
@@ -69,6 +70,24 @@ class ServiceCalls:
                     f"{what}: {client.srv_name} did not answer within {self.timeout_s:g} s{gone}",
                 )
         return future.result()
+
+    async def _discovered(self, client: Any, what: str) -> None:
+        """Wait until this node has discovered the client's server, up to ``timeout_s``; else name it.
+
+        A server that is up may not be discovered yet: on a loaded machine discovery of a new process's
+        services takes seconds (ci41: a reset right after a launch with one process per node found the
+        fixture's get_state undiscovered and failed at once). A server that never appears fails as late
+        as one that never answers, with the same one line naming the service.
+        """
+        deadline = time.monotonic() + self.timeout_s
+        while not client.service_is_ready():
+            if time.monotonic() >= deadline:
+                raise SimulationError(
+                    OPERATION_FAILED,
+                    f"{what}: the service {client.srv_name} is not available "
+                    f"(not discovered within {self.timeout_s:g} s)",
+                )
+            await self.sleep(DISCOVERY_LOOK_S)
 
     async def sleep(self, seconds: float) -> None:
         """Wait ``seconds`` wall seconds without holding the executor."""

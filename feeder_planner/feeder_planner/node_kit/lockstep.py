@@ -236,6 +236,9 @@ class Participant:
         self.rewinds = 0  # times the clock was set back (``rewind``)
         self._joining: Timer | None = None
         self._undelivered: set[Publisher] = set()  # published since the last answer (``delivered``)
+        # Two threads answer: the holding thread (``release``) and the executor's (the join timer, a
+        # re-answer). One delivery wait at a time, so that neither answers while the other still waits.
+        self._delivering = threading.Lock()
         self.hub: Hub | None = _HUB[0] if _HUB else None
         if self.hub is not None:
             self.hub.join(self)  # hosted: announced and answered by direct calls, nothing on DDS
@@ -341,13 +344,16 @@ class Participant:
         self._undelivered.add(publisher)
 
     def _deliver(self) -> None:
-        while self._undelivered:
-            publisher = self._undelivered.pop()
-            if not _acknowledged(publisher, DELIVERY_S):
-                self.node.get_logger().warning(
-                    f"lockstep: not every reader of {publisher.topic_name} acknowledged it within "
-                    f"{DELIVERY_S:g} s; answering all the same"
-                )
+        # Under the lock: a thread that found the set emptied by the other must wait for that wait to end.
+        # (CI: the join timer took the status, and the holding thread's answer went out at once.)
+        with self._delivering:
+            while self._undelivered:
+                publisher = self._undelivered.pop()
+                if not _acknowledged(publisher, DELIVERY_S):
+                    self.node.get_logger().warning(
+                        f"lockstep: not every reader of {publisher.topic_name} acknowledged it within "
+                        f"{DELIVERY_S:g} s; answering all the same"
+                    )
 
     def send(self, now_ns: int) -> None:
         """Publish an answer: done with ``now_ns`` (0 joins; ``leave`` leaves)."""

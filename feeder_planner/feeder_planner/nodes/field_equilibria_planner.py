@@ -9,14 +9,16 @@ read-only.
 Every program the planner receives gets its prediction, in the order received: at once when the parts
 and part states are known, else as soon as they are. The timer at ``prediction_rate`` only refreshes the
 prediction as the part states move. A planner that predicted from its timer alone lost a program that
-held for less than its stall: a replay into a planner held 1.8 s (a loaded machine) gave the second
-program's prediction only, and a planner on sim time whose clock stopped with the bag never predicted
-the last program (tests/bags/test_replay_regression_ros.py).
+held for less than its executor was held: a replay into a planner whose executor a loaded machine held
+past both programs gave the second program's prediction only (ci38; tests/bags/test_replay_regression_ros.py),
+and a planner on sim time that took the last program after its clock stopped with the bag never
+predicted it.
 """
 
 from __future__ import annotations
 
 import math
+from collections import deque
 
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
@@ -122,7 +124,8 @@ class FieldEquilibriaPlanner(Node):
         except Exception as error:  # rclpy's invalid-name exceptions share no base class of ours
             raise InputError("parameter device", f"not a valid node name: {error}") from None
         self.program: tuple[ProgramStep, ...] | None = None
-        self.owed: list[tuple[ProgramStep, ...]] = []  # received, not yet predicted; oldest first
+        # Received, not yet predicted, oldest first; as many as the program reader keeps.
+        self.owed: deque[tuple[ProgramStep, ...]] = deque(maxlen=EVENT_DEPTH)
         self.parts: list[Part] = []
         self.states: MemsPartStates | None = None
         self.results: dict[int, EquilibriaResult] = {}
@@ -192,7 +195,7 @@ class FieldEquilibriaPlanner(Node):
         if not self.parts or self.states is None:
             return
         while self.owed:
-            self.program = self.owed.pop(0)
+            self.program = self.owed.popleft()
             self.results.clear()
             self.predict()
 
