@@ -25,6 +25,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator
+from unittest import mock
 
 import bag_procs as bp
 import pytest
@@ -157,20 +158,12 @@ def _start_planner(started: list, log_dir: Path, name: str, hold_file: Path | No
     if hold_file is None:
         return _start(started, log_dir, "field_equilibria_planner", parameters, name=name)
     site = log_dir / f"{name}_site"
-    site.mkdir()
+    site.mkdir(exist_ok=True)
     (site / "sitecustomize.py").write_text(HOLD_SITE)
-    saved = {key: os.environ.get(key) for key in ("PYTHONPATH", "FEEDER_TEST_HOLD_FILE")}
+    path = os.pathsep.join(p for p in (str(site), os.environ.get("PYTHONPATH", "")) if p)
     # The node's process takes this process's environment when it starts; only that start sees these.
-    os.environ["PYTHONPATH"] = os.pathsep.join(p for p in (str(site), saved["PYTHONPATH"]) if p)
-    os.environ["FEEDER_TEST_HOLD_FILE"] = str(hold_file)
-    try:
+    with mock.patch.dict(os.environ, {"PYTHONPATH": path, "FEEDER_TEST_HOLD_FILE": str(hold_file)}):
         return _start(started, log_dir, "field_equilibria_planner", parameters, name=name)
-    finally:
-        for key, value in saved.items():
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
 
 
 def _replay(

@@ -94,74 +94,78 @@ def _answer_with_the_reader_stopped(
     return thread
 
 
-def test_an_answer_waits_until_every_reader_has_acknowledged_the_delivered_status(
+@pytest.fixture()
+def holding(
     ros_client: Any, reader: tuple[subprocess.Popen[bytes], Path]
-) -> None:
-    process, received = reader
+) -> Iterator[tuple[Participant, Any]]:
+    """A holding react participant and a latched status publisher that the reader has matched."""
+    _, received = reader
     participant = Participant(ros_client, "react", hold=True)
     status = ros_client.create_publisher(String, TOPIC, LATCHED)
     try:
         deadline = time.monotonic() + 60.0
         _until(lambda: status.get_subscription_count() >= 1 and received.exists(), "no match", deadline)
-        status.publish(String(data="warm-up"))
-        _until(lambda: "warm-up" in received.read_text(), "the reader never took the first sample", deadline)
-
-        answering = _answer_with_the_reader_stopped(participant, status, "FEED", process.pid, T_NS)
-        answering.join(STOPPED_S)
-        assert answering.is_alive(), "the answer went out while a reader had not acknowledged the status"
-        assert participant.answered_ns < T_NS
-
-        os.kill(process.pid, signal.SIGCONT)
-        answering.join(DELIVERY_S + 5.0)
-        assert not answering.is_alive() and participant.answered_ns == T_NS
-        _until(lambda: "FEED" in received.read_text(), "the continued reader never took the status", deadline)
-
-        # A reader that never acknowledges holds an answer for DELIVERY_S, then the clock goes on.
-        started = time.monotonic()
-        answering = _answer_with_the_reader_stopped(
-            participant, status, "FINISHED", process.pid, T_NS + NANOSECONDS
-        )
-        answering.join(DELIVERY_S + 5.0)
-        assert not answering.is_alive(), f"an answer held by a stopped reader past {DELIVERY_S + 5.0} s"
-        assert time.monotonic() - started >= DELIVERY_S * 0.9
-        assert participant.answered_ns == T_NS + NANOSECONDS
-        # Nothing new published: the next answer does not wait again for the stopped reader.
-        started = time.monotonic()
-        participant.release(T_NS + 2 * NANOSECONDS)
-        assert time.monotonic() - started < DELIVERY_S * 0.5
+        yield participant, status
     finally:
         participant.leave()
         ros_client.destroy_publisher(status)
 
 
+def test_an_answer_waits_until_every_reader_has_acknowledged_the_delivered_status(
+    reader: tuple[subprocess.Popen[bytes], Path], holding: tuple[Participant, Any]
+) -> None:
+    process, received = reader
+    participant, status = holding
+    deadline = time.monotonic() + 60.0
+    status.publish(String(data="warm-up"))
+    _until(lambda: "warm-up" in received.read_text(), "the reader never took the first sample", deadline)
+
+    answering = _answer_with_the_reader_stopped(participant, status, "FEED", process.pid, T_NS)
+    answering.join(STOPPED_S)
+    assert answering.is_alive(), "the answer went out while a reader had not acknowledged the status"
+    assert participant.answered_ns < T_NS
+
+    os.kill(process.pid, signal.SIGCONT)
+    answering.join(DELIVERY_S + 5.0)
+    assert not answering.is_alive() and participant.answered_ns == T_NS
+    _until(lambda: "FEED" in received.read_text(), "the continued reader never took the status", deadline)
+
+    # A reader that never acknowledges holds an answer for DELIVERY_S, then the clock goes on.
+    started = time.monotonic()
+    answering = _answer_with_the_reader_stopped(
+        participant, status, "FINISHED", process.pid, T_NS + NANOSECONDS
+    )
+    answering.join(DELIVERY_S + 5.0)
+    assert not answering.is_alive(), f"an answer held by a stopped reader past {DELIVERY_S + 5.0} s"
+    assert time.monotonic() - started >= DELIVERY_S * 0.9
+    assert participant.answered_ns == T_NS + NANOSECONDS
+    # Nothing new published: the next answer does not wait again for the stopped reader.
+    started = time.monotonic()
+    participant.release(T_NS + 2 * NANOSECONDS)
+    assert time.monotonic() - started < DELIVERY_S * 0.5
+
+
 def test_an_answer_waits_while_the_participants_other_thread_waits_for_the_delivery(
-    ros_client: Any, reader: tuple[subprocess.Popen[bytes], Path]
+    reader: tuple[subprocess.Popen[bytes], Path], holding: tuple[Participant, Any]
 ) -> None:
     """ci41: the join timer (the executor's thread) took the delivered status and waited for it, and the
     holding thread's answer, finding nothing left to deliver, went out at once. Made certain here: the
     join's send takes the status first, then the answer is released."""
     process, received = reader
-    participant = Participant(ros_client, "react", hold=True)
-    status = ros_client.create_publisher(String, TOPIC, LATCHED)
-    try:
-        deadline = time.monotonic() + 60.0
-        _until(lambda: status.get_subscription_count() >= 1 and received.exists(), "no match", deadline)
-        _stop(process.pid)
-        status.publish(String(data="FEED"))
-        participant.delivered(status)
-        joining = threading.Thread(target=participant.send, args=(0,), daemon=True)  # as the join timer
-        joining.start()
-        _until(lambda: not participant._undelivered, "the join never took the status", deadline)
-        answering = threading.Thread(target=participant.release, args=(T_NS,), daemon=True)
-        answering.start()
-        answering.join(STOPPED_S)
-        assert answering.is_alive(), "the answer went out while the join still waited for the reader"
-        os.kill(process.pid, signal.SIGCONT)
-        answering.join(DELIVERY_S + 5.0)
-        joining.join(DELIVERY_S + 5.0)
-        assert not answering.is_alive() and participant.answered_ns == T_NS
-        _until(lambda: "FEED" in received.read_text(), "the continued reader never took the status", deadline)
-    finally:
-        os.kill(process.pid, signal.SIGCONT)
-        participant.leave()
-        ros_client.destroy_publisher(status)
+    participant, status = holding
+    deadline = time.monotonic() + 60.0
+    _stop(process.pid)
+    status.publish(String(data="FEED"))
+    participant.delivered(status)
+    joining = threading.Thread(target=participant.send, args=(0,), daemon=True)  # as the join timer
+    joining.start()
+    _until(lambda: not participant._undelivered, "the join never took the status", deadline)
+    answering = threading.Thread(target=participant.release, args=(T_NS,), daemon=True)
+    answering.start()
+    answering.join(STOPPED_S)
+    assert answering.is_alive(), "the answer went out while the join still waited for the reader"
+    os.kill(process.pid, signal.SIGCONT)
+    answering.join(DELIVERY_S + 5.0)
+    joining.join(DELIVERY_S + 5.0)
+    assert not answering.is_alive() and participant.answered_ns == T_NS
+    _until(lambda: "FEED" in received.read_text(), "the continued reader never took the status", deadline)
