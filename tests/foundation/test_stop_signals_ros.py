@@ -207,3 +207,57 @@ def test_a_node_with_its_own_main_ends_with_exit_0_on_ctrl_c_at_any_moment(name:
     finally:
         lease.release()
     assert not failures, f"{len(failures)} of {MOMENTS} unclean ends:\n" + "\n".join(failures)
+
+
+# A sitecustomize for the gateway's process: asyncua's standard address space build (asyncio.to_thread in
+# Server.init, seconds of CPU under load) marks the file FEEDER_TEST_BUILD_MARKER and then takes 60 s.
+HELD_BUILD_SITE = """
+import os, pathlib, time
+_marker = os.environ.get("FEEDER_TEST_BUILD_MARKER")
+if _marker:
+    from asyncua.server.standard_address_space import standard_address_space as _space
+    _fill = _space.fill_address_space
+    def _held(nodeservice):
+        pathlib.Path(_marker).touch()
+        time.sleep(60.0)
+        return _fill(nodeservice)
+    _space.fill_address_space = _held
+"""
+
+
+@pytest.mark.ros
+def test_ctrl_c_while_the_gateway_builds_its_address_space_ends_it_at_once(tmp_path: Path) -> None:
+    """Ctrl-C during asyncua's address space build (ci43, 975fafa's run: 10-12 s after the signal, which
+    waited for the build) ends the gateway within 5 s, exit 0, no traceback and nothing served."""
+    (tmp_path / "sitecustomize.py").write_text(HELD_BUILD_SITE)
+    marker = tmp_path / "building"
+    lease = ros_harness.DomainLease()
+    env = dict(
+        os.environ,
+        ROS_DOMAIN_ID=str(lease.domain),
+        ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+        PYTHONPATH=os.pathsep.join(p for p in (str(tmp_path), os.environ.get("PYTHONPATH", "")) if p),
+        FEEDER_TEST_BUILD_MARKER=str(marker),
+    )
+    argv = [str(resolve_executable("feeder_cell", "opcua_gateway")), *NODES["opcua_gateway"]]
+    process = subprocess.Popen(argv, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60.0
+        while not marker.exists():
+            assert process.poll() is None, f"the gateway ended before its build: {process.communicate()}"
+            assert time.monotonic() < deadline, "the gateway never began its address space build"
+            time.sleep(0.05)
+        process.send_signal(signal.SIGINT)
+        sent = time.monotonic()
+        out, err = process.communicate(timeout=90.0)
+        took = time.monotonic() - sent
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+        lease.release()
+    assert process.returncode == 0 and "Traceback" not in out + err, (
+        f"exit {process.returncode}: {err[-600:]!r}"
+    )
+    assert "OPC UA server on" not in err, "a stop during the build must not serve"
+    assert took < 5.0, f"ended {took:.2f} s after Ctrl-C, which waited for the held build"

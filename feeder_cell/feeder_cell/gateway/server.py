@@ -82,6 +82,7 @@ class GatewayServer:
         self.calls = MethodCalls(handler, self.context, self.log, self.post_all, self._id)
         # Every method a role restricts -> its least role (roles.required_role; Acknowledge: Operator).
         self.method_roles: dict[ua.NodeId, Role] = {}
+        self._made: Server | None = None  # from its construction in start to stop, a start cut short too
 
     @property
     def server(self) -> Server | None:
@@ -108,7 +109,7 @@ class GatewayServer:
         users = GatewayUsers(
             self.users, self.security.allow_anonymous, secure_only, self.security.anonymous_role, self.logins
         )
-        server = Server(user_manager=users)
+        server = self._made = Server(user_manager=users)
         await server.init()
         install(server.iserver, self.logins)
         roles.enforce(server, lambda: self.idx, self.method_roles)
@@ -127,9 +128,9 @@ class GatewayServer:
         self.values.schedule()  # values posted before the server existed
 
     async def stop(self) -> None:
-        """Stop listening and release the server."""
-        if self.values.server is not None:
-            server, self.values.server = self.values.server, None
+        """Stop listening and release the server, also one whose start was cancelled part way."""
+        server, self._made, self.values.server = self._made, None, None
+        if server is not None:
             await server.stop()
         if self.logins is not None:
             self.logins.close()

@@ -12,10 +12,13 @@ certificate made on first start (``certificates``) and users with passwords, or 
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import contextlib
 import dataclasses
 import logging
 import threading
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -46,6 +49,8 @@ __all__: list[str] = []
 
 NODE_NAME = "opcua_gateway"
 EXIT_BAD_CONFIGURATION = 2
+
+T = TypeVar("T")
 
 
 def _strings(value: object) -> str | None:
@@ -242,13 +247,27 @@ async def _serve(
             f"{device}: not ready within startup_timeout {startup_timeout:g} s (lacks {', '.join(gaps)}); "
             "served with Status/Online as heard, its commands refused until it reports"
         )
-    try:
-        await server.start()
-    except OSError as error:
+    # The start is raced against the stop: asyncua builds its standard address space in a thread for
+    # seconds of CPU on a loaded machine (2-3 s beside two busy processes, more in CI), and a stop that
+    # waited for it ended the node 10-12 s after Ctrl-C. A start cut short is abandoned (_AbandonedCalls).
+    starting = asyncio.ensure_future(server.start())
+    stopping = asyncio.ensure_future(stop.wait())
+    await asyncio.wait({starting, stopping}, return_when=asyncio.FIRST_COMPLETED)
+    if not starting.done():
+        starting.cancel()
+        with contextlib.suppress(asyncio.CancelledError, OSError):
+            await starting
+        await server.stop()
+        return 0
+    stopping.cancel()
+    error = starting.exception()
+    if isinstance(error, OSError):
         node.get_logger().fatal(
             f"parameter endpoint: cannot listen on {server.endpoint.url}: {error.strerror or error}"
         )
         return EXIT_BAD_CONFIGURATION
+    if error is not None:
+        raise error
     for warning in security_warnings(server.endpoint, server.security):
         node.get_logger().warning(warning)
     names = ", ".join(d.node for d in server.devices) or "no devices"
@@ -262,6 +281,29 @@ async def _serve(
     await stop.wait()
     await server.stop()
     return 0
+
+
+class _AbandonedCalls(concurrent.futures.ThreadPoolExecutor):
+    """The loop's default executor: each call in a daemon thread that no close or exit waits for.
+
+    A ThreadPoolExecutor only because asyncio accepts nothing else; its pool is never used.
+
+    asyncua builds its address space with ``asyncio.to_thread``. With the default thread pool, a stop
+    during the build waited for it twice over: ``asyncio.run`` joins its pool, and so does the exit.
+    """
+
+    def submit(self, fn: Callable[..., T], /, *args: Any, **kwargs: Any) -> concurrent.futures.Future[T]:
+        future: concurrent.futures.Future[T] = concurrent.futures.Future()
+
+        def call() -> None:
+            if future.set_running_or_notify_cancel():
+                try:
+                    future.set_result(fn(*args, **kwargs))
+                except BaseException as error:  # noqa: BLE001 - the caller's await raises it
+                    future.set_exception(error)
+
+        threading.Thread(target=call, name="asyncio-call", daemon=True).start()
+        return future
 
 
 class _OneLine(logging.Filter):
@@ -316,7 +358,9 @@ def main(args: list[str] | None = None) -> None:
     thread.start()
     code = 1
     try:
-        code = asyncio.run(_serve(node, server, ros, startup_timeout, stop))
+        with asyncio.Runner() as runner:
+            runner.get_loop().set_default_executor(_AbandonedCalls())
+            code = runner.run(_serve(node, server, ros, startup_timeout, stop))
     finally:
         stop.ignore_from_now()
         executor.shutdown(timeout_sec=2.0)
