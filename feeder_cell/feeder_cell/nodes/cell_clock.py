@@ -60,6 +60,7 @@ CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 REANNOUNCE_S = 1.0
 JOIN_REANNOUNCE_S = 0.2
 DIAGNOSTICS_PERIOD_S = 1.0
+HOUSEKEEPING_PERIOD_S = 0.1
 
 
 class CellClock(ClockServices):
@@ -151,8 +152,13 @@ class CellClock(ClockServices):
             )
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.diagnostics_wall = 0.0
-        period = 0.1 if self.factor == 0 else min(0.002, self.p.quantum / self.factor / 4)
-        self.create_timer(period, self._on_lockstep_timer, clock=steady)
+        # Timeouts, re-announcements and diagnostics need no finer grain than this.
+        self.create_timer(HOUSEKEEPING_PERIOD_S, self._on_lockstep_timer, clock=steady)
+        # The pace: a one-shot wake at the next quantum's due time (_wait_for_pace). It was a 2 ms poll,
+        # and each of its 500 wakes a second rebuilt the executor's wait set: 69 % of a core for the cell
+        # host of one arm at factor 4, most of it spent waiting, which a loaded machine then took from the
+        # quanta (a CI run's arm reached 2.6 of 4).
+        self.pace_timer = self.create_timer(1.0, self._on_pace, clock=steady, autostart=False)
 
     def _on_answer(self, role: str, msg: Header) -> None:
         barrier = cast(Barrier, self.barrier)
@@ -205,7 +211,8 @@ class CellClock(ClockServices):
                     self._publish_held()
                     return
                 if barrier.phase == "done" and self.factor > 0 and wall < self.next_due:
-                    return  # the pace: the timer pumps again
+                    self._wait_for_pace(self.next_due - wall)
+                    return
                 if self.paused and barrier.phase == "done":
                     self.steps_left -= 1
                 if self.factor > 0:
@@ -221,6 +228,15 @@ class CellClock(ClockServices):
                 self.next_quantum.trigger()
                 return
             self._announce(role)
+
+    def _wait_for_pace(self, seconds: float) -> None:
+        """Pump again ``seconds`` from now (rcl_timer_reset restarts a cancelled timer's full period)."""
+        self.pace_timer.timer_period_ns = max(1, int(seconds * NANOSECONDS))
+        self.pace_timer.reset()
+
+    def _on_pace(self) -> None:
+        self.pace_timer.cancel()
+        self._pump()
 
     def _publish_held(self) -> None:
         """Held, say where: /clock is throttled to clock_rate, and the last quantum may not have gone out."""
