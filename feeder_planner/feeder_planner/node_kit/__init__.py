@@ -21,7 +21,7 @@ from feeder_planner.node_kit.parameters import (
     one_of,
     positive,
 )
-from feeder_planner.node_kit.qos import EVENT_DEPTH, LATCHED, STREAM_DEPTH
+from feeder_planner.node_kit.qos import EVENT_DEPTH, LATCHED, LATCHED_EVENTS, STREAM_DEPTH
 from feeder_planner.node_kit.runner import run_node
 from feeder_planner.node_kit.services import ServiceResponse, service_guard
 
@@ -40,6 +40,7 @@ __all__ = [
     "one_of",
     "positive",
     "LATCHED",
+    "LATCHED_EVENTS",
     "STREAM_DEPTH",
     "EVENT_DEPTH",
     "run_node",

@@ -6,6 +6,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 __all__ = [
     "LATCHED",
+    "LATCHED_EVENTS",
     "STREAM_DEPTH",
     "EVENT_DEPTH",
     "DEFAULT_REQUEST_QUEUE_DEPTH",
@@ -24,6 +25,13 @@ STREAM_DEPTH = 10
 
 # Discrete events (throws, sensor edges) must not be lost to a short stall of a subscriber.
 EVENT_DEPTH = 50
+
+# Events a late subscriber still needs, each of them (a program, and the prediction made for it): latched and
+# deep, on both ends. A depth-1 writer or reader keeps only the newest of two events sent back to back, so a
+# reader stalled by a loaded machine, or joining after both (a recorder), lost the first (ci46).
+LATCHED_EVENTS = QoSProfile(
+    depth=EVENT_DEPTH, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
+)
 
 # Requests to services and action servers: rclpy's default keeps the last 10, so a burst of 200 calls
 # loses 190 without a word. A deep reliable queue keeps every request of a burst until it is served;

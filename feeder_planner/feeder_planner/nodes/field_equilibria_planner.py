@@ -23,7 +23,6 @@ from collections import deque
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import QoSProfile
 
 from feeder_msgs.msg import EquilibriaPrediction, Equilibrium, FieldProgram, MemsParts, MemsPartStates
 from feeder_msgs.srv import EquilibriaCompute
@@ -43,6 +42,7 @@ from feeder_planner.mems import (
 from feeder_planner.node_kit import (
     EVENT_DEPTH,
     LATCHED,
+    LATCHED_EVENTS,
     STREAM_DEPTH,
     ParameterSpec,
     check_value,
@@ -101,10 +101,6 @@ PARAMETERS = (
 # The service's thread and one for the subscriptions and the prediction timer.
 THREADS = 3
 
-# A program is an event the planner owes a prediction: latched (a late planner gets the current one), and
-# deep, so that programs arriving while the planner is held are each taken, in order.
-PROGRAMS = QoSProfile(depth=EVENT_DEPTH, reliability=LATCHED.reliability, durability=LATCHED.durability)
-
 
 class FieldEquilibriaPlanner(Node):
     """Serves ~/equilibria and publishes ~/predicted_poses for the last field of its device's program."""
@@ -115,10 +111,10 @@ class FieldEquilibriaPlanner(Node):
         device = self.p["device"].rstrip("/")
         self.add_on_set_parameters_callback(self.on_parameters)
         serve(self, EquilibriaCompute, "~/equilibria", service_guard(self)(self.on_compute), own_group=True)
-        self.prediction_pub = self.create_publisher(EquilibriaPrediction, "~/predicted_poses", LATCHED)
+        self.prediction_pub = self.create_publisher(EquilibriaPrediction, "~/predicted_poses", LATCHED_EVENTS)
         self.markers = ResultMarkers(self)  # the predicted final poses as ghosts, in the array's frame
         try:
-            self.create_subscription(FieldProgram, f"{device}/field_program", self.on_program, PROGRAMS)
+            self.create_subscription(FieldProgram, f"{device}/field_program", self.on_program, LATCHED_EVENTS)
             self.create_subscription(MemsParts, f"{device}/parts", self.on_parts, LATCHED)
             self.create_subscription(MemsPartStates, f"{device}/part_states", self.on_states, STREAM_DEPTH)
         except Exception as error:  # rclpy's invalid-name exceptions share no base class of ours
