@@ -12,13 +12,10 @@ certificate made on first start (``certificates``) and users with passwords, or 
 from __future__ import annotations
 
 import asyncio
-import concurrent.futures
 import contextlib
 import dataclasses
 import logging
 import threading
-from collections.abc import Callable
-from typing import Any, TypeVar
 
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -35,6 +32,7 @@ from feeder_cell.gateway.config import (
     security_warnings,
 )
 from feeder_cell.gateway.kinds import KINDS
+from feeder_cell.gateway.process import AbandonedCalls, log_to_stderr
 from feeder_cell.gateway.roles import parse_role
 from feeder_cell.gateway.ros_link import RosLink
 from feeder_cell.gateway.server import GatewayServer
@@ -49,8 +47,6 @@ __all__: list[str] = []
 
 NODE_NAME = "opcua_gateway"
 EXIT_BAD_CONFIGURATION = 2
-
-T = TypeVar("T")
 
 
 def _strings(value: object) -> str | None:
@@ -283,50 +279,6 @@ async def _serve(
     return 0
 
 
-class _AbandonedCalls(concurrent.futures.ThreadPoolExecutor):
-    """The loop's default executor: each call in a daemon thread that no close or exit waits for.
-
-    A ThreadPoolExecutor only because asyncio accepts nothing else; its pool is never used.
-
-    asyncua builds its address space with ``asyncio.to_thread``. With the default thread pool, a stop
-    during the build waited for it twice over: ``asyncio.run`` joins its pool, and so does the exit.
-    """
-
-    def submit(self, fn: Callable[..., T], /, *args: Any, **kwargs: Any) -> concurrent.futures.Future[T]:
-        future: concurrent.futures.Future[T] = concurrent.futures.Future()
-
-        def call() -> None:
-            if future.set_running_or_notify_cancel():
-                try:
-                    future.set_result(fn(*args, **kwargs))
-                except BaseException as error:  # noqa: BLE001 - the caller's await raises it
-                    future.set_exception(error)
-
-        threading.Thread(target=call, name="asyncio-call", daemon=True).start()
-        return future
-
-
-class _OneLine(logging.Filter):
-    """Log asyncua's errors as their one-line message: a refused client is not a gateway traceback."""
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        record.exc_info, record.exc_text, record.stack_info = None, None, None
-        return True
-
-
-def _log_to_stderr() -> None:
-    handler = logging.StreamHandler()
-    handler.setFormatter(logging.Formatter("[%(levelname)s] [%(name)s]: %(message)s"))
-    handler.addFilter(_OneLine())
-    logging.basicConfig(level=logging.WARNING, handlers=[handler])
-    # asyncua's per-request INFO and WARNING lines would flood the log; its errors stay (a refused
-    # certificate, a bad login).
-    for name in ("asyncua", "asyncuagds"):
-        logging.getLogger(name).setLevel(logging.ERROR)
-    # Every login, accepted too, is a line of the gateway's own (logins.LoginGuard).
-    logging.getLogger(NODE_NAME).setLevel(logging.INFO)
-
-
 def main(args: list[str] | None = None) -> None:
     """Run the opcua_gateway node until SIGINT or SIGTERM (exit 0, whichever phase the signal came in)."""
     # The stop signals only complete a stop request (node_kit.runner.StopRequest, as for every other
@@ -335,7 +287,7 @@ def main(args: list[str] | None = None) -> None:
     # clean-up). The asyncio loop hears the request through a done callback.
     stop = StopRequest().install()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    _log_to_stderr()
+    log_to_stderr(NODE_NAME)
     node = rclpy.create_node(NODE_NAME)
     executor = SingleThreadedExecutor()
     executor.add_node(node)
@@ -359,7 +311,7 @@ def main(args: list[str] | None = None) -> None:
     code = 1
     try:
         with asyncio.Runner() as runner:
-            runner.get_loop().set_default_executor(_AbandonedCalls())
+            runner.get_loop().set_default_executor(AbandonedCalls())
             code = runner.run(_serve(node, server, ros, startup_timeout, stop))
     finally:
         stop.ignore_from_now()
