@@ -46,19 +46,22 @@ def wait_for_line(process: subprocess.Popen, line: str, timeout: float) -> None:
                 return
 
 
-def _start_feeder(command: str, bag: Path, args: tuple[str, ...]) -> subprocess.Popen:
-    """Start ``feeder COMMAND BAG ARGS --json`` with stdout and stderr piped."""
+def _start_feeder(
+    command: str, bag: Path, args: tuple[str, ...], env: dict[str, str] | None = None
+) -> subprocess.Popen:
+    """Start ``feeder COMMAND BAG ARGS --json`` with stdout and stderr piped (``env``: this process's)."""
     return subprocess.Popen(
         [*FEEDER, command, str(bag), *args, "--json"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        env=env,
     )
 
 
-def start_recorder(bag: Path, *args: str) -> subprocess.Popen:
+def start_recorder(bag: Path, *args: str, env: dict[str, str] | None = None) -> subprocess.Popen:
     """Start ``feeder record BAG ARGS --json``."""
-    return _start_feeder("record", bag, args)
+    return _start_feeder("record", bag, args, env)
 
 
 def start_player(bag: Path, *args: str) -> subprocess.Popen:

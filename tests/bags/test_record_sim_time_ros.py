@@ -10,6 +10,7 @@ message arriving at the cell time it carries.
 
 from __future__ import annotations
 
+import os
 import signal
 import threading
 import time
@@ -24,9 +25,26 @@ from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 START_S, FACTOR = 1000.0, 5.0
-# The recorder's clock is the last /clock it received: 20 ms of wall time between ticks is 0.1 s of
-# cell time, and the receive path adds a tick or two on a loaded machine.
+# A message's log time is the last /clock tick that reached the recorder before it: 20 ms of wall time
+# between ticks is 0.1 s of cell time, and the middleware's receive path adds a tick or two on a loaded
+# machine.
 TOLERANCE_NS = 400_000_000
+# Holds the recorder's executor once, for STALL_S, in its 30th write: the backlog a loaded machine makes.
+STALLED_WRITE_SITE = """
+import os, time
+_stall = os.environ.get("FEEDER_TEST_STALL_S")
+if _stall:
+    from feeder_cell.bag import recorder as _recorder
+    _write = _recorder.Recorder._write
+    _calls = []
+    def _stalled(self, topic, data, info):
+        _calls.append(1)
+        if len(_calls) == 30:
+            time.sleep(float(_stall))
+        return _write(self, topic, data, info)
+    _recorder.Recorder._write = _stalled
+"""
+STALL_S = 1.0
 
 
 @pytest.mark.ros
@@ -134,3 +152,41 @@ def test_record_in_cell_time_and_replay_it_with_the_clock(ros_client: Any, tmp_p
     assert gaps[len(gaps) // 2] <= TOLERANCE_NS, gaps[len(gaps) // 2]
     assert gaps[int(len(gaps) * 0.95)] <= 2 * TOLERANCE_NS, gaps[int(len(gaps) * 0.95)]
     assert gaps[-1] <= 2_500_000_000, gaps[-1]
+
+
+@pytest.mark.ros
+def test_a_recorder_whose_executor_falls_behind_stamps_each_message_with_its_arrivals_cell_time(
+    ros_client: Any, tmp_path: Path
+) -> None:
+    """ci50: a recorder held 0.3 s stamped its backlog with the newest /clock, 1.5 s of cell time late.
+
+    The recorder's executor is held once for STALL_S (5 s of cell time) while both topics keep arriving;
+    every message must still be stamped with the cell time of its arrival.
+    """
+    (tmp_path / "sitecustomize.py").write_text(STALLED_WRITE_SITE)
+    env = dict(
+        os.environ,
+        PYTHONPATH=os.pathsep.join(p for p in (str(tmp_path), os.environ.get("PYTHONPATH", "")) if p),
+        FEEDER_TEST_STALL_S=str(STALL_S),
+    )
+    bag = tmp_path / "stalled"
+    cell = bp.start_script("bag_cell_clock.py", "1", str(START_S), str(FACTOR))
+    recorder = bp.start_recorder(
+        bag, "--use-sim-time", "--topics", "/cell_time", "--node-name", "stalled_rec", env=env
+    )
+    try:
+        bp.wait_until(lambda: bp.in_graph(ros_client, "stalled_rec"), 60, "the recorder node")
+        bp.wait_for_line(cell, "clock", 30)
+        bp.wait_until(lambda: bool(bp.subscribed(ros_client, "/cell_time", "stalled_rec")), 30, "subscribed")
+        time.sleep(2.0 + STALL_S)
+        result = bp.finish(recorder, signal.SIGINT)
+    finally:
+        bp.end(recorder)
+        bp.end(cell, signal.SIGINT)
+    assert result["use_sim_time"] is True
+    recorded = bp.read_messages(bag, "/cell_time")
+    assert len(recorded) >= 100, len(recorded)
+    offsets = [log_time - int(bp.string_data(data)) for log_time, data in recorded]
+    # The stall happened: the 30th message's write waited STALL_S, so later messages queued behind it.
+    assert len(offsets) > 30 + STALL_S / 0.02, len(offsets)
+    assert all(-TOLERANCE_NS <= d <= TOLERANCE_NS for d in offsets), (min(offsets), max(offsets))

@@ -21,7 +21,8 @@ The files are written as rosbag2 writes them (:mod:`feeder_cell.bag.writer`).
 
 Clock: log times are receive times on ``clock`` (wall time by default). With a node clock on sim time
 (``feeder record --use-sim-time``) they are cell times from ``/clock``, and nothing is subscribed, so
-nothing written, before the first ``/clock`` message, as rosbag2 does.
+nothing written, before the first ``/clock`` message, as rosbag2 does; each message gets the cell time
+of its arrival in the process, not of its callback (``stamp``, :mod:`feeder_cell.bag.receipt_clock`).
 
 Snapshot mode (``snapshot``): nothing is written as it arrives; messages go to a bounded cache and are
 written as a bag of their own under ``path`` on :meth:`Recorder.snapshot` or, with ``snapshot_on_fault``,
@@ -118,6 +119,9 @@ class Recorder:
         Log time source (ns); default wall time.
     wait_for_clock
         Subscribe only once ``clock`` reads more than 0: on sim time, after the first ``/clock`` message.
+    stamp
+        A message's log time from its receipt info (ns); default ``clock`` when its callback runs. On sim
+        time, the cell time when it reached the process (:mod:`feeder_cell.bag.receipt_clock`).
     snapshot
         Snapshot mode: cache messages (bounded by ``max_cache_size`` bytes and ``max_cache_duration``
         seconds, 0 = that bound off) and write them as bags under ``path`` on :meth:`snapshot_now`.
@@ -139,6 +143,7 @@ class Recorder:
     paused: bool = False
     clock: Callable[[], int] = time.time_ns
     wait_for_clock: bool = False
+    stamp: Callable[[dict[str, int]], int] | None = None
     snapshot: bool = False
     max_cache_size: int = 0
     max_cache_duration: float = 0.0
@@ -278,7 +283,7 @@ class Recorder:
                 return
             if key != (0, 0) and self._repeats.seen(topic, key):
                 return
-            now = self.clock()
+            now = self.clock() if self.stamp is None else self.stamp(info)
             if now <= 0:
                 # A sim clock that went back to its start: no cell time to stamp the message with.
                 self.dropped_clock += 1

@@ -139,12 +139,16 @@ def _open_recorder(plan: _RecordPlan, node: Node) -> Recorder:
 
     args = plan.args
     clock: Callable[[], int] = time.time_ns
+    stamp: Callable[[dict[str, int]], int] | None = None
     if args.use_sim_time:
         from rclpy.parameter import Parameter
+
+        from feeder_cell.bag.receipt_clock import CellTimeAtReceipt
 
         # The node's clock follows /clock from here; it reads 0 until the first message.
         node.set_parameters([Parameter("use_sim_time", Parameter.Type.BOOL, True)])
         clock = lambda: node.get_clock().now().nanoseconds  # noqa: E731
+        stamp = CellTimeAtReceipt(node).stamp
         node.get_logger().info("use_sim_time: waiting for /clock before recording")
     return Recorder(
         node,
@@ -158,6 +162,7 @@ def _open_recorder(plan: _RecordPlan, node: Node) -> Recorder:
         paused=args.start_paused,
         clock=clock,
         wait_for_clock=args.use_sim_time,
+        stamp=stamp,
         snapshot=plan.snapshot,
         max_cache_size=args.max_cache_size or 0,
         max_cache_duration=args.max_cache_duration or 0.0,
