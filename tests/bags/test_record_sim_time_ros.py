@@ -55,24 +55,7 @@ def test_record_in_cell_time_and_replay_it_with_the_clock(ros_client: Any, tmp_p
     from feeder_msgs.srv import Resume
 
     bag = tmp_path / "cell"
-    cell = bp.start_script("bag_cell_clock.py", "3", str(START_S), str(FACTOR))
-    recorder = bp.start_recorder(bag, "--use-sim-time", "--topics", "/cell_time", "--node-name", "sim_rec")
-    try:
-        bp.wait_until(lambda: bp.in_graph(ros_client, "sim_rec"), 60, "the recorder node")
-        bp.wait_for_line(cell, "clock", 30)
-        # Before the first /clock the recorder had not subscribed: it subscribes once the clock runs.
-        bp.wait_until(lambda: bool(bp.subscribed(ros_client, "/cell_time", "sim_rec")), 30, "subscribed")
-        time.sleep(3.0)  # 15 s of cell time
-        result = bp.finish(recorder, signal.SIGINT)
-    finally:
-        bp.end(recorder)
-        bp.end(cell, signal.SIGINT)
-    assert result["use_sim_time"] is True
-    recorded = bp.read_messages(bag, "/cell_time")
-    assert len(recorded) >= 100, len(recorded)
-    assert all(bp.string_data(data) != "pre" for _, data in recorded), "nothing from before the first /clock"
-    offsets = [log_time - int(bp.string_data(data)) for log_time, data in recorded]
-    assert all(-TOLERANCE_NS <= d <= TOLERANCE_NS for d in offsets), (min(offsets), max(offsets))
+    recorded = _record_cell_time(ros_client, bag, "sim_rec", delay_s=3.0, record_s=3.0)  # 15 s of cell time
     first, last = recorded[0][0], recorded[-1][0]
     assert START_S * 1e9 <= first < last < (START_S + 60) * 1e9, "cell times, not wall times"
     rosbag2_fields.check_bag(bag)
@@ -169,16 +152,30 @@ def test_a_recorder_whose_executor_falls_behind_stamps_each_message_with_its_arr
         PYTHONPATH=os.pathsep.join(p for p in (str(tmp_path), os.environ.get("PYTHONPATH", "")) if p),
         FEEDER_TEST_STALL_S=str(STALL_S),
     )
-    bag = tmp_path / "stalled"
-    cell = bp.start_script("bag_cell_clock.py", "1", str(START_S), str(FACTOR))
-    recorder = bp.start_recorder(
-        bag, "--use-sim-time", "--topics", "/cell_time", "--node-name", "stalled_rec", env=env
+    recorded = _record_cell_time(
+        ros_client, tmp_path / "stalled", "stalled_rec", delay_s=1.0, record_s=2.0 + STALL_S, env=env
     )
+    # The stall happened: the 30th message's write waited STALL_S, so later messages queued behind it.
+    assert len(recorded) > 30 + STALL_S / 0.02, len(recorded)
+
+
+def _record_cell_time(
+    ros_client: Any, bag: Path, name: str, delay_s: float, record_s: float, env: dict[str, str] | None = None
+) -> list[tuple[int, bytes]]:
+    """Record /cell_time on sim time for ``record_s`` once the test cell's /clock runs (after ``delay_s``).
+
+    Return the recorded (log time, data) pairs, each checked to be from after the first /clock and stamped
+    with the cell time it carries.
+    """
+    cell = bp.start_script("bag_cell_clock.py", str(delay_s), str(START_S), str(FACTOR))
+    flags = ("--use-sim-time", "--topics", "/cell_time", "--node-name", name)
+    recorder = bp.start_recorder(bag, *flags, env=env)
     try:
-        bp.wait_until(lambda: bp.in_graph(ros_client, "stalled_rec"), 60, "the recorder node")
+        bp.wait_until(lambda: bp.in_graph(ros_client, name), 60, "the recorder node")
         bp.wait_for_line(cell, "clock", 30)
-        bp.wait_until(lambda: bool(bp.subscribed(ros_client, "/cell_time", "stalled_rec")), 30, "subscribed")
-        time.sleep(2.0 + STALL_S)
+        # Before the first /clock the recorder had not subscribed: it subscribes once the clock runs.
+        bp.wait_until(lambda: bool(bp.subscribed(ros_client, "/cell_time", name)), 30, "subscribed")
+        time.sleep(record_s)
         result = bp.finish(recorder, signal.SIGINT)
     finally:
         bp.end(recorder)
@@ -186,7 +183,7 @@ def test_a_recorder_whose_executor_falls_behind_stamps_each_message_with_its_arr
     assert result["use_sim_time"] is True
     recorded = bp.read_messages(bag, "/cell_time")
     assert len(recorded) >= 100, len(recorded)
+    assert all(bp.string_data(data) != "pre" for _, data in recorded), "nothing from before the first /clock"
     offsets = [log_time - int(bp.string_data(data)) for log_time, data in recorded]
-    # The stall happened: the 30th message's write waited STALL_S, so later messages queued behind it.
-    assert len(offsets) > 30 + STALL_S / 0.02, len(offsets)
     assert all(-TOLERANCE_NS <= d <= TOLERANCE_NS for d in offsets), (min(offsets), max(offsets))
+    return recorded
